@@ -1,0 +1,239 @@
+"""The :class:`Simulation`: one SimPy environment, named random streams, the trace.
+
+Time inside the environment is integer ticks of 1 ps (see :mod:`netcosim.timebase`);
+``Simulation.now`` reports seconds.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from time import monotonic
+from typing import Any, Callable
+
+import numpy as np
+import simpy
+import simpy.rt
+
+from .timebase import RESOLUTION, to_seconds, to_ticks
+from .trace import Trace
+
+#: SimPy priority used for kernel dispatch decisions: after every ordinary event of
+#: the same instant, so that all releases/arrivals of an instant are seen first.
+DISPATCH = 2
+#: Priority of ordinary events.
+NORMAL = simpy.events.NORMAL
+#: Priority for events that must precede ordinary ones at the same instant.
+URGENT = simpy.events.URGENT
+
+
+def stable_hash(name: str) -> int:
+    """A 64-bit hash of *name* that is the same in every process and Python run."""
+    return int.from_bytes(hashlib.blake2b(name.encode("utf-8"), digest_size=8).digest(), "little")
+
+
+class _Realtime(simpy.rt.RealtimeEnvironment):
+    """Real-time environment with a lag tolerance in seconds and lag recording.
+
+    SimPy's strict check allows a lag of one time *unit*; with picosecond ticks we
+    need a tolerance in seconds instead.
+    """
+
+    def __init__(self, factor: float, strict: bool, max_lag: float):
+        super().__init__(initial_time=0, factor=factor * RESOLUTION, strict=False)
+        self.strict_lag = strict
+        self.max_lag = max_lag
+        self.lags: list[tuple[float, float]] = []  # (sim time s, lag s) when lagging
+
+    def step(self) -> None:
+        evt_time = self.peek()
+        if evt_time == math.inf:
+            raise simpy.core.EmptySchedule
+        real_time = self.real_start + (evt_time - self.env_start) * self.factor
+        lag = monotonic() - real_time
+        if lag > 0:
+            if lag > self.max_lag:
+                self.lags.append((to_seconds(evt_time), lag))
+                if self.strict_lag:
+                    raise RuntimeError(
+                        f"simulation too slow for real time: event at t={to_seconds(evt_time):.6f} s "
+                        f"processed {lag:.6f} s late (max_lag={self.max_lag} s)")
+        else:
+            while True:
+                delta = real_time - monotonic()
+                if delta <= 0:
+                    break
+                simpy.rt.sleep(delta)
+        simpy.Environment.step(self)
+
+
+class Simulation:
+    """A co-simulation: nodes, networks and plants sharing one SimPy clock.
+
+    Parameters
+    ----------
+    seed:
+        Root seed. Each component draws from ``rng(name)``, a stream derived from the
+        seed and the component's name, so adding a component never changes the draws
+        of the others; same seed, same results, bit for bit.
+    realtime:
+        Run against the wall clock (for hardware-in-the-loop): one simulated second
+        takes ``factor`` wall-clock seconds.
+    strict:
+        In real-time mode, raise when an event is processed more than ``max_lag``
+        seconds late; otherwise record the lag in ``Simulation.lags``.
+    """
+
+    def __init__(self, seed: int = 0, *, realtime: bool = False, factor: float = 1.0,
+                 strict: bool = True, max_lag: float = 0.01):
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        self.seed = int(seed)
+        if realtime:
+            if not (isinstance(factor, (int, float)) and factor > 0 and math.isfinite(factor)):
+                raise ValueError(f"real-time factor must be a positive number, got {factor!r}")
+            self.env: simpy.Environment = _Realtime(factor, strict, max_lag)
+        else:
+            self.env = simpy.Environment(initial_time=0)
+        self.realtime = realtime
+        self.trace = Trace()
+        self._rngs: dict[str, np.random.Generator] = {}
+        self._names: dict[str, Any] = {}
+        self.nodes: dict[str, Any] = {}
+        self.plants: dict[str, Any] = {}
+        self.networks: dict[str, Any] = {}
+        self._finalizers: list[Callable[[], None]] = []
+
+    # Time ------------------------------------------------------------------
+    @property
+    def now(self) -> float:
+        """Current simulated time in seconds."""
+        return self.env._now * RESOLUTION
+
+    @property
+    def now_ticks(self) -> int:
+        return self.env._now
+
+    @property
+    def lags(self) -> list[tuple[float, float]]:
+        """Real-time mode: (simulated time, lag in s) of every event processed late."""
+        return list(getattr(self.env, "lags", []))
+
+    def call_at(self, ticks: int, fn: Callable[[], None], priority: int = NORMAL) -> "Timer":
+        """Call ``fn()`` at absolute time *ticks*; returns a cancellable :class:`Timer`."""
+        env = self.env
+        if ticks < env._now:
+            raise ValueError(f"cannot schedule in the past: {to_seconds(ticks)} s < now {self.now} s")
+        t = Timer(env, fn)
+        env.schedule(t, priority, ticks - env._now)
+        return t
+
+    def call_in(self, delay_ticks: int, fn: Callable[[], None], priority: int = NORMAL) -> "Timer":
+        """Call ``fn()`` after *delay_ticks*; returns a cancellable :class:`Timer`."""
+        t = Timer(self.env, fn)
+        self.env.schedule(t, priority, delay_ticks)
+        return t
+
+    def timeout(self, seconds: float) -> simpy.Timeout:
+        """A SimPy timeout of *seconds* (for user processes written against SimPy)."""
+        return self.env.timeout(to_ticks(seconds, "timeout"))
+
+    def process(self, generator) -> simpy.Process:
+        return self.env.process(generator)
+
+    # Randomness ------------------------------------------------------------
+    def rng(self, name: str) -> np.random.Generator:
+        """The random stream called *name* (created on first use, then shared)."""
+        g = self._rngs.get(name)
+        if g is None:
+            ss = np.random.SeedSequence(entropy=self.seed, spawn_key=(stable_hash(name),))
+            g = self._rngs[name] = np.random.Generator(np.random.PCG64(ss))
+        return g
+
+    # Components ------------------------------------------------------------
+    def _register(self, name: str, obj: Any) -> None:
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"component name must be a non-empty string, got {name!r}")
+        if name in self._names:
+            raise ValueError(f"a component called {name!r} already exists")
+        self._names[name] = obj
+
+    def node(self, name: str, scheduler: Any = "fixed_priority", *, context_switch: float = 0.0,
+             speed: float = 1.0) -> "Node":
+        """Add a real-time kernel (one CPU) called *name*.
+
+        ``scheduler`` is a policy instance or one of ``"fixed_priority"``,
+        ``"rate_monotonic"``, ``"deadline_monotonic"``, ``"edf"``.  ``context_switch``
+        is the CPU time (s, at speed 1) of one context switch; ``speed`` scales every
+        execution time (2.0 = twice as fast).
+        """
+        from .kernel.node import Node
+        node = Node(self, name, scheduler, context_switch=context_switch, speed=speed)
+        self._register(name, node)
+        self.nodes[name] = node
+        return node
+
+    def plant(self, system: Any, x0: Any, *, name: str | None = None, integrator: Any = None,
+              params: Any = None, disturbance: Callable[[float], Any] | None = None,
+              log_interval: float | None = None, log: str = "io") -> "PlantInstance":
+        """Add a continuous system integrated lazily alongside the discrete world.
+
+        See :class:`netcosim.continuous.PlantInstance` for the arguments.
+        """
+        from .continuous import PlantInstance
+        name = name or getattr(system, "name", None) or f"plant{len(self.plants)}"
+        p = PlantInstance(self, name, system, x0, integrator=integrator, params=params,
+                          disturbance=disturbance, log_interval=log_interval, log=log)
+        self._register(name, p)
+        self.plants[name] = p
+        return p
+
+    def add_finalizer(self, fn: Callable[[], None]) -> None:
+        """Call ``fn()`` at the end of every :meth:`run` (even a failed one)."""
+        self._finalizers.append(fn)
+
+    # Running ---------------------------------------------------------------
+    def run(self, until: float) -> None:
+        """Advance the simulation to *until* seconds (absolute).
+
+        Whatever happens, plants are brought up to the stop time (or the failure
+        instant) and the traces keep everything recorded so far.
+        """
+        stop = to_ticks(until, "until")
+        if stop < self.env._now:
+            raise ValueError(f"until={until} s lies before now={self.now} s")
+        try:
+            self.env.run(until=stop)
+        except Exception as exc:
+            exc.add_note(f"netcosim: run failed at t = {self.now:.9f} s")
+            raise
+        finally:
+            for fn in self._finalizers:
+                fn()
+
+
+class Timer(simpy.events.Event):
+    """A scheduled call that can be cancelled before it fires."""
+
+    __slots__ = ("fn",)
+
+    def __init__(self, env: simpy.Environment, fn: Callable[[], None]):
+        self.env = env
+        self.fn = fn
+        self._ok = True
+        self._value = None
+        self.callbacks = [self._fire]
+
+    def _fire(self, _event) -> None:
+        fn = self.fn
+        if fn is not None:
+            self.fn = None
+            fn()
+
+    def cancel(self) -> None:
+        """Make the timer a no-op (it stays in SimPy's queue but does nothing)."""
+        self.fn = None
+
+    @property
+    def pending(self) -> bool:
+        return self.fn is not None

@@ -1,0 +1,41 @@
+"""Simulated time: integer picoseconds inside, float seconds at the API.
+
+Every instant netcosim schedules is an integer number of *ticks* of
+:data:`RESOLUTION` = 1e-12 s (the resolution TrueTime uses to decide that two
+instants are equal).  Users speak seconds; the kernel, the networks and the plant
+coupling convert once, at the edge, with :func:`to_ticks`.  Two instants are equal
+exactly when their tick counts are equal, so ``offset + k*period`` releases, segment
+completions and frame ends that coincide on paper coincide in the simulation, and
+their order is decided by the documented tie rules, never by rounding noise.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+#: Seconds per tick.
+RESOLUTION = 1e-12
+#: Ticks per second.
+TICKS_PER_SECOND = 10**12
+
+
+def to_ticks(seconds: float, what: str = "time", *, allow_negative: bool = False) -> int:
+    """Convert a duration or instant in seconds to integer ticks (rounded to nearest).
+
+    Raises ``ValueError`` naming *what* if the value is not a finite real number, or
+    is negative when ``allow_negative`` is false.
+    """
+    if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real):
+        raise TypeError(f"{what} must be a real number of seconds, got {seconds!r}")
+    s = float(seconds)
+    if not math.isfinite(s):
+        raise ValueError(f"{what} must be finite, got {seconds!r}")
+    if s < 0 and not allow_negative:
+        raise ValueError(f"{what} must be non-negative, got {seconds!r}")
+    return int(round(s * TICKS_PER_SECOND))
+
+
+def to_seconds(ticks: int) -> float:
+    """Convert integer ticks to float seconds."""
+    return ticks * RESOLUTION
