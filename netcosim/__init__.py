@@ -1,0 +1,18 @@
+"""netcosim: networked-control co-simulation on SimPy.
+
+Real-time kernels run controller tasks on nodes, nodes talk over simulated networks,
+and continuous plants are integrated lazily alongside.  Time is in seconds at the API
+(integer picoseconds inside, see :mod:`netcosim.timebase`).
+"""
+
+from .continuous import RK4, ContinuousSystem, HybridEvent, NotConnectedError, PlantInstance, SolveIVP
+from .kernel import (EDF, DeadlineMonotonic, Event, FixedPriority, Mailbox, Monitor, RateMonotonic,
+                     SchedulingPolicy, Semaphore)
+from .sim import Simulation
+from .timebase import RESOLUTION
+
+__all__ = ["ContinuousSystem", "DeadlineMonotonic", "EDF", "Event", "FixedPriority", "HybridEvent",
+           "Mailbox", "Monitor", "NotConnectedError", "PlantInstance", "RESOLUTION", "RK4",
+           "RateMonotonic", "SchedulingPolicy", "Semaphore", "Simulation", "SolveIVP"]
+
+__version__ = "0.1.0"

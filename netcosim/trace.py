@@ -35,13 +35,16 @@ JOB_COLUMNS = (
 class Recorder:
     """One table: a fixed tuple of column names and a list of row tuples."""
 
-    __slots__ = ("name", "columns", "rows", "categorical")
+    __slots__ = ("name", "columns", "rows", "categorical", "providers")
 
     def __init__(self, name: str, columns: Sequence[str], categorical: Iterable[str] = ()):
         self.name = name
         self.columns = tuple(columns)
         self.rows: list[tuple] = []
         self.categorical = tuple(c for c in categorical if c in self.columns)
+        #: callables returning rows that describe the current state (e.g. unfinished
+        #: jobs); evaluated each time the table is read, never stored.
+        self.providers: list = []
 
     def append(self, row: tuple) -> None:
         self.rows.append(row)
@@ -51,7 +54,10 @@ class Recorder:
 
     def frame(self) -> pd.DataFrame:
         """The table as a DataFrame (a fresh copy every call)."""
-        df = pd.DataFrame.from_records(self.rows, columns=list(self.columns))
+        rows = self.rows
+        if self.providers:
+            rows = rows + [r for p in self.providers for r in p()]
+        df = pd.DataFrame.from_records(rows, columns=list(self.columns))
         for c in self.categorical:
             df[c] = df[c].astype("category")
         return df
@@ -117,7 +123,7 @@ class Trace:
         out.mkdir(parents=True, exist_ok=True)
         written = []
         for name, rec in self._tables.items():
-            if len(rec) == 0:
+            if len(rec) == 0 and not rec.providers:
                 continue
             path = out / f"{prefix}{name}.parquet"
             rec.frame().to_parquet(path, index=False)

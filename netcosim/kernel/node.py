@@ -1,0 +1,511 @@
+"""A node: one CPU with a real-time kernel (TrueTime's kernel block).
+
+Dispatching is deferred to the end of the instant (SimPy priority ``DISPATCH``), so
+every release, arrival and segment end of an instant is seen before the kernel decides
+who runs: handlers before tasks, then the policy key, then release order (FIFO).
+
+Context switches: each time a job is switched in -- its first start, or resuming
+after it was preempted or blocked while another job held the CPU -- the CPU spends
+``context_switch / speed`` seconds before the job's code runs.  The switch is kernel
+work: non-preemptible; the job is traced as ``ready`` meanwhile.  A job that continues
+with its next segment, or resumes when nothing else ran since it stopped, pays nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import partial
+from typing import Any, Callable
+
+from ..sim import DISPATCH
+from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+from .io import AnalogIn, AnalogOut
+from .policies import make_policy
+from .task import HANDLER, Blocking, Job, Task
+
+_INF = math.inf
+
+
+class Node:
+    """A CPU with a scheduler.  Create with :meth:`Simulation.node`."""
+
+    def __init__(self, sim, name: str, scheduler: Any = "fixed_priority", *, context_switch: float = 0.0,
+                 speed: float = 1.0):
+        self.sim = sim
+        self.name = name
+        self.policy = make_policy(scheduler)
+        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (speed > 0) or speed == _INF:
+            raise ValueError(f"node {name!r}: speed must be a positive finite number, got {speed!r}")
+        self.speed = float(speed)
+        self._tick_scale = TICKS_PER_SECOND / self.speed
+        cs = to_ticks(context_switch, f"node {name!r} context_switch")
+        self.context_switch = context_switch
+        self._cs_ticks = int(round(cs / self.speed))
+        self.tasks: dict[str, Task] = {}
+        self.ready: list[Job] = []
+        self.running: Job | None = None
+        self._loaded: Job | None = None
+        self._in_cs = False
+        self._dispatch_pending = False
+        self._seq = 0
+        self._ain: dict[int, AnalogIn] = {}
+        self._aout: dict[int, AnalogOut] = {}
+        self.interfaces: dict[str, Any] = {}
+        self._sched = sim.trace.schedule_rec.rows
+        self._jobrec = sim.trace.job_rec.rows
+        sim.trace.job_rec.providers.append(self._unfinished_rows)
+
+    # ------------------------------------------------------------------ tasks
+    def _add_task(self, body, kind, name, **kw) -> Task:
+        task = Task(self, body, name=name, kind=kind, **kw)
+        if task.name in self.tasks:
+            raise ValueError(f"node {self.name!r} already has a task called {task.name!r}")
+        if kind == "handler":
+            p = task.priority
+            if isinstance(p, bool) or not isinstance(p, (int, float)) or not math.isfinite(p):
+                raise TypeError(f"handler {task.name!r}: priority must be a finite number, got {p!r}")
+        else:
+            self.policy.validate(task)
+        self.tasks[task.name] = task
+        self._trace(task, "idle")
+        return task
+
+    def periodic(self, body: Callable | None = None, *, period: float, offset: float = 0.0, priority=None,
+                 deadline: float | None = None, wcet: float | None = None, name: str | None = None,
+                 preemptible: bool = True, on_busy: str = "queue", on_deadline_miss=None,
+                 on_budget_overrun=None):
+        """Add a periodic task released at ``offset + k*period`` (s).  Usable as a decorator.
+
+        ``priority``: small = high (fixed-priority policy; ignored by RM/DM/EDF).
+        ``deadline``: relative deadline (default: the period).
+        """
+        def make(fn):
+            task = self._add_task(fn, "periodic", name, priority=priority, period=period, offset=offset,
+                                  deadline=deadline, wcet=wcet, preemptible=preemptible, on_busy=on_busy,
+                                  on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun)
+            task._release_timer = self.sim.call_at(self.sim.env._now + task.offset_ticks, task._periodic_release)
+            task._k = 0
+            task.offset_ticks += self.sim.env._now
+            return task
+        return make if body is None else make(body)
+
+    def aperiodic(self, body: Callable | None = None, *, priority=None, deadline: float | None = None,
+                  wcet: float | None = None, name: str | None = None, preemptible: bool = True,
+                  on_busy: str = "queue", on_deadline_miss=None, on_budget_overrun=None):
+        """Add a task whose jobs are released by ``task.release()``, triggers, timers or messages."""
+        def make(fn):
+            return self._add_task(fn, "aperiodic", name, priority=priority, deadline=deadline, wcet=wcet,
+                                  preemptible=preemptible, on_busy=on_busy, on_deadline_miss=on_deadline_miss,
+                                  on_budget_overrun=on_budget_overrun)
+        return make if body is None else make(body)
+
+    def handler(self, body: Callable | None = None, *, priority: float = 0, name: str | None = None,
+                deadline: float | None = None):
+        """Add an interrupt handler: it beats every task; handlers are ordered by priority."""
+        def make(fn):
+            return self._add_task(fn, "handler", name, priority=priority, deadline=deadline)
+        return make if body is None else make(body)
+
+    def timer(self, target: Task, *, at: float | None = None, period: float | None = None) -> "KernelTimer":
+        """Release *target* at absolute time ``at`` (s), then every ``period`` s if given."""
+        return KernelTimer(self, target, at, period)
+
+    def trigger(self, target: Task, *, min_interval: float = 0.0) -> "Trigger":
+        """An external trigger releasing *target*; edges closer than ``min_interval`` s are ignored."""
+        return Trigger(self, target, min_interval)
+
+    # --------------------------------------------------------------- analog I/O
+    def analog_in(self, channel: int) -> AnalogIn:
+        """Analog input *channel* of this node (connect it to a plant output port)."""
+        ch = self._ain.get(channel)
+        if ch is None:
+            ch = self._ain[channel] = AnalogIn(self, channel)
+        return ch
+
+    def analog_out(self, channel: int) -> AnalogOut:
+        """Analog output *channel* of this node (connect it to a plant input port)."""
+        ch = self._aout.get(channel)
+        if ch is None:
+            ch = self._aout[channel] = AnalogOut(self, channel)
+        return ch
+
+    # ---------------------------------------------------------------- networks
+    def send(self, dst, payload=None, size_bits=None, *, priority=None, network=None, sender=None):
+        """Send a message through a network interface of this node."""
+        if not self.interfaces:
+            raise RuntimeError(f"node {self.name!r} has no network interface; attach it to a network first")
+        if network is None:
+            if len(self.interfaces) > 1:
+                raise ValueError(f"node {self.name!r} is on several networks {sorted(self.interfaces)}; "
+                                 f"pass network=")
+            iface = next(iter(self.interfaces.values()))
+        else:
+            key = getattr(network, "name", network)
+            try:
+                iface = self.interfaces[key]
+            except KeyError:
+                raise ValueError(f"node {self.name!r} is not on network {key!r}; "
+                                 f"it is on {sorted(self.interfaces)}") from None
+        return iface.send(dst, payload, size_bits, priority=priority, sender=sender)
+
+    # ------------------------------------------------------------------ kernel
+    def _trace(self, task: Task, state: str) -> None:
+        if task.state != state:
+            task.state = state
+            self._sched.append((self.sim.env._now * RESOLUTION, self.name, task.name, state))
+
+    def _release(self, task: Task, t: int) -> Job | None:
+        task.jobs_released += 1
+        job = Job(task, task.jobs_released - 1, t)
+        if job.abs_deadline is not None and task.on_deadline_miss is not None:
+            job.deadline_timer = self.sim.call_at(job.abs_deadline, partial(self._deadline_due, job))
+        if task.active is not None:
+            if task.on_busy == "skip":
+                task.skipped += 1
+                if job.deadline_timer is not None:
+                    job.deadline_timer.cancel()
+                return None
+            task.pending.append(job)
+            return job
+        self._activate(job)
+        return job
+
+    def _activate(self, job: Job) -> None:
+        task = job.task
+        task.active = job
+        task.ctx.job = job
+        job.gen = task.body(task.ctx)
+        self._seq += 1
+        job.seq = self._seq
+        job.base_key = job.key = self.policy.key(job) if job.cls else task.priority
+        job.state = "ready"
+        self.ready.append(job)
+        self._trace(task, "ready")
+        self._request_dispatch()
+
+    def _request_dispatch(self) -> None:
+        if not self._dispatch_pending:
+            self._dispatch_pending = True
+            self.sim.call_in(0, self._dispatch, DISPATCH)
+
+    def _dispatch(self) -> None:
+        self._dispatch_pending = False
+        if self._in_cs or not self.ready:
+            return
+        ready = self.ready
+        best = ready[0]
+        for j in ready:
+            if (j.cls, j.key, j.seq) < (best.cls, best.key, best.seq):
+                best = j
+        r = self.running
+        if r is not None:
+            if not ((best.cls, best.key) < (r.cls, r.key) and (r.task.preemptible or best.cls < r.cls)):
+                return
+            self._preempt(r)
+        ready.remove(best)
+        self._switch_in(best)
+
+    def _preempt(self, job: Job) -> None:
+        now = self.sim.env._now
+        if job.seg_timer is not None:
+            job.seg_timer.cancel()
+            job.seg_timer = None
+            elapsed = now - job.seg_start
+            job.remaining -= elapsed
+            job.exec_done += elapsed
+        self._stop_budget(job)
+        job.state = "ready"
+        self.ready.append(job)
+        self.running = None
+        self._trace(job.task, "ready")
+
+    def _switch_in(self, job: Job) -> None:
+        self.running = job
+        if self._cs_ticks and self._loaded is not job:
+            self._in_cs = True
+            self.sim.call_in(self._cs_ticks, partial(self._cs_done, job))
+        else:
+            self._run(job)
+
+    def _cs_done(self, job: Job) -> None:
+        self._in_cs = False
+        self._loaded = job
+        if job.killed:
+            self.running = None
+            self._request_dispatch()
+            return
+        self._run(job)
+        # something better may have arrived during the (non-preemptible) switch
+        if self.ready:
+            self._request_dispatch()
+
+    def _run(self, job: Job) -> None:
+        self._loaded = job
+        job.state = "running"
+        now = self.sim.env._now
+        if job.start is None:
+            job.start = now
+        self._trace(job.task, "running")
+        if job.remaining > 0:
+            job.seg_start = now
+            job.seg_timer = self.sim.call_in(job.remaining, partial(self._segment_done, job))
+            self._arm_budget(job)
+        else:
+            self._step(job)
+
+    def _segment_done(self, job: Job) -> None:
+        now = self.sim.env._now
+        job.exec_done += now - job.seg_start
+        job.remaining = 0
+        job.seg_timer = None
+        self._step(job)
+
+    def _step(self, job: Job) -> None:
+        gen = job.gen
+        while True:
+            value, job.resume_value = job.resume_value, None
+            try:
+                cmd = gen.send(value)
+            except StopIteration:
+                self._finish(job)
+                return
+            except Exception as exc:
+                exc.add_note(f"netcosim: in task {job.task.name!r} on node {self.name!r}, job {job.index}, "
+                             f"t = {self.sim.now:.9f} s")
+                raise
+            if type(cmd) is int:
+                if cmd > 0:
+                    job.remaining = cmd
+                    job.seg_start = self.sim.env._now
+                    job.seg_timer = self.sim.call_in(cmd, partial(self._segment_done, job))
+                    if job.task.wcet_ticks is not None and job.budget_timer is None:
+                        self._arm_budget(job)
+                    return
+                if cmd < 0:
+                    raise ValueError(f"task {job.task.name!r}: yielded a negative execution time {cmd}")
+                continue
+            if isinstance(cmd, Blocking):
+                if cmd.attempt(job):
+                    continue
+                self._stop_budget(job)
+                job.blocked_on = cmd
+                job.state = "blocked"
+                self.running = None
+                self._trace(job.task, "blocked")
+                self._request_dispatch()
+                return
+            raise TypeError(f"task {job.task.name!r} on node {self.name!r} yielded {cmd!r}; "
+                            f"yield ctx.execute(seconds), ctx.sleep(...), or a blocking call")
+
+    def _unblock(self, job: Job, value=None) -> None:
+        """Called by a primitive when a blocked job may continue (its code runs when it gets the CPU)."""
+        if job.state != "blocked":
+            return
+        job.blocked_on = None
+        job.resume_value = value
+        job.state = "ready"
+        self.ready.append(job)
+        self._trace(job.task, "ready")
+        self._request_dispatch()
+
+    def _finish(self, job: Job, killed: bool = False) -> None:
+        now = self.sim.env._now
+        task = job.task
+        job.finish = now
+        job.state = "done"
+        job.killed = killed
+        if self.running is job:
+            self.running = None
+        if self._loaded is job:
+            self._loaded = None
+        for t in (job.deadline_timer, job.budget_timer, job.seg_timer):
+            if t is not None:
+                t.cancel()
+        job.seg_timer = job.budget_timer = job.deadline_timer = None
+        if job.held:
+            names = [m.name for m in job.held]
+            for m in list(job.held):
+                m._release_by(job)
+            if not killed:
+                raise RuntimeError(f"task {task.name!r} on node {self.name!r} finished job {job.index} "
+                                   f"while holding monitor(s) {names}")
+        self._record(job)
+        task.finished += 1
+        task.active = None
+        if task.pending:
+            self._activate(task.pending.popleft())
+        else:
+            self._trace(task, "idle")
+            task.ctx.job = None
+        self._request_dispatch()
+
+    def _kill(self, job: Job) -> None:
+        if job.state == "done":
+            return
+        task = job.task
+        if job.state == "queued":
+            task.pending.remove(job)
+            job.state = "done"
+            job.killed = True
+            if job.deadline_timer is not None:
+                job.deadline_timer.cancel()
+            self._record(job)
+            return
+        if job.state == "ready":
+            self.ready.remove(job)
+        elif job.state == "blocked" and job.blocked_on is not None:
+            job.blocked_on.cancel(job)
+        elif job.state == "running" and job.seg_timer is not None:
+            job.exec_done += self.sim.env._now - job.seg_start
+        if self.running is job and self._in_cs:
+            job.killed = True  # the switch completes, then the CPU is re-dispatched
+        if job.gen is not None:
+            job.gen.close()
+        self._finish(job, killed=True)
+
+    # ----------------------------------------------------------- overruns
+    def _deadline_due(self, job: Job) -> None:
+        job.deadline_timer = None
+        if job.state == "done":
+            return
+        job.missed = True
+        job.task.misses += 1
+        h = job.task.on_deadline_miss
+        if h == "kill":
+            self._kill(job)
+        elif h is not None:
+            h(job)
+
+    def _arm_budget(self, job: Job) -> None:
+        task = job.task
+        if task.wcet_ticks is None or job.budget_overrun:
+            return
+        left = task.wcet_ticks - job.exec_done
+        if task.on_budget_overrun is None:
+            return
+        job.budget_timer = self.sim.call_in(max(left, 0), partial(self._budget_due, job))
+
+    def _stop_budget(self, job: Job) -> None:
+        if job.budget_timer is not None:
+            job.budget_timer.cancel()
+            job.budget_timer = None
+
+    def _budget_due(self, job: Job) -> None:
+        job.budget_timer = None
+        if job.state != "running":
+            return
+        job.budget_overrun = True
+        h = job.task.on_budget_overrun
+        if h == "kill":
+            self._kill(job)
+        elif h is not None:
+            h(job)
+
+    # ------------------------------------------------------------ priorities
+    def _reprioritise(self, job: Job) -> None:
+        """Recompute a job's effective key from inheritance (monitors it holds)."""
+        best_cls, best_key = job.cls, job.base_key
+        for m in job.held:
+            if m.inheritance:
+                for w in m.waiters:
+                    if (w.cls, w.key) < (best_cls, best_key):
+                        best_cls, best_key = w.cls, w.key
+        if (best_cls, best_key) != (job.cls, job.key):
+            job.cls, job.key = best_cls, best_key
+            if job.state == "blocked" and job.blocked_on is not None:
+                holder = getattr(job.blocked_on, "holder", None)
+                if holder is not None:
+                    holder.node._reprioritise(holder)
+            self._request_dispatch()
+
+    # ----------------------------------------------------------- statistics
+    def _record(self, job: Job) -> None:
+        r = RESOLUTION
+        rel = job.release * r
+        dl = None if job.abs_deadline is None else job.abs_deadline * r
+        fin = None if job.finish is None else job.finish * r
+        start = None if job.start is None else job.start * r
+        miss = job.missed or (dl is not None and fin is not None and job.finish > job.abs_deadline)
+        if miss and not job.missed:
+            job.task.misses += 1
+            job.missed = True
+        wcet = job.task.wcet_ticks
+        self._jobrec.append((
+            self.name, job.task.name, job.index, rel, dl, start, fin,
+            None if fin is None else fin - rel, 0.0,
+            None if start is None else start - rel,
+            job.exec_done * r,
+            None if (fin is None or dl is None) else fin - dl,
+            bool(miss), bool(job.budget_overrun or (wcet is not None and job.exec_done > wcet)),
+            bool(job.killed)))
+
+    def _unfinished_rows(self) -> list[tuple]:
+        """Rows for jobs still active or queued now (finish = NaN); added when the table is read."""
+        now = self.sim.env._now
+        r = RESOLUTION
+        rows = []
+        for task in self.tasks.values():
+            jobs = ([task.active] if task.active is not None else []) + list(task.pending)
+            for job in jobs:
+                done = job.exec_done
+                if job.state == "running" and job.seg_timer is not None:
+                    done += now - job.seg_start
+                dl = None if job.abs_deadline is None else job.abs_deadline * r
+                rows.append((
+                    self.name, task.name, job.index, job.release * r, dl,
+                    None if job.start is None else job.start * r, math.nan, math.nan, 0.0,
+                    math.nan if job.start is None else (job.start - job.release) * r, done * r,
+                    math.nan, bool(job.abs_deadline is not None and now > job.abs_deadline),
+                    bool(job.budget_overrun), False))
+        return rows
+
+    def __repr__(self):
+        return f"<Node {self.name} {self.policy.name}>"
+
+
+class KernelTimer:
+    """Releases a task at an absolute time, optionally periodically (TrueTime's timers)."""
+
+    def __init__(self, node: Node, target: Task, at: float | None, period: float | None):
+        self.node, self.target = node, target
+        now = node.sim.env._now
+        self._start = now if at is None else to_ticks(at, f"timer for {target.name!r} at")
+        if self._start < now:
+            raise ValueError(f"timer for {target.name!r}: at={at} s lies in the past (now {node.sim.now} s)")
+        self._period = None if period is None else to_ticks(period, f"timer for {target.name!r} period")
+        if self._period is not None and self._period <= 0:
+            raise ValueError(f"timer for {target.name!r}: period must be positive, got {period!r}")
+        self._k = 0
+        self._timer = node.sim.call_at(self._start, self._fire)
+
+    def _fire(self):
+        self._k += 1
+        if self._period is not None:
+            self._timer = self.node.sim.call_at(self._start + self._k * self._period, self._fire)
+        else:
+            self._timer = None
+        self.target.release()
+
+    def cancel(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+
+
+class Trigger:
+    """An external trigger edge source; ``fire()`` releases the target unless too soon."""
+
+    def __init__(self, node: Node, target: Task, min_interval: float):
+        self.node, self.target = node, target
+        self._min = to_ticks(min_interval, f"trigger for {target.name!r} min_interval")
+        self._last = None
+        self.ignored = 0
+
+    def fire(self) -> bool:
+        now = self.node.sim.env._now
+        if self._last is not None and now - self._last < self._min:
+            self.ignored += 1
+            return False
+        self._last = now
+        self.target.release()
+        return True

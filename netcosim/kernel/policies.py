@@ -1,0 +1,93 @@
+"""Scheduling policies: small plug-in classes that give a job its priority key.
+
+A key is a number; the ready job with the *smallest* key runs (TrueTime's convention:
+small number = high priority).  Interrupt handlers always beat tasks whatever the
+policy; among handlers the handler priority decides.  Equal keys are served FIFO by
+release order, and a newly ready job never preempts a running job with an equal key.
+Under EDF, equal absolute deadlines are therefore served in release order.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+
+class SchedulingPolicy:
+    """Base class. Subclasses implement :meth:`key` (and may refine :meth:`validate`)."""
+
+    name = "policy"
+
+    def key(self, job) -> float:
+        raise NotImplementedError
+
+    def validate(self, task) -> None:
+        """Check that *task* carries what this policy needs (raise naming the value)."""
+        p = task.priority
+        if p is not None and (isinstance(p, bool) or not isinstance(p, numbers.Real) or not math.isfinite(p)):
+            raise TypeError(f"task {task.name!r}: priority must be a finite number, got {p!r}")
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+
+class FixedPriority(SchedulingPolicy):
+    """Static priorities given by the user (small number = high priority)."""
+
+    name = "fixed_priority"
+
+    def key(self, job):
+        return job.task.priority
+
+    def validate(self, task):
+        super().validate(task)
+        if task.priority is None:
+            raise TypeError(f"task {task.name!r}: fixed-priority scheduling needs a numeric priority, got None")
+
+
+class RateMonotonic(SchedulingPolicy):
+    """Priority by period (shorter period = higher priority); aperiodic tasks by deadline."""
+
+    name = "rate_monotonic"
+
+    def key(self, job):
+        t = job.task
+        return t.period_ticks if t.period_ticks is not None else (t.deadline_ticks or math.inf)
+
+
+class DeadlineMonotonic(SchedulingPolicy):
+    """Priority by relative deadline (shorter = higher). Equals RM when D = T."""
+
+    name = "deadline_monotonic"
+
+    def key(self, job):
+        d = job.task.deadline_ticks
+        return math.inf if d is None else d
+
+
+class EDF(SchedulingPolicy):
+    """Earliest absolute deadline first; jobs without a deadline run last."""
+
+    name = "edf"
+
+    def key(self, job):
+        d = job.abs_deadline
+        return math.inf if d is None else d
+
+
+POLICIES = {cls.name: cls for cls in (FixedPriority, RateMonotonic, DeadlineMonotonic, EDF)}
+POLICIES.update({"fp": FixedPriority, "rm": RateMonotonic, "dm": DeadlineMonotonic})
+
+
+def make_policy(spec) -> SchedulingPolicy:
+    """A policy instance from an instance, a class, or a name."""
+    if isinstance(spec, SchedulingPolicy):
+        return spec
+    if isinstance(spec, type) and issubclass(spec, SchedulingPolicy):
+        return spec()
+    if isinstance(spec, str):
+        cls = POLICIES.get(spec.lower())
+        if cls is None:
+            raise ValueError(f"unknown scheduling policy {spec!r}; choose one of {sorted(POLICIES)}")
+        return cls()
+    raise TypeError(f"scheduler must be a SchedulingPolicy or a policy name, got {spec!r}")

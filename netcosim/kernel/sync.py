@@ -1,0 +1,254 @@
+"""Kernel synchronisation primitives: mailboxes, semaphores, monitors, events.
+
+All blocking operations return a command to ``yield`` from a task body::
+
+    msg = yield box.fetch()        # blocks while empty
+    yield box.post(msg)            # blocks while full (bounded boxes)
+    yield sem.wait(); sem.signal()
+    yield mon.enter(); ...; mon.exit()
+    yield ev.wait(); ev.notify(); ev.notify_all()
+
+Waiting orders: mailboxes and semaphores serve waiters FIFO; monitors and events serve
+the highest-priority waiter first (FIFO among equals).  Monitors implement priority
+inheritance (``inheritance=True``, the default): a job holding a monitor runs at least
+at the priority of the most urgent job waiting for it, transitively.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+from .task import Blocking
+
+
+def _prio(job):
+    return (job.cls, job.key, job.seq)
+
+
+class _Op(Blocking):
+    __slots__ = ("target", "op", "arg")
+
+    def __init__(self, target, op, arg=None):
+        self.target, self.op, self.arg = target, op, arg
+
+    def attempt(self, job):
+        return getattr(self.target, "_try_" + self.op)(job, self)
+
+    def cancel(self, job):
+        self.target._cancel(job)
+
+    @property
+    def holder(self):
+        return getattr(self.target, "holder", None)
+
+
+class Mailbox:
+    """A FIFO message buffer; ``capacity=None`` is unbounded."""
+
+    def __init__(self, name: str = "mailbox", capacity: int | None = None):
+        if capacity is not None and (isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1):
+            raise ValueError(f"mailbox {name!r}: capacity must be a positive integer or None, got {capacity!r}")
+        self.name, self.capacity = name, capacity
+        self.items: deque = deque()
+        self._getters: deque = deque()
+        self._putters: deque = deque()  # (job, item)
+        self.dropped = 0
+
+    def __len__(self):
+        return len(self.items)
+
+    def full(self) -> bool:
+        return self.capacity is not None and len(self.items) >= self.capacity
+
+    # blocking ---------------------------------------------------------------
+    def fetch(self) -> Blocking:
+        return _Op(self, "fetch")
+
+    def post(self, item: Any) -> Blocking:
+        return _Op(self, "post", item)
+
+    def _try_fetch(self, job, op):
+        if self.items:
+            job.resume_value = self._take()
+            return True
+        self._getters.append(job)
+        return False
+
+    def _try_post(self, job, op):
+        if self.try_post(op.arg):
+            return True
+        self._putters.append((job, op.arg))
+        return False
+
+    def _cancel(self, job):
+        if job in self._getters:
+            self._getters.remove(job)
+        self._putters = deque(p for p in self._putters if p[0] is not job)
+
+    # non-blocking (usable from anywhere, e.g. a network delivering a frame) ------
+    def try_post(self, item: Any) -> bool:
+        """Post without blocking; returns False (and counts a drop) when full."""
+        if self._getters:
+            job = self._getters.popleft()
+            job.node._unblock(job, item)
+            return True
+        if self.full():
+            self.dropped += 1
+            return False
+        self.items.append(item)
+        return True
+
+    def try_fetch(self, default: Any = None) -> Any:
+        """Fetch without blocking; returns *default* when empty."""
+        if not self.items:
+            return default
+        return self._take()
+
+    def _take(self):
+        item = self.items.popleft()
+        if self._putters:
+            job, waiting = self._putters.popleft()
+            self.items.append(waiting)
+            job.node._unblock(job, None)
+        return item
+
+
+class Semaphore:
+    """A counting semaphore (FIFO waiters, no priority inheritance)."""
+
+    def __init__(self, name: str = "semaphore", value: int = 1):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise ValueError(f"semaphore {name!r}: initial value must be a non-negative integer, got {value!r}")
+        self.name, self.value = name, value
+        self._waiters: deque = deque()
+
+    def wait(self) -> Blocking:
+        return _Op(self, "wait")
+
+    def _try_wait(self, job, op):
+        if self.value > 0:
+            self.value -= 1
+            return True
+        self._waiters.append(job)
+        return False
+
+    def _cancel(self, job):
+        if job in self._waiters:
+            self._waiters.remove(job)
+
+    def signal(self) -> None:
+        if self._waiters:
+            job = self._waiters.popleft()
+            job.node._unblock(job, None)
+        else:
+            self.value += 1
+
+
+class Monitor:
+    """Mutual exclusion with (optional) priority inheritance."""
+
+    def __init__(self, name: str = "monitor", inheritance: bool = True):
+        self.name, self.inheritance = name, bool(inheritance)
+        self.holder = None
+        self.waiters: list = []
+
+    def enter(self) -> Blocking:
+        return _Op(self, "enter")
+
+    def _try_enter(self, job, op):
+        if self.holder is None:
+            self._grant(job)
+            return True
+        if self.holder is job:
+            raise RuntimeError(f"task {job.task.name!r} entered monitor {self.name!r} twice")
+        self.waiters.append(job)
+        if self.inheritance:
+            self.holder.node._reprioritise(self.holder)
+        return False
+
+    def _grant(self, job):
+        self.holder = job
+        job.held.append(self)
+
+    def _cancel(self, job):
+        if job in self.waiters:
+            self.waiters.remove(job)
+            if self.holder is not None and self.inheritance:
+                self.holder.node._reprioritise(self.holder)
+
+    def exit(self) -> None:
+        """Leave the monitor (must be called by the holder's task)."""
+        if self.holder is None:
+            raise RuntimeError(f"monitor {self.name!r} exited while not held")
+        self._release_by(self.holder)
+
+    def _release_by(self, job):
+        if self.holder is not job:
+            return
+        job.held.remove(self)
+        self.holder = None
+        job.node._reprioritise(job)
+        if self.waiters:
+            nxt = min(self.waiters, key=_prio)
+            self.waiters.remove(nxt)
+            self._grant(nxt)
+            nxt.node._reprioritise(nxt)
+            nxt.node._unblock(nxt, None)
+
+
+class Event:
+    """A kernel event (condition variable); optionally tied to a monitor.
+
+    With a monitor, ``wait`` must be called while holding it: the monitor is released
+    during the wait and re-acquired before the waiter continues.
+    """
+
+    def __init__(self, name: str = "event", monitor: Monitor | None = None):
+        self.name, self.monitor = name, monitor
+        self._waiters: list = []
+
+    def wait(self) -> Blocking:
+        return _Op(self, "wait")
+
+    def _try_wait(self, job, op):
+        if self.monitor is not None:
+            if self.monitor.holder is not job:
+                raise RuntimeError(f"task {job.task.name!r} waits on event {self.name!r} without holding "
+                                   f"its monitor {self.monitor.name!r}")
+            self.monitor._release_by(job)
+        self._waiters.append(job)
+        return False
+
+    def _cancel(self, job):
+        if job in self._waiters:
+            self._waiters.remove(job)
+
+    def _wake(self, job):
+        m = self.monitor
+        if m is None:
+            job.node._unblock(job, None)
+        elif m.holder is None:
+            m._grant(job)
+            job.node._unblock(job, None)
+        else:
+            job.blocked_on = _Op(m, "enter")
+            m.waiters.append(job)
+            if m.inheritance:
+                m.holder.node._reprioritise(m.holder)
+
+    def notify(self) -> bool:
+        """Wake the highest-priority waiter; returns False if nobody waited."""
+        if not self._waiters:
+            return False
+        job = min(self._waiters, key=_prio)
+        self._waiters.remove(job)
+        self._wake(job)
+        return True
+
+    def notify_all(self) -> int:
+        waiters = sorted(self._waiters, key=_prio)
+        self._waiters.clear()
+        for job in waiters:
+            self._wake(job)
+        return len(waiters)

@@ -1,0 +1,310 @@
+"""Tasks, jobs and the context object a task body receives.
+
+A task body is a generator function ``body(ctx)``.  It consumes CPU time only through
+``yield ctx.execute(c)``; everything else takes zero simulated time.  Code before the
+first ``execute`` runs when the job first gets the CPU; code between two ``execute``
+calls runs at the end of the preceding segment (TrueTime's segment semantics).
+Blocking calls (``ctx.sleep``, mailbox fetch, semaphore wait, monitor enter, event
+wait) are also yielded; the value of the ``yield`` is the fetched item where there is
+one.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+import numbers
+from collections import deque
+from typing import Any, Callable
+
+from ..timebase import RESOLUTION, to_ticks
+
+HANDLER, TASK = 0, 1  # job classes: handlers always beat tasks
+
+
+class Blocking:
+    """Base of yieldable commands that may block the job.
+
+    ``attempt(job)`` returns True if satisfied at once (the result, if any, in
+    ``job.resume_value``); otherwise it registers the job and the primitive later calls
+    ``job.node._unblock(job, value)``.  ``cancel(job)`` withdraws a blocked job.
+    """
+
+    __slots__ = ()
+
+    def attempt(self, job) -> bool:
+        raise NotImplementedError
+
+    def cancel(self, job) -> None:
+        pass
+
+
+class Sleep(Blocking):
+    """Block until absolute time ``until`` (ticks)."""
+
+    __slots__ = ("until", "timer")
+
+    def __init__(self, until: int):
+        self.until = until
+        self.timer = None
+
+    def attempt(self, job):
+        node = job.node
+        if self.until <= node.sim.env._now:
+            return True
+        self.timer = node.sim.call_at(self.until, lambda: node._unblock(job, None))
+        return False
+
+    def cancel(self, job):
+        if self.timer is not None:
+            self.timer.cancel()
+
+
+class Job:
+    """One activation of a task."""
+
+    __slots__ = ("task", "node", "index", "release", "abs_deadline", "gen", "state", "remaining",
+                 "seg_start", "exec_done", "start", "finish", "seq", "cls", "base_key", "key",
+                 "resume_value", "seg_timer", "deadline_timer", "budget_timer", "blocked_on",
+                 "held", "killed", "missed", "budget_overrun")
+
+    def __init__(self, task: "Task", index: int, release: int):
+        self.task = task
+        self.node = task.node
+        self.index = index
+        self.release = release
+        d = task.deadline_ticks
+        self.abs_deadline = None if d is None else release + d
+        self.gen = None
+        self.state = "queued"
+        self.remaining = 0
+        self.seg_start = 0
+        self.exec_done = 0
+        self.start = None
+        self.finish = None
+        self.seq = 0
+        self.cls = task.cls
+        self.base_key = 0
+        self.key = 0
+        self.resume_value = None
+        self.seg_timer = None
+        self.deadline_timer = None
+        self.budget_timer = None
+        self.blocked_on = None
+        self.held = []
+        self.killed = False
+        self.missed = False
+        self.budget_overrun = False
+
+    @property
+    def release_time(self) -> float:
+        return self.release * RESOLUTION
+
+    @property
+    def deadline(self) -> float | None:
+        return None if self.abs_deadline is None else self.abs_deadline * RESOLUTION
+
+    @property
+    def execution_time(self) -> float:
+        """CPU time consumed so far (s), including the running segment."""
+        done = self.exec_done
+        if self.state == "running" and self.seg_timer is not None:
+            done += self.node.sim.env._now - self.seg_start
+        return done * RESOLUTION
+
+    def kill(self) -> None:
+        """Abort this job now (it is recorded as killed; a queued successor starts)."""
+        self.node._kill(self)
+
+    def __repr__(self):
+        return f"<Job {self.node.name}.{self.task.name}#{self.index} {self.state}>"
+
+
+def _as_generator_function(body: Callable) -> Callable:
+    if inspect.isgeneratorfunction(body):
+        return body
+
+    def gen(ctx):
+        body(ctx)
+        return
+        yield  # noqa: unreachable, makes this a generator
+
+    gen.__name__ = getattr(body, "__name__", "body")
+    return gen
+
+
+def _check_time(value, what, task_name, *, positive=False, allow_none=True):
+    if value is None and allow_none:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise ValueError(f"task {task_name!r}: {what} must be a finite number of seconds, got {value!r}")
+    if value < 0 or (positive and value == 0):
+        raise ValueError(f"task {task_name!r}: {what} must be {'positive' if positive else 'non-negative'}, "
+                         f"got {value!r}")
+    return to_ticks(value, what)
+
+
+class Task:
+    """A task or interrupt handler on a node.
+
+    Attributes in seconds: ``period``, ``offset``, ``deadline`` (relative), ``wcet``
+    (execution budget).  ``on_busy`` says what a release does while the previous job is
+    still active: ``"queue"`` (TrueTime: unbounded FIFO of pending jobs, each keeping its
+    own release time) or ``"skip"`` (the release is dropped and counted).
+    ``on_deadline_miss`` / ``on_budget_overrun`` are called with the job at the instant of
+    the overrun (``"kill"`` aborts the job); without them misses are only recorded.
+    """
+
+    def __init__(self, node, body: Callable, *, name: str | None, kind: str, priority=None,
+                 period=None, offset=0.0, deadline=None, wcet=None, preemptible=True,
+                 on_busy="queue", on_deadline_miss=None, on_budget_overrun=None):
+        if not callable(body):
+            raise TypeError(f"task body must be a callable body(ctx), got {body!r}")
+        self.node = node
+        self.name = name or getattr(body, "__name__", "task")
+        self.kind = kind
+        self.cls = HANDLER if kind == "handler" else TASK
+        self.body = _as_generator_function(body)
+        self.priority = priority
+        self.period_ticks = _check_time(period, "period", self.name, positive=True)
+        self.offset_ticks = _check_time(offset, "offset", self.name) or 0
+        if deadline is None and period is not None:
+            self.deadline_ticks = self.period_ticks
+        else:
+            self.deadline_ticks = _check_time(deadline, "deadline", self.name, positive=True)
+        self.wcet_ticks = _check_time(wcet, "wcet", self.name, positive=True)
+        if not isinstance(preemptible, bool):
+            raise TypeError(f"task {self.name!r}: preemptible must be True or False, got {preemptible!r}")
+        self.preemptible = preemptible
+        if on_busy not in ("queue", "skip"):
+            raise ValueError(f"task {self.name!r}: on_busy must be 'queue' or 'skip', got {on_busy!r}")
+        self.on_busy = on_busy
+        for nm, h in (("on_deadline_miss", on_deadline_miss), ("on_budget_overrun", on_budget_overrun)):
+            if h is not None and h != "kill" and not callable(h):
+                raise TypeError(f"task {self.name!r}: {nm} must be a callable(job) or 'kill', got {h!r}")
+        self.on_deadline_miss = on_deadline_miss
+        self.on_budget_overrun = on_budget_overrun
+        self.active: Job | None = None
+        self.pending: deque[Job] = deque()
+        self.jobs_released = 0
+        self.skipped = 0
+        self.misses = 0
+        self.finished = 0
+        self.state = "idle"
+        self.ctx = TaskContext(self)
+        self._release_timer = None
+        self._k = 0
+
+    # Release ---------------------------------------------------------------
+    def release(self) -> Job | None:
+        """Release a job now (aperiodic tasks and handlers; also allowed for periodic)."""
+        return self.node._release(self, self.node.sim.env._now)
+
+    def _periodic_release(self):
+        node = self.node
+        t = self.offset_ticks + self._k * self.period_ticks
+        self._k += 1
+        self._release_timer = node.sim.call_at(self.offset_ticks + self._k * self.period_ticks,
+                                               self._periodic_release)
+        node._release(self, t)
+
+    def stop(self) -> None:
+        """Stop future periodic releases (jobs already released continue)."""
+        if self._release_timer is not None:
+            self._release_timer.cancel()
+            self._release_timer = None
+
+    @property
+    def period(self) -> float | None:
+        return None if self.period_ticks is None else self.period_ticks * RESOLUTION
+
+    @property
+    def deadline(self) -> float | None:
+        return None if self.deadline_ticks is None else self.deadline_ticks * RESOLUTION
+
+    def __repr__(self):
+        return f"<Task {self.node.name}.{self.name} {self.kind}>"
+
+
+class TaskContext:
+    """What a task body sees: time, CPU, I/O, synchronisation, logging, messages."""
+
+    __slots__ = ("task", "node", "sim", "job", "_exec_rng")
+
+    def __init__(self, task: Task):
+        self.task = task
+        self.node = task.node
+        self.sim = task.node.sim
+        self.job: Job | None = None
+        self._exec_rng = None
+
+    @property
+    def now(self) -> float:
+        """Current simulated time (s)."""
+        return self.sim.env._now * RESOLUTION
+
+    @property
+    def rng(self):
+        """This task's random stream (named ``node/task``)."""
+        return self.sim.rng(f"{self.node.name}/{self.task.name}")
+
+    def execute(self, c) -> int:
+        """Consume *c* seconds of CPU (at speed 1); preemptible.
+
+        *c* is a number, a frozen ``scipy.stats`` distribution (``.rvs``), or a callable
+        ``c(rng) -> seconds`` drawn from the task's execution-time stream.
+        """
+        if not isinstance(c, (int, float)) or isinstance(c, bool):
+            if self._exec_rng is None:
+                self._exec_rng = self.sim.rng(f"{self.node.name}/{self.task.name}/execution")
+            if hasattr(c, "rvs"):
+                c = float(c.rvs(random_state=self._exec_rng))
+            elif callable(c):
+                c = c(self._exec_rng)
+            if isinstance(c, bool) or not isinstance(c, numbers.Real):
+                raise TypeError(f"task {self.task.name!r}: execution time must be a number of seconds, got {c!r}")
+        if not (c >= 0) or c == math.inf:
+            raise ValueError(f"task {self.task.name!r}: execution time must be finite and >= 0, got {c!r}")
+        return int(round(c * self.node._tick_scale))
+
+    def sleep(self, seconds: float) -> Sleep:
+        """Block for *seconds* (the CPU is free meanwhile)."""
+        d = to_ticks(seconds, f"task {self.task.name!r} sleep")
+        return Sleep(self.sim.env._now + d)
+
+    def sleep_until(self, t: float) -> Sleep:
+        """Block until absolute time *t* seconds."""
+        return Sleep(to_ticks(t, f"task {self.task.name!r} sleep_until"))
+
+    def read(self, port):
+        """Sample an analog input (a plant output port or a node channel) now."""
+        try:
+            reader = port.read
+        except AttributeError:
+            raise TypeError(f"task {self.task.name!r}: cannot read from {port!r}") from None
+        return reader()
+
+    def write(self, port, value) -> None:
+        """Write an analog output; the plant holds it until the next write (ZOH)."""
+        try:
+            writer = port.write
+        except AttributeError:
+            raise TypeError(f"task {self.task.name!r}: cannot write to {port!r}") from None
+        writer(value)
+
+    def log(self, signal: str, value: float) -> None:
+        """Record ``value`` under ``signal`` in the signals trace (source ``node.task``)."""
+        self.sim.trace.signal_rec.rows.append(
+            (self.sim.env._now * RESOLUTION, f"{self.node.name}.{self.task.name}", signal, float(value)))
+
+    def release(self, task: Task) -> Job | None:
+        """Release a job of *task* now."""
+        return task.release()
+
+    def send(self, dst, payload: Any = None, size_bits: int | None = None, *, priority=None, network=None):
+        """Send a message over one of this node's network interfaces (see netcosim.network)."""
+        return self.node.send(dst, payload, size_bits, priority=priority, network=network, sender=self)
+
+    def kill(self) -> None:
+        """Abort the current job."""
+        self.job.kill()
