@@ -1,0 +1,429 @@
+"""Tethered UAV in the vertical plane (thesis ch. 2, §2.2, §2.3, §2.6.1).
+
+A vehicle of mass ``m_B`` and inertia ``J_B`` is tied to the world origin ``O_W`` by
+a taut massless cable of length ``l``; it moves in the (x_W, z_W) plane, z_W up.
+
+Conventions (radians, SI units throughout):
+
+* ``phi`` (φ) is the elevation of the cable: CoM at ``p_B = l (cos φ, sin φ)`` in
+  (x_W, z_W).
+* ``theta`` (ϑ) is the attitude, a rotation about y_W: the body axes are
+  ``x_B = (cos ϑ, -sin ϑ)`` and ``z_B = (sin ϑ, cos ϑ)``.  The total thrust ``f_R``
+  acts along ``z_B`` (this is the direction that makes (2.3) and (2.4) hold; the
+  thesis writes ``f_R = -f_R z_B`` with the opposite axis label).  A positive
+  torque ``τ_R`` about y_B increases ϑ.
+* Propeller 1 sits at ``p_B + d x_B`` and propeller 2 at ``p_B - d x_B``; with
+  (2.1), ``τ_R = d (f_2 - f_1)`` is the moment of the two thrusts about y_B.
+* The slope of angle ``alpha`` passes through ``O_W`` and descends towards +x_W; its
+  upward unit normal is ``n = (sin α, cos α)``, so the CoM height above it is
+  ``z = l sin(φ + α)`` (the ``a`` of (2.7)).
+
+Every equation is written once, in the functions of the section "Equations", using
+``casadi`` operators only.  Called with CasADi symbols (SX or MX) they return
+expressions (that is how :func:`casadi_model` builds its ``Function`` objects and how
+an optimal-control problem can reuse them); called with floats they return floats
+(that is how the netcosim plants evaluate them, without CasADi call overhead).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, fields
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from netcosim.continuous import ContinuousSystem, HybridEvent
+
+__all__ = [
+    "TetheredUAVParams", "TetheredUAVModel", "TetheredUAV", "casadi_model", "wind",
+    "wind_disturbance", "ddphi_ddtheta", "smooth_dynamics", "force_dynamics", "cable_stress",
+    "propeller_ground_distances", "input_map", "propeller_forces", "lander_reaction",
+    "hover_thrust",
+]
+
+
+# ---------------------------------------------------------------------------
+# Parameters
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class TetheredUAVParams:
+    """Physical parameters of the tethered UAV and of its simulation model (SI units).
+
+    The thesis gives only the bounds of Table 2.1 (0 ≤ f_R ≤ 15 N, |τ_R| ≤ 1.2 N·m,
+    0 ≤ f_L ≤ 10 N), the slope of §2.6.2 (ϑ* = 30° = -φ*) and the structure of the
+    simulation non-idealities (§2.6.1).  Everything else is chosen here for a ~1 kg
+    vehicle; the reason for each value is next to it.
+    """
+
+    #: Vehicle mass [kg]: a ~1 kg quadrotor.  Hover needs 9.81 N, 65 % of the 15 N
+    #: thrust bound of Table 2.1 (thrust-to-weight 1.5, typical of such vehicles).
+    m_B: float = 1.0
+    #: Inertia about y_B [kg·m²]: 1 kg frame with 0.16 m arms (motors of ~0.1 kg at
+    #: the arm tips give 2·0.1·0.16² ≈ 5e-3, the body about as much again).
+    J_B: float = 0.01
+    #: Cable length [m]: a short tether as in laboratory rigs; with l = 1 m the
+    #: centripetal load at the ~100 °/s of §2.6.2 is m l φ̇² ≈ 3 N, inside f_L ≤ 10 N.
+    l: float = 1.0
+    #: Distance propeller–CoM [m]: with each propeller limited to f_R,max/2 = 7.5 N,
+    #: (2.1) gives |τ_R| ≤ d · 7.5 N = 1.2 N·m, the torque bound of Table 2.1.
+    d: float = 0.16
+    #: Gravity [m/s²].
+    g: float = 9.81
+    #: Slope of the landing plane [rad]: 30°, the final attitude ϑ* = -φ* of §2.6.2.
+    alpha: float = math.pi / 6
+    #: Table 2.1 bounds: thrust [N], torque [N·m], cable stress [N].
+    f_R_max: float = 15.0
+    tau_R_max: float = 1.2
+    f_L_max: float = 10.0
+    #: Lander height h of (2.17) [m]: 5 cm legs, more than the propeller clearance
+    #: needed when the body is parallel to the slope.
+    lander_height: float = 0.05
+    #: Lander stiffness k_el of (2.17) [N/m]: deflects ~8 mm under the normal weight
+    #: component m g cos α ≈ 8.5 N; contact natural frequency sqrt(k/m) ≈ 5 Hz.
+    k_el: float = 1000.0
+    #: Lander damping ξ of (2.17) [N·s/m], multiplying the CoM velocity normal to the
+    #: slope: 2·0.7·sqrt(k_el m_B) ≈ 44, i.e. a damping ratio of ~0.7.
+    xi: float = 45.0
+    #: Wind of §2.6.1 along x_W at the CoM (model structure of Sandino et al. 2014).
+    #: Pulse: a "1 - cosine" gust peaking at 3 N (drag 0.5·ρ·C_d·A·v² of a ~0.05 m²
+    #: frontal area at ~10 m/s) lasting 50 ms from t = 0 [N, s].  The 1 - cosine shape
+    #: (the discrete-gust shape of flight-dynamics standards) is continuous with a
+    #: continuous slope, so fixed-step integrators keep their order across it.
+    wind_pulse_amplitude: float = 3.0
+    wind_pulse_duration: float = 0.05
+    #: Sinusoid from t = 0.1 s: ±1 N (gusts of ~±6 m/s) at 1 Hz, slow with respect to
+    #: the 500 Hz inner loop and visible within the ~1 s landing [N, Hz, s].
+    wind_sine_amplitude: float = 1.0
+    wind_sine_frequency: float = 1.0
+    wind_sine_start: float = 0.1
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"TetheredUAVParams.{f.name} must be a finite number, got {v!r}")
+        for name in ("m_B", "J_B", "l", "d", "g", "f_R_max", "tau_R_max", "f_L_max", "lander_height"):
+            v = getattr(self, name)
+            if v <= 0:
+                raise ValueError(f"TetheredUAVParams.{name} must be positive, got {v!r}")
+        for name in ("k_el", "xi", "wind_pulse_duration", "wind_sine_frequency", "wind_sine_start"):
+            v = getattr(self, name)
+            if v < 0:
+                raise ValueError(f"TetheredUAVParams.{name} must be non-negative, got {v!r}")
+        if not -math.pi / 2 < self.alpha < math.pi / 2:
+            raise ValueError(f"TetheredUAVParams.alpha must lie in (-pi/2, pi/2) rad, got {self.alpha!r}")
+        if self.lander_height >= self.l:
+            raise ValueError(f"TetheredUAVParams.lander_height={self.lander_height!r} m must be shorter "
+                             f"than the cable l={self.l!r} m")
+
+    # Coefficients of (2.3).
+    @property
+    def a1(self) -> float:
+        """a_1 = -g / l [1/s²]."""
+        return -self.g / self.l
+
+    @property
+    def a2(self) -> float:
+        """a_2 = 1 / (m_B l) [1/(kg·m)]."""
+        return 1.0 / (self.m_B * self.l)
+
+    @property
+    def a3(self) -> float:
+        """a_3 = 1 / J_B [1/(kg·m²)]."""
+        return 1.0 / self.J_B
+
+
+# ---------------------------------------------------------------------------
+# Equations (one source of truth: casadi operators, symbolic or float)
+# ---------------------------------------------------------------------------
+
+def _symbolic(*vals) -> bool:
+    return any(isinstance(v, (ca.SX, ca.MX, ca.DM)) for v in vals)
+
+
+def _stack(items):
+    if _symbolic(*items):
+        return ca.vertcat(*items)
+    return np.array([float(v) for v in items])
+
+
+def ddphi_ddtheta(phi, dphi, theta, f_R, tau_R, p: TetheredUAVParams, f_ext=None):
+    """Accelerations (φ̈, ϑ̈) [rad/s²] of (2.2)/(2.3).
+
+    ``f_ext = (F_x, F_z)`` [N] is an optional external force on the CoM in world axes
+    (wind, lander reaction); its moment about the CoM is zero, so ϑ̈ is unaffected.
+    """
+    ddphi = p.a1 * ca.cos(phi) + p.a2 * ca.cos(phi + theta) * f_R
+    if f_ext is not None:
+        # tangential component: t = (-sin φ, cos φ)
+        ddphi = ddphi + p.a2 * (-ca.sin(phi) * f_ext[0] + ca.cos(phi) * f_ext[1])
+    return ddphi, p.a3 * tau_R
+
+
+def smooth_dynamics(x, u, p: TetheredUAVParams, f_ext=None):
+    """Right-hand side of (2.5).
+
+    ``x = [φ, φ̇, ϑ, ϑ̇, f_R, τ_R]`` (rad, rad/s, rad, rad/s, N, N·m),
+    ``u = [ḟ_R, τ̇_R]`` (N/s, N·m/s).  Returns ẋ (CasADi column or numpy array).
+    """
+    ddphi, ddtheta = ddphi_ddtheta(x[0], x[1], x[2], x[4], x[5], p, f_ext)
+    return _stack([x[1], ddphi, x[3], ddtheta, u[0], u[1]])
+
+
+def force_dynamics(x, u, p: TetheredUAVParams, f_ext=None):
+    """Right-hand side of (2.3): ``x = [φ, φ̇, ϑ, ϑ̇]``, ``u = [f_R, τ_R]`` (N, N·m)."""
+    ddphi, ddtheta = ddphi_ddtheta(x[0], x[1], x[2], u[0], u[1], p, f_ext)
+    return _stack([x[1], ddphi, x[3], ddtheta])
+
+
+def cable_stress(phi, dphi, theta, f_R, p: TetheredUAVParams, f_ext=None):
+    """Cable stress f_L [N] of (2.4), positive when the cable pulls (taut).
+
+    f_L = φ̇²/a_2 + (a_1/a_2) sin φ + sin(φ + ϑ) f_R, plus the radial component
+    ``cos φ F_x + sin φ F_z`` of an optional external force on the CoM.
+    """
+    f_L = dphi ** 2 / p.a2 + (p.a1 / p.a2) * ca.sin(phi) + ca.sin(phi + theta) * f_R
+    if f_ext is not None:
+        f_L = f_L + ca.cos(phi) * f_ext[0] + ca.sin(phi) * f_ext[1]
+    return f_L
+
+
+def propeller_ground_distances(phi, theta, alpha, p: TetheredUAVParams):
+    """(d_PG1, d_PG2) [m] of (2.7): ``a - b`` and ``a + b`` with a = l sin(φ + α),
+    b = d sin(ϑ - α).  Distances of propellers 1 and 2 from the slope of angle α."""
+    a = p.l * ca.sin(phi + alpha)
+    b = p.d * ca.sin(theta - alpha)
+    return a - b, a + b
+
+
+def input_map(f1, f2, p: TetheredUAVParams):
+    """(f_R, τ_R) from the propeller thrusts (f_1, f_2) [N], eq. (2.1)."""
+    return f1 + f2, p.d * (f2 - f1)
+
+
+def propeller_forces(f_R, tau_R, p: TetheredUAVParams):
+    """Inverse of (2.1): (f_1, f_2) = ((f_R - τ_R/d)/2, (f_R + τ_R/d)/2) [N]."""
+    return 0.5 * (f_R - tau_R / p.d), 0.5 * (f_R + tau_R / p.d)
+
+
+def lander_reaction(phi, dphi, p: TetheredUAVParams, alpha=None):
+    """Lander reaction f_RF [N] of (2.17), along the slope normal n = (sin α, cos α).
+
+    With z = l sin(φ+α) the CoM height above the slope and ż = l cos(φ+α) φ̇ its
+    rate, f_RF = max(0, k_el (h - z) - ξ ż) when z ≤ h, else 0.  Two choices are
+    made where (2.17) is loose: the damping multiplies the CoM velocity normal to the
+    slope ż (the thesis writes ξ φ̇; near contact ż ≈ l φ̇), and the force is clipped
+    at zero because a lander can push but not pull.  It acts at the CoM (the
+    simplification of §2.3.1), so it exerts no moment on the attitude.
+    """
+    alpha = p.alpha if alpha is None else alpha
+    z = p.l * ca.sin(phi + alpha)
+    zdot = p.l * ca.cos(phi + alpha) * dphi
+    push = ca.fmax(0.0, p.k_el * (p.lander_height - z) - p.xi * zdot)
+    if _symbolic(phi, dphi, alpha):
+        return ca.if_else(z <= p.lander_height, push, 0.0)
+    return push if z <= p.lander_height else 0.0
+
+
+def _external_force(phi, dphi, d, p: TetheredUAVParams, landers: bool):
+    """World-frame external force on the CoM: disturbance d plus lander reaction."""
+    fx, fz = d[0], d[1]
+    if landers:
+        f_rf = lander_reaction(phi, dphi, p)
+        fx = fx + f_rf * math.sin(p.alpha)
+        fz = fz + f_rf * math.cos(p.alpha)
+    return fx, fz
+
+
+def hover_thrust(phi, theta, p: TetheredUAVParams) -> float:
+    """Thrust [N] holding the vehicle still at (φ, ϑ): m_B g cos φ / cos(φ + ϑ) (φ̈ = 0)."""
+    c = math.cos(phi + theta)
+    if abs(c) < 1e-9:
+        raise ValueError(f"no hover thrust at phi + theta = {phi + theta!r} rad (thrust normal to the "
+                         f"circle's tangent)")
+    return p.m_B * p.g * math.cos(phi) / c
+
+
+# ---------------------------------------------------------------------------
+# Wind disturbance (§2.6.1)
+# ---------------------------------------------------------------------------
+
+def wind(t: float, params: TetheredUAVParams | None = None) -> np.ndarray:
+    """Wind force [N] on the CoM in world axes (F_x, F_z) at time *t* [s].
+
+    A "1 - cosine" pulse ``(A/2)(1 - cos(2π t / T))`` on ``[0, T]`` with peak
+    ``A = wind_pulse_amplitude`` and ``T = wind_pulse_duration``, plus
+    ``wind_sine_amplitude · sin(2π f (t - t_s))`` for ``t ≥ t_s = wind_sine_start``,
+    along x_W only (F_z = 0).  The profile is continuous in t.
+    """
+    p = params or TetheredUAVParams()
+    fx = 0.0
+    if 0.0 <= t <= p.wind_pulse_duration and p.wind_pulse_duration > 0:
+        fx += 0.5 * p.wind_pulse_amplitude * (1.0 - math.cos(2.0 * math.pi * t / p.wind_pulse_duration))
+    if t >= p.wind_sine_start:
+        fx += p.wind_sine_amplitude * math.sin(2.0 * math.pi * p.wind_sine_frequency * (t - p.wind_sine_start))
+    return np.array([fx, 0.0])
+
+
+def wind_disturbance(params: TetheredUAVParams | None = None):
+    """``d(t)`` callable for :meth:`netcosim.sim.Simulation.plant` (``disturbance=``)."""
+    p = params or TetheredUAVParams()
+    return lambda t: wind(t, p)
+
+
+# ---------------------------------------------------------------------------
+# CasADi model (Functions built once per parameter set)
+# ---------------------------------------------------------------------------
+
+class TetheredUAVModel:
+    """Symbols, expressions and CasADi ``Function`` objects of one parameter set.
+
+    Obtain it with :func:`casadi_model` (cached).  Symbols (SX): ``x`` (6, smooth
+    state), ``u`` (2, rates), ``x4`` (4, force-model state), ``u_force`` (2, [f_R,
+    τ_R]), ``d`` (2, external force on the CoM), ``alpha_sym`` (slope).  Expressions:
+    ``xdot_smooth`` (2.5), ``xdot_force`` (2.3), ``f_L`` (2.4, on ``x``), ``d_pg``
+    (2.7, on ``x`` and ``alpha_sym``).  Functions:
+
+    * ``f_smooth(x[6], u[2]) -> xdot[6]``  (2.5)
+    * ``f_force(x[4], u[2]) -> xdot[4]``  (2.3)
+    * ``stress(x[6]) -> f_L``  (2.4); ``stress_force(x[4], u[2]) -> f_L``
+    * ``propeller_ground_distances(x[6], alpha) -> [d_PG1, d_PG2]``  (2.7)
+    * ``input_map(f12[2]) -> [f_R, τ_R]``  (2.1); ``propeller_forces`` its inverse
+    * ``f_sim_smooth(x[6], u[2], d[2])``, ``f_sim_force(x[4], u[2], d[2])``: the
+      simulation model of §2.6.1 (landers + external force d at the CoM)
+    * ``lander_reaction(x[6]) -> f_RF``  (2.17)
+
+    For MX-based problems call the module-level equation functions
+    (:func:`smooth_dynamics` etc.) on MX symbols, or call these Functions on MX.
+    """
+
+    def __init__(self, params: TetheredUAVParams):
+        p = self.params = params
+        self.x = x = ca.SX.sym("x", 6)
+        self.u = u = ca.SX.sym("u", 2)
+        self.x4 = x4 = ca.SX.sym("x4", 4)
+        self.u_force = uf = ca.SX.sym("u_force", 2)
+        self.d = d = ca.SX.sym("d", 2)
+        self.alpha_sym = alpha = ca.SX.sym("alpha")
+        f12 = ca.SX.sym("f12", 2)
+        fr = ca.SX.sym("fr", 2)
+
+        self.xdot_smooth = smooth_dynamics(x, u, p)
+        self.xdot_force = force_dynamics(x4, uf, p)
+        self.f_L = cable_stress(x[0], x[1], x[2], x[4], p)
+        self.d_pg = ca.vertcat(*propeller_ground_distances(x[0], x[2], alpha, p))
+        xs, us = ["phi", "dphi", "theta", "dtheta", "f_R", "tau_R"], ["df_R", "dtau_R"]
+
+        self.f_smooth = ca.Function("f_smooth", [x, u], [self.xdot_smooth], ["x", "u"], ["xdot"])
+        self.f_force = ca.Function("f_force", [x4, uf], [self.xdot_force], ["x", "u"], ["xdot"])
+        self.stress = ca.Function("stress", [x], [self.f_L], ["x"], ["f_L"])
+        self.stress_force = ca.Function("stress_force", [x4, uf],
+                                        [cable_stress(x4[0], x4[1], x4[2], uf[0], p)], ["x", "u"], ["f_L"])
+        self.propeller_ground_distances = ca.Function(
+            "propeller_ground_distances", [x, alpha], [self.d_pg], ["x", "alpha"], ["d_pg"])
+        self.input_map = ca.Function("input_map", [f12], [ca.vertcat(*input_map(f12[0], f12[1], p))],
+                                     ["f12"], ["u_force"])
+        self.propeller_forces = ca.Function("propeller_forces", [fr],
+                                            [ca.vertcat(*propeller_forces(fr[0], fr[1], p))],
+                                            ["u_force"], ["f12"])
+        fe = _external_force(x[0], x[1], d, p, True)
+        self.f_sim_smooth = ca.Function("f_sim_smooth", [x, u, d], [smooth_dynamics(x, u, p, fe)],
+                                        ["x", "u", "d"], ["xdot"])
+        fe4 = _external_force(x4[0], x4[1], d, p, True)
+        self.f_sim_force = ca.Function("f_sim_force", [x4, uf, d], [force_dynamics(x4, uf, p, fe4)],
+                                       ["x", "u", "d"], ["xdot"])
+        self.lander_reaction = ca.Function("lander_reaction", [x], [lander_reaction(x[0], x[1], p)],
+                                           ["x"], ["f_RF"])
+        self.state_names = tuple(xs)
+        self.input_names = tuple(us)
+
+
+@functools.lru_cache(maxsize=32)
+def casadi_model(params: TetheredUAVParams | None = None) -> TetheredUAVModel:
+    """The :class:`TetheredUAVModel` of *params* (built once per parameter set)."""
+    if params is None:
+        params = TetheredUAVParams()
+    if not isinstance(params, TetheredUAVParams):
+        raise TypeError(f"params must be TetheredUAVParams, got {params!r}")
+    return TetheredUAVModel(params)
+
+
+# ---------------------------------------------------------------------------
+# netcosim plant: the simulation model of §2.6.1
+# ---------------------------------------------------------------------------
+
+def _g_contact(t, x, u, p):
+    """h - z: rises through zero when the CoM comes within the lander height."""
+    return p.lander_height - p.l * math.sin(x[0] + p.alpha)
+
+
+class TetheredUAV(ContinuousSystem):
+    """The simulation model of §2.6.1 as a netcosim plant.
+
+    ``inputs="rates"`` (default): the smooth-input model (2.5), states
+    ``[φ, φ̇, ϑ, ϑ̇, f_R, τ_R]``, inputs ``[ḟ_R, τ̇_R]``.  ``inputs="forces"``: the
+    model (2.3), states ``[φ, φ̇, ϑ, ϑ̇]``, inputs ``[f_R, τ_R]``.
+
+    Disturbances ``[f_ext_x, f_ext_z]`` [N]: an external force on the CoM in world
+    axes (pass ``disturbance=wind_disturbance(params)`` for the wind of §2.6.1).
+    With ``landers=True`` the reaction (2.17) acts when the CoM is within
+    ``lander_height`` of the slope; events ``touchdown``/``liftoff`` fire when
+    that contact starts/ends, so integrators restart exactly at the kink.  Events
+    ``wind_pulse_end`` and ``wind_sine_start`` restart them at the edges of the wind
+    profile.  No saturation is applied to the inputs (that is the controller's job).
+
+    Outputs: the states, then (force model) ``f_R, τ_R``, then ``f_L`` (2.4, including
+    the radial part of external forces), ``d_PG1, d_PG2`` (2.7, slope α of the
+    parameters) and the lander reaction ``f_RF``.
+    """
+
+    name = "tethered_uav"
+    disturbance_names = ("f_ext_x", "f_ext_z")
+
+    def __init__(self, params: TetheredUAVParams | None = None, *, inputs: str = "rates",
+                 landers: bool = True, name: str | None = None):
+        params = TetheredUAVParams() if params is None else params
+        if not isinstance(params, TetheredUAVParams):
+            raise TypeError(f"params must be TetheredUAVParams, got {params!r}")
+        if inputs not in ("rates", "forces"):
+            raise ValueError(f"inputs must be 'rates' or 'forces', got {inputs!r}")
+        self.mode, self.landers = inputs, bool(landers)
+        q = ("phi", "dphi", "theta", "dtheta")
+        if inputs == "rates":
+            states, ins, outs = q + ("f_R", "tau_R"), ("df_R", "dtau_R"), q + ("f_R", "tau_R")
+        else:
+            states, ins, outs = q, ("f_R", "tau_R"), q + ("f_R", "tau_R")
+        events = []
+        if self.landers:
+            events += [HybridEvent("touchdown", _g_contact, +1), HybridEvent("liftoff", _g_contact, -1)]
+        events += [HybridEvent("wind_pulse_end", lambda t, x, u, p: t - p.wind_pulse_duration, +1),
+                   HybridEvent("wind_sine_start", lambda t, x, u, p: t - p.wind_sine_start, +1)]
+        super().__init__(states=states, inputs=ins, outputs=outs + ("f_L", "d_PG1", "d_PG2", "f_RF"),
+                         disturbances=self.disturbance_names, events=events, params=params, name=name)
+
+    def _split(self, x, u):
+        if self.mode == "rates":
+            return x[4], x[5], u[2:4]
+        return u[0], u[1], u[2:4]
+
+    def f(self, t, x, u, params):
+        p = params
+        f_R, tau_R, d = self._split(x, u)
+        fe = _external_force(x[0], x[1], d, p, self.landers)
+        if self.mode == "rates":
+            return smooth_dynamics(x, u, p, fe)
+        return force_dynamics(x, u, p, fe)
+
+    def h(self, t, x, u, params):
+        p = params
+        f_R, tau_R, d = self._split(x, u)
+        f_rf = lander_reaction(x[0], x[1], p) if self.landers else 0.0
+        fe = _external_force(x[0], x[1], d, p, self.landers)
+        f_L = cable_stress(x[0], x[1], x[2], f_R, p, fe)
+        d1, d2 = propeller_ground_distances(x[0], x[2], p.alpha, p)
+        head = list(x) if self.mode == "rates" else list(x) + [f_R, tau_R]
+        return np.array(head + [f_L, d1, d2, f_rf], dtype=float)
