@@ -46,6 +46,7 @@ class Node:
         self.running: Job | None = None
         self._loaded: Job | None = None
         self._in_cs = False
+        self._np_job: Job | None = None  # non-preemptible job interrupted by a handler
         self._dispatch_pending = False
         self._seq = 0
         self._ain: dict[int, AnalogIn] = {}
@@ -197,6 +198,8 @@ class Node:
         for j in ready:
             if (j.cls, j.key, j.seq) < (best.cls, best.key, best.seq):
                 best = j
+        if self._np_job is not None and best.cls != HANDLER:
+            best = self._np_job  # resumes before any task once the handlers are done
         r = self.running
         if r is not None:
             if not ((best.cls, best.key) < (r.cls, r.key) and (r.task.preemptible or best.cls < r.cls)):
@@ -214,12 +217,16 @@ class Node:
             job.remaining -= elapsed
             job.exec_done += elapsed
         self._stop_budget(job)
+        if not job.task.preemptible:
+            self._np_job = job
         job.state = "ready"
         self.ready.append(job)
         self.running = None
         self._trace(job.task, "ready")
 
     def _switch_in(self, job: Job) -> None:
+        if job is self._np_job:
+            self._np_job = None
         self.running = job
         if self._cs_ticks and self._loaded is not job:
             self._in_cs = True
@@ -353,6 +360,8 @@ class Node:
             return
         if job.state == "ready":
             self.ready.remove(job)
+            if job is self._np_job:
+                self._np_job = None
         elif job.state == "blocked" and job.blocked_on is not None:
             job.blocked_on.cancel(job)
         elif job.state == "running" and job.seg_timer is not None:

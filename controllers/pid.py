@@ -1,0 +1,50 @@
+"""Discrete PID with set-point weighting and filtered derivative (TrueTime's ``pidcode``).
+
+    P = K (beta r - y)
+    D = Td/(N h + Td) D_old + N K Td/(N h + Td) (y_old - y)     (derivative on y,
+                                                                 backward difference)
+    u = P + I + D
+    I <- I + K h / Ti (r - y)                                  (forward Euler)
+
+``h`` is the sampling period in seconds.  The defaults are TrueTime's servo example
+(K = 0.96, Ti = 0.12, Td = 0.049, beta = 0.5, N = 10) for G(s) = 1000 / (s (s + 1)).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+
+@dataclass
+class PID:
+    """State and parameters of one PID loop. Call :meth:`compute` once per sample."""
+
+    h: float
+    K: float = 0.96
+    Ti: float = 0.12
+    Td: float = 0.049
+    beta: float = 0.5
+    N: float = 10.0
+    I: float = field(default=0.0, init=False)
+    D: float = field(default=0.0, init=False)
+    y_old: float = field(default=0.0, init=False)
+
+    def __post_init__(self):
+        for name in ("h", "K", "Ti", "N"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"PID {name} must be a positive finite number, got {v!r}")
+        if not (self.Td >= 0 and math.isfinite(self.Td)):
+            raise ValueError(f"PID Td must be a non-negative finite number, got {self.Td!r}")
+        self._ad = self.Td / (self.N * self.h + self.Td)
+        self._bd = self.N * self.K * self.Td / (self.N * self.h + self.Td)
+
+    def compute(self, r: float, y: float) -> float:
+        """Control signal for reference *r* and measurement *y*; updates the state."""
+        P = self.K * (self.beta * r - y)
+        self.D = self._ad * self.D + self._bd * (self.y_old - y)
+        u = P + self.I + self.D
+        self.I += self.K * self.h / self.Ti * (r - y)
+        self.y_old = y
+        return u

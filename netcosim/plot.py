@@ -1,0 +1,86 @@
+"""Plots: TrueTime-style schedule staircases and signal plots (matplotlib, saved as PNG).
+
+One row per task, at height ``row``; the staircase sits at ``row + 0.5`` while the task
+runs, ``row + 0.25`` while ready (preempted or waiting for the CPU), ``row + 0.125`` while
+blocked and ``row`` while idle -- TrueTime's encoding.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import matplotlib
+
+matplotlib.use("Agg", force=False)
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from .trace import TASK_STATES  # noqa: E402
+
+
+def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None, t_range=None,
+                  node: str | None = None, ax=None, path: str | Path | None = None, title: str | None = None):
+    """Draw the schedule trace (``sim.trace.schedule()``) as one staircase per task.
+
+    ``tasks`` orders the rows (top row first; default: order of appearance); ``t_range``
+    = (t0, t1) in seconds restricts the window; ``path`` saves a PNG.  Returns the axes.
+    """
+    df = schedule
+    if node is not None:
+        df = df[df["node"] == node]
+    if df.empty:
+        raise ValueError("empty schedule: nothing to plot (did the simulation run?)")
+    labels = (df["node"].astype(str) + "." + df["task"].astype(str)) if node is None else df["task"].astype(str)
+    df = df.assign(label=labels.to_numpy())
+    order = list(tasks) if tasks is not None else list(dict.fromkeys(df["label"]))
+    t0, t1 = t_range if t_range is not None else (df["time"].min(), df["time"].max())
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(10, 0.8 + 0.6 * len(order)))
+    for row, lab in enumerate(reversed(order)):
+        sel = df[df["label"] == lab]
+        if sel.empty:
+            raise KeyError(f"no task {lab!r} in the schedule; have {sorted(set(df['label']))}")
+        times = sel["time"].to_numpy(dtype=float)
+        levels = row + sel["state"].astype(str).map(TASK_STATES).to_numpy(dtype=float)
+        # value in force at t0, then the changes inside the window, held to t1
+        before = times <= t0
+        start_level = levels[before][-1] if before.any() else row
+        inside = (times > t0) & (times < t1)
+        ts = np.concatenate(([t0], times[inside], [t1]))
+        ls = np.concatenate(([start_level], levels[inside], [levels[inside][-1] if inside.any() else start_level]))
+        ax.step(ts, ls, where="post", lw=1.2)
+    ax.set_yticks([r + 0.25 for r in range(len(order))])
+    ax.set_yticklabels(list(reversed(order)))
+    ax.set_xlim(t0, t1)
+    ax.set_xlabel("time [s]")
+    ax.set_title(title or "schedule (high = running, medium = ready, low = idle)")
+    ax.grid(axis="x", alpha=0.3)
+    if path is not None:
+        ax.figure.tight_layout()
+        ax.figure.savefig(path, dpi=120)
+        plt.close(ax.figure)
+    return ax
+
+
+def plot_signals(signals: pd.DataFrame, columns: Sequence[tuple[str, str]], *, path=None, ax=None,
+                 title: str | None = None, drawstyle: str = "default"):
+    """Plot selected ``(source, signal)`` pairs from the tidy signals table."""
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(10, 4))
+    for source, signal in columns:
+        sel = signals[(signals["source"] == source) & (signals["signal"] == signal)]
+        if sel.empty:
+            raise KeyError(f"no signal {signal!r} from {source!r}")
+        ax.plot(sel["time"], sel["value"], label=f"{source}.{signal}", drawstyle=drawstyle)
+    ax.set_xlabel("time [s]")
+    ax.legend(loc="best")
+    ax.grid(alpha=0.3)
+    if title:
+        ax.set_title(title)
+    if path is not None:
+        ax.figure.tight_layout()
+        ax.figure.savefig(path, dpi=120)
+        plt.close(ax.figure)
+    return ax
