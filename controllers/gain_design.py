@@ -152,8 +152,21 @@ def design_nonsquare(mu: float, kbar: Any, d: Any = None, *, form: str = "induce
     k = np.asarray(kbar, dtype=float).reshape(-1)
     gfun = lambda t: g_nonsquare(t, mu, k, d, form=form)  # noqa: E731
     hi = 2.0 / float(k.min())
-    # g is convex; its minimiser lies in [0, hi] since g(hi) >= g(0) there.
-    kinks = np.sort(np.concatenate(([0.0], 1.0 / k[1.0 / k < hi], [hi])))
+    # g is convex; its minimiser lies in [0, hi] since g(hi) >= g(0) there.  Between
+    # consecutive breakpoints (zeros and pairwise crossings of the affine pieces
+    # +-(1 - tau k_i) w_i) the max is one affine piece, so g is a smooth parabola there.
+    w = np.ones_like(k) if (form == "induced" or d is None) else 1.0 / np.asarray(d, dtype=float).reshape(-1) ** 2
+    pieces = np.unique(np.stack([w, w * k], axis=1), axis=0)  # (c0, c1): c0 - c1 tau
+    bps = [0.0, hi] + [c0 / c1 for c0, c1 in pieces]
+    for i in range(len(pieces)):
+        for j in range(i + 1, len(pieces)):
+            (a0, a1), (b0, b1) = pieces[i], pieces[j]
+            for s_ in (1.0, -1.0):  # a0 - a1 t = s (b0 - b1 t)
+                den = a1 - s_ * b1
+                if den != 0.0:
+                    bps.append((a0 - s_ * b0) / den)
+    bps = np.asarray(bps)
+    kinks = np.unique(bps[(bps >= 0.0) & (bps <= hi)])
     best_t, best_g = 0.0, gfun(0.0)
     for lo_, hi_ in zip(kinks[:-1], kinks[1:]):  # Brent on each smooth piece
         if hi_ <= lo_:

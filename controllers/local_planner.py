@@ -328,17 +328,20 @@ def robot_velocity(system: Any, structure: StarStructure, i: int, q_i: Any, q_V:
     return A[np.ix_(rows, idx)] @ (-(kd[idx] * e))
 
 
+#: Relative singular-value threshold below which ``A_q`` counts as rank deficient.
+RANK_RTOL = 1e-10
+
+
 def _pinv_apply(A: np.ndarray, v: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``A^+ v`` for a full-column-rank A; raises SingularConfigurationError otherwise."""
-    n, m = A.shape
-    if n == m:
-        try:
-            return np.linalg.solve(A, v)
-        except np.linalg.LinAlgError:
-            raise SingularConfigurationError(f"A_q is singular at q={q.tolist()}") from None
-    x, _, rank, _ = np.linalg.lstsq(A, v, rcond=None)
+    """``A^+ v`` for a full-column-rank A (``A^{-1} v`` when square).
+
+    Solved by SVD least squares; singular values below :data:`RANK_RTOL` times the
+    largest count as zero, and a rank below ``m`` raises SingularConfigurationError.
+    """
+    m = A.shape[1]
+    x, _, rank, _ = np.linalg.lstsq(A, v, rcond=RANK_RTOL)
     if rank < m:
-        raise SingularConfigurationError(f"A_q has rank {rank} < m={m} at q={q.tolist()}")
+        raise SingularConfigurationError(f"A_q is singular (rank {rank} < m={m}) at q={q.tolist()}")
     return x
 
 
