@@ -1,0 +1,796 @@
+"""Real-time-iteration nonlinear MPC (multiple shooting, Gauss–Newton, CasADi).
+
+Two objects:
+
+:class:`OCP`
+    A discrete-time optimal control problem obtained from a continuous model
+    ``xdot = f(x, u, p)`` by multiple shooting (thesis eq. 2.13): ``N`` shooting
+    intervals of ``Ts`` seconds, each integrated by ``rk4_steps`` fixed steps of the
+    classical Runge–Kutta 4 method.  Cost: a least-squares sum of stage residuals
+    ``eta(x_k, u_k, p)`` weighted by ``W`` and a terminal residual ``eta_N(x_N, p)``
+    weighted by ``W_N`` (eqs. 2.9–2.10), plus quadratic penalties on slack variables
+    of soft constraints (eq. 2.8)::
+
+        min   1/2 sum_k ||eta(x_k,u_k,p)||_W^2 + 1/2 ||eta_N(x_N,p)||_{W_N}^2
+              + 1/2 sum_k sum_i w_i sigma_{k,i}^2
+        s.t.  x_0 = x_hat
+              x_{k+1} = F(x_k, u_k, p)                       k = 0..N-1
+              lbx <= x_k <= ubx                              k = 1..N
+              lbu <= u_k <= ubu                              k = 0..N-1
+              lbh <= h(x_k, u_k, p) - sigma_k <= ubh         k = 0..N-1
+              lbh_N <= h_N(x_N, p) - sigma_N <= ubh_N
+
+    where ``sigma`` is non-zero only on the rows declared soft.  A soft row carries
+    one free slack: at the optimum ``sigma = 0`` whenever the row is satisfied and
+    ``|sigma|`` is the violation otherwise, which is (2.8) with ``s = max(0, -sigma)``
+    for a lower bound.  ``||v||_W^2 = v^T W v``.
+
+    Conventions: rows of ``h`` that do not depend on ``u`` are not imposed at node 0
+    (they are fixed by the measurement and could only make the problem infeasible);
+    state bounds are not imposed at node 0 either.  Soft terminal rows are imposed on
+    ``h_N(F(x_{N-1}, u_{N-1}, p), p)``, which equals ``h_N(x_N, p)`` on every feasible
+    point, so that their slack lives in the last stage (this keeps the QP in the
+    stage-wise form that structure-exploiting solvers need); hard terminal rows are
+    imposed on ``x_N`` directly.
+
+:class:`RTINMPC`
+    The real-time iteration (Diehl et al., 2002): one Gauss–Newton SQP iteration per
+    sample.  Each sample is split into a *feedback* phase (solve the QP prepared
+    beforehand, with the new measurement entering only through the bounds of the
+    first state increment) and a *preparation* phase (shift the trajectory by one
+    interval and linearize around it for the next sample).  The QP is solved by a
+    CasADi ``conic`` plugin; the default HPIPM exploits the stage-wise structure.
+    A QP failure never produces NaN: the controller falls back to the shifted
+    previous solution, reports the step as a fallback and counts it.
+
+Units are those of the model; time in seconds.  All angles are whatever the model
+uses (radians for the models of this project).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import casadi as ca
+import numpy as np
+
+__all__ = ["OCP", "RTINMPC", "RTIStep", "FullSolution", "QP_SOLVERS", "rk4_discretize"]
+
+#: QP solvers the RTI can use (those this CasADi build provides are checked at use).
+QP_SOLVERS = ("hpipm", "qpoases", "osqp", "daqp", "proxqp", "qrqp", "highs")
+
+
+# ---------------------------------------------------------------------------
+# Helpers
+# ---------------------------------------------------------------------------
+
+def _symbol(v, what: str) -> ca.SX:
+    if v is None:
+        return ca.SX(0, 1)
+    if not isinstance(v, ca.SX) or not v.is_symbolic() or v.size2() != 1:
+        raise TypeError(f"{what} must be a CasADi SX column of pure symbols (ca.SX.sym), got {v!r}")
+    return v
+
+
+def _expr(v, what: str, rows: int | None = None) -> ca.SX:
+    if v is None:
+        return ca.SX(0, 1)
+    if isinstance(v, (ca.MX,)):
+        raise TypeError(f"{what} must be an SX expression (build the model with SX symbols), got MX")
+    v = ca.SX(v)
+    if v.size2() != 1:
+        if v.size1() == 1:
+            v = v.T
+        else:
+            raise ValueError(f"{what} must be a column vector, got shape {v.shape}")
+    if rows is not None and v.size1() != rows:
+        raise ValueError(f"{what} must have {rows} rows, got {v.size1()}")
+    return v
+
+
+def _vec(v, n: int, default: float, what: str) -> np.ndarray:
+    if v is None:
+        return np.full(n, default, dtype=float)
+    a = np.asarray(v, dtype=float)
+    if a.ndim == 0:
+        a = np.full(n, float(a))
+    a = a.reshape(-1)
+    if a.shape[0] != n:
+        raise ValueError(f"{what} must have {n} entries, got {a.shape[0]}: {np.asarray(v).tolist()}")
+    if np.any(np.isnan(a)):
+        raise ValueError(f"{what} contains NaN: {a.tolist()}")
+    return a
+
+
+def _check_bounds(lb: np.ndarray, ub: np.ndarray, what: str) -> None:
+    bad = np.nonzero(lb > ub)[0]
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(f"infeasible bounds for {what}[{i}]: lower {lb[i]!r} > upper {ub[i]!r}")
+
+
+def _weight_sqrt(w, n: int, what: str) -> np.ndarray:
+    """Square root L^T (n x n) of a weight given as a vector (diagonal) or a matrix.
+
+    ``||v||_W^2 = v^T W v = ||L^T v||^2``.
+    """
+    if n == 0:
+        if w is not None and np.asarray(w).size not in (0,):
+            raise ValueError(f"{what} given ({np.asarray(w).shape}) but the residual is empty")
+        return np.zeros((0, 0))
+    if w is None:
+        raise ValueError(f"{what} is required for a residual of {n} entries")
+    a = np.asarray(w, dtype=float)
+    if a.ndim == 0 or a.ndim == 1:
+        a = np.broadcast_to(a, (n,)) if a.ndim == 0 else a
+        if a.shape != (n,):
+            raise ValueError(f"{what} must have shape ({n},) or ({n}, {n}), got {np.asarray(w).shape}")
+        if np.any(~np.isfinite(a)) or np.any(a < 0):
+            raise ValueError(f"{what} must be finite and non-negative, got {a.tolist()}")
+        return np.diag(np.sqrt(a))
+    if a.shape != (n, n):
+        raise ValueError(f"{what} must have shape ({n},) or ({n}, {n}), got {a.shape}")
+    if not np.all(np.isfinite(a)) or not np.allclose(a, a.T, rtol=1e-10, atol=1e-12):
+        raise ValueError(f"{what} must be a finite symmetric matrix, got {a.tolist()}")
+    lam, V = np.linalg.eigh(a)
+    if lam.min() < -1e-10 * max(1.0, abs(lam).max()):
+        raise ValueError(f"{what} must be positive semidefinite; smallest eigenvalue {lam.min()!r}")
+    return (V * np.sqrt(np.clip(lam, 0.0, None))) @ V.T  # symmetric square root
+
+
+def rk4_discretize(x: ca.SX, u: ca.SX, p: ca.SX, xdot: ca.SX, Ts: float, steps: int = 1,
+                   name: str = "F") -> ca.Function:
+    """``F(x, u, p)``: *steps* classical RK4 steps of ``xdot`` over *Ts* seconds (ZOH on u)."""
+    f = ca.Function("f", [x, u, p], [xdot])
+    h = Ts / steps
+    xk = x
+    for _ in range(steps):
+        k1 = f(xk, u, p)
+        k2 = f(xk + 0.5 * h * k1, u, p)
+        k3 = f(xk + 0.5 * h * k2, u, p)
+        k4 = f(xk + h * k3, u, p)
+        xk = xk + (h / 6.0) * (k1 + 2 * k2 + 2 * k3 + k4)
+    return ca.Function(name, [x, u, p], [xk], ["x", "u", "p"], ["xf"])
+
+
+# ---------------------------------------------------------------------------
+# Problem definition
+# ---------------------------------------------------------------------------
+
+class OCP:
+    """A least-squares optimal control problem for :class:`RTINMPC` (see module doc).
+
+    Parameters (keyword only)
+    ----------
+    x, u, p:
+        CasADi ``SX.sym`` column vectors of states, inputs and parameters (``p`` may
+        be omitted).  Parameters are constant over the horizon (e.g. references).
+    xdot:
+        SX expression of the continuous dynamics in ``x, u, p``.
+    N, Ts, rk4_steps:
+        Number of shooting intervals, interval length (s), RK4 steps per interval.
+    residual, weights:
+        Stage residual ``eta(x, u, p)`` and its weight: a vector (diagonal) or a
+        symmetric PSD matrix.
+    terminal_residual, terminal_weights:
+        Terminal residual ``eta_N(x, p)`` (function of ``x`` and ``p`` only).
+    lbx, ubx, lbu, ubu:
+        Box bounds on states (nodes 1..N) and inputs (nodes 0..N-1); ``±inf`` allowed.
+    h, lbh, ubh, soft, soft_weights:
+        Path constraints ``lbh <= h(x, u, p) <= ubh`` at nodes 0..N-1; ``soft`` lists
+        row indices that are soft, penalised by ``1/2 * soft_weights[i] * sigma^2``.
+    h_N, lbh_N, ubh_N, soft_N, soft_weights_N:
+        Terminal constraints on ``x_N`` (function of ``x`` and ``p``).
+    p_default:
+        Parameter values used when none are given at solve time.
+    state_names, input_names:
+        Labels for results (default ``x0, x1, ...``).
+    """
+
+    def __init__(self, *, x: ca.SX, u: ca.SX, xdot: ca.SX, N: int, Ts: float, p: ca.SX | None = None,
+                 rk4_steps: int = 1, residual=None, weights=None, terminal_residual=None,
+                 terminal_weights=None, lbx=None, ubx=None, lbu=None, ubu=None,
+                 h=None, lbh=None, ubh=None, soft: Sequence[int] = (), soft_weights=None,
+                 h_N=None, lbh_N=None, ubh_N=None, soft_N: Sequence[int] = (), soft_weights_N=None,
+                 p_default=None, state_names: Sequence[str] | None = None,
+                 input_names: Sequence[str] | None = None):
+        if isinstance(N, bool) or not isinstance(N, (int, np.integer)) or N <= 0:
+            raise ValueError(f"horizon N must be a positive integer number of intervals, got {N!r}")
+        if not (isinstance(Ts, (int, float, np.floating)) and math.isfinite(Ts) and Ts > 0):
+            raise ValueError(f"shooting interval Ts must be a positive number of seconds, got {Ts!r}")
+        if isinstance(rk4_steps, bool) or not isinstance(rk4_steps, (int, np.integer)) or rk4_steps <= 0:
+            raise ValueError(f"rk4_steps must be a positive integer, got {rk4_steps!r}")
+        self.N, self.Ts, self.rk4_steps = int(N), float(Ts), int(rk4_steps)
+        self.x = _symbol(x, "x")
+        self.u = _symbol(u, "u")
+        self.p = _symbol(p, "p")
+        self.nx, self.nu, self.np = self.x.size1(), self.u.size1(), self.p.size1()
+        if self.nx == 0:
+            raise ValueError("the model needs at least one state")
+        self.xdot = _expr(xdot, "xdot", self.nx)
+        allowed = ca.vertcat(self.x, self.u, self.p)
+        self._check_free(self.xdot, allowed, "xdot")
+
+        self.residual = _expr(residual, "residual")
+        self._check_free(self.residual, allowed, "residual")
+        self.terminal_residual = _expr(terminal_residual, "terminal_residual")
+        self._check_free(self.terminal_residual, ca.vertcat(self.x, self.p), "terminal_residual")
+        self.L = _weight_sqrt(weights, self.residual.size1(), "weights")
+        self.L_N = _weight_sqrt(terminal_weights, self.terminal_residual.size1(), "terminal_weights")
+        self.weights = np.asarray(weights, dtype=float) if weights is not None else None
+        self.terminal_weights = np.asarray(terminal_weights, dtype=float) if terminal_weights is not None else None
+
+        self.lbx = _vec(lbx, self.nx, -np.inf, "lbx")
+        self.ubx = _vec(ubx, self.nx, np.inf, "ubx")
+        self.lbu = _vec(lbu, self.nu, -np.inf, "lbu")
+        self.ubu = _vec(ubu, self.nu, np.inf, "ubu")
+        _check_bounds(self.lbx, self.ubx, "x")
+        _check_bounds(self.lbu, self.ubu, "u")
+
+        self.h = _expr(h, "h")
+        self._check_free(self.h, allowed, "h")
+        nh = self.h.size1()
+        self.lbh = _vec(lbh, nh, -np.inf, "lbh")
+        self.ubh = _vec(ubh, nh, np.inf, "ubh")
+        _check_bounds(self.lbh, self.ubh, "h")
+        self.soft = self._soft_rows(soft, nh, "soft")
+        self.soft_weights = self._soft_weights(soft_weights, len(self.soft), "soft_weights")
+
+        self.h_N = _expr(h_N, "h_N")
+        self._check_free(self.h_N, ca.vertcat(self.x, self.p), "h_N")
+        nhN = self.h_N.size1()
+        self.lbh_N = _vec(lbh_N, nhN, -np.inf, "lbh_N")
+        self.ubh_N = _vec(ubh_N, nhN, np.inf, "ubh_N")
+        _check_bounds(self.lbh_N, self.ubh_N, "h_N")
+        self.soft_N = self._soft_rows(soft_N, nhN, "soft_N")
+        self.soft_weights_N = self._soft_weights(soft_weights_N, len(self.soft_N), "soft_weights_N")
+
+        self.p_default = _vec(p_default, self.np, 0.0, "p_default")
+        if not np.all(np.isfinite(self.p_default)):
+            raise ValueError(f"p_default must be finite, got {self.p_default.tolist()}")
+        self.state_names = tuple(state_names) if state_names is not None else tuple(f"x{i}" for i in range(self.nx))
+        self.input_names = tuple(input_names) if input_names is not None else tuple(f"u{i}" for i in range(self.nu))
+        if len(self.state_names) != self.nx:
+            raise ValueError(f"state_names must have {self.nx} entries, got {list(self.state_names)}")
+        if len(self.input_names) != self.nu:
+            raise ValueError(f"input_names must have {self.nu} entries, got {list(self.input_names)}")
+
+        self.F = rk4_discretize(self.x, self.u, self.p, self.xdot, self.Ts, self.rk4_steps)
+        # rows of h imposed at node 0: those that depend on u
+        self.h_rows_node0 = tuple(i for i in range(nh) if ca.depends_on(self.h[i], self.u))
+
+    # -- validation helpers ------------------------------------------------------------
+    @staticmethod
+    def _check_free(e: ca.SX, allowed: ca.SX, what: str) -> None:
+        if e.numel() == 0:
+            return
+        free = set(str(s) for s in ca.symvar(e)) - set(str(s) for s in ca.symvar(allowed))
+        if free:
+            raise ValueError(f"{what} depends on symbols that are not states/inputs/parameters: {sorted(free)}")
+
+    @staticmethod
+    def _soft_rows(rows, n: int, what: str) -> tuple[int, ...]:
+        out = []
+        for r in rows:
+            if isinstance(r, bool) or not isinstance(r, (int, np.integer)) or not 0 <= r < n:
+                raise ValueError(f"{what} row index {r!r} out of range for {n} constraint rows")
+            if r in out:
+                raise ValueError(f"{what} row index {r!r} listed twice")
+            out.append(int(r))
+        return tuple(out)
+
+    @staticmethod
+    def _soft_weights(w, n: int, what: str) -> np.ndarray:
+        if n == 0:
+            return np.zeros(0)
+        if w is None:
+            raise ValueError(f"{what} is required for {n} soft rows")
+        a = _vec(w, n, 0.0, what)
+        if np.any(~np.isfinite(a)) or np.any(a <= 0):
+            raise ValueError(f"{what} must be finite and positive, got {a.tolist()}")
+        return a
+
+    def __repr__(self) -> str:
+        return (f"OCP(nx={self.nx}, nu={self.nu}, np={self.np}, N={self.N}, Ts={self.Ts}, "
+                f"nh={self.h.size1()} ({len(self.soft)} soft), nh_N={self.h_N.size1()} ({len(self.soft_N)} soft))")
+
+
+# ---------------------------------------------------------------------------
+# Transcription (shared by the RTI and the full solvers)
+# ---------------------------------------------------------------------------
+
+class _Transcription:
+    """The multiple-shooting NLP of an :class:`OCP` in stage-wise variable order.
+
+    Variables: ``w = [x_0, v_0, x_1, v_1, ..., x_{N-1}, v_{N-1}, x_N]`` with
+    ``v_k = [u_k, sigma_k]`` (and ``sigma_N`` appended to ``v_{N-1}``).
+    Constraints: ``[gap_0, c_0, gap_1, c_1, ..., gap_{N-1}, c_{N-1}, c_N]``.
+    """
+
+    def __init__(self, ocp: OCP):
+        self.ocp = o = ocp
+        N, nx, nu = o.N, o.nx, o.nu
+        nh = o.h.size1()
+        ns, nsN = len(o.soft), len(o.soft_N)
+        self.ns, self.nsN = ns, nsN
+        p = ca.SX.sym("p", o.np)
+        self.p_sym = p
+        X = [ca.SX.sym(f"x_{k}", nx) for k in range(N + 1)]
+        U = [ca.SX.sym(f"u_{k}", nu) for k in range(N)]
+        S = [ca.SX.sym(f"s_{k}", ns) for k in range(N)]
+        SN = ca.SX.sym("s_N", nsN)
+        fh = ca.Function("h", [o.x, o.u, o.p], [o.h])
+        fr = ca.Function("eta", [o.x, o.u, o.p], [o.residual])
+        frN = ca.Function("eta_N", [o.x, o.p], [o.terminal_residual])
+        fhN = ca.Function("h_N", [o.x, o.p], [o.h_N])
+        hard_N = [i for i in range(o.h_N.size1()) if i not in o.soft_N]
+
+        w, lbw, ubw = [], [], []
+        g, lbg, ubg = [], [], []
+        res = []
+        self.nu_stage, self.ng_stage = [], []
+        inf = np.inf
+        for k in range(N):
+            w.append(X[k])
+            if k == 0:
+                lbw.append(np.full(nx, -inf)); ubw.append(np.full(nx, inf))  # set to x_hat at solve time
+            else:
+                lbw.append(o.lbx); ubw.append(o.ubx)
+            v = [U[k], S[k]] + ([SN] if k == N - 1 else [])
+            w.extend(v)
+            lbw.append(o.lbu); ubw.append(o.ubu)
+            lbw.append(np.full(ns, -inf)); ubw.append(np.full(ns, inf))
+            if k == N - 1:
+                lbw.append(np.full(nsN, -inf)); ubw.append(np.full(nsN, inf))
+            self.nu_stage.append(nu + ns + (nsN if k == N - 1 else 0))
+            xn = o.F(X[k], U[k], p)
+            # gap
+            g.append(xn - X[k + 1]); lbg.append(np.zeros(nx)); ubg.append(np.zeros(nx))
+            # stage constraints
+            rows_g, rows_lb, rows_ub = [], [], []
+            if nh:
+                hk = fh(X[k], U[k], p)
+                sigma = ca.SX.zeros(nh)
+                for j, i in enumerate(o.soft):
+                    sigma[i] = S[k][j]
+                rows = range(nh) if k > 0 else o.h_rows_node0
+                for i in rows:
+                    rows_g.append(hk[i] - sigma[i]); rows_lb.append(o.lbh[i]); rows_ub.append(o.ubh[i])
+            if k == N - 1 and nsN:
+                hN_pred = fhN(xn, p)
+                for j, i in enumerate(o.soft_N):
+                    rows_g.append(hN_pred[i] - SN[j]); rows_lb.append(o.lbh_N[i]); rows_ub.append(o.ubh_N[i])
+            g.append(ca.vertcat(*rows_g) if rows_g else ca.SX(0, 1))
+            lbg.append(np.array(rows_lb, dtype=float)); ubg.append(np.array(rows_ub, dtype=float))
+            self.ng_stage.append(len(rows_g))
+            # residuals
+            if o.residual.size1():
+                res.append(ca.mtimes(o.L.T, fr(X[k], U[k], p)))
+            if ns:
+                res.append(np.sqrt(o.soft_weights) * S[k])
+        w.append(X[N])
+        lbw.append(o.lbx); ubw.append(o.ubx)
+        if hard_N:
+            hN = fhN(X[N], p)
+            g.append(ca.vertcat(*[hN[i] for i in hard_N]))
+            lbg.append(o.lbh_N[hard_N]); ubg.append(o.ubh_N[hard_N])
+        self.ng_stage.append(len(hard_N))
+        if o.terminal_residual.size1():
+            res.append(ca.mtimes(o.L_N.T, frN(X[N], p)))
+        if nsN:
+            res.append(np.sqrt(o.soft_weights_N) * SN)
+
+        self.w = ca.vertcat(*w)
+        self.g = ca.vertcat(*g)
+        self.r = ca.vertcat(*res) if res else ca.SX(0, 1)
+        self.lbw = np.concatenate(lbw)
+        self.ubw = np.concatenate(ubw)
+        self.lbg = np.concatenate(lbg) if lbg else np.zeros(0)
+        self.ubg = np.concatenate(ubg) if ubg else np.zeros(0)
+        self.nw, self.ng = self.w.size1(), self.g.size1()
+
+        # index maps: where x_k, u_k, sigma_k live in w
+        stride = [nx + n for n in self.nu_stage]
+        starts = np.concatenate(([0], np.cumsum(stride)))
+        self.ix = np.array([np.arange(starts[k], starts[k] + nx) for k in range(N + 1)])
+        self.iu = np.array([np.arange(starts[k] + nx, starts[k] + nx + nu) for k in range(N)]).reshape(N, nu)
+        self.isg = np.array([np.arange(starts[k] + nx + nu, starts[k] + nx + nu + ns) for k in range(N)]).reshape(N, ns)
+        sN0 = starts[N - 1] + nx + nu + ns
+        self.isN = np.arange(sN0, sN0 + nsN)
+        self.cost = 0.5 * ca.dot(self.r, self.r)
+
+    def pack(self, X: np.ndarray, U: np.ndarray, S: np.ndarray, SN: np.ndarray) -> np.ndarray:
+        w = np.empty(self.nw)
+        w[self.ix.reshape(-1)] = X.reshape(-1)
+        w[self.iu.reshape(-1)] = U.reshape(-1)
+        if self.ns:
+            w[self.isg.reshape(-1)] = S.reshape(-1)
+        w[self.isN] = SN
+        return w
+
+    def unpack(self, w: np.ndarray):
+        return (w[self.ix], w[self.iu], w[self.isg] if self.ns else np.zeros((self.ocp.N, 0)), w[self.isN])
+
+
+# ---------------------------------------------------------------------------
+# Results
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RTIStep:
+    """Outcome of one real-time iteration.
+
+    ``u``: first input of the plan (apply over the next interval); ``x_ref``: the plan's
+    state at node 1, i.e. the predicted state one interval ahead; ``status``: the QP
+    solver's return status text; ``fallback``: True when the QP failed and the shifted
+    previous plan was used instead; ``qp_iter``: QP solver iterations; ``step_norm``:
+    max-norm of the SQP step; ``t_feedback`` / ``t_prepare``: wall-clock seconds of
+    the two phases (``t_prepare`` refers to the preparation done *after* this
+    feedback, for the next sample).
+    """
+
+    u: np.ndarray
+    x_ref: np.ndarray
+    status: str
+    success: bool
+    fallback: bool
+    qp_iter: int
+    step_norm: float
+    t_feedback: float
+    t_prepare: float
+
+    @property
+    def t_total(self) -> float:
+        return self.t_feedback + self.t_prepare
+
+
+@dataclass(frozen=True)
+class FullSolution:
+    """A fully converged solve of the OCP (``method`` 'ipopt' or 'sqp').
+
+    ``X`` (N+1, nx), ``U`` (N, nu), ``S`` (N, ns), ``SN`` (nsN,), ``cost`` (objective),
+    ``iterations``, ``success``, ``status``, ``t_wall`` (s).
+    """
+
+    X: np.ndarray
+    U: np.ndarray
+    S: np.ndarray
+    SN: np.ndarray
+    cost: float
+    iterations: int
+    success: bool
+    status: str
+    method: str
+    t_wall: float
+
+
+# ---------------------------------------------------------------------------
+# RTI controller
+# ---------------------------------------------------------------------------
+
+_DEFAULT_QP_OPTIONS: dict[str, dict[str, Any]] = {
+    "hpipm": {"inf": 1e6, "hpipm": {"mode": "speed", "iter_max": 100, "res_g_max": 1e-6, "res_b_max": 1e-6,
+                                     "res_d_max": 1e-6, "res_m_max": 1e-6}},
+    "qpoases": {"printLevel": "none", "sparse": True, "schur": False, "hessian_type": "posdef",
+                "enableRegularisation": True},
+    "osqp": {"osqp": {"verbose": False, "eps_abs": 1e-7, "eps_rel": 1e-7, "max_iter": 20000,
+                      "polish": True}, "warm_start_primal": True},
+    "daqp": {},
+    "proxqp": {"proxqp": {"eps_abs": 1e-9}},
+    "qrqp": {"print_iter": False, "print_header": False, "print_info": False},
+    "highs": {"highs": {"output_flag": False}},
+}
+
+
+class RTINMPC:
+    """Real-time-iteration NMPC for an :class:`OCP` (see module doc).
+
+    Parameters
+    ----------
+    ocp:
+        The problem.
+    qp_solver:
+        CasADi ``conic`` plugin: ``"hpipm"`` (default, structure-exploiting IPM),
+        ``"qpoases"``, ``"osqp"``, ``"daqp"``, ``"proxqp"``, ``"qrqp"``, ``"highs"``.
+    qp_options:
+        Options merged over this module's defaults for the plugin.
+    hessian_reg:
+        Levenberg–Marquardt term added to the Gauss–Newton Hessian (does not change
+        the fixed point of the iteration, only the step).
+    jit:
+        Compile the linearization function to C with the system compiler (CasADi
+        ``jit`` with the ``shell`` compiler); ``False`` uses CasADi's virtual machine.
+    x_guess, u_guess:
+        Initial guess (state repeated over the horizon, inputs repeated); defaults
+        to zeros; :meth:`reset` sets them later.
+    """
+
+    def __init__(self, ocp: OCP, *, qp_solver: str = "hpipm", qp_options: dict | None = None,
+                 hessian_reg: float = 1e-8, jit: bool = False, x_guess=None, u_guess=None):
+        if not isinstance(ocp, OCP):
+            raise TypeError(f"ocp must be an OCP, got {type(ocp).__name__}")
+        if qp_solver not in QP_SOLVERS:
+            raise ValueError(f"unknown qp_solver {qp_solver!r}; choose one of {QP_SOLVERS}")
+        if not ca.has_conic(qp_solver):
+            raise ValueError(f"qp_solver {qp_solver!r} is not available in this CasADi build")
+        if not (isinstance(hessian_reg, (int, float)) and hessian_reg >= 0 and math.isfinite(hessian_reg)):
+            raise ValueError(f"hessian_reg must be a non-negative number, got {hessian_reg!r}")
+        self.ocp = ocp
+        self.qp_solver = qp_solver
+        self.tr = tr = _Transcription(ocp)
+        self.hessian_reg = float(hessian_reg)
+        self.jit = bool(jit)
+
+        # Linearization (preparation) function: (w, p) -> QP data.
+        Jr = ca.jacobian(tr.r, tr.w)
+        H = ca.mtimes(Jr.T, Jr)
+        if hessian_reg > 0:
+            H = H + hessian_reg * ca.SX.eye(tr.nw)
+        gradient = ca.mtimes(Jr.T, tr.r)
+        A = ca.jacobian(tr.g, tr.w)
+        opts: dict[str, Any] = {}
+        if jit:
+            opts = {"jit": True, "compiler": "shell",
+                    "jit_options": {"flags": ["-O2"], "verbose": False}, "jit_temp_suffix": True}
+        self._lin = ca.Function("rti_linearize", [tr.w, tr.p_sym], [H, gradient, A, tr.g, tr.cost],
+                                ["w", "p"], ["H", "g", "A", "c", "cost"], opts)
+        self.H_sparsity, self.A_sparsity = H.sparsity(), A.sparsity()
+        qopts = dict(_DEFAULT_QP_OPTIONS.get(qp_solver, {}))
+        if qp_solver == "hpipm":
+            qopts.update({"N": ocp.N, "nx": [ocp.nx] * (ocp.N + 1), "nu": list(tr.nu_stage) + [0],
+                          "ng": list(tr.ng_stage)})
+        for k, v in (qp_options or {}).items():
+            if isinstance(v, dict) and isinstance(qopts.get(k), dict):
+                qopts[k] = {**qopts[k], **v}
+            else:
+                qopts[k] = v
+        qopts.setdefault("error_on_fail", False)
+        self._qp = ca.conic("rti_qp", qp_solver, {"h": self.H_sparsity, "a": self.A_sparsity}, qopts)
+
+        self.n_steps = 0
+        self.n_fail = 0
+        self.history: list[RTIStep] = []
+        self._p = ocp.p_default.copy()
+        self._qpdata = None
+        self.reset(x_guess if x_guess is not None else np.zeros(ocp.nx), u_guess)
+
+    # -- state ----------------------------------------------------------------------------
+    def _check_x(self, x0, what="x0") -> np.ndarray:
+        a = np.asarray(x0, dtype=float).reshape(-1)
+        if a.shape[0] != self.ocp.nx:
+            raise ValueError(f"{what} must have {self.ocp.nx} entries {list(self.ocp.state_names)}, "
+                             f"got {np.asarray(x0).tolist()}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{what} must be finite, got {a.tolist()}")
+        return a
+
+    def _check_p(self, p) -> np.ndarray:
+        if p is None:
+            return self._p
+        a = np.asarray(p, dtype=float).reshape(-1)
+        if a.shape[0] != self.ocp.np or not np.all(np.isfinite(a)):
+            raise ValueError(f"parameters must be {self.ocp.np} finite values, got {np.asarray(p).tolist()}")
+        return a
+
+    def reset(self, x0, u_guess=None, p=None) -> None:
+        """Restart from the guess ``x_k = x0`` for all k and ``u_k = u_guess`` (default 0)."""
+        o = self.ocp
+        x0 = self._check_x(x0)
+        u = np.zeros(o.nu) if u_guess is None else np.asarray(u_guess, dtype=float).reshape(-1)
+        if u.shape[0] != o.nu or not np.all(np.isfinite(u)):
+            raise ValueError(f"u_guess must be {o.nu} finite values, got {np.asarray(u_guess).tolist()}")
+        u = np.clip(u, o.lbu, o.ubu)
+        X = np.tile(x0, (o.N + 1, 1))
+        U = np.tile(u, (o.N, 1))
+        self._w = self.tr.pack(X, U, np.zeros((o.N, self.tr.ns)), np.zeros(self.tr.nsN))
+        self._p = self._check_p(p)
+        self.prepare()
+
+    def set_trajectory(self, X, U, S=None, SN=None, p=None) -> None:
+        """Set the linearization point (e.g. a converged solution) and prepare."""
+        o, tr = self.ocp, self.tr
+        X = np.asarray(X, dtype=float).reshape(o.N + 1, o.nx)
+        U = np.asarray(U, dtype=float).reshape(o.N, o.nu)
+        S = np.zeros((o.N, tr.ns)) if S is None else np.asarray(S, dtype=float).reshape(o.N, tr.ns)
+        SN = np.zeros(tr.nsN) if SN is None else np.asarray(SN, dtype=float).reshape(tr.nsN)
+        self._w = tr.pack(X, U, S, SN)
+        if p is not None:
+            self._p = self._check_p(p)
+        self.prepare()
+
+    @property
+    def X(self) -> np.ndarray:
+        """Current planned states, shape (N+1, nx)."""
+        return self._w[self.tr.ix].copy()
+
+    @property
+    def U(self) -> np.ndarray:
+        """Current planned inputs, shape (N, nu)."""
+        return self._w[self.tr.iu].copy()
+
+    @property
+    def S(self) -> np.ndarray:
+        return self._w[self.tr.isg].copy() if self.tr.ns else np.zeros((self.ocp.N, 0))
+
+    @property
+    def p(self) -> np.ndarray:
+        return self._p.copy()
+
+    # -- phases ---------------------------------------------------------------------------
+    def prepare(self, p=None) -> float:
+        """Linearize around the current trajectory; returns wall-clock seconds taken."""
+        t0 = time.perf_counter()
+        if p is not None:
+            self._p = self._check_p(p)
+        H, g, A, c, cost = self._lin(self._w, self._p)
+        tr = self.tr
+        self._qpdata = dict(h=H, g=g, a=A, lba=tr.lbg - c.full().ravel(), uba=tr.ubg - c.full().ravel())
+        self._lbdw = tr.lbw - self._w
+        self._ubdw = tr.ubw - self._w
+        self._cost = float(cost)
+        return time.perf_counter() - t0
+
+    def feedback(self, x0) -> tuple[bool, str, int, float]:
+        """Solve the prepared QP with measured *x0*; updates the trajectory.
+
+        Returns ``(success, status, qp_iterations, step_norm)``.  On failure the
+        trajectory is left as prepared (the shifted previous solution), with node 0
+        set to *x0*.
+        """
+        x0 = self._check_x(x0)
+        tr = self.tr
+        ix0 = tr.ix[0]
+        lbx = self._lbdw.copy()
+        ubx = self._ubdw.copy()
+        d0 = x0 - self._w[ix0]
+        lbx[ix0] = d0
+        ubx[ix0] = d0
+        try:
+            sol = self._qp(lbx=lbx, ubx=ubx, **self._qpdata)
+            stats = self._qp.stats()
+            ok = bool(stats.get("success", False))
+            status = str(stats.get("return_status", "unknown"))
+            it = int(stats.get("iter_count", stats.get("iter", -1)) or -1)
+            dw = sol["x"].full().ravel()
+            if ok and not np.all(np.isfinite(dw)):
+                ok, status = False, "non-finite QP solution"
+        except RuntimeError as exc:  # solver error: treat as a failed QP
+            ok, status, it, dw = False, f"error: {exc}".splitlines()[0], -1, None
+        if ok:
+            # clip tiny bound violations from interior-point tolerance
+            w_new = self._w + dw
+            step = float(np.max(np.abs(dw))) if dw.size else 0.0
+            self._w = w_new
+            self._w[ix0] = x0
+            return True, status, it, step
+        self._w[ix0] = x0
+        return False, status, it, float("nan")
+
+    def shift(self) -> None:
+        """Shift the trajectory by one interval (last state: one more model step)."""
+        o, tr = self.ocp, self.tr
+        X, U, S, SN = tr.unpack(self._w)
+        Xs = np.empty_like(X)
+        Xs[:-1] = X[1:]
+        Xs[-1] = np.asarray(o.F(X[-1], U[-1], self._p)).ravel()
+        if not np.all(np.isfinite(Xs[-1])):
+            Xs[-1] = X[-1]
+        Us = np.empty_like(U)
+        Us[:-1] = U[1:]
+        Us[-1] = U[-1]
+        Ss = np.empty_like(S)
+        if S.size:
+            Ss[:-1] = S[1:]
+            Ss[-1] = S[-1]
+        self._w = tr.pack(Xs, Us, Ss, SN)
+
+    def step(self, x0, p=None) -> RTIStep:
+        """One sample: feedback with *x0*, then shift and prepare the next sample.
+
+        If *p* differs from the parameters the current QP was prepared with, the QP is
+        re-prepared first (counted in ``t_feedback``).
+        """
+        t0 = time.perf_counter()
+        if p is not None:
+            p = self._check_p(p)
+            if not np.array_equal(p, self._p):
+                self.prepare(p)
+        ok, status, it, step = self.feedback(x0)
+        t1 = time.perf_counter()
+        if ok:
+            u = self._w[self.tr.iu[0]].copy()
+            x_ref = self._w[self.tr.ix[1]].copy()
+        else:
+            self.n_fail += 1
+            # fallback: shifted previous plan (already the linearization point)
+            u = np.clip(self._w[self.tr.iu[0]], self.ocp.lbu, self.ocp.ubu)
+            x_ref = self._w[self.tr.ix[1]].copy()
+        self.n_steps += 1
+        self.shift()
+        t_prep = self.prepare()
+        r = RTIStep(u=u, x_ref=x_ref, status=status, success=ok, fallback=not ok, qp_iter=it,
+                    step_norm=step, t_feedback=t1 - t0, t_prepare=t_prep)
+        self.history.append(r)
+        return r
+
+    # -- converged solves --------------------------------------------------------------------
+    def cost(self, X=None, U=None, S=None, SN=None) -> float:
+        """Objective value at the given (default: current) trajectory."""
+        tr = self.tr
+        w = self._w if X is None else tr.pack(np.asarray(X), np.asarray(U),
+                                              np.zeros((self.ocp.N, tr.ns)) if S is None else np.asarray(S),
+                                              np.zeros(tr.nsN) if SN is None else np.asarray(SN))
+        return float(self._lin(w, self._p)[4])
+
+    def solve_sqp(self, x0, p=None, *, tol: float = 1e-9, max_iter: int = 100) -> FullSolution:
+        """Full Gauss–Newton SQP from the current trajectory until ``|dw|_inf < tol``.
+
+        Leaves the converged trajectory as the controller's linearization point.
+        """
+        t0 = time.perf_counter()
+        x0 = self._check_x(x0)
+        if p is not None:
+            self._p = self._check_p(p)
+        self.prepare()
+        ok, status, it_total = False, "max_iter", 0
+        for it_total in range(1, max_iter + 1):
+            qok, qstatus, _, step = self.feedback(x0)
+            self.prepare()
+            if not qok:
+                status = f"QP failed: {qstatus}"
+                break
+            if step < tol:
+                ok, status = True, "converged"
+                break
+        X, U, S, SN = self.tr.unpack(self._w)
+        return FullSolution(X.copy(), U.copy(), S.copy(), SN.copy(), self._cost, it_total, ok, status,
+                            "sqp", time.perf_counter() - t0)
+
+    def ipopt_solver(self, options: dict | None = None) -> "IpoptOCP":
+        """An IPOPT solver of the same NLP (exact Hessian), for comparisons."""
+        return IpoptOCP(self, options)
+
+
+class IpoptOCP:
+    """Full IPOPT solve of the multiple-shooting NLP of an :class:`RTINMPC`.
+
+    Same variables, constraints and objective as the RTI; exact Hessian of the
+    Lagrangian.  Warm-started from the previous solution when called repeatedly.
+    """
+
+    def __init__(self, rti: RTINMPC, options: dict | None = None):
+        tr = rti.tr
+        self.rti = rti
+        opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": 1e-10,
+                "ipopt.acceptable_tol": 1e-8, "ipopt.max_iter": 500, "ipopt.sb": "yes",
+                "ipopt.mu_strategy": "adaptive"}
+        opts.update(options or {})
+        self.solver = ca.nlpsol("full_ipopt", "ipopt", {"x": tr.w, "p": tr.p_sym, "f": tr.cost, "g": tr.g},
+                                opts)
+        self._w = None
+
+    def solve(self, x0, p=None, w_init=None) -> FullSolution:
+        rti, tr = self.rti, self.rti.tr
+        x0 = rti._check_x(x0)
+        p = rti._p if p is None else rti._check_p(p)
+        lbw, ubw = tr.lbw.copy(), tr.ubw.copy()
+        lbw[tr.ix[0]] = x0
+        ubw[tr.ix[0]] = x0
+        if w_init is None:
+            w_init = self._w if self._w is not None else rti._w
+        w_init = np.array(w_init, dtype=float)
+        w_init[tr.ix[0]] = x0
+        t0 = time.perf_counter()
+        sol = self.solver(x0=w_init, p=p, lbx=lbw, ubx=ubw, lbg=tr.lbg, ubg=tr.ubg)
+        t = time.perf_counter() - t0
+        st = self.solver.stats()
+        w = sol["x"].full().ravel()
+        ok = bool(st.get("success", False)) and np.all(np.isfinite(w))
+        if ok:
+            self._w = w
+        X, U, S, SN = tr.unpack(w)
+        return FullSolution(X.copy(), U.copy(), S.copy(), SN.copy(), float(sol["f"]),
+                            int(st.get("iter_count", -1)), ok, str(st.get("return_status")), "ipopt", t)
