@@ -32,6 +32,38 @@ def stable_hash(name: str) -> int:
     return int.from_bytes(hashlib.blake2b(name.encode("utf-8"), digest_size=8).digest(), "little")
 
 
+class Timer(simpy.events.Event):
+    """A scheduled call ``fn()`` (or ``fn(arg)``) that can be cancelled before it fires."""
+
+    __slots__ = ("fn", "arg")
+    _NOARG = object()
+
+    def __init__(self, env: simpy.Environment, fn: Callable, arg: Any = _NOARG):
+        self.env = env
+        self.fn = fn
+        self.arg = arg
+        self._ok = True
+        self._value = None
+        self.callbacks = [self._fire]
+
+    def _fire(self, _event) -> None:
+        fn = self.fn
+        if fn is not None:
+            self.fn = None
+            if self.arg is Timer._NOARG:
+                fn()
+            else:
+                fn(self.arg)
+
+    def cancel(self) -> None:
+        """Make the timer a no-op (it stays in SimPy's queue but does nothing)."""
+        self.fn = None
+
+    @property
+    def pending(self) -> bool:
+        return self.fn is not None
+
+
 class _Realtime(simpy.rt.RealtimeEnvironment):
     """Real-time environment with a lag tolerance in seconds and lag recording.
 
@@ -119,18 +151,20 @@ class Simulation:
         """Real-time mode: (simulated time, lag in s) of every event processed late."""
         return list(getattr(self.env, "lags", []))
 
-    def call_at(self, ticks: int, fn: Callable[[], None], priority: int = NORMAL) -> "Timer":
-        """Call ``fn()`` at absolute time *ticks*; returns a cancellable :class:`Timer`."""
+    def call_at(self, ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer._NOARG
+                ) -> "Timer":
+        """Call ``fn()`` (``fn(arg)`` if *arg* is given) at absolute *ticks*; returns a cancellable Timer."""
         env = self.env
         if ticks < env._now:
             raise ValueError(f"cannot schedule in the past: {to_seconds(ticks)} s < now {self.now} s")
-        t = Timer(env, fn)
+        t = Timer(env, fn, arg)
         env.schedule(t, priority, ticks - env._now)
         return t
 
-    def call_in(self, delay_ticks: int, fn: Callable[[], None], priority: int = NORMAL) -> "Timer":
-        """Call ``fn()`` after *delay_ticks*; returns a cancellable :class:`Timer`."""
-        t = Timer(self.env, fn)
+    def call_in(self, delay_ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer._NOARG
+                ) -> "Timer":
+        """Call ``fn()`` (``fn(arg)`` if *arg* is given) after *delay_ticks*; returns a cancellable Timer."""
+        t = Timer(self.env, fn, arg)
         self.env.schedule(t, priority, delay_ticks)
         return t
 
@@ -212,28 +246,3 @@ class Simulation:
                 fn()
 
 
-class Timer(simpy.events.Event):
-    """A scheduled call that can be cancelled before it fires."""
-
-    __slots__ = ("fn",)
-
-    def __init__(self, env: simpy.Environment, fn: Callable[[], None]):
-        self.env = env
-        self.fn = fn
-        self._ok = True
-        self._value = None
-        self.callbacks = [self._fire]
-
-    def _fire(self, _event) -> None:
-        fn = self.fn
-        if fn is not None:
-            self.fn = None
-            fn()
-
-    def cancel(self) -> None:
-        """Make the timer a no-op (it stays in SimPy's queue but does nothing)."""
-        self.fn = None
-
-    @property
-    def pending(self) -> bool:
-        return self.fn is not None

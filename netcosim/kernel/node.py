@@ -14,16 +14,38 @@ with its next segment, or resumes when nothing else ran since it stopped, pays n
 from __future__ import annotations
 
 import math
-from functools import partial
 from typing import Any, Callable
 
-from ..sim import DISPATCH
+import simpy
+
+from ..sim import DISPATCH, NORMAL, Timer
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
 from .task import HANDLER, Blocking, Job, Task
 
 _INF = math.inf
+
+
+class _Wake(simpy.events.Event):
+    """Kernel-internal timed event calling ``callback(event)`` directly (hot path).
+
+    ``cancel()`` empties the callback list, so a cancelled wake-up fires into nothing.
+    """
+
+    __slots__ = ("job",)
+
+    def __init__(self, env, callback, job, delay: int):
+        self.env = env
+        self.job = job
+        self._ok = True
+        self._value = None
+        self.callbacks = [callback]
+        env.schedule(self, NORMAL, delay)
+
+    def cancel(self) -> None:
+        if self.callbacks:
+            self.callbacks = []
 
 
 class Node:
@@ -52,6 +74,11 @@ class Node:
         self._ain: dict[int, AnalogIn] = {}
         self._aout: dict[int, AnalogOut] = {}
         self.interfaces: dict[str, Any] = {}
+        self._env = sim.env
+        # one event object, re-armed for every dispatch request (at most one pending)
+        self._dispatch_event = simpy.events.Event(sim.env)
+        self._dispatch_event._ok, self._dispatch_event._value = True, None
+        self._dispatch_callbacks = [self._dispatch]
         self._sched = sim.trace.schedule_rec.rows
         self._jobrec = sim.trace.job_rec.rows
         sim.trace.job_rec.providers.append(self._unfinished_rows)
@@ -84,7 +111,7 @@ class Node:
             task = self._add_task(fn, "periodic", name, priority=priority, period=period, offset=offset,
                                   deadline=deadline, wcet=wcet, preemptible=preemptible, on_busy=on_busy,
                                   on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun)
-            task._release_timer = self.sim.call_at(self.sim.env._now + task.offset_ticks, task._periodic_release)
+            task._release_timer = _Wake(self._env, task._periodic_release, None, task.offset_ticks)
             task._k = 0
             task.offset_ticks += self.sim.env._now
             return task
@@ -150,16 +177,19 @@ class Node:
         return iface.send(dst, payload, size_bits, priority=priority, sender=sender)
 
     # ------------------------------------------------------------------ kernel
+    def _wake(self, callback, job, delay: int) -> _Wake:
+        return _Wake(self._env, callback, job, delay)
+
     def _trace(self, task: Task, state: str) -> None:
         if task.state != state:
             task.state = state
-            self._sched.append((self.sim.env._now * RESOLUTION, self.name, task.name, state))
+            self._sched.append((self._env._now, self.name, task.name, state))
 
     def _release(self, task: Task, t: int) -> Job | None:
         task.jobs_released += 1
         job = Job(task, task.jobs_released - 1, t)
         if job.abs_deadline is not None and task.on_deadline_miss is not None:
-            job.deadline_timer = self.sim.call_at(job.abs_deadline, partial(self._deadline_due, job))
+            job.deadline_timer = self.sim.call_at(job.abs_deadline, self._deadline_due, arg=job)
         if task.active is not None:
             if task.on_busy == "skip":
                 task.skipped += 1
@@ -181,15 +211,19 @@ class Node:
         job.base_key = job.key = self.policy.key(job) if job.cls else task.priority
         job.state = "ready"
         self.ready.append(job)
-        self._trace(task, "ready")
+        if task.state != "ready":
+            task.state = "ready"
+            self._sched.append((self._env._now, self.name, task.name, "ready"))
         self._request_dispatch()
 
     def _request_dispatch(self) -> None:
         if not self._dispatch_pending:
             self._dispatch_pending = True
-            self.sim.call_in(0, self._dispatch, DISPATCH)
+            ev = self._dispatch_event
+            ev.callbacks = self._dispatch_callbacks
+            self._env.schedule(ev, DISPATCH, 0)
 
-    def _dispatch(self) -> None:
+    def _dispatch(self, _event=None) -> None:
         self._dispatch_pending = False
         if self._in_cs or not self.ready:
             return
@@ -230,11 +264,12 @@ class Node:
         self.running = job
         if self._cs_ticks and self._loaded is not job:
             self._in_cs = True
-            self.sim.call_in(self._cs_ticks, partial(self._cs_done, job))
+            _Wake(self._env, self._cs_done, job, self._cs_ticks)
         else:
             self._run(job)
 
-    def _cs_done(self, job: Job) -> None:
+    def _cs_done(self, ev: _Wake) -> None:
+        job = ev.job
         self._in_cs = False
         self._loaded = job
         if job.killed:
@@ -249,19 +284,23 @@ class Node:
     def _run(self, job: Job) -> None:
         self._loaded = job
         job.state = "running"
-        now = self.sim.env._now
+        now = self._env._now
         if job.start is None:
             job.start = now
-        self._trace(job.task, "running")
+        task = job.task
+        if task.state != "running":
+            task.state = "running"
+            self._sched.append((now, self.name, task.name, "running"))
         if job.remaining > 0:
             job.seg_start = now
-            job.seg_timer = self.sim.call_in(job.remaining, partial(self._segment_done, job))
+            job.seg_timer = _Wake(self._env, self._segment_done, job, job.remaining)
             self._arm_budget(job)
         else:
             self._step(job)
 
-    def _segment_done(self, job: Job) -> None:
-        now = self.sim.env._now
+    def _segment_done(self, ev: _Wake) -> None:
+        job = ev.job
+        now = self._env._now
         job.exec_done += now - job.seg_start
         job.remaining = 0
         job.seg_timer = None
@@ -269,6 +308,7 @@ class Node:
 
     def _step(self, job: Job) -> None:
         gen = job.gen
+        env = self._env
         while True:
             value, job.resume_value = job.resume_value, None
             try:
@@ -283,8 +323,8 @@ class Node:
             if type(cmd) is int:
                 if cmd > 0:
                     job.remaining = cmd
-                    job.seg_start = self.sim.env._now
-                    job.seg_timer = self.sim.call_in(cmd, partial(self._segment_done, job))
+                    job.seg_start = env._now
+                    job.seg_timer = _Wake(env, self._segment_done, job, cmd)
                     if job.task.wcet_ticks is not None and job.budget_timer is None:
                         self._arm_budget(job)
                     return
@@ -316,7 +356,7 @@ class Node:
         self._request_dispatch()
 
     def _finish(self, job: Job, killed: bool = False) -> None:
-        now = self.sim.env._now
+        now = self._env._now
         task = job.task
         job.finish = now
         job.state = "done"
@@ -342,9 +382,12 @@ class Node:
         if task.pending:
             self._activate(task.pending.popleft())
         else:
-            self._trace(task, "idle")
+            if task.state != "idle":
+                task.state = "idle"
+                self._sched.append((now, self.name, task.name, "idle"))
             task.ctx.job = None
-        self._request_dispatch()
+        if self.ready:
+            self._request_dispatch()
 
     def _kill(self, job: Job) -> None:
         if job.state == "done":
@@ -392,7 +435,7 @@ class Node:
         left = task.wcet_ticks - job.exec_done
         if task.on_budget_overrun is None:
             return
-        job.budget_timer = self.sim.call_in(max(left, 0), partial(self._budget_due, job))
+        job.budget_timer = self.sim.call_in(max(left, 0), self._budget_due, arg=job)
 
     def _stop_budget(self, job: Job) -> None:
         if job.budget_timer is not None:
@@ -429,29 +472,19 @@ class Node:
 
     # ----------------------------------------------------------- statistics
     def _record(self, job: Job) -> None:
-        r = RESOLUTION
-        rel = job.release * r
-        dl = None if job.abs_deadline is None else job.abs_deadline * r
-        fin = None if job.finish is None else job.finish * r
-        start = None if job.start is None else job.start * r
-        miss = job.missed or (dl is not None and fin is not None and job.finish > job.abs_deadline)
+        dl = job.abs_deadline
+        miss = job.missed or (dl is not None and job.finish > dl)
         if miss and not job.missed:
             job.task.misses += 1
             job.missed = True
         wcet = job.task.wcet_ticks
-        self._jobrec.append((
-            self.name, job.task.name, job.index, rel, dl, start, fin,
-            None if fin is None else fin - rel, 0.0,
-            None if start is None else start - rel,
-            job.exec_done * r,
-            None if (fin is None or dl is None) else fin - dl,
-            bool(miss), bool(job.budget_overrun or (wcet is not None and job.exec_done > wcet)),
-            bool(job.killed)))
+        self._jobrec.append((self.name, job.task.name, job.index, job.release, dl, job.start, job.finish,
+                             job.exec_done, miss,
+                             job.budget_overrun or (wcet is not None and job.exec_done > wcet), job.killed))
 
     def _unfinished_rows(self) -> list[tuple]:
         """Rows for jobs still active or queued now (finish = NaN); added when the table is read."""
-        now = self.sim.env._now
-        r = RESOLUTION
+        now = self._env._now
         rows = []
         for task in self.tasks.values():
             jobs = ([task.active] if task.active is not None else []) + list(task.pending)
@@ -459,13 +492,9 @@ class Node:
                 done = job.exec_done
                 if job.state == "running" and job.seg_timer is not None:
                     done += now - job.seg_start
-                dl = None if job.abs_deadline is None else job.abs_deadline * r
-                rows.append((
-                    self.name, task.name, job.index, job.release * r, dl,
-                    None if job.start is None else job.start * r, math.nan, math.nan, 0.0,
-                    math.nan if job.start is None else (job.start - job.release) * r, done * r,
-                    math.nan, bool(job.abs_deadline is not None and now > job.abs_deadline),
-                    bool(job.budget_overrun), False))
+                rows.append((self.name, task.name, job.index, job.release, job.abs_deadline, job.start, None,
+                             done, job.abs_deadline is not None and now > job.abs_deadline,
+                             job.budget_overrun, False))
         return rows
 
     def __repr__(self):

@@ -200,13 +200,13 @@ class Task:
         """Release a job now (aperiodic tasks and handlers; also allowed for periodic)."""
         return self.node._release(self, self.node.sim.env._now)
 
-    def _periodic_release(self):
+    def _periodic_release(self, _event=None):
         node = self.node
-        t = self.offset_ticks + self._k * self.period_ticks
+        now = node._env._now
         self._k += 1
-        self._release_timer = node.sim.call_at(self.offset_ticks + self._k * self.period_ticks,
-                                               self._periodic_release)
-        node._release(self, t)
+        nxt = self.offset_ticks + self._k * self.period_ticks
+        self._release_timer = node._wake(self._periodic_release, None, nxt - now)
+        node._release(self, now)
 
     def stop(self) -> None:
         """Stop future periodic releases (jobs already released continue)."""
@@ -254,6 +254,8 @@ class TaskContext:
         *c* is a number, a frozen ``scipy.stats`` distribution (``.rvs``), or a callable
         ``c(rng) -> seconds`` drawn from the task's execution-time stream.
         """
+        if type(c) is float and 0.0 <= c < 1e9:  # fast path
+            return int(c * self.node._tick_scale + 0.5)
         if not isinstance(c, (int, float)) or isinstance(c, bool):
             if self._exec_rng is None:
                 self._exec_rng = self.sim.rng(f"{self.node.name}/{self.task.name}/execution")
