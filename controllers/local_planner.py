@@ -257,11 +257,14 @@ class StarStructure:
 
     @classmethod
     def for_system(cls, system: Any, m_V: int | None = None) -> "StarStructure":
-        """The structure of *system*: its ``structure`` attribute if it has one, else the
-        uniform layout with ``N = m - m_V`` one-angle robots (``m_V`` = 6 unless given)."""
+        """The structure of *system*: its ``structure`` attribute or ``block_indices()``
+        if it has one, else the uniform layout with ``N = m - m_V`` one-angle robots (``m_V`` = 6 unless given)."""
         s = getattr(system, "structure", None)
         if isinstance(s, StarStructure):
             return s
+        if hasattr(system, "block_indices"):  # plants.flycrane.MultiRobotSystem
+            rows, cols, pivot = system.block_indices()
+            return cls(rows, cols, pivot)
         check_system(system)
         m_V = 6 if m_V is None else m_V
         N = system.m - m_V
