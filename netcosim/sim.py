@@ -135,6 +135,7 @@ class Simulation:
         self.plants: dict[str, Any] = {}
         self.networks: dict[str, Any] = {}
         self._finalizers: list[Callable[[], None]] = []
+        self._stepping = 0  # > 0 while task code runs (kernel dispatch must then be deferred)
 
     # Time ------------------------------------------------------------------
     @property

@@ -218,6 +218,14 @@ class Node:
 
     def _request_dispatch(self) -> None:
         if not self._dispatch_pending:
+            # Shortcut with identical semantics: when no task code is executing and no
+            # other event is due at this instant, the deferred dispatch would be the next
+            # thing to happen anyway -- do it now instead of through the event queue.
+            if not self.sim._stepping:
+                q = self._env._queue
+                if not q or q[0][0] > self._env._now:
+                    self._dispatch()
+                    return
             self._dispatch_pending = True
             ev = self._dispatch_event
             ev.callbacks = self._dispatch_callbacks
@@ -229,9 +237,10 @@ class Node:
             return
         ready = self.ready
         best = ready[0]
-        for j in ready:
-            if (j.cls, j.key, j.seq) < (best.cls, best.key, best.seq):
-                best = j
+        if len(ready) > 1:
+            for j in ready:
+                if (j.cls, j.key, j.seq) < (best.cls, best.key, best.seq):
+                    best = j
         if self._np_job is not None and best.cls != HANDLER:
             best = self._np_job  # resumes before any task once the handlers are done
         r = self.running
@@ -307,6 +316,17 @@ class Node:
         self._step(job)
 
     def _step(self, job: Job) -> None:
+        """Run the job's code up to its next execute/blocking call (zero simulated time)."""
+        sim = self.sim
+        sim._stepping += 1  # dispatch requests made meanwhile are deferred
+        try:
+            finished = self._step_body(job)
+        finally:
+            sim._stepping -= 1
+        if finished:
+            self._finish(job)
+
+    def _step_body(self, job: Job) -> bool:
         gen = job.gen
         env = self._env
         while True:
@@ -314,8 +334,7 @@ class Node:
             try:
                 cmd = gen.send(value)
             except StopIteration:
-                self._finish(job)
-                return
+                return True
             except Exception as exc:
                 exc.add_note(f"netcosim: in task {job.task.name!r} on node {self.name!r}, job {job.index}, "
                              f"t = {self.sim.now:.9f} s")

@@ -63,10 +63,25 @@ class Sleep(Blocking):
 class Job:
     """One activation of a task."""
 
-    __slots__ = ("task", "node", "index", "release", "abs_deadline", "gen", "state", "remaining",
-                 "seg_start", "exec_done", "start", "finish", "seq", "cls", "base_key", "key",
-                 "resume_value", "seg_timer", "deadline_timer", "budget_timer", "blocked_on",
-                 "held", "killed", "missed", "budget_overrun")
+    # Class-level defaults keep job creation cheap: an instance stores only what differs.
+    gen = None
+    state = "queued"
+    remaining = 0
+    seg_start = 0
+    exec_done = 0
+    start = None
+    finish = None
+    seq = 0
+    base_key = 0
+    key = 0
+    resume_value = None
+    seg_timer = None
+    deadline_timer = None
+    budget_timer = None
+    blocked_on = None
+    killed = False
+    missed = False
+    budget_overrun = False
 
     def __init__(self, task: "Task", index: int, release: int):
         self.task = task
@@ -75,26 +90,8 @@ class Job:
         self.release = release
         d = task.deadline_ticks
         self.abs_deadline = None if d is None else release + d
-        self.gen = None
-        self.state = "queued"
-        self.remaining = 0
-        self.seg_start = 0
-        self.exec_done = 0
-        self.start = None
-        self.finish = None
-        self.seq = 0
         self.cls = task.cls
-        self.base_key = 0
-        self.key = 0
-        self.resume_value = None
-        self.seg_timer = None
-        self.deadline_timer = None
-        self.budget_timer = None
-        self.blocked_on = None
         self.held = []
-        self.killed = False
-        self.missed = False
-        self.budget_overrun = False
 
     @property
     def release_time(self) -> float:

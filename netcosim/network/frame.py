@@ -1,0 +1,127 @@
+"""Messages and frames.
+
+A :class:`Message` is what a task sends and what the receiving node finds in its
+mailbox.  A :class:`Frame` is the network's bookkeeping for one message on its way:
+the bits on the wire, the attempts made, the interface it came from.  Times on a
+``Message`` are in seconds; frames keep integer ticks (see :mod:`netcosim.timebase`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..timebase import RESOLUTION
+
+
+class _Broadcast:
+    """The broadcast address: every other node attached to the network."""
+
+    __slots__ = ()
+    _instance = None
+
+    def __new__(cls):
+        if cls._instance is None:
+            cls._instance = super().__new__(cls)
+        return cls._instance
+
+    def __repr__(self) -> str:
+        return "BROADCAST"
+
+    def __reduce__(self):
+        return (_Broadcast, ())
+
+
+#: Destination meaning "every other node on the network" (no ACK, no retries on WLAN).
+BROADCAST = _Broadcast()
+
+#: Reasons a frame can be lost, as written in the ``outcome`` column of the frames trace.
+LOSS_REASONS = (
+    "collision",        # overlapping transmissions (SIR below the capture threshold)
+    "below_threshold",  # received power below the receiver threshold
+    "bit_errors",       # decoded with bit errors (BER from the SINR)
+    "half_duplex",      # the receiver was transmitting itself
+    "random_loss",      # drawn by the network's loss model
+    "retry_limit",      # sender gave up after the maximum number of attempts
+    "queue_overflow",   # sender queue (or switch memory) full
+    "mailbox_full",     # receiver mailbox full at delivery
+)
+
+
+class Message:
+    """One message as seen by sender and receiver.
+
+    Attributes (times in seconds, ``nan``/``None`` until they happen):
+    ``src`` and ``dst`` are node names (``dst`` may be :data:`BROADCAST`);
+    ``payload`` is any Python object (the network never inspects it);
+    ``size_bits`` the length the sender declared; ``priority`` the MAC priority
+    (small = high, as on CAN); ``created`` when ``send`` was called; ``sent`` when
+    the first bit of the (last) successful attempt went on the medium; ``delivered``
+    when it reached the receiver's mailbox; ``attempts`` transmission attempts made.
+    """
+
+    __slots__ = ("id", "network", "src", "dst", "payload", "size_bits", "priority", "created",
+                 "sent", "delivered", "attempts")
+
+    def __init__(self, id: int, network: str, src: str, dst: Any, payload: Any, size_bits: int,
+                 priority: Any, created: float):
+        self.id = id
+        self.network = network
+        self.src = src
+        self.dst = dst
+        self.payload = payload
+        self.size_bits = size_bits
+        self.priority = priority
+        self.created = created
+        self.sent = float("nan")
+        self.delivered = float("nan")
+        self.attempts = 0
+
+    def copy(self) -> "Message":
+        m = Message(self.id, self.network, self.src, self.dst, self.payload, self.size_bits,
+                    self.priority, self.created)
+        m.sent, m.delivered, m.attempts = self.sent, self.delivered, self.attempts
+        return m
+
+    @property
+    def latency(self) -> float:
+        """End-to-end delay ``delivered - created`` in seconds."""
+        return self.delivered - self.created
+
+    def __repr__(self) -> str:
+        return (f"<Message #{self.id} {self.src}->{self.dst} {self.size_bits} bit "
+                f"created={self.created:.9f} delivered={self.delivered:.9f}>")
+
+
+class Frame:
+    """A message in transit (internal).  Times in ticks."""
+
+    __slots__ = ("msg", "id", "src", "dst", "bits", "priority", "seq", "attempts", "created",
+                 "queued", "sent", "remaining", "fail_reason", "info")
+
+    def __init__(self, msg: Message, src, dst, bits: int, priority, seq: int, created: int):
+        self.msg = msg
+        self.id = msg.id
+        self.src = src            # sending Interface
+        self.dst = dst            # receiving Interface, or BROADCAST
+        self.bits = bits          # bits on the wire (after minimum size and overheads)
+        self.priority = priority
+        self.seq = seq            # per-sender sequence number (duplicate detection)
+        self.attempts = 0
+        self.created = created
+        self.queued = None
+        self.sent = None
+        self.remaining = None     # ticks of transmission left (TDMA suspension)
+        self.fail_reason = None   # why the last attempt failed at the destination
+        self.info = None          # MAC-specific scratch
+
+    @property
+    def broadcast(self) -> bool:
+        return self.dst is BROADCAST
+
+    def __repr__(self) -> str:
+        d = "*" if self.dst is BROADCAST else self.dst.name
+        return f"<Frame #{self.id} {self.src.name}->{d} {self.bits} bit>"
+
+
+def seconds(ticks: int) -> float:
+    return ticks * RESOLUTION

@@ -1,0 +1,223 @@
+"""Random loss models, composable with the physical-layer models.
+
+A loss model decides, frame by frame and link by link, whether a frame that the
+physics let through is dropped anyway (a fading dip, interference the model does not
+simulate, a recorded channel).  Each directed link (sender, receiver) gets its own
+state and its own random stream, so adding a node never changes another link's draws.
+
+Where the draw happens:
+
+* wired networks: at delivery, per receiver (TrueTime's semantics);
+* WLAN: at the receiver after a successful decode, *before* the ACK -- a unicast frame
+  lost this way is not acknowledged and is retried like any other failed attempt.
+
+Models: :class:`Bernoulli` (independent losses), :class:`GilbertElliott` (a two-state
+Markov channel for bursts), :class:`TraceLoss` (replay a recorded 0/1 sequence).
+Several models can be combined by passing a list; the frame is lost if any says so.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Sequence
+
+import numpy as np
+
+
+def check_probability(p, what: str) -> float:
+    """Return *p* as a float, or raise ``ValueError`` naming it if not in [0, 1]."""
+    if isinstance(p, bool) or not isinstance(p, numbers.Real) or not math.isfinite(p) or not 0.0 <= p <= 1.0:
+        raise ValueError(f"{what} must be a probability in [0, 1], got {p!r}")
+    return float(p)
+
+
+class LossModel:
+    """Base class.  :meth:`link` returns the per-link state object with ``lost() -> bool``."""
+
+    def link(self, rng: np.random.Generator) -> "LinkLoss":
+        raise NotImplementedError
+
+
+class LinkLoss:
+    """State of one directed link under a loss model."""
+
+    __slots__ = ()
+
+    def lost(self) -> bool:
+        raise NotImplementedError
+
+
+class _BernoulliLink(LinkLoss):
+    __slots__ = ("p", "rng")
+
+    def __init__(self, p, rng):
+        self.p, self.rng = p, rng
+
+    def lost(self) -> bool:
+        return self.p > 0.0 and self.rng.random() < self.p
+
+
+class Bernoulli(LossModel):
+    """Each frame is lost independently with probability *p*."""
+
+    def __init__(self, p: float):
+        self.p = check_probability(p, "Bernoulli loss probability p")
+
+    def link(self, rng):
+        return _BernoulliLink(self.p, rng)
+
+    def __repr__(self):
+        return f"Bernoulli(p={self.p})"
+
+
+class _GELink(LinkLoss):
+    __slots__ = ("m", "rng", "bad")
+
+    def __init__(self, m, rng):
+        self.m, self.rng = m, rng
+        if m.start == "stationary":
+            self.bad = bool(rng.random() < m.stationary_bad)
+        else:
+            self.bad = m.start == "bad"
+
+    def lost(self) -> bool:
+        m, rng = self.m, self.rng
+        p_loss = m.loss_bad if self.bad else m.loss_good
+        lost = p_loss > 0.0 and (p_loss >= 1.0 or rng.random() < p_loss)
+        # then the channel moves for the next frame
+        if self.bad:
+            if rng.random() < m.p_bg:
+                self.bad = False
+        elif rng.random() < m.p_gb:
+            self.bad = True
+        return lost
+
+
+class GilbertElliott(LossModel):
+    """Two-state Markov (Gilbert–Elliott) channel, one step per frame on the link.
+
+    ``p_gb``: probability good -> bad after a frame; ``p_bg``: bad -> good.  In the
+    good state a frame is lost with probability ``loss_good``, in the bad state with
+    ``loss_bad`` (the classical Gilbert channel: 0 and 1).  The sojourn in the bad
+    state is geometric with mean ``1 / p_bg`` frames, which with ``loss_bad = 1`` and
+    ``loss_good = 0`` is the mean length of a loss burst.  ``start``: ``"stationary"``
+    (draw the first state from the stationary distribution), ``"good"`` or ``"bad"``.
+    """
+
+    def __init__(self, p_gb: float, p_bg: float, loss_good: float = 0.0, loss_bad: float = 1.0,
+                 start: str = "stationary"):
+        self.p_gb = check_probability(p_gb, "Gilbert-Elliott p_gb (good->bad)")
+        self.p_bg = check_probability(p_bg, "Gilbert-Elliott p_bg (bad->good)")
+        self.loss_good = check_probability(loss_good, "Gilbert-Elliott loss_good")
+        self.loss_bad = check_probability(loss_bad, "Gilbert-Elliott loss_bad")
+        if start not in ("stationary", "good", "bad"):
+            raise ValueError(f"Gilbert-Elliott start must be 'stationary', 'good' or 'bad', got {start!r}")
+        if self.p_gb + self.p_bg == 0.0 and start == "stationary":
+            raise ValueError("Gilbert-Elliott with p_gb = p_bg = 0 has no stationary distribution; "
+                             "pass start='good' or 'bad'")
+        self.start = start
+
+    @property
+    def stationary_bad(self) -> float:
+        """Long-run fraction of frames seen in the bad state: p_gb / (p_gb + p_bg)."""
+        return self.p_gb / (self.p_gb + self.p_bg)
+
+    @property
+    def loss_rate(self) -> float:
+        """Long-run loss probability."""
+        b = self.stationary_bad
+        return b * self.loss_bad + (1.0 - b) * self.loss_good
+
+    @property
+    def mean_burst(self) -> float:
+        """Mean number of consecutive frames in the bad state, 1 / p_bg."""
+        return math.inf if self.p_bg == 0 else 1.0 / self.p_bg
+
+    def link(self, rng):
+        return _GELink(self, rng)
+
+    def __repr__(self):
+        return (f"GilbertElliott(p_gb={self.p_gb}, p_bg={self.p_bg}, loss_good={self.loss_good}, "
+                f"loss_bad={self.loss_bad})")
+
+
+class _TraceLink(LinkLoss):
+    __slots__ = ("seq", "i", "repeat")
+
+    def __init__(self, seq, repeat):
+        self.seq, self.i, self.repeat = seq, 0, repeat
+
+    def lost(self) -> bool:
+        if self.i >= len(self.seq):
+            if not self.repeat:
+                raise RuntimeError(f"TraceLoss: recorded loss sequence of {len(self.seq)} frames exhausted "
+                                   f"(pass repeat=True to replay it cyclically)")
+            self.i = 0
+        v = self.seq[self.i]
+        self.i += 1
+        return v
+
+
+class TraceLoss(LossModel):
+    """Replay a recorded channel: ``sequence[k]`` true/1 means the k-th frame on the link is lost.
+
+    Every link replays the sequence from its start.  ``repeat=True`` cycles through
+    it; otherwise running past its end raises.
+    """
+
+    def __init__(self, sequence: Sequence, repeat: bool = True):
+        seq = np.asarray(sequence)
+        if seq.ndim != 1 or seq.size == 0:
+            raise ValueError(f"TraceLoss sequence must be a non-empty 1-D sequence of 0/1, got shape {seq.shape}")
+        if not np.all((seq == 0) | (seq == 1)):
+            bad = seq[~((seq == 0) | (seq == 1))][0]
+            raise ValueError(f"TraceLoss sequence must contain only 0/1 or booleans, got {bad!r}")
+        self.sequence = tuple(bool(v) for v in seq)
+        self.repeat = bool(repeat)
+
+    def link(self, rng):
+        return _TraceLink(self.sequence, self.repeat)
+
+    def __repr__(self):
+        return f"TraceLoss({len(self.sequence)} frames, repeat={self.repeat})"
+
+
+class _AnyLink(LinkLoss):
+    __slots__ = ("links",)
+
+    def __init__(self, links):
+        self.links = links
+
+    def lost(self) -> bool:
+        lost = False
+        for lk in self.links:          # every model advances its state on every frame
+            lost = lk.lost() or lost
+        return lost
+
+
+class AnyLoss(LossModel):
+    """Combination: the frame is lost if any of the models loses it."""
+
+    def __init__(self, models: Sequence[LossModel]):
+        self.models = tuple(as_loss_model(m) for m in models)
+
+    def link(self, rng):
+        # independent child streams, derived deterministically from the link stream
+        seeds = rng.integers(0, 2**63, size=len(self.models))
+        return _AnyLink([m.link(np.random.Generator(np.random.PCG64(int(s))))
+                         for m, s in zip(self.models, seeds)])
+
+
+def as_loss_model(loss) -> LossModel | None:
+    """Accept None, a probability (Bernoulli), a model, or a list of those."""
+    if loss is None:
+        return None
+    if isinstance(loss, LossModel):
+        return loss
+    if isinstance(loss, numbers.Real) and not isinstance(loss, bool):
+        p = check_probability(loss, "loss probability")
+        return None if p == 0.0 else Bernoulli(p)
+    if isinstance(loss, (list, tuple)):
+        return AnyLoss(loss)
+    raise TypeError(f"loss must be a probability, a LossModel or a list of them, got {loss!r}")
