@@ -163,6 +163,12 @@ class MultiRobotSystem:
             angle += [False, False, True]
         self.coordinate_names = tuple(names)
         self.coordinate_is_angle = tuple(angle)
+        pn = []
+        for i, a in enumerate(atts, start=1):
+            axes = ("x", "y", "z") if a.n_i == 3 and not isinstance(a, PlanarAgent) else ("x", "y", "phi")[:a.n_i]
+            pn += [f"p{i}_{ax}" for ax in axes]
+        #: names of the entries of p (agent i's x, y, z; formation agents x, y, phi)
+        self.position_names = tuple(pn)
 
         # Symbolic model, built once.
         self.q_sym = q = ca.SX.sym("q", self.m)
