@@ -58,6 +58,11 @@ class LandingConfig:
     #: Sigmoid (2.11): steepness γ [1/rad] and half point φ_lim [rad].
     gamma: float = 19.0
     phi_lim: float = -0.24
+    #: Fraction of the Table 2.1 thrust and torque ranges the NMPC may plan with,
+    #: centred in the range (1 = the whole range).  A reference generator for a
+    #: tracking controller leaves it some margin (e.g. 0.9: f_R in [0.75, 14.25] N,
+    #: |τ_R| <= 1.08 N·m); the actuator bounds themselves are enforced by saturation.
+    input_range: float = 1.0
     #: Horizon: N intervals of Ts seconds, rk4_steps RK4 steps per interval.
     N: int = 30
     Ts: float = 0.01
@@ -72,6 +77,8 @@ class LandingConfig:
                      "k_dtheta_target", "terminal_factor"):
             if getattr(self, name) < 0:
                 raise ValueError(f"LandingConfig.{name} must be non-negative, got {getattr(self, name)!r}")
+        if not 0 < self.input_range <= 1:
+            raise ValueError(f"LandingConfig.input_range must lie in (0, 1], got {self.input_range!r}")
         if self.k_s <= 0:
             raise ValueError(f"LandingConfig.k_s must be positive, got {self.k_s!r}")
 
@@ -111,11 +118,13 @@ def landing_ocp(params: TetheredUAVParams | None = None, config: LandingConfig |
     lbh = [0.0, 0.0, 0.0]
     ubh = [params.f_L_max, np.inf, np.inf]
     inf = np.inf
+    df = 0.5 * (1.0 - cfg.input_range) * params.f_R_max
+    tau_max = cfg.input_range * params.tau_R_max
     return OCP(x=x, u=u, p=alpha, xdot=xdot, N=cfg.N, Ts=cfg.Ts, rk4_steps=cfg.rk4_steps,
                residual=eta, weights=cfg.stage_weights,
                terminal_residual=eta_state, terminal_weights=cfg.terminal_weights,
-               lbx=[-inf, -inf, -inf, -inf, 0.0, -params.tau_R_max],
-               ubx=[inf, inf, inf, inf, params.f_R_max, params.tau_R_max],
+               lbx=[-inf, -inf, -inf, -inf, df, -tau_max],
+               ubx=[inf, inf, inf, inf, params.f_R_max - df, tau_max],
                h=h, lbh=lbh, ubh=ubh, soft=[1, 2], soft_weights=[cfg.k_s, cfg.k_s],
                h_N=h, lbh_N=lbh, ubh_N=ubh, soft_N=[1, 2], soft_weights_N=[cfg.k_s, cfg.k_s],
                p_default=[params.alpha], state_names=m.state_names, input_names=m.input_names)

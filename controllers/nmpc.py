@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from typing import Any, Sequence
 
 import casadi as ca
@@ -424,7 +424,8 @@ class RTIStep:
     """Outcome of one real-time iteration.
 
     ``u``: first input of the plan (apply over the next interval); ``x_ref``: the plan's
-    state at node 1, i.e. the predicted state one interval ahead; ``status``: the QP
+    state at node 1, i.e. the predicted state one interval ahead; ``X``: the whole
+    planned state trajectory (N+1, nx); ``status``: the QP
     solver's return status text; ``fallback``: True when the QP failed and the shifted
     previous plan was used instead; ``qp_iter``: QP solver iterations; ``step_norm``:
     max-norm of the SQP step; ``t_feedback`` / ``t_prepare``: wall-clock seconds of
@@ -434,6 +435,7 @@ class RTIStep:
 
     u: np.ndarray
     x_ref: np.ndarray
+    X: np.ndarray
     status: str
     success: bool
     fallback: bool
@@ -633,8 +635,8 @@ class RTINMPC:
         self._cost = float(cost)
         return time.perf_counter() - t0
 
-    def feedback(self, x0) -> tuple[bool, str, int, float]:
-        """Solve the prepared QP with measured *x0*; updates the trajectory.
+    def _qp_step(self, x0) -> tuple[bool, str, int, float]:
+        """Solve the prepared QP with measured *x0* and take the full step.
 
         Returns ``(success, status, qp_iterations, step_norm)``.  On failure the
         trajectory is left as prepared (the shifted previous solution), with node 0
@@ -653,21 +655,59 @@ class RTINMPC:
             stats = self._qp.stats()
             ok = bool(stats.get("success", False))
             status = str(stats.get("return_status", "unknown"))
-            it = int(stats.get("iter_count", stats.get("iter", -1)) or -1)
+            it = stats.get("iter_count", stats.get("iter", -1))
+            it = -1 if it is None else int(it)
             dw = sol["x"].full().ravel()
             if ok and not np.all(np.isfinite(dw)):
                 ok, status = False, "non-finite QP solution"
         except RuntimeError as exc:  # solver error: treat as a failed QP
             ok, status, it, dw = False, f"error: {exc}".splitlines()[0], -1, None
         if ok:
-            # clip tiny bound violations from interior-point tolerance
-            w_new = self._w + dw
             step = float(np.max(np.abs(dw))) if dw.size else 0.0
-            self._w = w_new
+            self._w = self._w + dw
             self._w[ix0] = x0
             return True, status, it, step
         self._w[ix0] = x0
         return False, status, it, float("nan")
+
+    def feedback(self, x0, p=None) -> RTIStep:
+        """Feedback phase: solve the prepared QP for the measured state *x0*.
+
+        Returns the first input and the plan (``t_prepare`` is 0 here).  If *p*
+        differs from the parameters the QP was prepared with, the QP is prepared
+        again first (its time counts in ``t_feedback``).  On QP failure the shifted
+        previous plan is used (``fallback=True``) and ``n_fail`` is incremented.
+        """
+        t0 = time.perf_counter()
+        if p is not None:
+            p = self._check_p(p)
+            if not np.array_equal(p, self._p):
+                self.prepare(p)
+        ok, status, it, step = self._qp_step(x0)
+        tr = self.tr
+        if not ok:
+            self.n_fail += 1
+        u = np.clip(self._w[tr.iu[0]], self.ocp.lbu, self.ocp.ubu)
+        X = self._w[tr.ix]
+        self.n_steps += 1
+        t1 = time.perf_counter()
+        r = RTIStep(u=u, x_ref=X[1].copy(), X=X.copy(), status=status, success=ok, fallback=not ok, qp_iter=it,
+                    step_norm=step, t_feedback=t1 - t0, t_prepare=0.0)
+        self.history.append(r)
+        return r
+
+    def preparation(self) -> float:
+        """Preparation phase: shift the plan by one interval and linearize around it.
+
+        Returns the wall-clock seconds taken.
+        """
+        t0 = time.perf_counter()
+        self.shift()
+        self.prepare()
+        dt = time.perf_counter() - t0
+        if self.history:
+            self.history[-1] = replace(self.history[-1], t_prepare=dt)
+        return dt
 
     def shift(self) -> None:
         """Shift the trajectory by one interval (last state: one more model step)."""
@@ -688,33 +728,10 @@ class RTINMPC:
         self._w = tr.pack(Xs, Us, Ss, SN)
 
     def step(self, x0, p=None) -> RTIStep:
-        """One sample: feedback with *x0*, then shift and prepare the next sample.
-
-        If *p* differs from the parameters the current QP was prepared with, the QP is
-        re-prepared first (counted in ``t_feedback``).
-        """
-        t0 = time.perf_counter()
-        if p is not None:
-            p = self._check_p(p)
-            if not np.array_equal(p, self._p):
-                self.prepare(p)
-        ok, status, it, step = self.feedback(x0)
-        t1 = time.perf_counter()
-        if ok:
-            u = self._w[self.tr.iu[0]].copy()
-            x_ref = self._w[self.tr.ix[1]].copy()
-        else:
-            self.n_fail += 1
-            # fallback: shifted previous plan (already the linearization point)
-            u = np.clip(self._w[self.tr.iu[0]], self.ocp.lbu, self.ocp.ubu)
-            x_ref = self._w[self.tr.ix[1]].copy()
-        self.n_steps += 1
-        self.shift()
-        t_prep = self.prepare()
-        r = RTIStep(u=u, x_ref=x_ref, status=status, success=ok, fallback=not ok, qp_iter=it,
-                    step_norm=step, t_feedback=t1 - t0, t_prepare=t_prep)
-        self.history.append(r)
-        return r
+        """One sample: :meth:`feedback` with *x0*, then :meth:`preparation` for the next."""
+        self.feedback(x0, p)
+        self.preparation()
+        return self.history[-1]
 
     # -- converged solves --------------------------------------------------------------------
     def cost(self, X=None, U=None, S=None, SN=None) -> float:
@@ -737,7 +754,7 @@ class RTINMPC:
         self.prepare()
         ok, status, it_total = False, "max_iter", 0
         for it_total in range(1, max_iter + 1):
-            qok, qstatus, _, step = self.feedback(x0)
+            qok, qstatus, _, step = self._qp_step(x0)
             self.prepare()
             if not qok:
                 status = f"QP failed: {qstatus}"

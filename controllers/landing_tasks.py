@@ -1,0 +1,250 @@
+"""The landing controllers of thesis ch. 2 as netcosim tasks.
+
+Two controllers close the loop on the simulation model of §2.6.1
+(:class:`plants.tethered_uav.TetheredUAV`, landers (2.17), optional wind):
+
+``"nmpc"``  NMPC alone: a 100 Hz task runs one real-time iteration of the landing
+            NMPC on the measured state and writes its first input ``(ḟ_R, τ̇_R)``
+            to the rate-input plant (2.5).
+``"2lc"``   Two-layer controller (Fig. 2.1): the 100 Hz NMPC task feeds the state
+            of its plan at the next node to a C² interpolator (Fig. 2.6); a 500 Hz
+            task with higher priority evaluates the interpolated reference and runs
+            the feedback linearization (2.14)–(2.16) with PID + feed-forward, writing
+            ``(f_R, τ_R)`` to the force-input plant (2.3).  The NMPC's measured state
+            is ``[φ, φ̇, ϑ, ϑ̇]`` with the thrust and torque currently applied.
+
+Timing of the NMPC job (:class:`LandingTiming`): each job reads the plant at its
+start, runs the RTI *feedback* phase (QP solve), outputs, then runs the
+*preparation* phase (shift + linearization) for the next sample.  The CPU time of
+each phase is either zero (ideal, the thesis's Simulink setting), a fixed budget, or
+the wall-clock time the real computation just took multiplied by ``cpu_factor``
+(``nmpc_exec="measured"``), so that the simulated schedule reflects what the solver
+really costs.  Both tasks run on one node (fixed priority, FL above NMPC).
+
+All angles in radians, forces in N, torques in N·m, times in seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from netcosim import RK4, Simulation
+from plants.tethered_uav import TetheredUAV, TetheredUAVParams, ddphi_ddtheta, wind_disturbance
+
+from .feedback_linearization import C2Interpolator, FeedbackLinearization, PIDGains
+from .landing import LandingConfig, initial_state, landing_nmpc
+
+__all__ = ["LandingTiming", "LandingRun", "run_landing", "SIM_PARAMS", "DEFAULT_FL_GAINS"]
+
+#: Simulation-model parameters of the ch. 2 experiments: the project defaults with
+#: 1 cm landers.  With l = 1 m a lander of height h stops the CoM at
+#: φ ≈ -α + asin(h - compression); 1 cm keeps the final elevation within 1° of -α
+#: (φ* = -30°) as in Fig. 2.8, where the 5 cm default stops it ~2.7° short.
+SIM_PARAMS = TetheredUAVParams(lander_height=0.01)
+
+
+#: Gains of the low-level PID loops: triple pole at -60 rad/s (K_P = 10800 s⁻²,
+#: K_D = 180 s⁻¹, K_I = 216000 s⁻³), ~10 times slower than the 500 Hz sampling
+#: (ω T = 0.12) and fast enough to keep the tracking error below 0.01° during the
+#: landing (the "aggressive PID action" of §2.6.2).
+DEFAULT_FL_GAINS = PIDGains.triple_pole(60.0)
+
+
+@dataclass(frozen=True)
+class LandingTiming:
+    """CPU times of the tasks (seconds at node speed 1).
+
+    ``nmpc_exec``: ``0.0`` (ideal), a number (fixed budget for the whole job, split
+    between the phases in proportion ``feedback_share``), or ``"measured"``
+    (wall-clock time of each phase × ``cpu_factor``).  ``fl_exec``: CPU time of one
+    low-level job.  ``context_switch``: kernel context-switch time.
+    """
+
+    nmpc_exec: Any = 0.0
+    cpu_factor: float = 1.0
+    feedback_share: float = 0.8
+    fl_exec: float = 0.0
+    context_switch: float = 0.0
+
+    def __post_init__(self):
+        e = self.nmpc_exec
+        if isinstance(e, str):
+            if e != "measured":
+                raise ValueError(f"nmpc_exec must be a number of seconds or 'measured', got {e!r}")
+        elif isinstance(e, bool) or not isinstance(e, (int, float)) or not math.isfinite(e) or e < 0:
+            raise ValueError(f"nmpc_exec must be a non-negative number of seconds or 'measured', got {e!r}")
+        for name in ("cpu_factor",):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+        if not (0.0 <= self.feedback_share <= 1.0):
+            raise ValueError(f"feedback_share must lie in [0, 1], got {self.feedback_share!r}")
+        for name in ("fl_exec", "context_switch"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise ValueError(f"{name} must be a non-negative number of seconds, got {v!r}")
+
+    def nmpc_phase(self, phase: str, wall: float) -> float:
+        """CPU time of an NMPC phase ('feedback' or 'prepare') that took *wall* seconds."""
+        if self.nmpc_exec == "measured":
+            return wall * self.cpu_factor
+        share = self.feedback_share if phase == "feedback" else 1.0 - self.feedback_share
+        return float(self.nmpc_exec) * share
+
+
+@dataclass
+class LandingRun:
+    """Result of :func:`run_landing`.
+
+    ``signals``: wide DataFrame sampled every ``log_interval`` s, columns ``time,
+    phi, dphi, theta, dtheta, f_R, tau_R, f_L, d_PG1, d_PG2, f_RF, wind`` (plant
+    outputs, SI units, radians); ``steps``: one row per NMPC job (``time`` of the
+    sample, ``status``, ``success``, ``fallback``, ``qp_iter``, ``t_feedback``,
+    ``t_prepare`` wall-clock seconds, ``c_feedback``, ``c_prepare`` simulated CPU
+    seconds); ``reference``: the 500 Hz reference of the low-level task (2LC only);
+    ``jobs``/``schedule``: kernel traces; ``sim``: the simulation.
+    """
+
+    controller: str
+    wind: bool
+    signals: pd.DataFrame
+    steps: pd.DataFrame
+    reference: pd.DataFrame
+    jobs: pd.DataFrame
+    schedule: pd.DataFrame
+    sim: Simulation
+    nmpc: Any
+    fl: Any = None
+    meta: dict = field(default_factory=dict)
+
+
+def _plant_signals(sim: Simulation, plant_name: str, wind_on: bool, params) -> pd.DataFrame:
+    df = sim.trace.signals()
+    df = df[df["source"] == plant_name]
+    df = df[df["signal"].astype(str).str.startswith("y.")]
+    wide = df.pivot_table(index="time", columns="signal", values="value", aggfunc="last", observed=True)
+    wide.columns = [str(c)[2:] for c in wide.columns]
+    wide = wide.reset_index()
+    wd = wind_disturbance(params)
+    wide["wind"] = [float(wd(t)[0]) if wind_on else 0.0 for t in wide["time"]]
+    return wide
+
+
+def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float = 1.5,
+                params: TetheredUAVParams | None = None, config: LandingConfig | None = None,
+                timing: LandingTiming | None = None, fl_gains: PIDGains | None = None,
+                x0=None, nmpc_period: float = 0.01, fl_period: float = 0.002,
+                integrator_dt: float = 1e-4, log_interval: float = 1e-3, seed: int = 0,
+                nmpc_kw: dict | None = None, actuator_state: str = "plan",
+                ff_lead: float | None = None) -> LandingRun:
+    """Simulate the landing of §2.6.2 with *controller* ``"nmpc"`` or ``"2lc"``.
+
+    ``params``: simulation-model parameters (default :data:`SIM_PARAMS`); the NMPC and
+    the low-level controller use the same physical parameters (the model mismatch is
+    the landers and the wind, which the controllers do not model).  ``x0``: initial
+    ``[φ, φ̇, ϑ, ϑ̇]`` (default hover at φ = ϑ = 0).  ``actuator_state`` (2LC only): the
+    ``(f_R, τ_R)`` entries of the NMPC's initial state are the values its previous plan
+    predicted for now (``"plan"``, default: they are reference quantities of the
+    trajectory generator) or the thrust and torque the low-level controller applies
+    (``"measured"``).  ``fl_gains``: PID gains of both low-level loops (default
+    :data:`DEFAULT_FL_GAINS`).  ``ff_lead``: the low-level job evaluates the
+    acceleration feed-forward ``ff_lead`` seconds after its sampling instant (default
+    half the low-level period: the input is held over the period, so the mid-period
+    acceleration is the one it should produce on average).
+    """
+    if ff_lead is None:
+        ff_lead = 0.5 * fl_period
+    if not (isinstance(ff_lead, (int, float)) and math.isfinite(ff_lead) and 0 <= ff_lead <= nmpc_period):
+        raise ValueError(f"ff_lead must be a number of seconds in [0, nmpc_period], got {ff_lead!r}")
+    if actuator_state not in ("plan", "measured"):
+        raise ValueError(f"actuator_state must be 'plan' or 'measured', got {actuator_state!r}")
+    if controller not in ("nmpc", "2lc"):
+        raise ValueError(f"controller must be 'nmpc' or '2lc', got {controller!r}")
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a positive number of seconds, got {duration!r}")
+    params = SIM_PARAMS if params is None else params
+    cfg = LandingConfig() if config is None else config
+    timing = LandingTiming() if timing is None else timing
+    if abs(nmpc_period - cfg.Ts) > 1e-12:
+        raise ValueError(f"nmpc_period={nmpc_period!r} s must equal the shooting interval Ts={cfg.Ts!r} s")
+    q0 = np.zeros(4) if x0 is None else np.asarray(x0, dtype=float).reshape(4)
+    xs0 = initial_state(q0[0], q0[2], params)
+    xs0[1], xs0[3] = q0[1], q0[3]
+
+    sim = Simulation(seed=seed)
+    mode = "rates" if controller == "nmpc" else "forces"
+    system = TetheredUAV(params, inputs=mode, landers=True)
+    plant_x0 = xs0 if mode == "rates" else xs0[:4]
+    uav = sim.plant(system, plant_x0, name="uav", integrator=RK4(dt=integrator_dt),
+                    disturbance=wind_disturbance(params) if wind else None, log_interval=log_interval)
+    if mode == "forces":
+        uav.inputs.write(xs0[4:6])  # hover thrust, zero torque until the first FL job
+    cpu = sim.node("onboard", scheduler="fixed_priority", context_switch=timing.context_switch)
+    nmpc = landing_nmpc(params, cfg, x0=xs0, **(nmpc_kw or {}))
+    steps: list[dict] = []
+    ref_rows: list[tuple] = []
+    Ts = cfg.Ts
+
+    interp = fl = None
+    if controller == "2lc":
+        interp = C2Interpolator(2)
+        interp.reset(0.0, [xs0[0], xs0[2]], [xs0[1], xs0[3]],
+                     ddphi_ddtheta(xs0[0], xs0[1], xs0[2], xs0[4], xs0[5], params))
+        gains = fl_gains or DEFAULT_FL_GAINS
+        fl = FeedbackLinearization(params, fl_period, gains_phi=gains, gains_theta=gains)
+
+    out_port = uav.outputs
+    in_port = uav.inputs
+
+    @cpu.periodic(period=nmpc_period, priority=2, name="nmpc")
+    def nmpc_task(ctx):
+        y = ctx.read(out_port)
+        t_s = ctx.now
+        x = np.asarray(y[:6], dtype=float)
+        if controller == "2lc" and actuator_state == "plan":
+            x[4:6] = nmpc.X[0, 4:6]  # the shifted plan's node 0 = previous plan at this instant
+        r = nmpc.feedback(x)
+        c_fb = timing.nmpc_phase("feedback", r.t_feedback)
+        yield ctx.execute(c_fb)
+        if controller == "nmpc":
+            ctx.write(in_port, r.u)
+        else:
+            x1 = r.x_ref
+            acc = ddphi_ddtheta(x1[0], x1[1], x1[2], x1[4], x1[5], params)
+            t_target = t_s + Ts
+            if t_target <= ctx.now:  # the solve overran its interval: aim one interval ahead
+                t_target = ctx.now + Ts
+            interp.update(ctx.now, t_target, [x1[0], x1[2]], [x1[1], x1[3]], acc)
+        t_prep = nmpc.preparation()
+        c_prep = timing.nmpc_phase("prepare", t_prep)
+        steps.append(dict(time=t_s, status=r.status, success=r.success, fallback=r.fallback,
+                          qp_iter=r.qp_iter, step_norm=r.step_norm, t_feedback=r.t_feedback,
+                          t_prepare=t_prep, c_feedback=c_fb, c_prepare=c_prep,
+                          u0=float(r.u[0]), u1=float(r.u[1])))
+        yield ctx.execute(c_prep)
+
+    if controller == "2lc":
+        @cpu.periodic(period=fl_period, priority=1, name="fl")
+        def fl_task(ctx):
+            y = ctx.read(out_port)
+            t = ctx.now
+            pos, vel, acc = interp.evaluate(t)
+            if ff_lead:
+                acc = interp.evaluate(t + ff_lead)[2]
+            u = fl(y[:4], pos, vel, acc)
+            ref_rows.append((t, pos[0], pos[1], vel[0], vel[1], acc[0], acc[1], u[0], u[1]))
+            yield ctx.execute(timing.fl_exec)
+            ctx.write(in_port, u)
+
+    sim.run(until=duration)
+    signals = _plant_signals(sim, "uav", wind, params)
+    reference = pd.DataFrame(ref_rows, columns=["time", "phi_ref", "theta_ref", "dphi_ref", "dtheta_ref",
+                                                "ddphi_ref", "ddtheta_ref", "f_R_cmd", "tau_R_cmd"])
+    return LandingRun(controller=controller, wind=wind, signals=signals, steps=pd.DataFrame(steps),
+                      reference=reference, jobs=sim.trace.jobs(), schedule=sim.trace.schedule(), sim=sim,
+                      nmpc=nmpc, fl=fl, meta=dict(params=params, config=cfg, timing=timing))
