@@ -94,6 +94,8 @@ class Node:
                 raise TypeError(f"handler {task.name!r}: priority must be a finite number, got {p!r}")
         else:
             self.policy.validate(task)
+        if kind != "handler" and self.policy.static:
+            task.static_key = self.policy.key(Job(task, -1, 0))
         self.tasks[task.name] = task
         self._trace(task, "idle")
         return task
@@ -208,7 +210,12 @@ class Node:
         job.gen = task.body(task.ctx)
         self._seq += 1
         job.seq = self._seq
-        job.base_key = job.key = self.policy.key(job) if job.cls else task.priority
+        if job.cls == HANDLER:
+            job.base_key = job.key = task.priority
+        elif task.static_key is not None:
+            job.base_key = job.key = task.static_key
+        else:
+            job.base_key = job.key = self.policy.key(job)
         job.state = "ready"
         self.ready.append(job)
         if task.state != "ready":
@@ -274,8 +281,8 @@ class Node:
         if self._cs_ticks and self._loaded is not job:
             self._in_cs = True
             _Wake(self._env, self._cs_done, job, self._cs_ticks)
-        else:
-            self._run(job)
+            return
+        self._run(job)
 
     def _cs_done(self, ev: _Wake) -> None:
         job = ev.job
@@ -316,52 +323,54 @@ class Node:
         self._step(job)
 
     def _step(self, job: Job) -> None:
-        """Run the job's code up to its next execute/blocking call (zero simulated time)."""
+        """Run the job's code up to its next execute/blocking call (zero simulated time).
+
+        While it runs, ``sim._stepping`` is raised so that dispatch requests are deferred.
+        """
+        gen = job.gen
+        env = self._env
         sim = self.sim
-        sim._stepping += 1  # dispatch requests made meanwhile are deferred
+        sim._stepping += 1
+        finished = False
         try:
-            finished = self._step_body(job)
+            while True:
+                value, job.resume_value = job.resume_value, None
+                try:
+                    cmd = gen.send(value)
+                except StopIteration:
+                    finished = True
+                    break
+                except Exception as exc:
+                    exc.add_note(f"netcosim: in task {job.task.name!r} on node {self.name!r}, "
+                                 f"job {job.index}, t = {sim.now:.9f} s")
+                    raise
+                if type(cmd) is int:
+                    if cmd > 0:
+                        job.remaining = cmd
+                        job.seg_start = env._now
+                        job.seg_timer = _Wake(env, self._segment_done, job, cmd)
+                        if job.task.wcet_ticks is not None and job.budget_timer is None:
+                            self._arm_budget(job)
+                        break
+                    if cmd < 0:
+                        raise ValueError(f"task {job.task.name!r}: yielded a negative execution time {cmd}")
+                    continue
+                if isinstance(cmd, Blocking):
+                    if cmd.attempt(job):
+                        continue
+                    self._stop_budget(job)
+                    job.blocked_on = cmd
+                    job.state = "blocked"
+                    self.running = None
+                    self._trace(job.task, "blocked")
+                    self._request_dispatch()
+                    break
+                raise TypeError(f"task {job.task.name!r} on node {self.name!r} yielded {cmd!r}; "
+                                f"yield ctx.execute(seconds), ctx.sleep(...), or a blocking call")
         finally:
             sim._stepping -= 1
         if finished:
             self._finish(job)
-
-    def _step_body(self, job: Job) -> bool:
-        gen = job.gen
-        env = self._env
-        while True:
-            value, job.resume_value = job.resume_value, None
-            try:
-                cmd = gen.send(value)
-            except StopIteration:
-                return True
-            except Exception as exc:
-                exc.add_note(f"netcosim: in task {job.task.name!r} on node {self.name!r}, job {job.index}, "
-                             f"t = {self.sim.now:.9f} s")
-                raise
-            if type(cmd) is int:
-                if cmd > 0:
-                    job.remaining = cmd
-                    job.seg_start = env._now
-                    job.seg_timer = _Wake(env, self._segment_done, job, cmd)
-                    if job.task.wcet_ticks is not None and job.budget_timer is None:
-                        self._arm_budget(job)
-                    return
-                if cmd < 0:
-                    raise ValueError(f"task {job.task.name!r}: yielded a negative execution time {cmd}")
-                continue
-            if isinstance(cmd, Blocking):
-                if cmd.attempt(job):
-                    continue
-                self._stop_budget(job)
-                job.blocked_on = cmd
-                job.state = "blocked"
-                self.running = None
-                self._trace(job.task, "blocked")
-                self._request_dispatch()
-                return
-            raise TypeError(f"task {job.task.name!r} on node {self.name!r} yielded {cmd!r}; "
-                            f"yield ctx.execute(seconds), ctx.sleep(...), or a blocking call")
 
     def _unblock(self, job: Job, value=None) -> None:
         """Called by a primitive when a blocked job may continue (its code runs when it gets the CPU)."""

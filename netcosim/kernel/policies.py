@@ -17,6 +17,8 @@ class SchedulingPolicy:
     """Base class. Subclasses implement :meth:`key` (and may refine :meth:`validate`)."""
 
     name = "policy"
+    #: True when the key depends on the task only (computed once per task)
+    static = False
 
     def key(self, job) -> float:
         raise NotImplementedError
@@ -35,6 +37,7 @@ class FixedPriority(SchedulingPolicy):
     """Static priorities given by the user (small number = high priority)."""
 
     name = "fixed_priority"
+    static = True
 
     def key(self, job):
         return job.task.priority
@@ -49,6 +52,7 @@ class RateMonotonic(SchedulingPolicy):
     """Priority by period (shorter period = higher priority); aperiodic tasks by deadline."""
 
     name = "rate_monotonic"
+    static = True
 
     def key(self, job):
         t = job.task
@@ -59,6 +63,7 @@ class DeadlineMonotonic(SchedulingPolicy):
     """Priority by relative deadline (shorter = higher). Equals RM when D = T."""
 
     name = "deadline_monotonic"
+    static = True
 
     def key(self, job):
         d = job.task.deadline_ticks

@@ -188,6 +188,7 @@ class Task:
         self.misses = 0
         self.finished = 0
         self.state = "idle"
+        self.static_key = None  # set by the node when the policy key depends on the task only
         self.ctx = TaskContext(self)
         self._release_timer = None
         self._k = 0

@@ -95,7 +95,7 @@ class Message:
 class Frame:
     """A message in transit (internal).  Times in ticks."""
 
-    __slots__ = ("msg", "id", "src", "dst", "bits", "priority", "seq", "attempts", "created",
+    __slots__ = ("msg", "id", "src", "dst", "dname", "bits", "priority", "seq", "attempts", "created",
                  "queued", "sent", "remaining", "fail_reason", "info")
 
     def __init__(self, msg: Message, src, dst, bits: int, priority, seq: int, created: int):
@@ -103,6 +103,7 @@ class Frame:
         self.id = msg.id
         self.src = src            # sending Interface
         self.dst = dst            # receiving Interface, or BROADCAST
+        self.dname = "*" if dst is BROADCAST else dst.name
         self.bits = bits          # bits on the wire (after minimum size and overheads)
         self.priority = priority
         self.seq = seq            # per-sender sequence number (duplicate detection)

@@ -1,0 +1,376 @@
+"""The pipeline every network shares, and the traces it writes.
+
+    send -> pre-processing delay -> sender queue (FIFO or priority)
+         -> medium access (the MAC: subclass) -> transmission of the frame's bits
+         -> [loss draw] -> propagation + post-processing delay
+         -> receiver mailbox and/or receive handlers (TrueTime's network interrupt)
+
+A network is created with its simulation and a name, e.g.
+``CAN(sim, "can", data_rate=500e3)``; it registers itself in ``sim.networks``.  Nodes
+join with :meth:`Network.attach`, which returns the node's :class:`Interface` and
+stores it in ``node.interfaces[network.name]`` so tasks can ``ctx.send(...)``.
+
+Traces (tables of ``sim.trace``, times in seconds):
+
+``frames``  one row per frame event: ``time, network, frame, event, src, dst, node,
+    attempt, outcome, bits, backoff``.  Events: ``created`` (``bits`` = declared
+    size), ``queued``, ``attempt_start`` (``bits`` on the wire, ``backoff`` = slots
+    drawn before this attempt where the MAC draws them), ``attempt_end`` (``outcome``:
+    ``ok``/``sent`` or the failure reason), ``ack`` (WLAN: the receiver starts its ACK),
+    ``delivered`` (``node`` = receiver), ``lost`` (``outcome`` = reason, ``node`` = where).
+    ``dst`` is ``*`` for broadcast.  ``attempt`` counts attempts made so far.
+``network_schedule``  ``time, network, node, state`` with state in
+    ``idle / waiting / sending / receiving`` (rows only on changes).
+
+Durations are integer ticks computed once per (bits, rate): two frames of equal
+length take exactly equal time, and instants that coincide on paper coincide here.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import pandas as pd
+
+from ..kernel.task import Task
+from ..sim import DISPATCH
+from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+from .frame import BROADCAST, Frame, Message
+from .interface import Interface, TxQueue
+from .loss import as_loss_model
+
+#: SimPy priority of MAC arbitration decisions: after kernel dispatch at the same
+#: instant, so every frame queued at an instant competes in that instant's arbitration.
+ARBITRATE = DISPATCH + 1
+
+FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
+                 "bits", "backoff")
+SCHEDULE_COLUMNS = ("time", "network", "node", "state")
+#: Network-schedule states with their staircase levels (TrueTime-style plots).
+NETWORK_STATES = {"idle": 0.0, "receiving": 0.125, "waiting": 0.25, "sending": 0.5}
+
+_NAN = math.nan
+
+
+def _frames_frame(df: pd.DataFrame) -> pd.DataFrame:
+    df["time"] = df["time"].astype("int64") * RESOLUTION if len(df) else df["time"].astype(float)
+    df["frame"] = df["frame"].astype("int64")
+    df["attempt"] = df["attempt"].astype("int64")
+    df["bits"] = df["bits"].astype(float)
+    df["backoff"] = df["backoff"].astype(float)
+    return df
+
+
+def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
+    df["time"] = df["time"].astype("int64") * RESOLUTION if len(df) else df["time"].astype(float)
+    return df
+
+
+def check_positive(value, what: str) -> float:
+    """*value* as a float, or ``ValueError`` naming it unless finite and > 0."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{what} must be a positive finite number, got {value!r}")
+    return float(value)
+
+
+def check_bits(value, what: str, *, allow_zero: bool = True) -> int:
+    """*value* as an int number of bits (raises naming it if negative or not integral)."""
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    if not ok and isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value):
+        ok = float(value).is_integer()
+    if not ok or value < 0 or (not allow_zero and value == 0):
+        kind = "non-negative" if allow_zero else "positive"
+        raise ValueError(f"{what} must be a {kind} integer number of bits, got {value!r}")
+    return int(value)
+
+
+class Network:
+    """Base class of all networks (the common pipeline; subclasses are MACs).
+
+    Parameters (all networks)
+    -------------------------
+    sim, name:
+        The simulation and a unique component name.
+    data_rate:
+        Bit rate in bit/s (any positive number).
+    min_frame_bits:
+        Minimum frame length; shorter messages are padded (TrueTime's minimum frame size).
+    max_frame_bits:
+        Largest message accepted (``send`` raises beyond it); None = no limit.
+    pre_delay, post_delay:
+        Pre-processing delay at the sender before queueing, post-processing delay at
+        the receiver before delivery (s).
+    propagation_delay:
+        Added between the end of reception and delivery (s, default 0 as in TrueTime).
+        MAC timing (carrier sense, ACK turnaround) does not see it.
+    loss:
+        A probability (Bernoulli), a :mod:`loss model <netcosim.network.loss>`, or a
+        list of them; drawn per frame and receiver.
+    queue, queue_capacity:
+        Sender queue discipline (``"fifo"`` or ``"priority"``) and size in frames.
+    mailbox_capacity:
+        Default receive-mailbox size (None = unbounded).
+    trace:
+        Record the ``frames`` and ``network_schedule`` tables (turn off for speed).
+    """
+
+    default_queue = "fifo"
+
+    def __init__(self, sim, name: str, *, data_rate: float, min_frame_bits: int = 0,
+                 max_frame_bits: int | None = None, pre_delay: float = 0.0, post_delay: float = 0.0,
+                 propagation_delay: float = 0.0, loss: Any = None, queue: str | None = None,
+                 queue_capacity: int | None = None, mailbox_capacity: int | None = None, trace: bool = True):
+        self.sim = sim
+        self._env = sim.env
+        self.name = name
+        w = f"network {name!r}"
+        self.data_rate = check_positive(data_rate, f"{w}: data_rate (bit/s)")
+        self.min_frame_bits = check_bits(min_frame_bits, f"{w}: min_frame_bits")
+        if max_frame_bits is not None:
+            max_frame_bits = check_bits(max_frame_bits, f"{w}: max_frame_bits", allow_zero=False)
+            if max_frame_bits < self.min_frame_bits:
+                raise ValueError(f"{w}: max_frame_bits={max_frame_bits} is below min_frame_bits="
+                                 f"{self.min_frame_bits}")
+        self.max_frame_bits = max_frame_bits
+        self._pre = to_ticks(pre_delay, f"{w} pre_delay")
+        self._post = to_ticks(post_delay, f"{w} post_delay")
+        self._prop = to_ticks(propagation_delay, f"{w} propagation_delay")
+        self.pre_delay, self.post_delay, self.propagation_delay = pre_delay, post_delay, propagation_delay
+        self.loss = as_loss_model(loss)
+        self.queue = queue or self.default_queue
+        TxQueue(self.queue, queue_capacity, what=w)  # validate now, not at attach
+        self.queue_capacity = queue_capacity
+        self.mailbox_capacity = mailbox_capacity
+        self._trace_on = bool(trace)
+        self.interfaces: dict[str, Interface] = {}
+        self._ifaces: list[Interface] = []
+        self._links: dict = {}
+        self._dur: dict = {}
+        self._next_id = 0
+        self._frames_rec = sim.trace.table("frames", FRAME_COLUMNS,
+                                           categorical=("network", "event", "src", "dst", "node", "outcome"),
+                                           transform=_frames_frame)
+        self._sched_rec = sim.trace.table("network_schedule", SCHEDULE_COLUMNS,
+                                          categorical=("network", "node", "state"), transform=_schedule_frame)
+        self._rows = self._frames_rec.rows
+        self._sched_rows = self._sched_rec.rows
+        sim._register(name, self)
+        sim.networks[name] = self
+
+    # ------------------------------------------------------------------ nodes
+    def attach(self, node, *, priority=None, mailbox: bool = True, mailbox_capacity: int | None = None,
+               queue: str | None = None, queue_capacity: int | None = None, handler=None, **options) -> Interface:
+        """Attach *node* (a kernel node, or a name for a bare station) and return its interface.
+
+        ``priority``: default MAC priority of the node's messages.  ``handler``: a task
+        (released per delivered message) or callable ``fn(msg)``.  ``mailbox=False``:
+        deliver only to handlers.  Other keyword options are MAC-specific (e.g.
+        ``position`` on wireless networks).
+        """
+        if isinstance(node, str):
+            name, knode = node, None
+        elif hasattr(node, "interfaces") and hasattr(node, "name"):
+            name, knode = node.name, node
+        else:
+            raise TypeError(f"network {self.name!r}: attach a kernel node or a station name, got {node!r}")
+        if not name:
+            raise ValueError(f"network {self.name!r}: station name must be a non-empty string")
+        if name in self.interfaces:
+            raise ValueError(f"network {self.name!r}: node {name!r} is already attached")
+        iface = self._make_interface(
+            name, knode, len(self._ifaces), options, priority=priority, mailbox=mailbox,
+            mailbox_capacity=self.mailbox_capacity if mailbox_capacity is None else mailbox_capacity,
+            queue=queue or self.queue,
+            queue_capacity=self.queue_capacity if queue_capacity is None else queue_capacity)
+        self.interfaces[name] = iface
+        self._ifaces.append(iface)
+        if knode is not None:
+            knode.interfaces[self.name] = iface
+        if handler is not None:
+            iface.on_receive(handler)
+        if self._trace_on:
+            self._sched_rows.append((self._env._now, self.name, name, "idle"))
+        self._attached(iface)
+        return iface
+
+    def _make_interface(self, name, node, index, options, **common) -> Interface:
+        if options:
+            raise TypeError(f"network {self.name!r} ({type(self).__name__}): unknown attach option(s) "
+                            f"{sorted(options)}")
+        return Interface(self, name, node, index, **common)
+
+    def _attached(self, iface: Interface) -> None:
+        """Hook: a new interface joined."""
+
+    def interface(self, node) -> Interface:
+        """The interface of *node* (name, kernel node or interface)."""
+        key = getattr(node, "name", node)
+        try:
+            return self.interfaces[key]
+        except (KeyError, TypeError):
+            raise KeyError(f"network {self.name!r}: unknown node {key!r}; attached: {list(self.interfaces)}") \
+                from None
+
+    def _resolve_dst(self, dst, src: Interface):
+        if dst is BROADCAST:
+            return BROADCAST
+        if isinstance(dst, Interface):
+            if dst.network is not self:
+                raise ValueError(f"network {self.name!r}: destination {dst!r} is on another network")
+            return dst
+        key = getattr(dst, "name", dst)
+        iface = self.interfaces.get(key) if isinstance(key, str) else None
+        if iface is None:
+            raise ValueError(f"network {self.name!r}: unknown destination node {dst!r}; "
+                             f"attached: {list(self.interfaces)}")
+        if iface is src:
+            raise ValueError(f"network {self.name!r}: node {src.name!r} cannot send to itself")
+        return iface
+
+    def receivers(self, frame: Frame):
+        """Interfaces a frame is addressed to (every other one for broadcast)."""
+        if frame.dst is BROADCAST:
+            src = frame.src
+            return [i for i in self._ifaces if i is not src]
+        return (frame.dst,)
+
+    # ------------------------------------------------------------------ timing
+    def duration(self, bits: int, rate: float | None = None) -> int:
+        """Ticks to transmit *bits* at *rate* bit/s (default the data rate), rounded once."""
+        key = (bits, rate)
+        d = self._dur.get(key)
+        if d is None:
+            d = self._dur[key] = int(round(bits * TICKS_PER_SECOND / (rate or self.data_rate)))
+        return d
+
+    def wire_bits(self, size_bits: int) -> int:
+        """Bits on the medium for a message of *size_bits* (default: padded to the minimum)."""
+        return size_bits if size_bits >= self.min_frame_bits else self.min_frame_bits
+
+    def _check_priority(self, priority, iface) -> None:
+        if priority is not None and (isinstance(priority, bool) or not isinstance(priority, numbers.Real)
+                                     or not math.isfinite(priority)):
+            raise ValueError(f"network {self.name!r}: priority of a message from {iface.name!r} must be a "
+                             f"finite number, got {priority!r}")
+
+    # ------------------------------------------------------------------ pipeline
+    def _send(self, iface: Interface, dst, payload, size_bits, priority, sender) -> Message:
+        if size_bits is None:
+            if self.min_frame_bits == 0:
+                raise ValueError(f"network {self.name!r}: send from {iface.name!r} needs size_bits")
+            size = self.min_frame_bits
+        else:
+            size = check_bits(size_bits, f"network {self.name!r}: size_bits of a message from {iface.name!r}",
+                              allow_zero=False)
+        if self.max_frame_bits is not None and size > self.max_frame_bits:
+            raise ValueError(f"network {self.name!r}: message of size_bits={size} from {iface.name!r} exceeds "
+                             f"the maximum frame of {self.max_frame_bits} bits")
+        d = self._resolve_dst(dst, iface)
+        prio = iface.priority if priority is None else priority
+        self._check_priority(prio, iface)
+        now = self._env._now
+        self._next_id += 1
+        msg = Message(self._next_id, self.name, iface.name, BROADCAST if d is BROADCAST else d.name, payload,
+                      size, prio, now * RESOLUTION)
+        frame = Frame(msg, iface, d, self.wire_bits(size), prio, iface._seq, now)
+        iface._seq += 1
+        if self._trace_on:
+            self._rows.append((now, self.name, frame.id, "created", iface.name, frame.dname, iface.name, 0, "",
+                               size, _NAN))
+        if self._pre:
+            self.sim.call_in(self._pre, self._enqueue, arg=frame)
+        else:
+            self._enqueue(frame)
+        return msg
+
+    def _enqueue(self, frame: Frame) -> None:
+        iface = frame.src
+        if iface.queue.full():
+            self._lost(frame, iface, "queue_overflow")
+            self._finish(frame, False)
+            return
+        frame.queued = self._env._now
+        iface.queue.push(frame)
+        if self._trace_on:
+            self._rows.append((frame.queued, self.name, frame.id, "queued", iface.name, frame.dname, iface.name,
+                               0, "", frame.bits, _NAN))
+        iface._state()
+        self._kick(iface)
+
+    def _kick(self, iface: Interface) -> None:
+        """MAC hook: a frame was queued at *iface*."""
+        raise NotImplementedError
+
+    # helpers for MACs ---------------------------------------------------------
+    def _trace(self, event: str, frame: Frame, node: str, outcome: str = "", bits=_NAN, backoff=_NAN) -> None:
+        if self._trace_on:
+            self._rows.append((self._env._now, self.name, frame.id, event, frame.src.name, frame.dname, node,
+                               frame.attempts, outcome, bits, backoff))
+
+    def _lost(self, frame: Frame, where: Interface, reason: str) -> None:
+        if self._trace_on:
+            self._rows.append((self._env._now, self.name, frame.id, "lost", frame.src.name, frame.dname,
+                               where.name, frame.attempts, reason, _NAN, _NAN))
+
+    def _finish(self, frame: Frame, ok: bool) -> None:
+        """The sender is done with *frame* (acknowledged/sent, or dropped)."""
+        src = frame.src
+        src.stats["sent" if ok else "dropped"] += 1
+        for cb in src.on_done:
+            cb(frame, ok)
+
+    def _link(self, src: Interface, dst: Interface):
+        key = (src.index, dst.index)
+        lk = self._links.get(key)
+        if lk is None:
+            lk = self._links[key] = self.loss.link(self.sim.rng(f"{self.name}/loss/{src.name}->{dst.name}"))
+        return lk
+
+    def _deliver(self, frame: Frame, rx: Interface, apply_loss: bool = True) -> bool:
+        """The frame was received by *rx* now; draw the loss, then hand it over after the delays."""
+        if apply_loss and self.loss is not None and self._link(frame.src, rx).lost():
+            self._lost(frame, rx, "random_loss")
+            return False
+        delay = self._post + self._prop
+        if delay:
+            self.sim.call_in(delay, self._hand_over, arg=(frame, rx))
+        else:
+            self._hand_over((frame, rx))
+        return True
+
+    def _hand_over(self, item) -> None:
+        frame, rx = item
+        msg = frame.msg.copy() if frame.dst is BROADCAST else frame.msg
+        now = self._env._now
+        msg.delivered = now * RESOLUTION
+        msg.attempts = frame.attempts
+        if frame.sent is not None:
+            msg.sent = frame.sent * RESOLUTION
+        if rx.use_mailbox and not rx.mailbox.try_post(msg):
+            self._lost(frame, rx, "mailbox_full")
+            return
+        if self._trace_on:
+            self._rows.append((now, self.name, frame.id, "delivered", frame.src.name, frame.dname, rx.name,
+                               frame.attempts, "", frame.bits, _NAN))
+        rx.stats["received"] += 1
+        for h in rx.handlers:
+            if isinstance(h, Task):
+                h.release()
+            else:
+                h(msg)
+
+    # ------------------------------------------------------------------ results
+    def frames(self) -> pd.DataFrame:
+        """This network's rows of the ``frames`` trace."""
+        df = self.sim.trace.frame("frames")
+        return df[df["network"] == self.name].reset_index(drop=True)
+
+    def schedule(self) -> pd.DataFrame:
+        """This network's rows of the ``network_schedule`` trace."""
+        df = self.sim.trace.frame("network_schedule")
+        return df[df["network"] == self.name].reset_index(drop=True)
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.name} {self.data_rate:g} bit/s, {len(self._ifaces)} nodes>"

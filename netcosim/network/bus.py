@@ -1,0 +1,90 @@
+"""Shared buses with arbitration at idle instants: CAN-like buses and round robin.
+
+One frame at a time occupies the bus.  Whenever the bus is idle and some node has a
+frame queued, an *arbitration* takes place at that instant (after every event of the
+instant, so frames queued at the same instant compete) and the chosen frame is sent to
+completion (non-preemptive).  Subclasses choose the winner.
+"""
+
+from __future__ import annotations
+
+from .base import ARBITRATE, Network
+from .interface import Interface
+
+
+class SharedBus(Network):
+    """Base class: a bus with one transmission at a time; subclasses implement ``_choose``."""
+
+    def __init__(self, sim, name, **kw):
+        super().__init__(sim, name, **kw)
+        self._busy = False
+        self._arb = False
+        self.busy_ticks = 0
+
+    def _kick(self, iface: Interface) -> None:
+        if not self._busy and not self._arb:
+            self._arb = True
+            self.sim.call_in(0, self._arbitrate, ARBITRATE)
+
+    def _choose(self) -> Interface | None:
+        """The interface whose head-of-queue frame wins the bus now (None: nobody waits)."""
+        raise NotImplementedError
+
+    def _arbitrate(self) -> None:
+        self._arb = False
+        if self._busy:
+            return
+        iface = self._choose()
+        if iface is None:
+            return
+        f = iface.queue.pop()
+        iface.current = f
+        f.attempts += 1
+        f.sent = self._env._now
+        self._busy = True
+        iface.sending = 1
+        iface._state()
+        for r in self.receivers(f):
+            r.receiving += 1
+            r._state()
+        self._trace("attempt_start", f, iface.name, bits=f.bits)
+        d = self.duration(f.bits)
+        self.busy_ticks += d
+        self.sim.call_in(d, self._end, arg=f)
+
+    def _end(self, f) -> None:
+        iface = f.src
+        self._busy = False
+        iface.sending = 0
+        iface.current = None
+        self._trace("attempt_end", f, iface.name, "sent" if f.broadcast else "ok")
+        for r in self.receivers(f):
+            r.receiving -= 1
+            r._state()
+            self._deliver(f, r)
+        iface._state()
+        self._finish(f, True)
+        for i in self._ifaces:
+            if i.queue._q:
+                self._kick(i)
+                break
+
+
+class RoundRobin(SharedBus):
+    """Token passing: the token visits the nodes cyclically in attach order and a node
+    holding it sends at most one frame.  Passing the token takes no time, so at an idle
+    instant the next node (after the last sender) with a queued frame transmits.
+    """
+
+    def __init__(self, sim, name, *, data_rate: float = 10e6, **kw):
+        super().__init__(sim, name, data_rate=data_rate, **kw)
+        self._token = 0
+
+    def _choose(self):
+        n = len(self._ifaces)
+        for k in range(n):
+            i = self._ifaces[(self._token + k) % n]
+            if i.queue._q:
+                self._token = (i.index + 1) % n
+                return i
+        return None

@@ -1,0 +1,92 @@
+"""CAN: priority arbitration at every idle instant, non-preemptive (CSMA/AMP).
+
+Whenever the bus goes idle (or a frame is queued on an idle bus) the frames at the head
+of every node's queue compete and the one with the smallest priority number (the CAN
+identifier) wins; it is sent to completion.  Each node's controller queue is ordered by
+priority too (``queue="priority"``, the default).  Real CAN needs unique identifiers;
+here equal priorities from different nodes are broken by attach order.
+
+Frame length, two models:
+
+* ``frame_format="truetime"`` (default): ``max(size_bits, min_frame_bits)`` bits,
+  TrueTime's model -- the message length is the frame length.
+* ``frame_format="standard"``: ``size_bits`` is the payload (at most 8 bytes, rounded up
+  to whole bytes ``s``); the bus carries the worst-case stuffed frame including the
+  3-bit interframe space (Davis, Burns, Bril, Lukkien 2007, eq. 1)::
+
+      C = g + 8 s + 13 + floor((g + 8 s - 1) / 4)   bits,  g = 34 (11-bit id) or 54 (29-bit id)
+
+  = 55 + 10 s bits for standard identifiers.  ``stuffing=False`` gives the unstuffed
+  length ``g + 8 s + 13``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .bus import SharedBus
+
+
+def can_frame_bits(data_bytes: int, *, extended: bool = False, stuffing: bool = True) -> int:
+    """Bits a CAN 2.0 data frame with *data_bytes* (0..8) occupies on the bus, with the 3-bit IFS.
+
+    Worst-case bit stuffing (Davis et al. 2007) unless ``stuffing=False``.
+    """
+    if isinstance(data_bytes, bool) or not isinstance(data_bytes, int) or not 0 <= data_bytes <= 8:
+        raise ValueError(f"a CAN frame carries 0..8 data bytes, got {data_bytes!r}")
+    g = 54 if extended else 34
+    n = g + 8 * data_bytes + 13
+    if stuffing:
+        n += (g + 8 * data_bytes - 1) // 4
+    return n
+
+
+class CAN(SharedBus):
+    """A CAN bus.  See the module docstring.
+
+    ``data_rate``: bit rate (bit/s; default 500 kbit/s).  ``frame_format``:
+    ``"truetime"`` or ``"standard"``; ``extended``: 29-bit identifiers; ``stuffing``:
+    worst-case stuff bits in the standard format.  Messages need a priority (pass
+    ``priority=`` to ``send`` or a default to ``attach``); small = high.
+    """
+
+    default_queue = "priority"
+
+    def __init__(self, sim, name, *, data_rate: float = 500e3, frame_format: str = "truetime",
+                 extended: bool = False, stuffing: bool = True, max_frame_bits: int | None = None, **kw):
+        if frame_format not in ("truetime", "standard"):
+            raise ValueError(f"network {name!r}: CAN frame_format must be 'truetime' or 'standard', "
+                             f"got {frame_format!r}")
+        if frame_format == "standard":
+            if kw.get("min_frame_bits"):
+                raise ValueError(f"network {name!r}: min_frame_bits does not apply to the standard CAN format")
+            if max_frame_bits is None:
+                max_frame_bits = 64
+            elif max_frame_bits > 64:
+                raise ValueError(f"network {name!r}: standard CAN frames carry at most 64 data bits, "
+                                 f"got max_frame_bits={max_frame_bits!r}")
+        self.frame_format = frame_format
+        self.extended = bool(extended)
+        self.stuffing = bool(stuffing)
+        super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, **kw)
+
+    def wire_bits(self, size_bits: int) -> int:
+        if self.frame_format == "standard":
+            return can_frame_bits(math.ceil(size_bits / 8), extended=self.extended, stuffing=self.stuffing)
+        return super().wire_bits(size_bits)
+
+    def _check_priority(self, priority, iface):
+        if priority is None:
+            raise ValueError(f"network {self.name!r}: CAN message from {iface.name!r} needs a priority "
+                             f"(identifier): pass priority= to send() or to attach()")
+        super()._check_priority(priority, iface)
+
+    def _choose(self):
+        best, bkey = None, None
+        for i in self._ifaces:
+            q = i.queue
+            if q._q:
+                key = q.peek().priority
+                if bkey is None or key < bkey:
+                    best, bkey = i, key
+        return best

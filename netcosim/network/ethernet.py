@@ -1,0 +1,176 @@
+"""CSMA/CD (shared, half-duplex Ethernet), with TrueTime's semantics as the default.
+
+* 1-persistent carrier sense: a node with a frame transmits as soon as it senses the
+  medium idle; if busy, it waits and transmits at the instant the medium goes idle
+  (+ ``interframe_gap``).  All nodes waiting for that instant transmit together.
+* A transmission is sensed by the others ``collision_window`` seconds after it starts
+  (the worst-case propagation; TrueTime uses 1 µs).  A node starting while the only
+  ongoing transmissions began less than a window ago does not sense them: collision.
+  Every colliding node stops ``collision_window`` after the latest colliding start,
+  sends ``jam_bits`` (0 in TrueTime, 32 in IEEE 802.3), and backs off.
+* Binary exponential backoff: after the K-th collision of a frame the node waits
+  ``U{0, ..., 2**min(K, backoff_limit) - 1}`` slot times; slot time = the minimum frame
+  time ``min_frame_bits / data_rate`` (512 bits at 10 Mbit/s = 51.2 µs).
+* ``max_attempts=None`` (TrueTime) retries forever; IEEE 802.3 gives up after 16.
+
+Defaults: 10 Mbit/s, 512-bit minimum frame (TrueTime's defaults).
+"""
+
+from __future__ import annotations
+
+from .base import ARBITRATE, Network, check_bits, check_positive
+from ..timebase import to_ticks
+
+
+class CSMACD(Network):
+    """Shared Ethernet with CSMA/CD.  See the module docstring for the semantics."""
+
+    def __init__(self, sim, name, *, data_rate: float = 10e6, min_frame_bits: int = 512,
+                 collision_window: float = 1e-6, jam_bits: int = 0, interframe_gap: float = 0.0,
+                 max_attempts: int | None = None, backoff_limit: int = 10, slot_time: float | None = None, **kw):
+        super().__init__(sim, name, data_rate=data_rate, min_frame_bits=min_frame_bits, **kw)
+        w = f"network {name!r}"
+        self._window = to_ticks(collision_window, f"{w} collision_window")
+        if self._window <= 0:
+            raise ValueError(f"{w}: collision_window must be positive, got {collision_window!r}")
+        self.jam_bits = check_bits(jam_bits, f"{w}: jam_bits")
+        self._jam = self.duration(self.jam_bits)
+        self._gap = to_ticks(interframe_gap, f"{w} interframe_gap")
+        if max_attempts is not None and (isinstance(max_attempts, bool) or not isinstance(max_attempts, int)
+                                         or max_attempts < 1):
+            raise ValueError(f"{w}: max_attempts must be a positive integer or None, got {max_attempts!r}")
+        self.max_attempts = max_attempts
+        if isinstance(backoff_limit, bool) or not isinstance(backoff_limit, int) or not 1 <= backoff_limit <= 30:
+            raise ValueError(f"{w}: backoff_limit must be an integer in 1..30, got {backoff_limit!r}")
+        self.backoff_limit = backoff_limit
+        if slot_time is None:
+            if self.min_frame_bits == 0:
+                raise ValueError(f"{w}: CSMA/CD needs min_frame_bits > 0 or an explicit slot_time for backoff")
+            self._slot = self.duration(self.min_frame_bits)
+        else:
+            self._slot = to_ticks(check_positive(slot_time, f"{w}: slot_time (s)"))
+        self._active: dict = {}        # iface -> start tick
+        self._waiting: list = []       # ifaces waiting for the medium to go idle
+        self._colliders: list = []
+        self._abort_timer = None
+        self._idle_at = 0              # medium idle (incl. gap) from this tick on
+        self._release_pending = False
+        self.collisions = 0
+
+    def _attached(self, iface):
+        iface.timer = None
+        iface.rng = self.sim.rng(f"{self.name}/{iface.name}/backoff")
+
+    # ------------------------------------------------------------------ MAC
+    def _kick(self, iface):
+        if iface.current is None and iface.queue._q:
+            iface.current = iface.queue.pop()
+            self._try(iface)
+
+    def _sensed_busy(self, now):
+        if now < self._idle_at:
+            return True
+        w = self._window
+        for start in self._active.values():
+            if start + w <= now:
+                return True
+        return False
+
+    def _try(self, iface):
+        iface.timer = None
+        now = self._env._now
+        if self._sensed_busy(now):
+            self._waiting.append(iface)
+            self._schedule_release()
+            iface._state()
+            return
+        self._start(iface, now)
+
+    def _start(self, iface, now):
+        f = iface.current
+        f.attempts += 1
+        f.sent = now
+        iface.sending = 1
+        iface._state()
+        for r in self.receivers(f):
+            r.receiving += 1
+            r._state()
+        self._trace("attempt_start", f, iface.name, bits=f.bits)
+        if self._active:
+            # everyone active started less than a window ago: nobody sensed anybody
+            if not self._colliders:
+                self.collisions += 1
+                for other in self._active:
+                    other.timer.cancel()
+                    self._colliders.append(other)
+            self._colliders.append(iface)
+            self._active[iface] = now
+            if self._abort_timer is not None:
+                self._abort_timer.cancel()
+            self._abort_timer = self.sim.call_in(self._window + self._jam, self._abort)
+        else:
+            self._active[iface] = now
+            iface.timer = self.sim.call_in(self.duration(f.bits), self._end, arg=iface)
+
+    def _stop(self, iface):
+        del self._active[iface]
+        iface.sending = 0
+        f = iface.current
+        for r in self.receivers(f):
+            r.receiving -= 1
+            r._state()
+
+    def _end(self, iface):
+        iface.timer = None
+        f = iface.current
+        self._stop(iface)
+        self._trace("attempt_end", f, iface.name, "sent" if f.broadcast else "ok")
+        for r in self.receivers(f):
+            self._deliver(f, r)
+        iface.current = None
+        iface._state()
+        self._finish(f, True)
+        self._medium_idle()
+        self._kick(iface)
+
+    def _abort(self):
+        self._abort_timer = None
+        colliders, self._colliders = self._colliders, []
+        now = self._env._now
+        for iface in colliders:
+            f = iface.current
+            self._stop(iface)
+            self._trace("attempt_end", f, iface.name, "collision")
+            if self.max_attempts is not None and f.attempts >= self.max_attempts:
+                self._lost(f, iface, "retry_limit")
+                iface.current = None
+                iface._state()
+                self._finish(f, False)
+                continue
+            k = int(iface.rng.integers(0, 2 ** min(f.attempts, self.backoff_limit)))
+            iface.timer = self.sim.call_at(now + k * self._slot, self._try, arg=iface)
+            iface._state()
+        self._medium_idle()
+        for iface in colliders:
+            if iface.current is None:
+                self._kick(iface)
+
+    def _medium_idle(self):
+        if not self._active:
+            self._idle_at = self._env._now + self._gap
+            self._schedule_release()
+
+    def _schedule_release(self):
+        if self._waiting and not self._release_pending and not self._active:
+            self._release_pending = True
+            self.sim.call_at(max(self._idle_at, self._env._now), self._release, ARBITRATE)
+
+    def _release(self):
+        self._release_pending = False
+        now = self._env._now
+        if self._sensed_busy(now):
+            self._schedule_release()
+            return
+        waiting, self._waiting = self._waiting, []
+        for iface in waiting:
+            self._start(iface, now)

@@ -1,0 +1,160 @@
+"""Network interfaces: a node's attachment point to one network.
+
+An :class:`Interface` owns the sender queue (FIFO or by priority), the receive
+:class:`~netcosim.kernel.Mailbox`, and the list of receive handlers (tasks released,
+or callables called, once per delivered message -- TrueTime's network interrupt).
+Tasks send with ``ctx.send(dst, payload, size_bits, priority=...)``; the kernel routes
+that to :meth:`Interface.send`.  Code outside a kernel (tests, traffic generators) may
+call :meth:`Interface.send` directly.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections import deque
+from typing import Any, Callable
+
+from ..kernel.sync import Mailbox
+from ..kernel.task import Task
+
+
+class TxQueue:
+    """Sender queue: ``"fifo"`` or ``"priority"`` (smallest priority first, FIFO among equals).
+
+    ``capacity`` (frames, None = unbounded) counts frames waiting, not the frame in service.
+    """
+
+    __slots__ = ("discipline", "capacity", "_q", "_n")
+
+    def __init__(self, discipline: str = "fifo", capacity: int | None = None, what: str = "queue"):
+        if discipline not in ("fifo", "priority"):
+            raise ValueError(f"{what}: queue discipline must be 'fifo' or 'priority', got {discipline!r}")
+        if capacity is not None and (isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1):
+            raise ValueError(f"{what}: queue capacity must be a positive integer or None, got {capacity!r}")
+        self.discipline = discipline
+        self.capacity = capacity
+        self._q: Any = deque() if discipline == "fifo" else []
+        self._n = 0
+
+    def __len__(self) -> int:
+        return len(self._q)
+
+    def full(self) -> bool:
+        return self.capacity is not None and len(self._q) >= self.capacity
+
+    def push(self, frame) -> None:
+        if self.discipline == "fifo":
+            self._q.append(frame)
+        else:
+            self._n += 1
+            p = frame.priority
+            heapq.heappush(self._q, (0 if p is None else p, self._n, frame))
+
+    def push_front(self, frame) -> None:
+        """Put a frame back at the head (retransmission after a refused hand-over)."""
+        if self.discipline == "fifo":
+            self._q.appendleft(frame)
+        else:
+            p = frame.priority
+            heapq.heappush(self._q, (0 if p is None else p, -10**18 + frame.id, frame))
+
+    def peek(self):
+        if not self._q:
+            return None
+        return self._q[0] if self.discipline == "fifo" else self._q[0][2]
+
+    def pop(self):
+        if self.discipline == "fifo":
+            return self._q.popleft()
+        return heapq.heappop(self._q)[2]
+
+    def __iter__(self):
+        if self.discipline == "fifo":
+            return iter(self._q)
+        return (e[2] for e in sorted(self._q))
+
+
+class Interface:
+    """A node's interface on one network.  Create with ``network.attach(node, ...)``.
+
+    Attributes: ``name`` (the node's name), ``node`` (the kernel node, or None for a
+    bare station driven from Python), ``network``, ``mailbox`` (received messages),
+    ``queue`` (frames waiting to be sent), ``priority`` (default MAC priority of this
+    node's messages), ``state`` (``idle``/``waiting``/``sending``/``receiving``).
+    ``on_done`` is a list of callables ``fn(frame, ok)`` called when the sender is done
+    with a frame (sent / acknowledged: ``ok=True``; dropped: ``ok=False``).
+    """
+
+    def __init__(self, network, name: str, node, index: int, *, priority=None, mailbox: bool = True,
+                 mailbox_capacity: int | None = None, queue: str = "fifo", queue_capacity: int | None = None):
+        self.network = network
+        self.name = name
+        self.node = node
+        self.index = index
+        self.priority = priority
+        self.mailbox = Mailbox(f"{network.name}/{name}", capacity=mailbox_capacity)
+        self.use_mailbox = bool(mailbox)
+        self.queue = TxQueue(queue, queue_capacity, what=f"network {network.name!r} node {name!r}")
+        self.handlers: list = []
+        self.on_done: list[Callable] = []
+        self.current = None     # frame in service (being sent, backing off, awaiting ACK)
+        self.sending = 0        # transmissions of this interface on the medium (0/1)
+        self.receiving = 0      # frames addressed to this interface being received
+        self.state = "idle"
+        self._seq = 0
+        self.stats = {"sent": 0, "delivered": 0, "dropped": 0, "received": 0}
+
+    # ------------------------------------------------------------------ user API
+    def send(self, dst, payload: Any = None, size_bits: int | None = None, *, priority=None, sender=None):
+        """Queue a message to *dst* (node name, node, interface or ``BROADCAST``).
+
+        ``size_bits``: message length in bits (the wire carries ``max(size_bits,
+        min_frame_bits)`` plus the MAC's own overhead).  ``priority``: MAC priority
+        (small = high; CAN identifier order), default ``self.priority``.
+        Returns the :class:`~netcosim.network.frame.Message`.
+        """
+        return self.network._send(self, dst, payload, size_bits, priority, sender)
+
+    def on_receive(self, target=None):
+        """Release *target* (a task or handler) or call ``target(msg)`` for every delivered message.
+
+        A released task fetches the message from :attr:`mailbox` (``yield
+        iface.mailbox.fetch()`` or ``iface.mailbox.try_fetch()``); a callable gets the
+        message directly (it is still posted to the mailbox unless the callable is
+        registered with ``consume=True`` via :meth:`on_message`).  Usable as a decorator.
+        """
+        def reg(t):
+            if not (isinstance(t, Task) or callable(t)):
+                raise TypeError(f"on_receive target must be a task or a callable(msg), got {t!r}")
+            self.handlers.append(t)
+            return t
+        return reg if target is None else reg(target)
+
+    def receive(self):
+        """The oldest message in the mailbox, or None (non-blocking)."""
+        return self.mailbox.try_fetch()
+
+    @property
+    def pending(self) -> int:
+        """Frames waiting or in service at this sender."""
+        return len(self.queue) + (self.current is not None)
+
+    # ------------------------------------------------------------------ internals
+    def _state(self) -> None:
+        """Recompute the network-schedule state and trace it if it changed."""
+        if self.sending:
+            s = "sending"
+        elif self.current is not None or self.queue._q:
+            s = "waiting"
+        elif self.receiving:
+            s = "receiving"
+        else:
+            s = "idle"
+        if s != self.state:
+            self.state = s
+            net = self.network
+            if net._trace_on:
+                net._sched_rows.append((net._env._now, net.name, self.name, s))
+
+    def __repr__(self) -> str:
+        return f"<Interface {self.network.name}/{self.name}>"

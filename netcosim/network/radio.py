@@ -1,0 +1,216 @@
+"""Radio physics: power units, path loss, thermal noise, bit error rates.
+
+Conventions: powers in dBm at the API, watts inside; distances in metres; positions
+are 2-D or 3-D points.  ``P_rx = P_tx * gain(d)`` with ``gain`` from a path-loss model.
+
+Path loss
+    :class:`LogDistance` -- ``PL(d) = PL(d0) + 10 n log10(d / d0)`` dB for ``d >= d0``
+    (``PL(d0)`` = free-space Friis loss at ``d0`` and the carrier frequency unless
+    given; ``d < d0`` is clamped to ``d0``).
+    :class:`TrueTimePathLoss` -- TrueTime's ``P_rx = P_tx / (d + 1)^a`` (d in metres).
+
+Noise
+    :func:`thermal_noise_dbm` -- ``kTB`` plus a noise figure; 22 MHz at 290 K gives
+    -100.6 dBm (the "-100 dBm background noise" TrueTime mentions).
+
+Bit error rates (AWGN; interference treated as noise), as functions of Eb/N0 (linear)
+    :func:`ber_dbpsk` ``= 1/2 exp(-Eb/N0)`` (802.11b 1 Mbit/s);
+    :func:`ber_dqpsk` -- exact Gray-coded DQPSK with Marcum Q (802.11b 2 Mbit/s);
+    :func:`ber_cck` -- a simple CCK model (5.5 and 11 Mbit/s): coherent QPSK
+    ``Q(sqrt(2 Eb/N0))``, documented as an approximation.
+    For a DSSS/CCK signal of bit rate R in bandwidth B = 22 MHz,
+    ``Eb/N0 = SINR * B / R`` (the processing gain; ns-3 uses the same mapping).
+
+A frame of ``n`` bits at a constant SINR decodes with probability ``(1 - BER)^n``;
+with piecewise-constant interference the probabilities of the pieces multiply.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Callable, Sequence
+
+import numpy as np
+from scipy import constants, special, stats
+
+#: Channel bandwidth of 802.11b DSSS/CCK (Hz): noise bandwidth and processing-gain reference.
+DSSS_BANDWIDTH = 22e6
+#: 802.11b channel 1 centre frequency (Hz).
+CHANNEL_1 = 2.412e9
+
+
+def dbm_to_watt(dbm: float) -> float:
+    return 10.0 ** ((dbm - 30.0) / 10.0)
+
+
+def watt_to_dbm(w: float) -> float:
+    return -math.inf if w <= 0 else 10.0 * math.log10(w) + 30.0
+
+
+def db_to_ratio(db: float) -> float:
+    return 10.0 ** (db / 10.0)
+
+
+def thermal_noise_dbm(bandwidth: float = DSSS_BANDWIDTH, temperature: float = 290.0,
+                      noise_figure_db: float = 0.0) -> float:
+    """Thermal noise power ``k T B`` in dBm plus the receiver noise figure (dB)."""
+    if not (bandwidth > 0 and temperature > 0):
+        raise ValueError(f"bandwidth and temperature must be positive, got {bandwidth!r}, {temperature!r}")
+    return watt_to_dbm(constants.k * temperature * bandwidth) + noise_figure_db
+
+
+# ---------------------------------------------------------------------------- path loss
+
+class PathLoss:
+    """Base class: ``gain(d)`` is the linear power gain at distance *d* metres."""
+
+    def gain(self, d: float) -> float:
+        raise NotImplementedError
+
+    def loss_db(self, d: float) -> float:
+        return -10.0 * math.log10(self.gain(d))
+
+    def rx_dbm(self, tx_dbm: float, d: float) -> float:
+        """Received power (dBm) at distance *d* for transmit power *tx_dbm*."""
+        return tx_dbm - self.loss_db(d)
+
+
+class LogDistance(PathLoss):
+    """Log-distance path loss ``PL(d) = PL(d0) + 10 n log10(d/d0)`` dB (d clamped to >= d0).
+
+    ``reference_loss_db=None`` uses the free-space (Friis) loss at ``d0`` and
+    ``frequency``: ``20 log10(4 pi d0 f / c)`` (40.1 dB at 1 m and 2.412 GHz).
+    """
+
+    def __init__(self, exponent: float = 3.0, reference_distance: float = 1.0,
+                 reference_loss_db: float | None = None, frequency: float = CHANNEL_1):
+        for nm, v in (("exponent", exponent), ("reference_distance", reference_distance),
+                      ("frequency", frequency)):
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"LogDistance {nm} must be a positive number, got {v!r}")
+        self.exponent = float(exponent)
+        self.d0 = float(reference_distance)
+        self.frequency = float(frequency)
+        if reference_loss_db is None:
+            reference_loss_db = 20.0 * math.log10(4.0 * math.pi * self.d0 * self.frequency / constants.c)
+        self.pl0 = float(reference_loss_db)
+
+    def loss_db(self, d: float) -> float:
+        d = d if d > self.d0 else self.d0
+        return self.pl0 + 10.0 * self.exponent * math.log10(d / self.d0)
+
+    def gain(self, d: float) -> float:
+        return 10.0 ** (-self.loss_db(d) / 10.0)
+
+    def __repr__(self):
+        return f"LogDistance(exponent={self.exponent}, d0={self.d0}, PL(d0)={self.pl0:.2f} dB)"
+
+
+class TrueTimePathLoss(PathLoss):
+    """TrueTime's model: ``P_rx = P_tx / (d + 1)^a`` with d in metres (default a = 3.5)."""
+
+    def __init__(self, exponent: float = 3.5):
+        if isinstance(exponent, bool) or not isinstance(exponent, numbers.Real) or not exponent > 0:
+            raise ValueError(f"TrueTimePathLoss exponent must be positive, got {exponent!r}")
+        self.exponent = float(exponent)
+
+    def gain(self, d: float) -> float:
+        return (d + 1.0) ** (-self.exponent)
+
+    def __repr__(self):
+        return f"TrueTimePathLoss(exponent={self.exponent})"
+
+
+def as_position(p, what: str) -> tuple[float, ...] | Callable:
+    """A fixed 2-D/3-D position as a tuple of floats, or a callable ``p(t) -> point`` as is."""
+    if callable(p):
+        return p
+    try:
+        v = tuple(float(x) for x in p)
+    except TypeError:
+        raise TypeError(f"{what}: position must be a 2-D/3-D point or a callable p(t), got {p!r}") from None
+    if len(v) not in (2, 3) or not all(math.isfinite(x) for x in v):
+        raise ValueError(f"{what}: position must be 2 or 3 finite coordinates (m), got {p!r}")
+    return v
+
+
+def distance(a: Sequence[float], b: Sequence[float]) -> float:
+    if len(a) == len(b):
+        return math.dist(a, b)
+    a3 = tuple(a) + (0.0,) * (3 - len(a))
+    b3 = tuple(b) + (0.0,) * (3 - len(b))
+    return math.dist(a3, b3)
+
+
+# ---------------------------------------------------------------------------- bit errors
+
+def ber_dbpsk(ebn0):
+    """Bit error rate of differential BPSK: ``1/2 exp(-Eb/N0)`` (Eb/N0 linear)."""
+    return 0.5 * np.exp(-np.asarray(ebn0, dtype=float)) if np.ndim(ebn0) else 0.5 * math.exp(-ebn0)
+
+
+def ber_dqpsk(ebn0):
+    """Exact bit error rate of Gray-coded DQPSK (Proakis): ``Q1(a, b) - 1/2 I0(ab) exp(-(a^2+b^2)/2)``.
+
+    ``a = sqrt(2 g (1 - 1/sqrt 2))``, ``b = sqrt(2 g (1 + 1/sqrt 2))``, ``g = Eb/N0``;
+    Marcum Q1 via the non-central chi-square survival function.
+    """
+    g = np.asarray(ebn0, dtype=float)
+    a = np.sqrt(2.0 * g * (1.0 - 1.0 / math.sqrt(2.0)))
+    b = np.sqrt(2.0 * g * (1.0 + 1.0 / math.sqrt(2.0)))
+    q1 = stats.ncx2.sf(b * b, 2, a * a) if np.all(a > 0) else np.where(a > 0, stats.ncx2.sf(b * b, 2, np.maximum(a * a, 1e-300)), 1.0)
+    # I0(ab) exp(-(a^2+b^2)/2) = i0e(ab) exp(-(a-b)^2/2), numerically safe
+    ber = q1 - 0.5 * special.i0e(a * b) * np.exp(-0.5 * (a - b) ** 2)
+    ber = np.clip(ber, 0.0, 0.5)
+    return float(ber) if np.ndim(ebn0) == 0 else ber
+
+
+def ber_cck(ebn0):
+    """Simple CCK model: coherent QPSK bit error rate ``Q(sqrt(2 Eb/N0)) = 1/2 erfc(sqrt(Eb/N0))``."""
+    g = np.asarray(ebn0, dtype=float)
+    ber = 0.5 * special.erfc(np.sqrt(g))
+    return float(ber) if np.ndim(ebn0) == 0 else ber
+
+
+class Modulation:
+    """A modulation with its bit rate: ``ber(sinr)`` maps a linear SINR to a bit error rate."""
+
+    def __init__(self, name: str, bit_rate: float, ber_of_ebn0: Callable, bandwidth: float = DSSS_BANDWIDTH):
+        self.name = name
+        self.bit_rate = float(bit_rate)
+        self._f = ber_of_ebn0
+        self.gain = bandwidth / self.bit_rate      # processing gain B / R
+        # Above this Eb/N0 the BER is below 1e-30: skip the special functions.
+        self._cut = 75.0
+        self._cache: dict = {}
+
+    def ber(self, sinr: float) -> float:
+        ebn0 = sinr * self.gain
+        if ebn0 >= self._cut:
+            return 0.0
+        c = self._cache
+        v = c.get(ebn0)
+        if v is None:
+            if len(c) > 4096:
+                c.clear()
+            v = c[ebn0] = float(self._f(ebn0))
+        return v
+
+    def __repr__(self):
+        return f"Modulation({self.name}, {self.bit_rate:g} bit/s)"
+
+
+def modulation_for(rate: float, kind: str = "auto") -> Modulation:
+    """The 802.11b modulation used at *rate* bit/s.
+
+    ``kind="auto"``: DBPSK up to 1 Mbit/s, DQPSK up to 2 Mbit/s, CCK above (the BER
+    is evaluated at the actual rate, so 1.2 Mbit/s is "DQPSK at 1.2 Mbit/s").
+    Or force ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
+    """
+    if kind == "auto":
+        kind = "dbpsk" if rate <= 1e6 else ("dqpsk" if rate <= 2e6 else "cck")
+    f = {"dbpsk": ber_dbpsk, "dqpsk": ber_dqpsk, "cck": ber_cck}.get(kind)
+    if f is None:
+        raise ValueError(f"modulation must be 'auto', 'dbpsk', 'dqpsk' or 'cck', got {kind!r}")
+    return Modulation(kind, rate, f)

@@ -1,0 +1,124 @@
+"""TDMA: a cyclic slot table; frames are suspended at slot end and resumed in the owner's next slot.
+
+``schedule`` lists the owner of each slot (node name, or None for an unused slot);
+slot *k* of cycle *c* spans ``[(c * len(schedule) + k) * slot_time, ... + slot_time)``
+measured from the network's creation time.  A node transmits its queue only inside its
+own slots, frame after frame; a frame that does not fit in the rest of the slot is
+cut at the slot end (trace event ``suspended``) and continues at the start of the
+node's next slot -- TrueTime's TDMA semantics.  Consecutive slots of the same owner
+form one transmission window.
+
+No event is scheduled for slots in which nothing is sent: the next usable slot is
+computed analytically from the table.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+from .base import Network, check_positive
+from ..timebase import to_ticks
+
+
+class TDMA(Network):
+    """Time-division bus.  See the module docstring."""
+
+    def __init__(self, sim, name, *, data_rate: float = 10e6, slot_time: float, schedule: Sequence, **kw):
+        super().__init__(sim, name, data_rate=data_rate, **kw)
+        w = f"network {name!r}"
+        check_positive(slot_time, f"{w}: slot_time (s)")
+        self._slot = to_ticks(slot_time, f"{w} slot_time")
+        if self._slot <= 0:
+            raise ValueError(f"{w}: slot_time rounds to zero ticks: {slot_time!r}")
+        sched = list(schedule)
+        if not sched:
+            raise ValueError(f"{w}: TDMA schedule must list at least one slot owner")
+        for s in sched:
+            if s is not None and not isinstance(s, str):
+                s = getattr(s, "name", s)
+                if not isinstance(s, str):
+                    raise TypeError(f"{w}: schedule entries must be node names or None, got {s!r}")
+        self.schedule = [None if s is None else getattr(s, "name", s) for s in sched]
+        self._cycle = self._slot * len(self.schedule)
+        self._t0 = sim.env._now
+        self._windows: dict[str, list[tuple[int, int]]] = {}
+        for k, owner in enumerate(self.schedule):
+            if owner is None:
+                continue
+            wins = self._windows.setdefault(owner, [])
+            a, b = k * self._slot, (k + 1) * self._slot
+            if wins and wins[-1][1] == a:
+                wins[-1] = (wins[-1][0], b)
+            else:
+                wins.append((a, b))
+
+    def _attached(self, iface):
+        iface.timer = None
+        iface.seg = None
+
+    def window(self, iface, t: int) -> tuple[int, int]:
+        """The owned transmission window (start, end) in ticks containing *t* or the first after it."""
+        wins = self._windows.get(iface.name)
+        if not wins:
+            raise ValueError(f"network {self.name!r}: node {iface.name!r} owns no slot in the TDMA schedule "
+                             f"{self.schedule}")
+        rel = t - self._t0
+        c, r = divmod(rel, self._cycle)
+        for a, b in wins:
+            if r < b:
+                base = self._t0 + c * self._cycle
+                return max(base + a, t), base + b
+        base = self._t0 + (c + 1) * self._cycle
+        a, b = wins[0]
+        return base + a, base + b
+
+    def _kick(self, iface):
+        if iface.current is None and iface.queue._q:
+            f = iface.queue.pop()
+            iface.current = f
+            f.remaining = self.duration(f.bits)
+            self._resume(iface)
+
+    def _resume(self, iface):
+        iface.timer = None
+        now = self._env._now
+        start, end = self.window(iface, now)
+        if start > now:
+            iface.timer = self.sim.call_at(start, self._resume, arg=iface)
+            iface._state()
+            return
+        f = iface.current
+        if f.attempts == 0:
+            f.attempts = 1
+            f.sent = now
+            self._trace("attempt_start", f, iface.name, bits=f.bits)
+        else:
+            self._trace("resumed", f, iface.name)
+        run = min(f.remaining, end - now)
+        iface.seg = run
+        iface.sending = 1
+        iface._state()
+        for r in self.receivers(f):
+            r.receiving += 1
+            r._state()
+        iface.timer = self.sim.call_in(run, self._segment_end, arg=iface)
+
+    def _segment_end(self, iface):
+        iface.timer = None
+        f = iface.current
+        f.remaining -= iface.seg
+        iface.sending = 0
+        for r in self.receivers(f):
+            r.receiving -= 1
+            r._state()
+        if f.remaining > 0:
+            self._trace("suspended", f, iface.name)
+            self._resume(iface)
+            return
+        self._trace("attempt_end", f, iface.name, "sent" if f.broadcast else "ok")
+        for r in self.receivers(f):
+            self._deliver(f, r)
+        iface.current = None
+        iface._state()
+        self._finish(f, True)
+        self._kick(iface)
