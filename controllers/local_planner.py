@@ -47,7 +47,7 @@ __all__ = [
     "SingularConfigurationError", "StarStructure", "WeightedNorm", "check_system",
     "check_gain_matrix", "check_period", "planner_velocity", "robot_velocity",
     "configuration_rate", "project", "AuxiliaryFlow", "solve_auxiliary_flow",
-    "online_gain", "OfflineGain", "OnlineGain", "simulate_sampled", "integrate_kinematics",
+    "online_gain", "OfflineGain", "OnlineGain", "sampled_velocity", "simulate_sampled", "integrate_kinematics",
 ]
 
 

@@ -50,6 +50,21 @@ def test_ch4_fig4_8_9_quick(tmp_path):
         assert far[(p, "online")] < far[(p, "offline")]
 
 
+def test_ch4_fig4_10_quick(tmp_path):
+    from experiments import ch4_fig4_10 as ex
+    summary = ex.main(outdir=str(tmp_path), quick=True)
+    _files(tmp_path, ["fig4_10.png", "samples.parquet", "summary.parquet"])
+    s = summary.set_index(["alpha", "strategy"])
+    for strategy in ("offline", "online"):
+        # Theorem 4.4.1: large alpha behaves like the kinematic model (contraction <= rho)
+        assert s.loc[(30.0, strategy), "max_contraction"] <= s.loc[(30.0, strategy), "rho"]
+        # small alpha: the error grows over some periods and has not converged
+        assert s.loc[(0.3, strategy), "max_contraction"] > 1.0
+        assert s.loc[(0.3, strategy), "final_err"] > 0.1
+    assert s.loc[(30.0, "online"), "final_err"] < 1e-6
+    assert (summary.min_tension > 0).all()  # cables stay taut
+
+
 def test_ch5_table5_2(tmp_path):
     from experiments import ch5_table5_2 as ex
     tab = ex.main(outdir=str(tmp_path), quick=True)
