@@ -174,3 +174,26 @@ def test_periodic_release_has_no_drift():
     # release k is exactly offset + k*period on the picosecond grid (no accumulation)
     assert rel[9999] == 50_000_000_000 + 9999 * 100_000_000_000
     assert len(rel) == 10000
+
+
+def test_timers_and_triggers_release_handlers():
+    sim = Simulation()
+    cpu = sim.node("cpu")
+    hits = []
+
+    def irq(ctx):
+        hits.append(("irq", ctx.now))
+        yield ctx.execute(0.1)
+
+    def tick(ctx):
+        hits.append(("tick", ctx.now))
+        yield ctx.execute(0.0)
+    h = cpu.handler(irq, priority=1, name="irq")
+    tk = cpu.handler(tick, priority=2, name="tick")
+    cpu.timer(tk, at=0.5, period=1.0)
+    trig = cpu.trigger(h, min_interval=0.3)
+    for t in (0.2, 0.4, 0.6, 0.65, 1.0):
+        sim.call_at(int(t * 10**12), trig.fire)
+    sim.run(until=2.6)
+    assert hits == [("irq", 0.2), ("tick", 0.5), ("irq", 0.6), ("irq", 1.0), ("tick", 1.5), ("tick", 2.5)]
+    assert trig.ignored == 2  # 0.4 and 0.65 came too soon after an accepted edge
