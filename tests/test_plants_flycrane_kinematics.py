@@ -258,3 +258,19 @@ def test_functions_are_built_once():
     sys.jacobian(sys.q_nominal)
     assert sys.h_fun is f1 and sys.A_fun is A1
     assert isinstance(f1, ca.Function) and f1.n_in() == 1 and A1.size_out(0) == (9, 9)
+
+
+def test_buffered_evaluation_matches_casadi_call():
+    from plants.buffered import BufferedFunction
+    sys = get("four")
+    for q in sys.random_configurations(RNG, 3):
+        np.testing.assert_array_equal(sys.jacobian(q), np.asarray(sys.A_fun(q)))
+        np.testing.assert_array_equal(sys.h(q), np.asarray(sys.h_fun(q)).ravel())
+    x, y = ca.SX.sym("x", 2), ca.SX.sym("y")
+    f = ca.Function("f", [x, y], [ca.vertcat(x[0] * y, 0, x[1]), ca.diag(x), y])  # sparse outputs
+    a, D, s = BufferedFunction(f)([2.0, 3.0], 4.0)
+    np.testing.assert_array_equal(a, [8.0, 0.0, 3.0])
+    np.testing.assert_array_equal(D, [[2.0, 0.0], [0.0, 3.0]])
+    np.testing.assert_array_equal(s, [4.0])
+    with pytest.raises(TypeError, match="takes 2 arguments"):
+        BufferedFunction(f)([1.0, 2.0])

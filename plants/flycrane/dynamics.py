@@ -29,6 +29,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from ..buffered import BufferedFunction
 from .rotations import body_rate_matrix
 
 __all__ = ["LagrangianModel"]
@@ -120,26 +121,47 @@ class LagrangianModel:
         self.velocity_tracking_fun = ca.Function(f"{sys.name}_velocity_tracking", [qm, qdm, um, am],
                                                  [qdd_v, Fv], ["q", "qd", "u", "alpha"], ["qdd", "F"])
 
+        # numeric evaluators (CasADi buffer interface, no per-call conversions)
+        self.M_eval = BufferedFunction(self.M_fun)
+        self.Cqd_eval = BufferedFunction(self.Cqd_fun)
+        self.g_eval = BufferedFunction(self.g_fun)
+        self.energy_eval = BufferedFunction(self.energy_fun)
+        self.forward_eval = BufferedFunction(self.forward_fun)
+        self.velocity_tracking_eval = BufferedFunction(self.velocity_tracking_fun)
+        self.gravity_compensation_eval = BufferedFunction(self.gravity_compensation_fun)
+        self.tensions_eval = BufferedFunction(self.tensions_fun)
+        self.tension_residual_eval = BufferedFunction(self.tension_residual_fun)
+
     # numpy conveniences -----------------------------------------------------------
     def mass_matrix(self, q) -> np.ndarray:
-        return np.asarray(self.M_fun(self.system._q(q)), dtype=float)
+        """M(q) (m×m) [kg, kg·m, kg·m²]."""
+        return self.M_eval(self.system._q(q))[0]
 
     def coriolis(self, q, qd) -> np.ndarray:
         """``C(q, q̇) q̇`` (m,)."""
-        return np.asarray(self.Cqd_fun(self.system._q(q), qd), dtype=float).reshape(-1)
+        return self.Cqd_eval(self.system._q(q), qd)[0]
 
     def gravity(self, q) -> np.ndarray:
-        return np.asarray(self.g_fun(self.system._q(q)), dtype=float).reshape(-1)
+        """g(q) = ∂U/∂q (m,)."""
+        return self.g_eval(self.system._q(q))[0]
+
+    def gravity_compensation(self, q) -> np.ndarray:
+        """Minimum-norm robot forces F_g (n,) [N] with A_qᵀ F_g = g(q)."""
+        return self.gravity_compensation_eval(self.system._q(q))[0]
 
     def energy(self, q, qd) -> tuple[float, float]:
         """(kinetic, potential) energy [J]."""
-        K, U = self.energy_fun(self.system._q(q), qd)
-        return float(K), float(U)
+        K, U = self.energy_eval(self.system._q(q), qd)
+        return float(K[0]), float(U[0])
 
     def accelerations(self, q, qd, F) -> np.ndarray:
         """q̈ of (4.10) for robot forces F (n,) [N]."""
-        return np.asarray(self.forward_fun(self.system._q(q), qd, F), dtype=float).reshape(-1)
+        return self.forward_eval(self.system._q(q), qd, F)[0]
 
     def tensions(self, q, qd, qdd, F) -> np.ndarray:
         """Cable tensions [N] (positive = taut), one per cable in attachment order."""
-        return np.asarray(self.tensions_fun(self.system._q(q), qd, qdd, F), dtype=float).reshape(-1)
+        return self.tensions_eval(self.system._q(q), qd, qdd, F)[0]
+
+    def tension_residual(self, q, qd, qdd, F) -> np.ndarray:
+        """Force on each robot the cables cannot carry (3 per robot) [N]; ~0 when consistent."""
+        return self.tension_residual_eval(self.system._q(q), qd, qdd, F)[0]

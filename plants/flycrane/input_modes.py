@@ -115,7 +115,7 @@ class _DynamicPlant(_FlyCranePlant):
         """Cable tensions [N] at state x under input u."""
         m = self.system.m
         qdd, F = self._qdd_F(x, u)
-        return np.asarray(self.model.tensions_fun(x[:m], x[m:], qdd, F), dtype=float).reshape(-1)
+        return self.model.tensions_eval(x[:m], x[m:], qdd, F)[0]
 
     def min_tension(self, x, u) -> float:
         return float(self.tensions(x, u).min())
@@ -138,7 +138,7 @@ class ForcePlant(_DynamicPlant):
     def _qdd_F(self, x, u):
         m, n = self.system.m, self.system.n
         F = u[:n]
-        qdd = np.asarray(self.model.forward_fun(x[:m], x[m:], F), dtype=float).reshape(-1)
+        qdd = self.model.forward_eval(x[:m], x[m:], F)[0]
         return self._checked(x, qdd), F
 
 
@@ -161,11 +161,9 @@ class VelocityTrackingPlant(_DynamicPlant):
         m, n = self.system.m, self.system.n
         q, qd = x[:m], x[m:]
         if self.gravity_compensation:
-            qdd, F = self.model.velocity_tracking_fun(q, qd, u[:n], self.alpha)
-            qdd = np.asarray(qdd, dtype=float).reshape(-1)
-            F = np.asarray(F, dtype=float).reshape(-1)
+            qdd, F = self.model.velocity_tracking_eval(q, qd, u[:n], self.alpha)
         else:
             A = self.system.jacobian(q)
             F = -self.alpha * (A @ qd - u[:n])
-            qdd = np.asarray(self.model.forward_fun(q, qd, F), dtype=float).reshape(-1)
+            qdd = self.model.forward_eval(q, qd, F)[0]
         return self._checked(x, qdd), F

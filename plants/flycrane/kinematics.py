@@ -23,6 +23,7 @@ from typing import Sequence
 import casadi as ca
 import numpy as np
 
+from ..buffered import BufferedFunction
 from .attachments import GeometryError, OneCable, PlanarAgent, TwoCable
 from .rotations import euler_zyx, rot_2d
 
@@ -182,6 +183,7 @@ class MultiRobotSystem:
         self.A_expr = ca.jacobian(self.h_expr, q)
         self.h_fun = ca.Function(f"{name}_h", [q], [self.h_expr], ["q"], ["p"])
         self.A_fun = ca.Function(f"{name}_A", [q], [self.A_expr], ["q"], ["A_q"])
+        self._h_eval, self._A_eval = BufferedFunction(self.h_fun), BufferedFunction(self.A_fun)
         self._dynamics = None
 
         self.q_nominal = None
@@ -231,11 +233,11 @@ class MultiRobotSystem:
     # -- kinematics (numpy in/out) --------------------------------------------
     def h(self, q) -> np.ndarray:
         """Agent positions ``p = h(q)`` (3.1)/(B.2), shape (n,)."""
-        return np.asarray(self.h_fun(self._q(q)), dtype=float).reshape(-1)
+        return self._h_eval(self._q(q))[0]
 
     def jacobian(self, q) -> np.ndarray:
         """``A_q = ∂h/∂q`` (3.2), shape (n, m), with the block structure (3.3)."""
-        return np.asarray(self.A_fun(self._q(q)), dtype=float)
+        return self._A_eval(self._q(q))[0]
 
     def singular_values(self, q) -> np.ndarray:
         """Singular values of ``A_q``, descending."""
