@@ -24,7 +24,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from .timebase import RESOLUTION, to_ticks
+from .timebase import TICKS_PER_SECOND, to_ticks
 
 #: Events firing again within this many seconds of the previous firing of the same
 #: event are treated as the same crossing (numerical chatter at the located root).
@@ -459,7 +459,7 @@ class PlantInstance:
 
     def _log_tick(self):
         ticks = self._log_k * self._log_every
-        self.advance(ticks * RESOLUTION)
+        self.advance(ticks / TICKS_PER_SECOND)
         self._log(self.t)
         self._log_k += 1
         self.sim.call_at((self._log_k) * self._log_every, self._log_tick)
@@ -487,7 +487,7 @@ class PlantInstance:
         gs = self._gs()
         t0 = self.t
         t_end, _, j = self.integrator.integrate(self._rhs, t0, self.x.copy(), t0 + self.prediction_horizon, gs)
-        ticks = math.ceil(t_end / RESOLUTION)
+        ticks = math.ceil(t_end * TICKS_PER_SECOND)
         if j is not None and ticks <= self.sim.now_ticks:
             ticks = self.sim.now_ticks + 1
         self._predict_timer = self.sim.call_at(ticks, self._wake)

@@ -15,7 +15,7 @@ import numpy as np
 import simpy
 import simpy.rt
 
-from .timebase import RESOLUTION, to_seconds, to_ticks
+from .timebase import RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
 from .trace import Trace
 
 #: SimPy priority used for kernel dispatch decisions: after every ordinary event of
@@ -141,7 +141,7 @@ class Simulation:
     @property
     def now(self) -> float:
         """Current simulated time in seconds."""
-        return self.env._now * RESOLUTION
+        return self.env._now / TICKS_PER_SECOND
 
     @property
     def now_ticks(self) -> int:

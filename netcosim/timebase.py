@@ -37,5 +37,5 @@ def to_ticks(seconds: float, what: str = "time", *, allow_negative: bool = False
 
 
 def to_seconds(ticks: int) -> float:
-    """Convert integer ticks to float seconds."""
-    return ticks * RESOLUTION
+    """Convert integer ticks to float seconds (correctly rounded: 2e11 ticks -> 0.2)."""
+    return ticks / TICKS_PER_SECOND

@@ -23,7 +23,7 @@ from typing import Iterable, Sequence
 
 import pandas as pd
 
-from .timebase import RESOLUTION
+from .timebase import TICKS_PER_SECOND
 
 #: Task states in the schedule trace, with TrueTime's plotting level offsets.
 TASK_STATES = {"idle": 0.0, "blocked": 0.125, "ready": 0.25, "running": 0.5}
@@ -41,7 +41,7 @@ JOB_RAW = ("node", "task", "job", "release", "deadline", "start", "finish", "exe
 
 def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
     for c in cols:
-        df[c] = pd.to_numeric(df[c], errors="coerce").astype(float) * RESOLUTION
+        df[c] = pd.to_numeric(df[c], errors="coerce").astype(float) / TICKS_PER_SECOND
     return df
 
 

@@ -19,7 +19,7 @@ from typing import Any, Callable
 import simpy
 
 from ..sim import DISPATCH, NORMAL, Timer
-from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+from ..timebase import TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
 from .task import HANDLER, Blocking, Job, Task

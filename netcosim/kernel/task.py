@@ -17,7 +17,7 @@ import numbers
 from collections import deque
 from typing import Any, Callable
 
-from ..timebase import RESOLUTION, to_ticks
+from ..timebase import TICKS_PER_SECOND, to_ticks
 
 HANDLER, TASK = 0, 1  # job classes: handlers always beat tasks
 
@@ -95,11 +95,11 @@ class Job:
 
     @property
     def release_time(self) -> float:
-        return self.release * RESOLUTION
+        return self.release / TICKS_PER_SECOND
 
     @property
     def deadline(self) -> float | None:
-        return None if self.abs_deadline is None else self.abs_deadline * RESOLUTION
+        return None if self.abs_deadline is None else self.abs_deadline / TICKS_PER_SECOND
 
     @property
     def execution_time(self) -> float:
@@ -107,7 +107,7 @@ class Job:
         done = self.exec_done
         if self.state == "running" and self.seg_timer is not None:
             done += self.node.sim.env._now - self.seg_start
-        return done * RESOLUTION
+        return done / TICKS_PER_SECOND
 
     def kill(self) -> None:
         """Abort this job now (it is recorded as killed; a queued successor starts)."""
@@ -214,11 +214,11 @@ class Task:
 
     @property
     def period(self) -> float | None:
-        return None if self.period_ticks is None else self.period_ticks * RESOLUTION
+        return None if self.period_ticks is None else self.period_ticks / TICKS_PER_SECOND
 
     @property
     def deadline(self) -> float | None:
-        return None if self.deadline_ticks is None else self.deadline_ticks * RESOLUTION
+        return None if self.deadline_ticks is None else self.deadline_ticks / TICKS_PER_SECOND
 
     def __repr__(self):
         return f"<Task {self.node.name}.{self.name} {self.kind}>"
@@ -239,7 +239,7 @@ class TaskContext:
     @property
     def now(self) -> float:
         """Current simulated time (s)."""
-        return self.sim.env._now * RESOLUTION
+        return self.sim.env._now / TICKS_PER_SECOND
 
     @property
     def rng(self):
@@ -295,7 +295,7 @@ class TaskContext:
     def log(self, signal: str, value: float) -> None:
         """Record ``value`` under ``signal`` in the signals trace (source ``node.task``)."""
         self.sim.trace.signal_rec.rows.append(
-            (self.sim.env._now * RESOLUTION, f"{self.node.name}.{self.task.name}", signal, float(value)))
+            (self.sim.env._now / TICKS_PER_SECOND, f"{self.node.name}.{self.task.name}", signal, float(value)))
 
     def release(self, task: Task) -> Job | None:
         """Release a job of *task* now."""

@@ -1,0 +1,257 @@
+"""The shared wireless medium: who hears what, how strongly, and what decodes.
+
+Every transmission is a :class:`Transmission` with a start and an end tick.  When it
+starts, the medium computes its received power at every other interface (positions
+evaluated at that instant; cached when nobody moves) and updates, per listener:
+
+* **carrier sense** -- the listener counts the ongoing transmissions it receives at or
+  above its carrier-sense threshold; the medium is busy for it while the count is > 0
+  (per-signal carrier sense, so two senders out of each other's range are *hidden*);
+* **interference** -- the sum of the powers of all ongoing transmissions;
+* **reception** -- a listener that is not transmitting (half duplex) *locks* onto a
+  frame whose power is at or above its receiver threshold when it is not already locked.
+  A later frame captures the receiver if its power is at least ``capture_ratio`` times
+  the sum of every other signal (the locked frame is then lost, "message in message").
+  A locked frame survives only while its signal-to-interference ratio stays at or above
+  ``capture_ratio``; then bits are drawn against noise + interference: for each stretch
+  of constant interference, ``(1 - BER(SINR))^bits`` (PLCP at 1 Mbit/s DBPSK, the rest
+  at the frame's modulation).  The product is the frame's success probability.
+
+At the end of a transmission every listener reports ``(ok, reason, locked)`` to its MAC;
+failure reasons are ``collision``, ``below_threshold``, ``bit_errors``, ``half_duplex``.
+All arithmetic on instants is in integer ticks; powers in watts.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..timebase import TICKS_PER_SECOND
+from .frame import BROADCAST
+from .radio import distance, modulation_for
+
+_TOL = 1.0 - 1e-9    # power ratios within 1e-9 of the capture ratio count as meeting it
+
+
+class Transmission:
+    """One frame (data or ACK) on the air.  Times in ticks, powers in watts."""
+
+    __slots__ = ("src", "kind", "frame", "dst", "start", "end", "plcp_end", "mod", "powers", "fail",
+                 "dst_reason", "acked")
+
+    def __init__(self, src, kind, frame, dst, start, end, plcp_end, mod):
+        self.src, self.kind, self.frame, self.dst = src, kind, frame, dst
+        self.start, self.end, self.plcp_end, self.mod = start, end, plcp_end, mod
+        self.powers = None
+        self.fail = {}            # listener index -> reason it could not decode
+        self.dst_reason = None    # why the (unicast) destination failed
+        self.acked = False        # the destination decoded it and answers with an ACK
+
+    def addressed_to(self, r) -> bool:
+        return self.dst is r or (self.dst is BROADCAST and self.kind == "data")
+
+
+class WirelessMedium:
+    """Reception physics shared by the wireless MACs (see the module docstring).
+
+    ``mac`` provides ``_rx_end(r, tx, ok, reason, locked)`` and ``_reeval(r)`` and the
+    list of interfaces ``mac._ifaces``; each interface carries its radio attributes
+    (``pos``, ``tx_w``, ``cs_w``, ``sens_w``) and the per-listener state initialised by
+    :meth:`init_listener`.
+    """
+
+    def __init__(self, mac, *, path_loss, noise_w: float, capture_ratio: float, plcp_rate: float = 1e6):
+        self.mac = mac
+        self.sim = mac.sim
+        self.env = mac.sim.env
+        self.path_loss = path_loss
+        self.noise_w = noise_w
+        self.capture_ratio = capture_ratio
+        self.plcp_mod = modulation_for(plcp_rate, "dbpsk")
+        self._plcp_bps = plcp_rate / TICKS_PER_SECOND
+        self.active: list[Transmission] = []
+        self._rows: dict[int, list[float]] = {}
+        self._static = True
+        self.transmissions = 0
+
+    def init_listener(self, r) -> None:
+        r.power = 0.0
+        r.n_active = 0
+        r.audible = 0
+        r.rx = None
+        r.rx_ok = False
+        r.rx_reason = None
+        r.seg_t = 0
+        r.logp = 0.0
+        r.tx = None
+        r.phy_rng = self.sim.rng(f"{self.mac.name}/phy/{r.name}")
+        if callable(r.pos):
+            self._static = False
+        self._rows.clear()
+
+    # ------------------------------------------------------------------ powers
+    def _position(self, r, t_s):
+        p = r.pos
+        if callable(p):
+            v = p(t_s)
+            try:
+                v = tuple(float(x) for x in v)
+            except TypeError:
+                raise TypeError(f"network {self.mac.name!r}: position callable of {r.name!r} returned {v!r}, "
+                                f"not a point") from None
+            if len(v) not in (2, 3) or not all(math.isfinite(x) for x in v):
+                raise ValueError(f"network {self.mac.name!r}: position of {r.name!r} at t={t_s} s is {v!r}; "
+                                 f"need 2 or 3 finite coordinates")
+            return v
+        return p
+
+    def powers_from(self, src) -> list[float]:
+        """Received power (W) at every interface (by index) of a transmission by *src* now."""
+        if self._static:
+            row = self._rows.get(src.index)
+            if row is None:
+                row = self._rows[src.index] = self._compute(src, 0.0)
+            return row
+        return self._compute(src, self.sim.now)
+
+    def _compute(self, src, t_s):
+        ps = self._position(src, t_s)
+        g = self.path_loss.gain
+        ptx = src.tx_w
+        out = []
+        for r in self.mac._ifaces:
+            if r is src:
+                out.append(0.0)
+            else:
+                out.append(ptx * g(distance(ps, self._position(r, t_s))))
+        return out
+
+    # ------------------------------------------------------------------ segments
+    def _close(self, r, now) -> None:
+        """Account the bits of r's locked frame received since ``r.seg_t`` at the current SINR."""
+        t0 = r.seg_t
+        if now <= t0:
+            return
+        r.seg_t = now
+        if not r.rx_ok:
+            return
+        L = r.rx
+        p = L.powers[r.index]
+        interf = r.power - p
+        sinr = p / (self.noise_w + (interf if interf > 0.0 else 0.0))
+        logp = 0.0
+        pe = L.plcp_end
+        if t0 < pe:
+            ber = self.plcp_mod.ber(sinr)
+            if ber > 0.0:
+                logp += ((now if now < pe else pe) - t0) * self._plcp_bps * math.log1p(-ber)
+        if now > pe:
+            ber = L.mod.ber(sinr)
+            if ber > 0.0:
+                logp += (now - (t0 if t0 > pe else pe)) * (L.mod.bit_rate / TICKS_PER_SECOND) * math.log1p(-ber)
+        r.logp += logp
+
+    def _lock(self, r, tx, now) -> None:
+        r.rx = tx
+        r.rx_ok = True
+        r.rx_reason = None
+        r.seg_t = now
+        r.logp = 0.0
+        if tx.addressed_to(r):
+            r.receiving = 1
+            r._state()
+
+    def _unlock(self, r) -> None:
+        tx = r.rx
+        r.rx = None
+        if tx is not None and tx.addressed_to(r):
+            r.receiving = 0
+            r._state()
+
+    # ------------------------------------------------------------------ events
+    def start(self, tx: Transmission) -> None:
+        """*tx* begins now; update every listener and tell each MAC to re-evaluate."""
+        now = self.env._now
+        src = tx.src
+        self.transmissions += 1
+        if src.rx is not None:                   # half duplex: stop receiving
+            L = src.rx
+            L.fail[src.index] = "half_duplex"
+            if L.dst is src:
+                L.dst_reason = "half_duplex"
+            self._unlock(src)
+        powers = tx.powers = self.powers_from(src)
+        self.active.append(tx)
+        cap = self.capture_ratio * _TOL
+        mac = self.mac
+        for r in mac._ifaces:
+            if r is src:
+                continue
+            p = powers[r.index]
+            L = r.rx
+            if L is not None:
+                self._close(r, now)
+            r.power += p
+            r.n_active += 1
+            if r.tx is not None:
+                tx.fail[r.index] = "half_duplex"
+            elif p >= r.sens_w:
+                if L is None:
+                    self._lock(r, tx, now)
+                    if p < cap * (r.power - p):
+                        r.rx_ok = False
+                        r.rx_reason = "collision"
+                elif p >= cap * (r.power - p):   # the newcomer captures the receiver
+                    L.fail[r.index] = "collision"
+                    self._unlock(r)
+                    self._lock(r, tx, now)
+                else:
+                    tx.fail[r.index] = "collision"
+                    if r.rx_ok:
+                        pl = L.powers[r.index]
+                        if pl < cap * (r.power - pl):
+                            r.rx_ok = False
+                            r.rx_reason = "collision"
+            else:
+                tx.fail[r.index] = "below_threshold"
+                if L is not None and r.rx_ok:
+                    pl = L.powers[r.index]
+                    if pl < cap * (r.power - pl):
+                        r.rx_ok = False
+                        r.rx_reason = "collision"
+            if p >= r.cs_w:
+                r.audible += 1
+                if r.audible == 1:
+                    mac._reeval(r)
+
+    def end(self, tx: Transmission) -> None:
+        """*tx* ends now; finish receptions and report to every listener's MAC."""
+        now = self.env._now
+        self.active.remove(tx)
+        src = tx.src
+        powers = tx.powers
+        mac = self.mac
+        for r in mac._ifaces:
+            if r is src:
+                continue
+            p = powers[r.index]
+            L = r.rx
+            if L is not None:
+                self._close(r, now)
+            r.n_active -= 1
+            r.power = r.power - p if r.n_active else 0.0
+            if L is tx:
+                ok, reason = r.rx_ok, r.rx_reason
+                if ok and r.logp < 0.0 and r.phy_rng.random() >= math.exp(r.logp):
+                    ok, reason = False, "bit_errors"
+                self._unlock(r)
+                locked = True
+                if not ok:
+                    tx.fail[r.index] = reason
+            else:
+                ok, locked = False, False
+                reason = tx.fail.get(r.index, "collision")
+            if p >= r.cs_w:
+                r.audible -= 1
+            mac._rx_end(r, tx, ok, reason, locked)
+            mac._reeval(r)
