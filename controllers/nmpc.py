@@ -109,7 +109,7 @@ def _check_bounds(lb: np.ndarray, ub: np.ndarray, what: str) -> None:
     bad = np.nonzero(lb > ub)[0]
     if bad.size:
         i = int(bad[0])
-        raise ValueError(f"infeasible bounds for {what}[{i}]: lower {lb[i]!r} > upper {ub[i]!r}")
+        raise ValueError(f"infeasible bounds for {what}[{i}]: lower {float(lb[i])!r} > upper {float(ub[i])!r}")
 
 
 def _weight_sqrt(w, n: int, what: str) -> np.ndarray:
@@ -476,9 +476,8 @@ class FullSolution:
 _DEFAULT_QP_OPTIONS: dict[str, dict[str, Any]] = {
     "hpipm": {"inf": 1e6, "hpipm": {"mode": "speed", "iter_max": 100, "res_g_max": 1e-6, "res_b_max": 1e-6,
                                      "res_d_max": 1e-6, "res_m_max": 1e-6}},
-    "qpoases": {"printLevel": "none", "sparse": True, "schur": False, "hessian_type": "posdef",
-                "enableRegularisation": True},
-    "osqp": {"osqp": {"verbose": False, "eps_abs": 1e-7, "eps_rel": 1e-7, "max_iter": 20000,
+    "qpoases": {"printLevel": "none", "sparse": False, "hessian_type": "semidef"},
+    "osqp": {"osqp": {"verbose": False, "eps_abs": 1e-7, "eps_rel": 1e-7, "max_iter": 100000,
                       "polish": True}, "warm_start_primal": True},
     "daqp": {},
     "proxqp": {"proxqp": {"eps_abs": 1e-9}},
@@ -550,7 +549,9 @@ class RTINMPC:
             else:
                 qopts[k] = v
         qopts.setdefault("error_on_fail", False)
+        self._qp_options = qopts
         self._qp = ca.conic("rti_qp", qp_solver, {"h": self.H_sparsity, "a": self.A_sparsity}, qopts)
+        self._qp_accurate = None
 
         self.n_steps = 0
         self.n_fail = 0
@@ -635,7 +636,20 @@ class RTINMPC:
         self._cost = float(cost)
         return time.perf_counter() - t0
 
-    def _qp_step(self, x0) -> tuple[bool, str, int, float]:
+    def _accurate_qp(self):
+        """The QP solver with tight tolerances used by :meth:`solve_sqp` (built on first use)."""
+        if self._qp_accurate is None:
+            if self.qp_solver == "hpipm":
+                opts = dict(self._qp_options)
+                opts["hpipm"] = {**opts.get("hpipm", {}), "mode": "balance", "iter_max": 200,
+                                 "res_g_max": 1e-9, "res_b_max": 1e-9, "res_d_max": 1e-9, "res_m_max": 1e-9}
+                self._qp_accurate = ca.conic("rti_qp_accurate", "hpipm",
+                                             {"h": self.H_sparsity, "a": self.A_sparsity}, opts)
+            else:
+                self._qp_accurate = self._qp
+        return self._qp_accurate
+
+    def _qp_step(self, x0, qp=None) -> tuple[bool, str, int, float]:
         """Solve the prepared QP with measured *x0* and take the full step.
 
         Returns ``(success, status, qp_iterations, step_norm)``.  On failure the
@@ -650,9 +664,10 @@ class RTINMPC:
         d0 = x0 - self._w[ix0]
         lbx[ix0] = d0
         ubx[ix0] = d0
+        qp = self._qp if qp is None else qp
         try:
-            sol = self._qp(lbx=lbx, ubx=ubx, **self._qpdata)
-            stats = self._qp.stats()
+            sol = qp(lbx=lbx, ubx=ubx, **self._qpdata)
+            stats = qp.stats()
             ok = bool(stats.get("success", False))
             status = str(stats.get("return_status", "unknown"))
             it = stats.get("iter_count", stats.get("iter", -1))
@@ -752,9 +767,10 @@ class RTINMPC:
         if p is not None:
             self._p = self._check_p(p)
         self.prepare()
+        qp = self._accurate_qp()
         ok, status, it_total = False, "max_iter", 0
         for it_total in range(1, max_iter + 1):
-            qok, qstatus, _, step = self._qp_step(x0)
+            qok, qstatus, _, step = self._qp_step(x0, qp)
             self.prepare()
             if not qok:
                 status = f"QP failed: {qstatus}"
