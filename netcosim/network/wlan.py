@@ -1,0 +1,473 @@
+"""IEEE 802.11b DCF (basic access) over the radio medium of :mod:`netcosim.network.medium`.
+
+Faithful to IEEE Std 802.11 (DSSS/HR-DSSS PHY, clauses 9.3 DCF and 15/16 PHY); TrueTime
+leaves out the ACK frames, SIFS and the PLCP, this model does not.
+
+Constants (defaults; all configurable):
+
+==================  ==========================================================
+slot                20 µs (aSlotTime)
+SIFS                10 µs
+DIFS                SIFS + 2 slots = 50 µs
+EIFS                SIFS + DIFS + ACK time at the lowest basic rate (1 Mbit/s)
+                    = 364 µs with the long preamble
+CW                  CWmin = 31, doubled (2 (CW + 1) - 1) per failure up to CWmax = 1023,
+                    reset after success or drop; backoff drawn U{0..CW} slots
+PLCP                preamble + header 192 µs (long) or 96 µs (short), before every frame
+MAC overhead        24-byte header + 4-byte FCS = 224 bits per data frame
+ACK                 14 bytes (112 bits) + PLCP, at the highest basic rate <= data rate
+                    (basic rates 1 and 2 Mbit/s), sent SIFS after the data frame
+ACK timeout         SIFS + slot + PLCP (aSIFSTime + aSlotTime + aPHY-RX-START-Delay)
+retry limit         7 transmission attempts (dot11ShortRetryLimit), then the frame is dropped
+max MSDU            2312 bytes
+==================  ==========================================================
+
+Access rules implemented (per station):
+
+* A frame arriving with no backoff in progress and the medium idle is sent after the
+  medium has stayed idle for DIFS (EIFS after an erroneous reception) counted from its
+  arrival; if the medium is busy at arrival, or turns busy during that DIFS, the station
+  defers and draws a backoff.
+* Backoff: once the medium has been idle for DIFS/EIFS the counter decreases by one per
+  idle slot; it is frozen while the medium is busy (physical carrier sense, NAV, own
+  transmission, waiting for an ACK, answering with an ACK) and the countdown resumes
+  after the next DIFS/EIFS.  The station transmits when the counter reaches 0.  Stations
+  whose counters expire at the same slot boundary transmit together (collision): a
+  transmission starting at the very instant another one starts is not sensed.
+  Countdowns are computed from the idle periods, not simulated slot by slot.
+* After every transmission (success or drop) the station runs a *post-backoff* with the
+  reset window, even if it has nothing else to send.
+* Unicast: the receiver answers a correctly decoded frame with an ACK after SIFS,
+  regardless of the medium.  The sender waits for the ACK timeout; if a reception began
+  before the timeout it waits for its end; a missing or corrupted ACK is a failed
+  attempt (CW doubled, retry).  Duplicates (lost ACK) are acknowledged but delivered
+  once.  Stations that decode a unicast frame addressed to someone else set their NAV
+  to cover SIFS + ACK.  After the ACK timeout the station defers DIFS before counting
+  down again (the convention of ns-3).
+* Broadcast frames are never acknowledged or retried.
+* EIFS (``eifs=True``) replaces DIFS after a frame was received with errors, until a
+  frame is received correctly or an EIFS-long idle period has elapsed.
+
+Data rate: any positive number (the thesis uses 1.2 Mbit/s); :data:`RATES` lists the
+802.11b rates.  The radio side (positions, powers, thresholds, capture, BER) is described
+in :mod:`netcosim.network.medium` and :mod:`netcosim.network.radio`.
+
+Simplifications: no RTS/CTS, no fragmentation, no rate adaptation, the short-preamble
+PLCP header is treated like the long one (DBPSK at 1 Mbit/s) for bit errors, and
+``propagation_delay`` only delays delivery (MAC timing sees zero propagation, as
+Bianchi's model with delta = 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..timebase import TICKS_PER_SECOND, to_ticks
+from .base import Network, check_positive
+from .frame import BROADCAST
+from .interface import Interface
+from .medium import Transmission, WirelessMedium
+from .radio import (DSSS_BANDWIDTH, LogDistance, PathLoss, as_position, db_to_ratio, dbm_to_watt,
+                    modulation_for, thermal_noise_dbm)
+
+#: 802.11b data rates (bit/s).
+RATES = (1e6, 2e6, 5.5e6, 11e6)
+#: 802.11b basic rate set commonly configured (bit/s).
+BASIC_RATES = (1e6, 2e6)
+
+
+def _us(x: float) -> int:
+    return to_ticks(x)
+
+
+class WlanInterface(Interface):
+    """Interface on a WLAN: radio parameters plus the DCF state of the station."""
+
+
+class WLAN80211b(Network):
+    """IEEE 802.11b DCF network.  See the module docstring for the semantics.
+
+    Parameters (besides those of :class:`~netcosim.network.base.Network`)
+    ----------------------------------------------------------------------
+    data_rate:
+        Data rate in bit/s (default 11 Mbit/s; any positive value).
+    preamble:
+        ``"long"`` (192 µs PLCP) or ``"short"`` (96 µs).
+    retry_limit:
+        Maximum transmission attempts of a unicast frame (default 7).
+    eifs:
+        Use EIFS after erroneous receptions (default True, as the standard).
+    ack_timeout:
+        Seconds from the end of a data frame until the ACK must have begun
+        (default SIFS + slot + PLCP).
+    basic_rates:
+        Rates (bit/s) usable for ACKs; the ACK uses the highest one <= the data rate
+        (or the data rate if it is below all of them).
+    slot, sifs, cw_min, cw_max, mac_overhead_bits, ack_bits:
+        MAC constants (see the table above).
+    path_loss:
+        A :class:`~netcosim.network.radio.PathLoss` (default log-distance, exponent 3).
+    tx_power_dbm:
+        Default transmit power (dBm; default 15 dBm).
+    threshold_dbm:
+        Receiver threshold: decoding sensitivity and carrier-sense threshold (default
+        -85 dBm); ``cs_threshold_dbm`` sets carrier sense separately.
+    capture_db:
+        Capture threshold (dB): the signal-to-interference ratio a frame needs to
+        survive / to capture a receiver (default 10 dB).
+    noise_dbm:
+        Noise floor (dBm; default thermal noise in 22 MHz at 290 K, -100.6 dBm).
+    modulation:
+        ``"auto"`` (by rate), ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
+    """
+
+    default_queue = "fifo"
+
+    def __init__(self, sim, name, *, data_rate: float = 11e6, preamble: str = "long", retry_limit: int = 7,
+                 eifs: bool = True, ack_timeout: float | None = None, basic_rates=BASIC_RATES,
+                 slot: float = 20e-6, sifs: float = 10e-6, cw_min: int = 31, cw_max: int = 1023,
+                 mac_overhead_bits: int = 224, ack_bits: int = 112, max_frame_bits: int | None = 2312 * 8,
+                 path_loss: PathLoss | None = None, tx_power_dbm: float = 15.0, threshold_dbm: float = -85.0,
+                 cs_threshold_dbm: float | None = None, capture_db: float = 10.0, noise_dbm: float | None = None,
+                 modulation: str = "auto", **kw):
+        super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, **kw)
+        w = f"network {name!r}"
+        if preamble not in ("long", "short"):
+            raise ValueError(f"{w}: preamble must be 'long' or 'short', got {preamble!r}")
+        self.preamble = preamble
+        if isinstance(retry_limit, bool) or not isinstance(retry_limit, int) or retry_limit < 1:
+            raise ValueError(f"{w}: retry_limit must be a positive integer (attempts), got {retry_limit!r}")
+        self.retry_limit = retry_limit
+        for nm, v in (("cw_min", cw_min), ("cw_max", cw_max)):
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise ValueError(f"{w}: {nm} must be a non-negative integer, got {v!r}")
+        if cw_max < cw_min:
+            raise ValueError(f"{w}: cw_max={cw_max} is below cw_min={cw_min}")
+        self.cw_min, self.cw_max = cw_min, cw_max
+        self.slot = _us(check_positive(slot, f"{w}: slot (s)"))
+        self.sifs = _us(check_positive(sifs, f"{w}: sifs (s)"))
+        self.difs = self.sifs + 2 * self.slot
+        self.plcp = _us(192e-6 if preamble == "long" else 96e-6)
+        self.mac_overhead_bits = int(mac_overhead_bits)
+        self.ack_bits = int(ack_bits)
+        rates = sorted(check_positive(r, f"{w}: basic rate (bit/s)") for r in basic_rates)
+        if not rates:
+            raise ValueError(f"{w}: basic_rates must not be empty")
+        self.basic_rates = tuple(rates)
+        usable = [r for r in rates if r <= self.data_rate]
+        self.ack_rate = usable[-1] if usable else self.data_rate
+        self.ack_time = self.plcp + self.duration(self.ack_bits, self.ack_rate)
+        self.eifs_time = self.sifs + self.difs + self.plcp + self.duration(self.ack_bits, rates[0])
+        self.use_eifs = bool(eifs)
+        if ack_timeout is None:
+            self.ack_timeout = self.sifs + self.slot + self.plcp
+        else:
+            self.ack_timeout = _us(check_positive(ack_timeout, f"{w}: ack_timeout (s)"))
+            if self.ack_timeout <= self.sifs:
+                raise ValueError(f"{w}: ack_timeout={ack_timeout!r} s must exceed SIFS ({self.sifs * 1e-12} s)")
+        # radio
+        if path_loss is None:
+            path_loss = LogDistance(3.0)
+        if not isinstance(path_loss, PathLoss):
+            raise TypeError(f"{w}: path_loss must be a PathLoss model, got {path_loss!r}")
+        self.path_loss = path_loss
+        for nm, v in (("tx_power_dbm", tx_power_dbm), ("threshold_dbm", threshold_dbm),
+                      ("capture_db", capture_db)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"{w}: {nm} must be a finite number, got {v!r}")
+        self.tx_power_dbm = float(tx_power_dbm)
+        self.threshold_dbm = float(threshold_dbm)
+        self.cs_threshold_dbm = float(threshold_dbm if cs_threshold_dbm is None else cs_threshold_dbm)
+        self.capture_db = float(capture_db)
+        self.noise_dbm = thermal_noise_dbm(DSSS_BANDWIDTH) if noise_dbm is None else float(noise_dbm)
+        self.data_mod = modulation_for(self.data_rate, modulation)
+        self.ack_mod = modulation_for(self.ack_rate, "auto")
+        self.medium = WirelessMedium(self, path_loss=path_loss, noise_w=dbm_to_watt(self.noise_dbm),
+                                     capture_ratio=db_to_ratio(self.capture_db))
+        self.collisions = 0
+
+    # ------------------------------------------------------------------ attach
+    def attach(self, node, *, position=(0.0, 0.0), tx_power_dbm: float | None = None,
+               threshold_dbm: float | None = None, cs_threshold_dbm: float | None = None, **kw) -> WlanInterface:
+        """Attach *node* at *position* (2-D/3-D point in m, or a callable ``p(t)`` of seconds,
+        evaluated at the start of every transmission).  Radio parameters default to the
+        network's."""
+        return super().attach(node, position=position, tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm,
+                              cs_threshold_dbm=cs_threshold_dbm, **kw)
+
+    def _make_interface(self, name, node, index, options, **common):
+        opts = dict(options)
+        pos = opts.pop("position")
+        txp = opts.pop("tx_power_dbm")
+        thr = opts.pop("threshold_dbm")
+        cst = opts.pop("cs_threshold_dbm")
+        if opts:
+            raise TypeError(f"network {self.name!r}: unknown attach option(s) {sorted(opts)}")
+        r = WlanInterface(self, name, node, index, **common)
+        w = f"network {self.name!r} node {name!r}"
+        r.pos = as_position(pos, w)
+        for nm, v in (("tx_power_dbm", txp), ("threshold_dbm", thr), ("cs_threshold_dbm", cst)):
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)):
+                raise ValueError(f"{w}: {nm} must be a finite number of dBm, got {v!r}")
+        r.tx_power_dbm = self.tx_power_dbm if txp is None else float(txp)
+        r.tx_w = dbm_to_watt(r.tx_power_dbm)
+        r.sens_w = dbm_to_watt(self.threshold_dbm if thr is None else thr)
+        r.cs_w = dbm_to_watt(self.cs_threshold_dbm if cst is None else cst)
+        # DCF state
+        r.mac_busy = False
+        r.idle_start = self._env._now
+        r.count_start = 0
+        r.nav_end = 0
+        r.eifs = False
+        r.backoff = None
+        r.bo_drawn = math.nan
+        r.immediate = False
+        r.anchor = 0
+        r.cw = self.cw_min
+        r.access_timer = None
+        r.access_at = -1
+        r.awaiting = None
+        r.ack_timer = None
+        r.ack_wait = False
+        r.responding = 0
+        r.last_seq = {}
+        r.rng = self.sim.rng(f"{self.name}/{name}/backoff")
+        self.medium.init_listener(r)
+        return r
+
+    def position(self, node, t: float | None = None):
+        """Position of *node* at time *t* (s; default now)."""
+        r = self.interface(node)
+        return self.medium._position(r, self.sim.now if t is None else t)
+
+    def rx_power_dbm(self, src, dst) -> float:
+        """Power (dBm) at *dst* of a transmission by *src* starting now."""
+        from .radio import watt_to_dbm
+        s, d = self.interface(src), self.interface(dst)
+        return watt_to_dbm(self.medium.powers_from(s)[d.index])
+
+    # ------------------------------------------------------------------ timing helpers
+    def data_time(self, size_bits: int) -> int:
+        """Ticks on air of a data frame carrying *size_bits* (PLCP + MAC header/FCS + payload)."""
+        return self.plcp + self.duration(self.mac_overhead_bits + self.wire_bits(size_bits))
+
+    # ------------------------------------------------------------------ DCF
+    def _busy_now(self, r) -> bool:
+        return bool(r.audible or r.tx is not None or r.awaiting is not None or r.responding
+                    or r.nav_end > self._env._now)
+
+    def _reeval(self, r) -> None:
+        """Re-evaluate the station's (physical + virtual) medium state and act on changes."""
+        now = self._env._now
+        if r.audible or r.tx is not None or r.awaiting is not None or r.responding or r.nav_end > now:
+            if not r.mac_busy:
+                r.mac_busy = True
+                self._on_busy(r, now)
+        else:
+            if r.mac_busy:
+                r.mac_busy = False
+                r.idle_start = now
+            if r.access_timer is None and r.backoff is not None:
+                self._schedule_access(r)
+
+    def _on_busy(self, r, now) -> None:
+        if r.eifs and now - r.idle_start >= self.eifs_time:
+            r.eifs = False
+        t = r.access_timer
+        if t is None:
+            return
+        if r.access_at == now:
+            return          # the slot boundary is now: the transmission goes ahead (not sensed in time)
+        t.cancel()
+        r.access_timer = None
+        if r.immediate:
+            r.immediate = False
+            self._draw(r)
+        elif now > r.count_start:
+            r.backoff -= (now - r.count_start) // self.slot
+
+    def _schedule_access(self, r) -> None:
+        cs = r.idle_start + (self.eifs_time if (r.eifs and self.use_eifs) else self.difs)
+        if r.immediate and r.anchor > cs:
+            cs = r.anchor
+        r.count_start = cs
+        at = cs + r.backoff * self.slot
+        r.access_at = at
+        r.access_timer = self.sim.call_at(at, self._access, arg=r)
+
+    def _draw(self, r) -> None:
+        b = int(r.rng.integers(0, r.cw + 1))
+        r.backoff = b
+        r.bo_drawn = b
+
+    def _kick(self, r) -> None:
+        if r.current is not None or r.backoff is not None:
+            return
+        if r.mac_busy:
+            self._draw(r)
+        else:
+            r.backoff = 0
+            r.immediate = True
+            r.anchor = self._env._now + self.difs
+            r.bo_drawn = math.nan
+        self._reeval(r)
+
+    def _access(self, r) -> None:
+        r.access_timer = None
+        r.backoff = None
+        r.immediate = False
+        r.eifs = False
+        if r.current is None:
+            if not r.queue._q:
+                return              # post-backoff finished, nothing to send
+            r.current = r.queue.pop()
+        f = r.current
+        f.attempts += 1
+        now = self._env._now
+        f.sent = now
+        f.fail_reason = None
+        air = self.plcp + self.duration(self.mac_overhead_bits + f.bits)
+        tx = Transmission(r, "data", f, f.dst, now, now + air, now + self.plcp, self.data_mod)
+        self._trace("attempt_start", f, r.name, bits=self.mac_overhead_bits + f.bits, backoff=r.bo_drawn)
+        r.bo_drawn = math.nan
+        self._start_tx(r, tx)
+
+    def _start_tx(self, r, tx) -> None:
+        r.tx = tx
+        r.sending = 1
+        r.mac_busy = True
+        r._state()
+        self.medium.start(tx)
+        self.sim.call_at(tx.end, self._tx_end, arg=tx)
+
+    def _tx_end(self, tx) -> None:
+        r = tx.src
+        self.medium.end(tx)
+        r.tx = None
+        r.sending = 0
+        if tx.kind == "data":
+            f = tx.frame
+            if f.dst is BROADCAST:
+                self._trace("attempt_end", f, r.name, "sent")
+                self._done(r, f, True)
+            else:
+                r.awaiting = tx
+                r.ack_wait = False
+                r.ack_timer = self.sim.call_at(tx.end + self.ack_timeout, self._ack_timeout, arg=r)
+        else:
+            r.responding -= 1
+        r._state()
+        self._reeval(r)
+
+    def _done(self, r, f, ok: bool) -> None:
+        r.current = None
+        r.cw = self.cw_min
+        self._draw(r)                 # post-backoff
+        self._finish(f, ok)
+
+    def _ack_timeout(self, r) -> None:
+        r.ack_timer = None
+        if r.awaiting is None:
+            return
+        if r.rx is not None:          # a reception began within the timeout: wait for its end
+            r.ack_wait = True
+            return
+        self._ack_fail(r)
+        self._reeval(r)
+
+    def _ack_ok(self, r) -> None:
+        tx = r.awaiting
+        r.awaiting = None
+        r.ack_wait = False
+        if r.ack_timer is not None:
+            r.ack_timer.cancel()
+            r.ack_timer = None
+        f = tx.frame
+        self._trace("attempt_end", f, r.name, "ok")
+        self._done(r, f, True)
+        r._state()
+
+    def _ack_fail(self, r) -> None:
+        tx = r.awaiting
+        r.awaiting = None
+        r.ack_wait = False
+        if r.ack_timer is not None:
+            r.ack_timer.cancel()
+            r.ack_timer = None
+        f = tx.frame
+        reason = tx.dst_reason or ("ack_lost" if tx.acked else "no_ack")
+        if reason == "collision":
+            self.collisions += 1
+        self._trace("attempt_end", f, r.name, reason)
+        if f.attempts >= self.retry_limit:
+            self._lost(f, r, "retry_limit")
+            self._done(r, f, False)
+        else:
+            r.cw = min(2 * (r.cw + 1) - 1, self.cw_max)
+            self._draw(r)
+        r._state()
+
+    def _rx_end(self, r, tx, ok, reason, locked) -> None:
+        """MAC processing of the end of *tx* at listener *r* (called by the medium)."""
+        f = tx.frame
+        if tx.kind == "data":
+            dst = f.dst
+            if ok:
+                r.eifs = False
+                if dst is r:
+                    if self.loss is not None and self._link(f.src, r).lost():
+                        tx.dst_reason = "random_loss"
+                    else:
+                        tx.acked = True
+                        if r.last_seq.get(f.src.index) != f.seq:
+                            r.last_seq[f.src.index] = f.seq
+                            self._deliver(f, r, apply_loss=False)
+                        if r.tx is None:
+                            r.responding += 1
+                            self.sim.call_in(self.sifs, self._send_ack, arg=tx)
+                elif dst is BROADCAST:
+                    self._deliver(f, r, apply_loss=True)
+                else:
+                    nav = self._env._now + self.sifs + self.ack_time
+                    if nav > r.nav_end:
+                        r.nav_end = nav
+                        self.sim.call_at(nav, self._reeval, arg=r)
+            else:
+                if locked and self.use_eifs:
+                    r.eifs = True
+                if dst is r:
+                    tx.dst_reason = reason
+                elif dst is BROADCAST:
+                    self._lost(f, r, reason)
+        else:  # ACK
+            mine = tx.dst is r and r.awaiting is not None and r.awaiting.frame is f
+            if ok:
+                r.eifs = False
+                if mine:
+                    self._ack_ok(r)
+                    return
+            elif locked and self.use_eifs:
+                r.eifs = True
+        if r.ack_wait and r.awaiting is not None and r.rx is None:
+            self._ack_fail(r)
+
+    def _send_ack(self, data_tx) -> None:
+        r = data_tx.dst
+        if r.tx is not None:          # cannot happen with DCF timing; be safe
+            r.responding -= 1
+            self._reeval(r)
+            return
+        now = self._env._now
+        f = data_tx.frame
+        ack = Transmission(r, "ack", f, data_tx.src, now, now + self.ack_time, now + self.plcp, self.ack_mod)
+        self._trace("ack", f, r.name, bits=self.ack_bits)
+        self._start_tx(r, ack)
+
+    # ------------------------------------------------------------------ analysis helpers
+    def timing(self) -> dict:
+        """The MAC/PHY constants in seconds (for analysis and documentation)."""
+        s = 1.0 / TICKS_PER_SECOND
+        return {"slot": self.slot * s, "sifs": self.sifs * s, "difs": self.difs * s, "eifs": self.eifs_time * s,
+                "plcp": self.plcp * s, "ack_time": self.ack_time * s, "ack_rate": self.ack_rate,
+                "ack_timeout": self.ack_timeout * s, "cw_min": self.cw_min, "cw_max": self.cw_max,
+                "mac_overhead_bits": self.mac_overhead_bits, "retry_limit": self.retry_limit}
