@@ -166,8 +166,8 @@ class FeedbackLinearization:
         if abs(c) < self.cos_min:
             if self.on_singular == "raise":
                 raise SingularityError(
-                    f"feedback linearization singular: cos(phi + theta) = {c:.3g} at phi = {x[0]!r} rad, "
-                    f"theta = {x[2]!r} rad (|cos| < cos_min = {self.cos_min})")
+                    f"feedback linearization singular: cos(phi + theta) = {c:.3g} at phi = {float(x[0])!r} rad, "
+                    f"theta = {float(x[2])!r} rad (|cos| < cos_min = {self.cos_min})")
             self.n_singular += 1
             c = math.copysign(self.cos_min, c) if c != 0 else self.cos_min
         f_R = (ubar[0] - p.a1 * math.cos(x[0])) / (p.a2 * c)
