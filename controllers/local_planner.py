@@ -547,8 +547,10 @@ def simulate_sampled(system: Any, q0: Any, q_ref: Any, T: float, gain: Any, *, k
 
     Returns a ``pandas.DataFrame`` with one row per sample: ``h``, ``t`` (s), ``k``
     (1/s), ``tau`` (= k T), ``err`` (``||e_h||`` in *norm*), ``err2`` (Euclidean),
-    ``tau_s`` and ``tau_o`` of the online flow (NaN-free: ``inf``/the offline value),
-    and the columns ``q0..q{m-1}`` and ``u0..u{n-1}``.
+    ``tau_s`` and ``tau_o`` of the online flow (``inf`` and ``k T`` for an offline
+    gain), and the columns ``q0..q{m-1}`` and ``u0..u{n-1}``.  The last row is the
+    final state: no command is computed there, so its ``k``, ``tau``, ``tau_s``,
+    ``tau_o`` are NaN and its ``u`` zero.
     """
     import pandas as pd
 
