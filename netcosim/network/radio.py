@@ -159,7 +159,7 @@ def ber_dqpsk(ebn0):
     g = np.asarray(ebn0, dtype=float)
     a = np.sqrt(2.0 * g * (1.0 - 1.0 / math.sqrt(2.0)))
     b = np.sqrt(2.0 * g * (1.0 + 1.0 / math.sqrt(2.0)))
-    q1 = stats.ncx2.sf(b * b, 2, a * a) if np.all(a > 0) else np.where(a > 0, stats.ncx2.sf(b * b, 2, np.maximum(a * a, 1e-300)), 1.0)
+    q1 = stats.ncx2.sf(b * b, 2, a * a)
     # I0(ab) exp(-(a^2+b^2)/2) = i0e(ab) exp(-(a-b)^2/2), numerically safe
     ber = q1 - 0.5 * special.i0e(a * b) * np.exp(-0.5 * (a - b) ** 2)
     ber = np.clip(ber, 0.0, 0.5)
