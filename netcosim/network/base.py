@@ -117,6 +117,8 @@ class Network:
     """
 
     default_queue = "fifo"
+    #: whether a message of 0 bits is meaningful (CAN data frames with 0 data bytes)
+    allow_empty = False
 
     def __init__(self, sim, name: str, *, data_rate: float, min_frame_bits: int = 0,
                  max_frame_bits: int | None = None, pre_delay: float = 0.0, post_delay: float = 0.0,
@@ -263,7 +265,7 @@ class Network:
             size = self.min_frame_bits
         else:
             size = check_bits(size_bits, f"network {self.name!r}: size_bits of a message from {iface.name!r}",
-                              allow_zero=False)
+                              allow_zero=self.allow_empty)
         if self.max_frame_bits is not None and size > self.max_frame_bits:
             raise ValueError(f"network {self.name!r}: message of size_bits={size} from {iface.name!r} exceeds "
                              f"the maximum frame of {self.max_frame_bits} bits")

@@ -66,6 +66,7 @@ class CAN(SharedBus):
                 raise ValueError(f"network {name!r}: standard CAN frames carry at most 64 data bits, "
                                  f"got max_frame_bits={max_frame_bits!r}")
         self.frame_format = frame_format
+        self.allow_empty = frame_format == "standard"
         self.extended = bool(extended)
         self.stuffing = bool(stuffing)
         super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, **kw)
