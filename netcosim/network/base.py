@@ -298,8 +298,8 @@ class Network:
         if self._trace_on:
             self._rows.append((frame.queued, self.name, frame.id, "queued", iface.name, frame.dname, iface.name,
                                0, "", frame.bits, _NAN))
-        iface._state()
         self._kick(iface)
+        iface._state()
 
     def _kick(self, iface: Interface) -> None:
         """MAC hook: a frame was queued at *iface*."""
