@@ -23,12 +23,13 @@
 :class:`C2Interpolator`
     Turns the sequence of NMPC reference states (one every T_s = 10 ms) into a
     reference that is twice continuously differentiable in time: on each update the
-    new segment is the quintic polynomial that starts from the interpolator's own
-    position, velocity and acceleration at the update instant and reaches the
-    target position, velocity and acceleration at the target instant.  Position,
-    velocity and acceleration are therefore continuous at every update, however late
-    the update arrives.  After the target instant the reference continues with
-    constant acceleration (still C²) until the next update.
+    new first segment is the quintic polynomial that starts from the interpolator's
+    own position, velocity and acceleration at the update instant and reaches the
+    plan's position, velocity and acceleration at the next node; further quintics
+    join the plan's following nodes.  Position, velocity and acceleration are
+    therefore continuous at every update, however late the update arrives, and a
+    late update finds the reference still on the previous plan.  After the last
+    knot the reference continues with constant acceleration (still C²).
 
 Angles in radians, rates in rad/s, thrust in N, torque in N·m, time in seconds.
 """
@@ -197,19 +198,25 @@ def quintic_coefficients(T: float, p0, v0, a0, p1, v1, a1) -> np.ndarray:
 
 
 class C2Interpolator:
-    """C² reference between consecutive NMPC reference states (Fig. 2.6), see module doc.
+    """C² reference through consecutive NMPC reference states (Fig. 2.6), see module doc.
 
     ``n`` channels (2 for (φ, ϑ)).  Call :meth:`reset` once, then :meth:`update` at
-    each new NMPC solution and :meth:`evaluate` at each low-level sample.
+    each new NMPC solution with its reference states at one or more future knot
+    times, and :meth:`evaluate` at each low-level sample.  On an update at ``t_now``
+    the reference becomes: a quintic from the current reference (position, velocity,
+    acceleration at ``t_now``) to the first knot, then quintics between consecutive
+    knots, then constant acceleration after the last knot.  Passing more than one
+    knot (the plan's states at ``t_s + T_s``, ``t_s + 2 T_s``, ...) keeps the reference
+    on the plan when the next update comes late.
     """
 
     def __init__(self, n: int = 2):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n <= 0:
             raise ValueError(f"number of channels must be a positive integer, got {n!r}")
         self.n = int(n)
-        self._t0 = None
-        self._T = 0.0
-        self._c = None
+        self._starts: np.ndarray | None = None   # segment start times (s)
+        self._durations: np.ndarray | None = None
+        self._coefs: list[np.ndarray] = []        # (6, n) per segment
         self.n_updates = 0
 
     def _arr(self, v, what):
@@ -218,45 +225,90 @@ class C2Interpolator:
             raise ValueError(f"{what} must be {self.n} finite values, got {np.asarray(v).tolist()}")
         return a
 
+    def _knots(self, v, k, what):
+        a = np.asarray(v, dtype=float)
+        if a.ndim <= 1:
+            a = a.reshape(1, -1)
+        if a.shape != (k, self.n) or not np.all(np.isfinite(a)):
+            raise ValueError(f"{what} must be {k} x {self.n} finite values (one row per knot), "
+                             f"got {np.asarray(v).tolist()}")
+        return a
+
     def reset(self, t: float, pos, vel=None, acc=None) -> None:
         """Start at time *t* [s] from (pos, vel, acc); the reference then extrapolates
         with constant acceleration until the first :meth:`update`."""
         pos = self._arr(pos, "pos")
         vel = np.zeros(self.n) if vel is None else self._arr(vel, "vel")
         acc = np.zeros(self.n) if acc is None else self._arr(acc, "acc")
-        self._t0, self._T = float(t), 0.0
-        self._c = np.array([pos, vel, 0.5 * acc, np.zeros(self.n), np.zeros(self.n), np.zeros(self.n)])
+        z = np.zeros(self.n)
+        self._starts = np.array([float(t)])
+        self._durations = np.array([0.0])
+        self._coefs = [np.array([pos, vel, 0.5 * acc, z, z, z])]
 
-    def update(self, t_now: float, t_target: float, pos, vel, acc) -> None:
-        """New segment from the current reference at *t_now* to (pos, vel, acc) at
-        *t_target* (s, ``t_target > t_now``)."""
-        if self._c is None:
+    def update(self, t_now: float, t_knots, pos, vel, acc) -> None:
+        """New reference from the current one at *t_now* through the knots.
+
+        *t_knots*: one time or an increasing sequence of K times (s) after *t_now*;
+        *pos*, *vel*, *acc*: the reference states there, shape (n,) for one knot or
+        (K, n).
+        """
+        if self._starts is None:
             raise RuntimeError("C2Interpolator.update before reset")
-        if not (t_target > t_now):
-            raise ValueError(f"target time {t_target!r} s must be after the update time {t_now!r} s")
-        if t_now < self._t0 - 1e-12:
-            raise ValueError(f"update time {t_now!r} s lies before the current segment start {self._t0!r} s")
+        tk = np.atleast_1d(np.asarray(t_knots, dtype=float))
+        if tk.ndim != 1 or tk.size == 0 or not np.all(np.isfinite(tk)):
+            raise ValueError(f"knot times must be a non-empty sequence of finite seconds, got {t_knots!r}")
+        if not (tk[0] > t_now):
+            raise ValueError(f"target time {float(tk[0])!r} s must be after the update time {t_now!r} s")
+        if np.any(np.diff(tk) <= 0):
+            raise ValueError(f"knot times must increase, got {tk.tolist()}")
+        if t_now < self._starts[0] - 1e-12:
+            raise ValueError(f"update time {t_now!r} s lies before the current reference start "
+                             f"{float(self._starts[0])!r} s")
+        K = tk.size
+        P = self._knots(pos, K, "pos")
+        V = self._knots(vel, K, "vel")
+        A = self._knots(acc, K, "acc")
         p0, v0, a0 = self.evaluate(t_now)
-        self._c = quintic_coefficients(t_target - t_now, p0, v0, a0, self._arr(pos, "pos"),
-                                       self._arr(vel, "vel"), self._arr(acc, "acc"))
-        self._t0, self._T = float(t_now), float(t_target - t_now)
+        starts = [float(t_now)]
+        durs = [float(tk[0] - t_now)]
+        coefs = [quintic_coefficients(durs[0], p0, v0, a0, P[0], V[0], A[0])]
+        for k in range(1, K):
+            starts.append(float(tk[k - 1]))
+            durs.append(float(tk[k] - tk[k - 1]))
+            coefs.append(quintic_coefficients(durs[-1], P[k - 1], V[k - 1], A[k - 1], P[k], V[k], A[k]))
+        self._starts = np.array(starts)
+        self._durations = np.array(durs)
+        self._coefs = coefs
         self.n_updates += 1
+
+    @property
+    def end_time(self) -> float:
+        """Time (s) of the last knot; constant-acceleration extrapolation after it."""
+        return float(self._starts[-1] + self._durations[-1])
 
     def evaluate(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, velocity, acceleration) of the reference at time *t* [s]."""
-        if self._c is None:
+        if self._starts is None:
             raise RuntimeError("C2Interpolator.evaluate before reset")
-        s = float(t) - self._t0
-        if s < -1e-12:
-            raise ValueError(f"time {t!r} s lies before the current segment start {self._t0!r} s")
-        s = max(s, 0.0)
-        c = self._c
-        if s <= self._T:
-            pos = c[0] + s * (c[1] + s * (c[2] + s * (c[3] + s * (c[4] + s * c[5]))))
-            vel = c[1] + s * (2 * c[2] + s * (3 * c[3] + s * (4 * c[4] + s * 5 * c[5])))
-            acc = 2 * c[2] + s * (6 * c[3] + s * (12 * c[4] + s * 20 * c[5]))
-            return pos, vel, acc
-        # beyond the segment end: constant acceleration from the end state
-        pT, vT, aT = self.evaluate(self._t0 + self._T)
-        r = s - self._T
-        return pT + vT * r + 0.5 * aT * r * r, vT + aT * r, aT.copy()
+        t = float(t)
+        if t < self._starts[0] - 1e-12:
+            raise ValueError(f"time {t!r} s lies before the current reference start {float(self._starts[0])!r} s")
+        i = int(np.searchsorted(self._starts, t, side="right")) - 1
+        i = max(i, 0)
+        s = t - self._starts[i]
+        T = self._durations[i]
+        if s > T:
+            if i < len(self._starts) - 1:  # numerical edge between segments
+                s = T
+            else:  # past the last knot: constant acceleration from its state
+                pT, vT, aT = self._poly(self._coefs[i], T)
+                r = s - T
+                return pT + vT * r + 0.5 * aT * r * r, vT + aT * r, aT
+        return self._poly(self._coefs[i], max(s, 0.0))
+
+    @staticmethod
+    def _poly(c, s):
+        pos = c[0] + s * (c[1] + s * (c[2] + s * (c[3] + s * (c[4] + s * c[5]))))
+        vel = c[1] + s * (2 * c[2] + s * (3 * c[3] + s * (4 * c[4] + s * 5 * c[5])))
+        acc = 2 * c[2] + s * (6 * c[3] + s * (12 * c[4] + s * 20 * c[5]))
+        return pos, vel, acc

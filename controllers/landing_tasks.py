@@ -39,7 +39,7 @@ from plants.tethered_uav import TetheredUAV, TetheredUAVParams, ddphi_ddtheta, w
 from .feedback_linearization import C2Interpolator, FeedbackLinearization, PIDGains
 from .landing import LandingConfig, initial_state, landing_nmpc
 
-__all__ = ["LandingTiming", "LandingRun", "run_landing", "SIM_PARAMS", "DEFAULT_FL_GAINS"]
+__all__ = ["LandingTiming", "LandingRun", "run_landing", "landing_metrics", "SIM_PARAMS", "DEFAULT_FL_GAINS"]
 
 #: Simulation-model parameters of the ch. 2 experiments: the project defaults with
 #: 1 cm landers.  With l = 1 m a lander of height h stops the CoM at
@@ -141,7 +141,9 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
                 x0=None, nmpc_period: float = 0.01, fl_period: float = 0.002,
                 integrator_dt: float = 1e-4, log_interval: float = 1e-3, seed: int = 0,
                 nmpc_kw: dict | None = None, actuator_state: str = "plan",
-                ff_lead: float | None = None) -> LandingRun:
+                ff_lead: float | None = None, topology: str = "single", network=None,
+                ref_knots: int = 3, nmpc_init: str = "reference",
+                reset_tol: tuple[float, float] = (math.radians(2.0), math.radians(20.0))) -> LandingRun:
     """Simulate the landing of §2.6.2 with *controller* ``"nmpc"`` or ``"2lc"``.
 
     ``params``: simulation-model parameters (default :data:`SIM_PARAMS`); the NMPC and
@@ -155,8 +157,38 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
     :data:`DEFAULT_FL_GAINS`).  ``ff_lead``: the low-level job evaluates the
     acceleration feed-forward ``ff_lead`` seconds after its sampling instant (default
     half the low-level period: the input is held over the period, so the mid-period
-    acceleration is the one it should produce on average).
+    acceleration is the one it should produce on average).  ``ref_knots``: number of
+    plan nodes (``x_1 .. x_K``) each NMPC solution hands to the interpolator, so that a
+    late solution finds the reference still on the previous plan.
+
+    ``nmpc_init`` (2LC only): the angles and rates of the NMPC's initial state are the
+    measured ones (``"measured"``, the thesis's scheme) or those of the low-level
+    reference at the sampling instant (``"reference"``), falling back to the measured
+    ones whenever the tracking error exceeds ``reset_tol`` = (angle [rad], rate
+    [rad/s]).  Starting each plan where the reference is makes the new plan continue
+    the old one, so a late plan (computation or network delay) needs no catch-up by
+    the low-level loop; the measured variant degrades quickly with delay (see
+    ``docs/nmpc.md``).
+
+    ``topology="two_nodes"`` (2LC only): the low-level task runs on node ``onboard``
+    with the plant I/O; a 100 Hz sensor task there (priority 2) sends the measured
+    ``[φ, φ̇, ϑ, ϑ̇]`` and its sampling time to node ``ground``, whose NMPC task is
+    released by each arrival and sends back the reference target; the target updates
+    the interpolator when it is delivered on board.  ``network``: a callable
+    ``network(sim) -> Network`` (default: :class:`~netcosim.network.IdealLink` at
+    1 Mbit/s, no propagation delay); MAC priorities (CAN identifiers): the references
+    from ``ground`` 1, the measurements from ``onboard`` 2.  Messages are 64 bits per
+    value.
     """
+    if isinstance(ref_knots, bool) or not isinstance(ref_knots, int) or not 1 <= ref_knots <= (
+            config.N if config is not None else LandingConfig().N):
+        raise ValueError(f"ref_knots must be an integer between 1 and N, got {ref_knots!r}")
+    if nmpc_init not in ("measured", "reference"):
+        raise ValueError(f"nmpc_init must be 'measured' or 'reference', got {nmpc_init!r}")
+    if topology not in ("single", "two_nodes"):
+        raise ValueError(f"topology must be 'single' or 'two_nodes', got {topology!r}")
+    if topology == "two_nodes" and controller != "2lc":
+        raise ValueError(f"the two-node variant needs the two-layer controller, got controller={controller!r}")
     if ff_lead is None:
         ff_lead = 0.5 * fl_period
     if not (isinstance(ff_lead, (int, float)) and math.isfinite(ff_lead) and 0 <= ff_lead <= nmpc_period):
@@ -201,12 +233,10 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
     out_port = uav.outputs
     in_port = uav.inputs
 
-    @cpu.periodic(period=nmpc_period, priority=2, name="nmpc")
-    def nmpc_task(ctx):
-        y = ctx.read(out_port)
-        t_s = ctx.now
-        x = np.asarray(y[:6], dtype=float)
-        if controller == "2lc" and actuator_state == "plan":
+    def nmpc_body(ctx, y, t_s, send=None):
+        """One NMPC job on the measurement *y* sampled at *t_s*; *send* ships the target."""
+        x = np.asarray(y[:6], dtype=float) if len(y) >= 6 else np.concatenate([y[:4], [0.0, 0.0]])
+        if controller == "2lc" and (actuator_state == "plan" or len(y) < 6):
             x[4:6] = nmpc.X[0, 4:6]  # the shifted plan's node 0 = previous plan at this instant
         r = nmpc.feedback(x)
         c_fb = timing.nmpc_phase("feedback", r.t_feedback)
@@ -214,19 +244,84 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
         if controller == "nmpc":
             ctx.write(in_port, r.u)
         else:
-            x1 = r.x_ref
-            acc = ddphi_ddtheta(x1[0], x1[1], x1[2], x1[4], x1[5], params)
-            t_target = t_s + Ts
-            if t_target <= ctx.now:  # the solve overran its interval: aim one interval ahead
-                t_target = ctx.now + Ts
-            interp.update(ctx.now, t_target, [x1[0], x1[2]], [x1[1], x1[3]], acc)
+            Xk = r.X[1:ref_knots + 1]
+            acc = np.array([ddphi_ddtheta(x[0], x[1], x[2], x[4], x[5], params) for x in Xk], dtype=float)
+            target = (t_s + Ts * np.arange(1, ref_knots + 1), Xk[:, [0, 2]], Xk[:, [1, 3]], acc)
+            if send is None:
+                apply_target(ctx.now, target)
+            else:
+                send(target)
         t_prep = nmpc.preparation()
         c_prep = timing.nmpc_phase("prepare", t_prep)
-        steps.append(dict(time=t_s, status=r.status, success=r.success, fallback=r.fallback,
-                          qp_iter=r.qp_iter, step_norm=r.step_norm, t_feedback=r.t_feedback,
-                          t_prepare=t_prep, c_feedback=c_fb, c_prepare=c_prep,
+        steps.append(dict(time=t_s, released=ctx.job.release_time, status=r.status, success=r.success,
+                          fallback=r.fallback, qp_iter=r.qp_iter, step_norm=r.step_norm,
+                          t_feedback=r.t_feedback, t_prepare=t_prep, c_feedback=c_fb, c_prepare=c_prep,
                           u0=float(r.u[0]), u1=float(r.u[1])))
         yield ctx.execute(c_prep)
+
+    def reference_state(t):
+        """[φ, φ̇, ϑ, ϑ̇] of the low-level reference at time t."""
+        pos, vel, _ = interp.evaluate(t)
+        return np.array([pos[0], vel[0], pos[1], vel[1]])
+
+    init_log: list[tuple[float, str]] = []
+
+    def initial_measurement(y, t):
+        """The state the NMPC starts from (see ``nmpc_init``)."""
+        y = np.array(y, dtype=float)
+        if nmpc_init == "measured":
+            return y
+        r = reference_state(t)
+        e = np.abs(y[:4] - r)
+        if max(e[0], e[2]) > reset_tol[0] or max(e[1], e[3]) > reset_tol[1]:
+            init_log.append((t, "measured"))
+            return y
+        init_log.append((t, "reference"))
+        y[:4] = r
+        return y
+
+    def apply_target(now, target):
+        t_knots, pos, vel, acc = target
+        keep = t_knots > now + 1e-9  # knots already in the past are dropped
+        if not keep.any():  # the whole target arrived too late: aim one interval ahead
+            t_knots, pos, vel, acc = np.array([now + Ts]), pos[-1:], vel[-1:], acc[-1:]
+            keep = np.array([True])
+        interp.update(now, t_knots[keep], pos[keep], vel[keep], acc[keep])
+
+    if topology == "single":
+        @cpu.periodic(period=nmpc_period, priority=2, name="nmpc")
+        def nmpc_task(ctx):
+            y = ctx.read(out_port)
+            if controller == "2lc":
+                y = initial_measurement(y, ctx.now)
+            yield from nmpc_body(ctx, y, ctx.now)
+    else:
+        from netcosim.network import IdealLink
+        net = network(sim) if network is not None else IdealLink(sim, "link", data_rate=1e6, delay=0.0)
+        ground = sim.node("ground", scheduler="fixed_priority", context_switch=timing.context_switch)
+        net.attach(cpu, priority=2, mailbox=False, handler=lambda msg: apply_target(sim.now, msg.payload))
+        g_iface = net.attach(ground, priority=1)
+
+        @ground.aperiodic(priority=1, name="nmpc")
+        def nmpc_task(ctx):
+            msg = g_iface.mailbox.try_fetch()
+            nxt = g_iface.mailbox.try_fetch()
+            while nxt is not None:  # only the newest measurement matters
+                msg, nxt = nxt, g_iface.mailbox.try_fetch()
+            if msg is None:
+                return
+            t_s, y = msg.payload
+            yield from nmpc_body(ctx, np.asarray(y), t_s, send=lambda target: ctx.send("onboard", target, 64 * (1 + 7 * ref_knots)))
+
+        g_iface.on_receive(nmpc_task)
+
+        @cpu.periodic(period=nmpc_period, priority=2, name="sensor")
+        def sensor_task(ctx):
+            y = ctx.read(out_port)
+            t_s = ctx.now
+            y = initial_measurement(y, t_s)[:4]
+            yield ctx.execute(timing.fl_exec)
+            ctx.send("ground", (t_s, [float(v) for v in y[:4]]), 64 * 5)
 
     if controller == "2lc":
         @cpu.periodic(period=fl_period, priority=1, name="fl")
@@ -247,4 +342,42 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
                                                 "ddphi_ref", "ddtheta_ref", "f_R_cmd", "tau_R_cmd"])
     return LandingRun(controller=controller, wind=wind, signals=signals, steps=pd.DataFrame(steps),
                       reference=reference, jobs=sim.trace.jobs(), schedule=sim.trace.schedule(), sim=sim,
-                      nmpc=nmpc, fl=fl, meta=dict(params=params, config=cfg, timing=timing))
+                      nmpc=nmpc, fl=fl, meta=dict(params=params, config=cfg, timing=timing, topology=topology,
+                                                  nmpc_init=nmpc_init,
+                                                  n_reset=sum(1 for _, k in init_log if k == "measured")))
+
+
+def landing_metrics(run: LandingRun, tol_deg: float = 1.0) -> dict:
+    """Summary numbers of a landing run (angles in degrees, times in s, SI otherwise).
+
+    ``t_reach``: first instant both |φ - φ*| and |ϑ - ϑ*| are within *tol_deg*;
+    ``t_settle``: instant after which they stay within it until the end (NaN if never);
+    ``rms_phi``, ``rms_theta``: RMS over the run of the errors against the final
+    reference (φ* = -α, ϑ* = α); ``rms`` = sqrt(mean(e_φ² + e_ϑ²)); extremes of the
+    thrust, torque, cable stress and propeller–ground distances; QP fallbacks.
+    """
+    s = run.signals
+    alpha = run.meta["params"].alpha
+    e_phi = np.degrees(s["phi"].to_numpy() + alpha)
+    e_theta = np.degrees(s["theta"].to_numpy() - alpha)
+    t = s["time"].to_numpy()
+    inside = (np.abs(e_phi) <= tol_deg) & (np.abs(e_theta) <= tol_deg)
+    t_reach = float(t[np.argmax(inside)]) if inside.any() else math.nan
+    if inside[-1]:
+        outside = np.nonzero(~inside)[0]
+        t_settle = float(t[outside[-1] + 1]) if outside.size else float(t[0])
+    else:
+        t_settle = math.nan
+    steps = run.steps
+    return dict(
+        controller=run.controller, wind=run.wind, t_reach=t_reach, t_settle=t_settle,
+        phi_final=float(np.degrees(s["phi"].iloc[-1])), theta_final=float(np.degrees(s["theta"].iloc[-1])),
+        rms_phi=float(np.sqrt(np.mean(e_phi ** 2))), rms_theta=float(np.sqrt(np.mean(e_theta ** 2))),
+        rms=float(np.sqrt(np.mean(e_phi ** 2 + e_theta ** 2))),
+        f_R_min=float(s["f_R"].min()), f_R_max=float(s["f_R"].max()),
+        tau_R_min=float(s["tau_R"].min()), tau_R_max=float(s["tau_R"].max()),
+        f_L_min=float(s["f_L"].min()), f_L_max=float(s["f_L"].max()),
+        d_PG_min=float(min(s["d_PG1"].min(), s["d_PG2"].min())),
+        n_steps=int(len(steps)), n_fallback=int(steps["fallback"].sum()) if len(steps) else 0,
+        qp_iter_max=int(steps["qp_iter"].max()) if len(steps) else 0,
+    )

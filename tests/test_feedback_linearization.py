@@ -170,7 +170,26 @@ def test_interpolator_bad_input():
     it.reset(0.0, [0.0, 0.0])
     with pytest.raises(ValueError, match=r"target time 0.01 s must be after the update time 0.02 s"):
         it.update(0.02, 0.01, [0, 0], [0, 0], [0, 0])
-    with pytest.raises(ValueError, match="pos must be 2 finite values"):
+    with pytest.raises(ValueError, match=r"pos must be 1 x 2 finite values \(one row per knot\), got \[0.0\]"):
         it.update(0.0, 0.01, [0.0], [0, 0], [0, 0])
     with pytest.raises(ValueError, match="number of channels must be a positive integer, got 0"):
         C2Interpolator(0)
+
+
+def test_interpolator_follows_the_plan_knots_after_a_late_update():
+    # knots sampled from a smooth trajectory; the update comes 3 ms after the sample
+    def f(t):
+        return np.array([math.sin(5 * t)]), np.array([5 * math.cos(5 * t)]), np.array([-25 * math.sin(5 * t)])
+    it = C2Interpolator(1)
+    it.reset(0.0, *f(0.0))
+    worst = 0.0
+    for k in range(30):
+        ts = 0.01 * k
+        knots = ts + 0.01 * np.arange(1, 4)
+        it.update(ts + 0.003, knots, [f(t)[0] for t in knots], [f(t)[1] for t in knots], [f(t)[2] for t in knots])
+        for t in (ts + 0.004, ts + 0.012, ts + 0.02):  # inside, and past the next sample
+            worst = max(worst, abs(it.evaluate(t)[2][0] - f(t)[2][0]))
+    assert worst < 0.05  # rad/s² against an acceleration amplitude of 25
+    assert it.end_time == pytest.approx(0.32)
+    with pytest.raises(ValueError, match=r"knot times must increase, got \[0.5, 0.4\]"):
+        it.update(0.3, [0.5, 0.4], [[0.0], [0.0]], [[0.0], [0.0]], [[0.0], [0.0]])
