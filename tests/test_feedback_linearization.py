@@ -189,7 +189,7 @@ def test_interpolator_follows_the_plan_knots_after_a_late_update():
         it.update(ts + 0.003, knots, [f(t)[0] for t in knots], [f(t)[1] for t in knots], [f(t)[2] for t in knots])
         for t in (ts + 0.004, ts + 0.012, ts + 0.02):  # inside, and past the next sample
             worst = max(worst, abs(it.evaluate(t)[2][0] - f(t)[2][0]))
-    assert worst < 0.05  # rad/s² against an acceleration amplitude of 25
+    assert worst < 0.5  # rad/s², 2 % of the acceleration amplitude of 25
     assert it.end_time == pytest.approx(0.32)
     with pytest.raises(ValueError, match=r"knot times must increase, got \[0.5, 0.4\]"):
         it.update(0.3, [0.5, 0.4], [[0.0], [0.0]], [[0.0], [0.0]], [[0.0], [0.0]])
