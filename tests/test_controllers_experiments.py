@@ -1,4 +1,6 @@
-"""The ch. 3-5 reproductions in quick mode: files written and the thesis's claims hold."""
+"""The ch. 3-5 reproductions: files written and the thesis's claims hold.
+
+Quick mode by default; the full reproductions run with ``-m slow``."""
 
 from __future__ import annotations
 
@@ -9,15 +11,19 @@ import pandas as pd
 import pytest
 
 
+QUICK = pytest.mark.parametrize("quick", [True, pytest.param(False, marks=pytest.mark.slow)])
+
+
 def _files(tmp_path, names):
     for n in names:
         f = tmp_path / n
         assert f.exists() and f.stat().st_size > 0, n
 
 
-def test_ch3_fig3_8_quick(tmp_path):
+@QUICK
+def test_ch3_fig3_8(tmp_path, quick):
     from experiments import ch3_fig3_8 as ex
-    summary = ex.main(outdir=str(tmp_path), quick=True)
+    summary = ex.main(outdir=str(tmp_path), quick=quick)
     _files(tmp_path, ["fig3_8.png", "samples.parquet", "summary.parquet"])
     s = summary.set_index(["case", "strategy"])
     # mu_hat* < 1/2 for r = 0.08 and > 1/2 for r = 0.5 (Sec. 3.5)
@@ -38,9 +44,10 @@ def test_ch3_fig3_8_quick(tmp_path):
     assert on.k.values[-2] == pytest.approx(1 / ex.T, rel=1e-3)
 
 
-def test_ch4_fig4_8_9_quick(tmp_path):
+@QUICK
+def test_ch4_fig4_8_9(tmp_path, quick):
     from experiments import ch4_fig4_8_9 as ex
-    summary = ex.main(outdir=str(tmp_path), quick=True)
+    summary = ex.main(outdir=str(tmp_path), quick=quick)
     _files(tmp_path, ["fig4_8.png", "fig4_9.png", "samples.parquet", "summary.parquet"])
     assert len(summary) == 8
     assert (summary.samples_to_tol > 0).all()                       # both strategies, both norms converge
@@ -50,9 +57,10 @@ def test_ch4_fig4_8_9_quick(tmp_path):
         assert far[(p, "online")] < far[(p, "offline")]
 
 
-def test_ch4_fig4_10_quick(tmp_path):
+@QUICK
+def test_ch4_fig4_10(tmp_path, quick):
     from experiments import ch4_fig4_10 as ex
-    summary = ex.main(outdir=str(tmp_path), quick=True)
+    summary = ex.main(outdir=str(tmp_path), quick=quick)
     _files(tmp_path, ["fig4_10.png", "samples.parquet", "summary.parquet"])
     s = summary.set_index(["alpha", "strategy"])
     for strategy in ("offline", "online"):
@@ -60,7 +68,7 @@ def test_ch4_fig4_10_quick(tmp_path):
         assert s.loc[(30.0, strategy), "max_contraction"] <= s.loc[(30.0, strategy), "rho"]
         # small alpha: the error grows over some periods and has not converged
         assert s.loc[(0.3, strategy), "max_contraction"] > 1.0
-        assert s.loc[(0.3, strategy), "final_err"] > 0.1
+        assert s.loc[(0.3, strategy), "final_err"] > 100 * s.loc[(30.0, strategy), "final_err"]
     assert s.loc[(30.0, "online"), "final_err"] < 1e-6
     assert (summary.min_tension > 0).all()  # cables stay taut
 
@@ -77,12 +85,13 @@ def test_ch5_table5_2(tmp_path):
     assert t.loc[[0.5, 0.75, 1.5], "thesis_k_in_stability_set"].all()
 
 
-def test_ch5_fig5_8_9_quick(tmp_path):
+@QUICK
+def test_ch5_fig5_8_9(tmp_path, quick):
     from experiments import ch5_fig5_8_9 as ex
-    summary = ex.main(outdir=str(tmp_path), quick=True)
+    summary = ex.main(outdir=str(tmp_path), quick=quick)
     _files(tmp_path, ["fig5_8.png", "fig5_9a.png", "dense.parquet", "samples.parquet", "theta.parquet"])
-    s = summary.set_index("strategy")
-    assert s.feasible.all()
+    s = summary[summary["T"] == 1.5].set_index("strategy")
+    assert summary.feasible.all()
     # feed-forward at the reference (1, 2): asymptotic zero tracking error; (3) residual; (4) lag
     assert s.final_err[1] < 1e-9 and s.final_err[2] < 1e-9
     assert s.final_err[3] > 1e-4 and s.final_err[4] > 10 * s.final_err[3]
