@@ -139,3 +139,27 @@ def test_online_gain_uses_the_norm_minimiser_of_the_flow():
     assert np.all(nrm[1:-1] < np.linalg.norm(e))           # Proposition 3.4.1 (ii)
     f0 = solve_auxiliary_flow(sys_, qr, np.zeros(6))
     assert f0.tau_o == 1.0 and f0.min_norm == 0.0
+
+
+def _plant_systems():
+    from plants.flycrane import configurations as c
+    return [c.thesis_flycrane(), c.four_robot_nonsquare(), c.formation_2d()] + \
+        [c.square_family(a, b) for a, b, _ in c.SQUARE_FAMILY[1:]]
+
+
+def test_laws_work_on_every_system_of_the_class():
+    for sys_ in _plant_systems():
+        qr = sys_.q_nominal
+        st = StarStructure.for_system(sys_)
+        rng = np.random.default_rng(7)
+        q = qr + 0.02 * rng.standard_normal(sys_.m)
+        kd = rng.uniform(0.5, 2, sys_.m)
+        u = planner_velocity(sys_, q, qr, kd)
+        for i in range(st.N):
+            ui = robot_velocity(sys_, st, i, q[list(st.cols[i])], q[list(st.pivot)], qr, kd)
+            assert np.max(np.abs(ui - u[list(st.rows[i])])) < 1e-13, sys_.name
+        e0 = 0.02 * np.cos(np.arange(sys_.m))
+        on = simulate_sampled(sys_, qr + e0, qr, 1.0, OnlineGain(), n_samples=8, tol=1e-9)
+        off = simulate_sampled(sys_, qr + e0, qr, 1.0, OfflineGain(1.0), n_samples=8, tol=1e-9)
+        assert on.err.iloc[-1] < 1e-9 and off.err.iloc[-1] < 1e-6, sys_.name
+        assert len(on) <= len(off), sys_.name
