@@ -64,7 +64,13 @@ def _frames_frame(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
-    df["time"] = df["time"].astype("int64") * RESOLUTION if len(df) else df["time"].astype(float)
+    if len(df):
+        # a same-instant change that returned to the previous state leaves a repeated row: drop it
+        prev = df.groupby(["network", "node"], sort=False)["state"].shift()
+        df = df[df["state"] != prev].reset_index(drop=True)
+        df["time"] = df["time"].astype("int64") * RESOLUTION
+    else:
+        df["time"] = df["time"].astype(float)
     return df
 
 
@@ -193,6 +199,7 @@ class Network:
         if handler is not None:
             iface.on_receive(handler)
         if self._trace_on:
+            iface._row_t, iface._row_i = self._env._now, len(self._sched_rows)
             self._sched_rows.append((self._env._now, self.name, name, "idle"))
         self._attached(iface)
         return iface

@@ -101,6 +101,8 @@ class Interface:
         self.sending = 0        # transmissions of this interface on the medium (0/1)
         self.receiving = 0      # frames addressed to this interface being received
         self.state = "idle"
+        self._row_t = -1        # tick and index of this interface's last network-schedule row
+        self._row_i = -1
         self._seq = 0
         self.stats = {"sent": 0, "delivered": 0, "dropped": 0, "received": 0}
 
@@ -154,7 +156,15 @@ class Interface:
             self.state = s
             net = self.network
             if net._trace_on:
-                net._sched_rows.append((net._env._now, net.name, self.name, s))
+                # one row per node and instant: a state that lasts zero time is overwritten
+                now = net._env._now
+                rows = net._sched_rows
+                if self._row_t == now:
+                    rows[self._row_i] = (now, net.name, self.name, s)
+                else:
+                    self._row_t = now
+                    self._row_i = len(rows)
+                    rows.append((now, net.name, self.name, s))
 
     def __repr__(self) -> str:
         return f"<Interface {self.network.name}/{self.name}>"
