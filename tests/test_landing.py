@@ -1,0 +1,180 @@
+"""The landing OCP of §2.3, its RTI NMPC, and the landing of §2.6.2 as netcosim tasks."""
+
+import math
+
+import numpy as np
+import pytest
+
+from controllers.landing import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
+from controllers.landing_tasks import LandingTiming, landing_metrics, run_landing
+from plants.tethered_uav import TetheredUAVParams
+
+DEG = math.pi / 180
+
+
+# ---------------------------------------------------------------------------
+# The OCP
+# ---------------------------------------------------------------------------
+
+def test_ocp_uses_tables_2_1_and_2_2():
+    ocp = landing_ocp()
+    assert (ocp.nx, ocp.nu, ocp.np, ocp.N, ocp.Ts, ocp.rk4_steps) == (6, 2, 1, 30, 0.01, 1)
+    np.testing.assert_allclose(ocp.lbx[4:], [0.0, -1.2])
+    np.testing.assert_allclose(ocp.ubx[4:], [15.0, 1.2])
+    np.testing.assert_allclose(ocp.lbh, [0.0, 0.0, 0.0])
+    np.testing.assert_allclose(ocp.ubh, [10.0, np.inf, np.inf])
+    assert ocp.soft == (1, 2) and ocp.soft_N == (1, 2)
+    np.testing.assert_allclose(ocp.soft_weights, [1e6, 1e6])
+    np.testing.assert_allclose(np.diag(ocp.L) ** 2, [1e-4, 1e-4, 1, 1, 1, 200, 200])
+    np.testing.assert_allclose(ocp.p_default, [math.pi / 6])
+    # f_L has no input, so it is not imposed at node 0
+    assert ocp.h_rows_node0 == ()
+
+
+def test_sigmoid_2_11():
+    assert float(sigmoid(-0.24)) == pytest.approx(0.5)
+    assert float(sigmoid(-0.24 - 0.1)) == pytest.approx(1 / (1 + math.exp(-1.9)))
+    assert float(sigmoid(0.0)) == pytest.approx(1 / (1 + math.exp(19 * 0.24)))
+    assert float(sigmoid(-math.pi / 6)) > 0.99
+
+
+def test_bad_configurations():
+    with pytest.raises(ValueError, match="LandingConfig.k_s must be positive, got 0.0"):
+        LandingConfig(k_s=0.0)
+    with pytest.raises(ValueError, match="LandingConfig.input_range must lie in \\(0, 1\\], got 1.5"):
+        LandingConfig(input_range=1.5)
+    with pytest.raises(ValueError, match="LandingConfig.k_theta must be non-negative, got -1.0"):
+        LandingConfig(k_theta=-1.0)
+    with pytest.raises(ValueError, match="horizon N must be a positive integer number of intervals, got 0"):
+        landing_ocp(config=LandingConfig(N=0))
+    with pytest.raises(ValueError, match="controller must be 'nmpc' or '2lc', got 'pid'"):
+        run_landing("pid")
+    with pytest.raises(ValueError, match="two-node variant needs the two-layer controller"):
+        run_landing("nmpc", topology="two_nodes")
+    with pytest.raises(ValueError, match="nmpc_exec must be a number of seconds or 'measured', got 'fast'"):
+        LandingTiming(nmpc_exec="fast")
+
+
+def test_rti_step_at_the_ipopt_optimum_is_consistent():
+    ctrl = landing_nmpc()
+    x0 = initial_state()
+    sol = ctrl.ipopt_solver().solve(x0)
+    assert sol.success, sol.status
+    ctrl.set_trajectory(sol.X, sol.U, sol.S, sol.SN)
+    r = ctrl.feedback(x0)
+    assert r.success
+    assert r.step_norm < 1e-4
+    np.testing.assert_allclose(r.u, sol.U[0], atol=1e-4)  # N/s, N·m/s
+    # a full Gauss-Newton SQP from the cold start reaches the same optimum
+    sqp = landing_nmpc().solve_sqp(x0)
+    assert sqp.success and sqp.cost == pytest.approx(sol.cost, rel=1e-7)
+    np.testing.assert_allclose(sqp.U[0], sol.U[0], atol=1e-3)
+
+
+def test_closed_loop_rti_within_tolerance_of_closed_loop_ipopt():
+    """Nominal model, 0.8 s: RTI (one iteration per sample) against IPOPT at every sample."""
+    x0 = initial_state()
+
+    def loop(full):
+        c = landing_nmpc()
+        assert c.solve_sqp(x0).success
+        ip = c.ipopt_solver() if full else None
+        x, xs, us = x0.copy(), [x0], []
+        for _ in range(80):
+            if full:
+                s = ip.solve(x)
+                assert s.success
+                u = s.U[0]
+            else:
+                u = c.step(x).u
+            x = np.asarray(c.ocp.F(x, u, c.p)).ravel()
+            xs.append(x)
+            us.append(u)
+        return np.array(xs), np.array(us)
+
+    a, ua = loop(False)
+    b, ub = loop(True)
+    d = np.abs(a - b).max(axis=0)
+    # stated tolerance: 1e-3 rad on the angles, 1e-2 rad/s on the rates, 1e-2 N / N·m on f_R, τ_R
+    assert d[0] < 1e-3 and d[2] < 1e-3
+    assert d[1] < 1e-2 and d[3] < 1e-2
+    assert d[4] < 1e-2 and d[5] < 1e-2
+    assert np.abs(ua - ub).max() < 1.0  # N/s, N·m/s
+    # the landing itself: 30° in both angles at the end
+    assert abs(a[-1, 0] + 30 * DEG) < 1 * DEG and abs(a[-1, 2] - 30 * DEG) < 1 * DEG
+
+
+# ---------------------------------------------------------------------------
+# The landing of §2.6.2 (simulation model with landers, optional wind)
+# ---------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def runs():
+    return {(c, w): run_landing(c, wind=w, duration=1.5) for c in ("nmpc", "2lc") for w in (False, True)}
+
+
+@pytest.mark.parametrize("controller", ["nmpc", "2lc"])
+@pytest.mark.parametrize("wind", [False, True])
+def test_landing_reaches_the_slope_within_bounds(runs, controller, wind):
+    run = runs[(controller, wind)]
+    m = landing_metrics(run)
+    assert m["t_settle"] < 1.0  # within 1° of ϑ* = 30°, φ* = -30° for good (thesis: ~0.7 s)
+    assert abs(m["phi_final"] + 30.0) < 1.0 and abs(m["theta_final"] - 30.0) < 1.0
+    assert m["f_R_min"] >= -1e-9 and m["f_R_max"] <= 15.0 + 1e-9  # Table 2.1
+    assert m["tau_R_min"] >= -1.2 - 1e-9 and m["tau_R_max"] <= 1.2 + 1e-9
+    assert m["f_L_min"] >= -1e-6 and m["f_L_max"] <= 10.0  # cable taut, below its limit
+    assert m["d_PG_min"] >= -1e-3  # soft constraints (2.8): propellers above the slope (1 mm)
+    assert m["n_fallback"] == 0 and m["n_steps"] == 150
+    # the maneuver uses the actuators at their bounds (minimum-time-like tuning)
+    assert m["f_R_max"] > 14.5 and m["tau_R_max"] > 1.19
+
+
+def test_two_layer_controller_rejects_the_wind_better(runs):
+    nm, tl = landing_metrics(runs[("nmpc", True)]), landing_metrics(runs[("2lc", True)])
+    # RMS of (φ - φ*, ϑ - ϑ*) over the run: both are dominated by the common planned
+    # transient, the 2LC is below
+    assert tl["rms"] < nm["rms"]
+    assert tl["rms_phi"] < nm["rms_phi"]
+    # the part of the error the wind causes (run with wind minus run without)
+    def wind_dev(c):
+        a, b = runs[(c, False)].signals, runs[(c, True)].signals
+        return np.sqrt(np.mean((a["phi"] - b["phi"]) ** 2 + (a["theta"] - b["theta"]) ** 2))
+    assert wind_dev("2lc") < 0.5 * wind_dev("nmpc")
+
+
+def test_two_node_variant_over_a_network():
+    run = run_landing("2lc", duration=1.0, topology="two_nodes")
+    m = landing_metrics(run)
+    assert m["t_settle"] < 1.0 and m["d_PG_min"] >= -1e-3
+    net = run.sim.networks["link"]
+    assert net.interfaces["onboard"].stats["received"] == 100  # one reference per NMPC job
+    assert set(run.jobs["node"].astype(str)) == {"onboard", "ground"}
+
+
+def test_measured_solve_time_sets_the_nmpc_response_time():
+    fl_exec, factor = 1e-4, 2.0
+    run = run_landing("2lc", duration=0.3, timing=LandingTiming(nmpc_exec="measured", cpu_factor=factor,
+                                                                   fl_exec=fl_exec))
+    jobs = run.jobs
+    nmpc = jobs[jobs["task"] == "nmpc"].sort_values("release").reset_index(drop=True)
+    fl = jobs[jobs["task"] == "fl"]
+    steps = run.steps.sort_values("released").reset_index(drop=True)
+    assert len(nmpc) == len(steps) == 30
+    budget = factor * (steps["t_feedback"] + steps["t_prepare"])
+    np.testing.assert_allclose(nmpc["execution_time"], budget, atol=1e-9)
+    # response = own CPU time + the 500 Hz jobs released while it was pending
+    n_pre = [int(((fl["release"] >= r - 1e-12) & (fl["release"] < f)).sum())
+             for r, f in zip(nmpc["release"], nmpc["finish"])]
+    np.testing.assert_allclose(nmpc["response_time"], budget + fl_exec * np.array(n_pre), atol=1e-9)
+    assert min(n_pre) >= 1  # the FL job released with it always goes first
+    assert (nmpc["response_time"] > nmpc["execution_time"]).all()
+    m = landing_metrics(run)
+    assert m["n_fallback"] == 0
+
+
+def test_measured_initialization_degrades_with_delay_reference_initialization_does_not():
+    timing = LandingTiming(nmpc_exec=0.002, feedback_share=1.0)
+    ref = landing_metrics(run_landing("2lc", duration=1.0, timing=timing, nmpc_init="reference"))
+    mea = landing_metrics(run_landing("2lc", duration=1.0, timing=timing, nmpc_init="measured"))
+    assert ref["d_PG_min"] >= -1e-3 and ref["t_settle"] < 1.0
+    assert mea["d_PG_min"] < -0.01  # the propellers hit the slope by more than a centimetre
