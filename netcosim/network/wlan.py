@@ -60,6 +60,7 @@ Bianchi's model with delta = 0).
 
 from __future__ import annotations
 
+import heapq
 import math
 
 from ..timebase import TICKS_PER_SECOND, to_ticks
@@ -185,6 +186,13 @@ class WLAN80211b(Network):
         self.medium = WirelessMedium(self, path_loss=path_loss, noise_w=dbm_to_watt(self.noise_dbm),
                                      capture_ratio=db_to_ratio(self.capture_db))
         self.collisions = 0
+        # Access instants of all stations in one heap, one SimPy timer at the earliest:
+        # entries (tick, station index, generation, station); stale entries are skipped.
+        self._acc: list = []
+        self._acc_timer = None
+        self._acc_timer_at = -1
+        # NAV expiries: tick -> stations to re-evaluate then (one timer per instant)
+        self._nav: dict = {}
 
     # ------------------------------------------------------------------ attach
     def attach(self, node, *, position=(0.0, 0.0), tx_power_dbm: float | None = None,
@@ -224,8 +232,8 @@ class WLAN80211b(Network):
         r.immediate = False
         r.anchor = 0
         r.cw = self.cw_min
-        r.access_timer = None
-        r.access_at = -1
+        r.access_at = -1          # tick of the pending channel access, -1 if none
+        r.acc_gen = 0
         r.awaiting = None
         r.ack_timer = None
         r.ack_wait = False
@@ -267,19 +275,17 @@ class WLAN80211b(Network):
             if r.mac_busy:
                 r.mac_busy = False
                 r.idle_start = now
-            if r.access_timer is None and r.backoff is not None:
+            if r.access_at < 0 and r.backoff is not None:
                 self._schedule_access(r)
 
     def _on_busy(self, r, now) -> None:
         if r.eifs and now - r.idle_start >= self.eifs_time:
             r.eifs = False
-        t = r.access_timer
-        if t is None:
+        if r.access_at < 0:
             return
         if r.access_at == now:
             return          # the slot boundary is now: the transmission goes ahead (not sensed in time)
-        t.cancel()
-        r.access_timer = None
+        r.access_at = -1
         if r.immediate:
             r.immediate = False
             self._draw(r)
@@ -293,7 +299,35 @@ class WLAN80211b(Network):
         r.count_start = cs
         at = cs + r.backoff * self.slot
         r.access_at = at
-        r.access_timer = self.sim.call_at(at, self._access, arg=r)
+        r.acc_gen += 1
+        heapq.heappush(self._acc, (at, r.index, r.acc_gen, r))
+        if self._acc_timer_at < 0 or at < self._acc_timer_at:
+            self._arm_access(at)
+
+    def _arm_access(self, at) -> None:
+        if self._acc_timer is not None:
+            self._acc_timer.cancel()
+        self._acc_timer_at = at
+        self._acc_timer = self.sim.call_at(at, self._access_due)
+
+    def _access_due(self) -> None:
+        """Every station whose access instant is now transmits (in station order)."""
+        now = self._env._now
+        self._acc_timer = None
+        self._acc_timer_at = -1
+        acc = self._acc
+        due = []
+        while acc and acc[0][0] <= now:
+            at, _, gen, r = heapq.heappop(acc)
+            if r.acc_gen == gen and r.access_at == at:
+                due.append(r)
+        for r in due:
+            if r.access_at == now:
+                self._access(r)
+        while acc and not (acc[0][3].acc_gen == acc[0][2] and acc[0][3].access_at == acc[0][0]):
+            heapq.heappop(acc)
+        if acc and (self._acc_timer_at < 0 or acc[0][0] < self._acc_timer_at):
+            self._arm_access(acc[0][0])
 
     def _draw(self, r) -> None:
         b = int(r.rng.integers(0, r.cw + 1))
@@ -313,7 +347,7 @@ class WLAN80211b(Network):
         self._reeval(r)
 
     def _access(self, r) -> None:
-        r.access_timer = None
+        r.access_at = -1
         r.backoff = None
         r.immediate = False
         r.eifs = False
@@ -431,7 +465,11 @@ class WLAN80211b(Network):
                     nav = self._env._now + self.sifs + self.ack_time
                     if nav > r.nav_end:
                         r.nav_end = nav
-                        self.sim.call_at(nav, self._reeval, arg=r)
+                        waiting = self._nav.get(nav)
+                        if waiting is None:
+                            waiting = self._nav[nav] = []
+                            self.sim.call_at(nav, self._nav_due, arg=nav)
+                        waiting.append(r)
             else:
                 if locked and self.use_eifs:
                     r.eifs = True
@@ -450,6 +488,10 @@ class WLAN80211b(Network):
                 r.eifs = True
         if r.ack_wait and r.awaiting is not None and r.rx is None:
             self._ack_fail(r)
+
+    def _nav_due(self, nav) -> None:
+        for r in self._nav.pop(nav):
+            self._reeval(r)
 
     def _send_ack(self, data_tx) -> None:
         r = data_tx.dst
