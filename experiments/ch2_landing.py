@@ -1,0 +1,221 @@
+"""Thesis ch. 2, §2.6.2: landing of the tethered UAV on a 30° slope.
+
+Runs, on the simulation model with landers (1 cm, see
+:data:`controllers.landing_tasks.SIM_PARAMS`) and optionally the wind of §2.6.1:
+
+* ``ideal``: NMPC alone and the two-layer controller (2LC), without and with wind,
+  with zero computation times (the thesis's Simulink setting) -- Fig. 2.8–2.13;
+* ``scheduled``: the same controllers as netcosim tasks on one node whose NMPC job
+  costs the measured wall-clock time of the real RTI computation (100 µs per
+  low-level job, 20 µs context switches), plus the 2LC started from the measurement
+  (the thesis's initialization) to show its sensitivity to the computation delay,
+  and the 2LC on two nodes over a 1 Mbit/s link.
+
+Writes PNG figures and Parquet tables to *outdir* and returns the metrics table.
+Run ``python -m experiments.ch2_landing``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from controllers.landing_tasks import SIM_PARAMS, LandingTiming, landing_metrics, run_landing  # noqa: E402
+from netcosim.plot import plot_schedule  # noqa: E402
+
+DEG = 180.0 / math.pi
+COLORS = {"nmpc": "tab:blue", "2lc": "tab:red"}
+LABELS = {"nmpc": "NMPC", "2lc": "2LC"}
+SCHEDULED = LandingTiming(nmpc_exec="measured", cpu_factor=1.0, fl_exec=1e-4, context_switch=2e-5)
+
+
+def _bounds(ax, lo=None, hi=None):
+    for v in (lo, hi):
+        if v is not None:
+            ax.axhline(v, color="gold", lw=1.5)
+
+
+def _figure_angles(runs, path, title):
+    fig, axes = plt.subplots(2, 2, figsize=(11, 6), sharex=True)
+    for c, run in runs.items():
+        s = run.signals
+        ls = "--" if c == "nmpc" else "-"
+        axes[0, 0].plot(s["time"], s["phi"] * DEG, ls, color=COLORS[c], label=f"$\\varphi_{{{LABELS[c]}}}$")
+        axes[0, 1].plot(s["time"], s["theta"] * DEG, ls, color=COLORS[c], label=f"$\\vartheta_{{{LABELS[c]}}}$")
+        axes[1, 0].plot(s["time"], s["dphi"] * DEG, ls, color=COLORS[c], label=LABELS[c])
+        axes[1, 1].plot(s["time"], s["dtheta"] * DEG, ls, color=COLORS[c], label=LABELS[c])
+    axes[0, 0].axhline(-30, color="gold", lw=1.5, label="$\\varphi^*$")
+    axes[0, 1].axhline(30, color="gold", lw=1.5, label="$\\vartheta^*$")
+    any_run = next(iter(runs.values()))
+    if any_run.wind:
+        ax2 = axes[0, 0].twinx()
+        ax2.plot(any_run.signals["time"], any_run.signals["wind"], color="grey", lw=1)
+        ax2.set_ylabel("wind force [N]", color="grey")
+    for ax, lab in zip(axes.ravel(), ["elevation φ [deg]", "attitude ϑ [deg]", "φ̇ [deg/s]", "ϑ̇ [deg/s]"]):
+        ax.set_ylabel(lab)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+    for ax in axes[1]:
+        ax.set_xlabel("time [s]")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _figure_inputs(runs, path, title):
+    p = SIM_PARAMS
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    for c, run in runs.items():
+        s = run.signals
+        ls = "--" if c == "nmpc" else "-"
+        axes[0].plot(s["time"], s["f_R"], ls, color=COLORS[c], label=LABELS[c])
+        axes[1].plot(s["time"], s["tau_R"], ls, color=COLORS[c], label=LABELS[c])
+    _bounds(axes[0], 0.0, p.f_R_max)
+    _bounds(axes[1], -p.tau_R_max, p.tau_R_max)
+    axes[0].set_ylabel("thrust $f_R$ [N]")
+    axes[1].set_ylabel("torque $\\tau_R$ [N·m]")
+    axes[1].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _figure_constraints(runs, path, title):
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    for c, run in runs.items():
+        s = run.signals
+        ls = "--" if c == "nmpc" else "-"
+        axes[0].plot(s["time"], s["d_PG1"] * 1e3, ls, color=COLORS[c], label=f"$d_{{PG1}}$ {LABELS[c]}")
+        axes[1].plot(s["time"], s["d_PG2"] * 1e3, ls, color=COLORS[c], label=f"$d_{{PG2}}$ {LABELS[c]}")
+        axes[2].plot(s["time"], s["f_L"], ls, color=COLORS[c], label=f"$f_L$ {LABELS[c]}")
+    _bounds(axes[0], 0.0)
+    _bounds(axes[1], 0.0)
+    _bounds(axes[2], 0.0, SIM_PARAMS.f_L_max)
+    axes[0].set_ylabel("propeller 1 – ground [mm]")
+    axes[1].set_ylabel("propeller 2 – ground [mm]")
+    axes[2].set_ylabel("cable stress [N]")
+    axes[2].set_xlabel("time [s]")
+    for ax in axes[:2]:
+        ax.set_yscale("symlog", linthresh=10.0)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _figure_scheduled(runs, path):
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    for name, run in runs.items():
+        s = run.signals
+        axes[0].plot(s["time"], s["phi"] * DEG, label=name)
+        axes[1].plot(s["time"], s["d_PG2"] * 1e3, label=name)
+    axes[0].axhline(-30, color="gold", lw=1.5)
+    _bounds(axes[1], 0.0)
+    axes[0].set_ylabel("elevation φ [deg]")
+    axes[1].set_ylabel("$d_{PG2}$ [mm]")
+    axes[1].set_yscale("symlog", linthresh=10.0)
+    axes[1].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+    fig.suptitle("Landing with the measured NMPC solve time as CPU time (one node, 500 Hz FL above 100 Hz NMPC)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _tidy(name, run):
+    s = run.signals.copy()
+    s.insert(0, "run", name)
+    s.insert(1, "controller", run.controller)
+    s.insert(2, "wind_on", run.wind)
+    return s
+
+
+def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFrame:
+    """Run the ch. 2 landing experiments; write figures and Parquet tables to *outdir*."""
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    duration = 1.0 if quick else 1.5
+    runs = {}
+    for wind in (False, True):
+        for c in ("nmpc", "2lc"):
+            runs[f"ideal_{c}_{'wind' if wind else 'calm'}"] = run_landing(c, wind=wind, duration=duration)
+    scheduled = {
+        "NMPC alone": run_landing("nmpc", duration=duration, timing=SCHEDULED),
+        "2LC (NMPC from reference)": run_landing("2lc", duration=duration, timing=SCHEDULED),
+    }
+    if not quick:
+        scheduled["2LC (NMPC from measurement)"] = run_landing("2lc", duration=duration, timing=SCHEDULED,
+                                                               nmpc_init="measured")
+        scheduled["2LC on two nodes (1 Mbit/s link)"] = run_landing("2lc", duration=duration, timing=SCHEDULED,
+                                                                    topology="two_nodes")
+    for name, run in scheduled.items():
+        runs["scheduled_" + name] = run
+
+    calm = {c: runs[f"ideal_{c}_calm"] for c in ("nmpc", "2lc")}
+    windy = {c: runs[f"ideal_{c}_wind"] for c in ("nmpc", "2lc")}
+    _figure_angles(calm, out / "fig2_8_angles.png", "Landing without wind (cf. Fig. 2.8)")
+    _figure_inputs(calm, out / "fig2_9_inputs.png", "Inputs without wind (cf. Fig. 2.9)")
+    _figure_constraints(calm, out / "fig2_10_constraints.png", "Propeller–ground distances and cable stress (cf. Fig. 2.10)")
+    _figure_angles(windy, out / "fig2_11_wind_angles.png", "Landing under wind (cf. Fig. 2.11)")
+    _figure_inputs(windy, out / "fig2_12_wind_inputs.png", "Inputs under wind (cf. Fig. 2.12)")
+    _figure_constraints(windy, out / "fig2_13_wind_constraints.png", "Constraints under wind (cf. Fig. 2.13)")
+    _figure_scheduled(scheduled, out / "scheduled_landing.png")
+    sched = scheduled["2LC (NMPC from reference)"]
+    plot_schedule(sched.schedule, node="onboard", tasks=["fl", "nmpc"], t_range=(0.0, 0.05),
+                  path=out / "schedule_2lc.png",
+                  title="2LC on one node: 500 Hz FL (top) preempts the 100 Hz NMPC (measured solve time)")
+
+    rows = []
+    for name, run in runs.items():
+        m = landing_metrics(run)
+        m["run"] = name
+        rows.append(m)
+    metrics = pd.DataFrame(rows).set_index("run")
+    # wind-induced deviation: RMS over the run of (run with wind - run without), degrees
+    for c in ("nmpc", "2lc"):
+        a, b = calm[c].signals, windy[c].signals
+        metrics.loc[f"ideal_{c}_wind", "wind_deviation"] = float(
+            DEG * np.sqrt(np.mean((a["phi"] - b["phi"]) ** 2 + (a["theta"] - b["theta"]) ** 2)))
+    metrics.loc["ideal_2lc_wind", "rms_ratio_2lc_over_nmpc"] = (metrics.loc["ideal_2lc_wind", "rms"]
+                                                                / metrics.loc["ideal_nmpc_wind", "rms"])
+    metrics.loc["ideal_2lc_wind", "wind_deviation_ratio"] = (metrics.loc["ideal_2lc_wind", "wind_deviation"]
+                                                             / metrics.loc["ideal_nmpc_wind", "wind_deviation"])
+    jobs = sched.jobs
+    nm = jobs[jobs["task"] == "nmpc"]
+    metrics.loc["scheduled_2LC (NMPC from reference)", "nmpc_response_median"] = float(nm["response_time"].median())
+    metrics.loc["scheduled_2LC (NMPC from reference)", "nmpc_response_max"] = float(nm["response_time"].max())
+
+    pd.concat([_tidy(n, r) for n, r in runs.items()], ignore_index=True).to_parquet(out / "signals.parquet")
+    pd.concat([r.steps.assign(run=n) for n, r in runs.items()], ignore_index=True).to_parquet(out / "nmpc_steps.parquet")
+    pd.concat([r.jobs.assign(run=n) for n, r in runs.items()], ignore_index=True).to_parquet(out / "jobs.parquet")
+    metrics.reset_index().to_parquet(out / "metrics.parquet")
+    cols = ["t_settle", "phi_final", "theta_final", "rms", "f_L_min", "f_L_max", "d_PG_min", "n_fallback"]
+    with pd.option_context("display.width", 200, "display.max_columns", 20):
+        print(metrics[cols].round(4).to_string())
+        w = metrics.loc["ideal_2lc_wind"]
+        print(f"\nwind: RMS (deg) NMPC {metrics.loc['ideal_nmpc_wind', 'rms']:.4f}, 2LC {w['rms']:.4f}, "
+              f"ratio {w['rms_ratio_2lc_over_nmpc']:.4f}; wind-induced deviation NMPC "
+              f"{metrics.loc['ideal_nmpc_wind', 'wind_deviation']:.4f}, 2LC {w['wind_deviation']:.4f}, "
+              f"ratio {w['wind_deviation_ratio']:.3f}")
+    return metrics
+
+
+if __name__ == "__main__":
+    main()
