@@ -536,14 +536,16 @@ def sampled_velocity(system: Any, q_h: Any, q_ref: Any, k: float, kbar: Any = No
 
 def simulate_sampled(system: Any, q0: Any, q_ref: Any, T: float, gain: Any, *, kbar: Any = None,
                      norm: Any = None, n_samples: int = 50, tol: float = 0.0,
-                     plant: Callable[..., np.ndarray] | None = None):
+                     plant: Callable[..., np.ndarray] | None = None, guarantee: Any = None):
     """Run the sampled planner (3.11)/(4.16) against the kinematic model.
 
     ``gain``: :class:`OfflineGain` or :class:`OnlineGain`.  At each sample ``h`` the gain
     ``k_h`` and ``u_h = -k_h A_{q_h} K_bar e_h`` are computed, then the plant
     ``q_dot = A_q^+ u_h`` is integrated over one period (``plant(q, u, T)``; default
     :func:`integrate_kinematics` with DOP853, rtol 1e-12, atol 1e-13).  Stops after
-    ``n_samples`` periods or once ``||e_h|| < tol``.
+    ``n_samples`` periods or once ``||e_h|| < tol``.  ``guarantee``: a
+    :class:`~controllers.gain_design.GainDesign`; an offline gain outside its stability
+    interval ``0 < k T < tau_s_bar`` then raises ``ValueError`` before anything runs.
 
     Returns a ``pandas.DataFrame`` with one row per sample: ``h``, ``t`` (s), ``k``
     (1/s), ``tau`` (= k T), ``err`` (``||e_h||`` in *norm*), ``err2`` (Euclidean),
@@ -563,6 +565,8 @@ def simulate_sampled(system: Any, q0: Any, q_ref: Any, T: float, gain: Any, *, k
     kd = _diag_gain(kbar, m)
     if not isinstance(gain, (OfflineGain, OnlineGain)) and not callable(gain):
         raise TypeError(f"gain must be OfflineGain(k) or OnlineGain(), got {gain!r}")
+    if guarantee is not None and isinstance(gain, OfflineGain):
+        guarantee.check_gain(gain.k, T)
     if plant is None:
         plant = lambda q, u, T: integrate_kinematics(system, q, u, 0.0, T)  # noqa: E731
     rows = []

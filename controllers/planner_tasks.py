@@ -177,7 +177,7 @@ def deploy_planner(sim, system: Any, q0: Any, T: float, law: PlannerLaw, *, arch
                    network: Any = None, exec_pivot: Any = 0.0, exec_robot: Any = 0.0, size_bits: int = 64,
                    on_loss: str = "hold", watchdog_period: float = 0.2, watchdog_timeout: float | None = None,
                    structure: StarStructure | None = None, integrator: Any = None, plant_name: str = "plant",
-                   log_interval: float | None = None) -> Deployment:
+                   log_interval: float | None = None, guarantee: Any = None) -> Deployment:
     """Build the plant, the pivot and robot nodes and their tasks (see module docstring).
 
     ``sim``: a :class:`netcosim.Simulation`; ``q0``: initial configuration (rad, m);
@@ -186,6 +186,9 @@ def deploy_planner(sim, system: Any, q0: Any, T: float, law: PlannerLaw, *, arch
     ``size_bits``: bits per float in a message (message length = floats x size_bits).
     ``on_loss``: ``"hold"`` the last command or ``"zero"`` it after the watchdog timeout.
     ``integrator``: plant integrator (default :func:`plant_integrator`).
+    ``guarantee``: a :class:`~controllers.gain_design.GainDesign` (point stabilization)
+    or :class:`~controllers.sikm.SIKMParams` (tracking); an offline gain outside the
+    corresponding stability set raises ``ValueError``.
     """
     check_system(system)
     T = check_period(T)
@@ -199,6 +202,12 @@ def deploy_planner(sim, system: Any, q0: Any, T: float, law: PlannerLaw, *, arch
         raise ValueError("the online gain tau_o(e_h)/T needs the whole q: use architecture='centralized'")
     if isinstance(size_bits, bool) or not isinstance(size_bits, (int, np.integer)) or size_bits < 1:
         raise ValueError(f"size_bits must be a positive integer, got {size_bits!r}")
+    if guarantee is not None and isinstance(law.gain, OfflineGain):
+        if hasattr(guarantee, "check_gain"):
+            guarantee.check_gain(law.gain.k, T)
+        else:
+            from .sikm import check_offline_gain
+            check_offline_gain(law.gain.k, T, guarantee)
     watchdog_period = check_period(watchdog_period, "watchdog_period")
     timeout = T if watchdog_timeout is None else check_period(watchdog_timeout, "watchdog_timeout")
     m, n = system.m, system.n

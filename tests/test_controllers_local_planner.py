@@ -57,6 +57,9 @@ def test_gain_matrix_and_input_checks():
         simulate_sampled(Formation2D(), FORMATION_QREF, FORMATION_QREF, 0.0, OfflineGain(1.0))
     with pytest.raises(ValueError, match="offline gain k"):
         OfflineGain(-2.0)
+    with pytest.raises(ValueError, match=r"gain k=300.0 1/s with T=0.01 s gives kT=3, outside"):
+        simulate_sampled(Formation2D(), FORMATION_QREF, FORMATION_QREF, 0.01, OfflineGain(300.0),
+                         guarantee=design(0.2))
     with pytest.raises(TypeError, match="not a kinematic system"):
         planner_velocity(object(), [0], [0])
     with pytest.raises(ValueError, match="q must have 9"):

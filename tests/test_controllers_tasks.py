@@ -52,6 +52,14 @@ def test_online_gain_in_sparse_architecture_is_rejected():
         deploy_planner(sim, PlanarCrane(3), CRANE3_QREF, 0.5, PlannerLaw(OnlineGain(), q_ref=CRANE3_QREF))
     with pytest.raises(ValueError, match="T must be a finite positive.*-1"):
         deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, -1, PlannerLaw(OfflineGain(1.0), q_ref=CRANE3_QREF))
+    from controllers.gain_design import design
+    from controllers.sikm import SIKMParams
+    with pytest.raises(ValueError, match="outside the stability interval"):
+        deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, 1.0,
+                       PlannerLaw(OfflineGain(2.5), q_ref=CRANE3_QREF), guarantee=design(0.3))
+    with pytest.raises(ValueError, match=r"k=3.0 1/s, T=1.5 s"):
+        deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, 1.5,
+                       PlannerLaw(OfflineGain(3.0), q_ref=CRANE3_QREF), guarantee=SIKMParams(0.02, 0.13, 0.1, 0.2))
     with pytest.raises(ValueError, match="on_loss"):
         deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, 1.0, PlannerLaw(OfflineGain(1.0), q_ref=CRANE3_QREF),
                        on_loss="drop")
