@@ -63,9 +63,9 @@ def test_schedule_plot_is_written(tmp_path):
 
 
 def test_main_job_writes_results(tmp_path, capsys):
-    main_job.main(str(tmp_path))
+    assert main_job.main(str(tmp_path), only=["servo", "threeservos"]) == 0
     out = capsys.readouterr().out
-    assert "threeservos edf" in out
+    assert "edf [pid1:" in out
     for f in ("servo/servo_output.png", "servo/servo_schedule.png", "servo/jobs.parquet",
               "threeservos/edf_schedule.png", "threeservos/deadline_monotonic_outputs.png",
               "threeservos/edf_signals.parquet"):
@@ -90,3 +90,12 @@ def test_realtime_mode_paces_against_the_wall_clock():
 def test_realtime_bad_factor():
     with pytest.raises(ValueError, match="factor.*-1"):
         Simulation(realtime=True, factor=-1)
+
+
+def test_every_main_job_entry_is_a_runnable_experiment():
+    import importlib
+    import inspect
+    for name, what in main_job.EXPERIMENTS:
+        mod = importlib.import_module(f"experiments.{name}")
+        assert "outdir" in inspect.signature(mod.main).parameters, name
+        assert what
