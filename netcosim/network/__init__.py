@@ -8,7 +8,8 @@ Create a network with its simulation and a name, attach nodes, send from tasks::
     ctx.send("controller", payload, size_bits=64)       # in a task body
 
 Models: :class:`IdealLink`, :class:`FDMA`, :class:`CSMACD`, :class:`CAN`,
-:class:`RoundRobin`, :class:`TDMA`, :class:`SwitchedEthernet`, :class:`WLAN80211b`.
+:class:`RoundRobin`, :class:`TDMA`, :class:`SwitchedEthernet`, :class:`WLAN80211b`,
+:class:`IEEE802154`.
 Loss models: :class:`Bernoulli`, :class:`GilbertElliott`, :class:`TraceLoss`.
 See ``docs/networks.md`` for the semantics of each model.
 """
@@ -20,6 +21,7 @@ from .ethernet import CSMACD
 from .frame import BROADCAST, LOSS_REASONS, Message
 from .ideal import FDMA, IdealLink
 from .interface import Interface
+from .lrwpan import IEEE802154
 from .loss import AnyLoss, Bernoulli, GilbertElliott, LossModel, TraceLoss
 from .radio import (LogDistance, TrueTimePathLoss, ber_cck, ber_dbpsk, ber_dqpsk, dbm_to_watt,
                     thermal_noise_dbm, watt_to_dbm)
@@ -29,7 +31,7 @@ from .traffic import SaturatedSource
 from .wlan import RATES, WLAN80211b
 
 __all__ = ["ARBITRATE", "AnyLoss", "BROADCAST", "Bernoulli", "CAN", "CSMACD", "FDMA", "GilbertElliott",
-           "IdealLink", "Interface", "LOSS_REASONS", "LogDistance", "LossModel", "Message", "NETWORK_STATES",
+           "IEEE802154", "IdealLink", "Interface", "LOSS_REASONS", "LogDistance", "LossModel", "Message", "NETWORK_STATES",
            "Network", "RATES", "RoundRobin", "SaturatedSource", "SharedBus", "SwitchedEthernet", "TDMA",
            "TraceLoss", "TrueTimePathLoss", "WLAN80211b", "ber_cck", "ber_dbpsk", "ber_dqpsk", "can_frame_bits",
            "dbm_to_watt", "thermal_noise_dbm", "watt_to_dbm"]

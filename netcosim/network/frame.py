@@ -44,6 +44,7 @@ LOSS_REASONS = (
     "retry_limit",      # sender gave up after the maximum number of attempts
     "queue_overflow",   # sender queue (or switch memory) full
     "mailbox_full",     # receiver mailbox full at delivery
+    "channel_access",   # 802.15.4: CSMA/CA found the channel busy too often
 )
 
 

@@ -75,6 +75,10 @@ class WirelessMedium:
         self.transmissions = 0
 
     def init_listener(self, r) -> None:
+        if self.active:
+            raise RuntimeError(f"network {self.mac.name!r}: cannot attach {r.name!r} while "
+                               f"{len(self.active)} transmission(s) are on the air; attach nodes before or "
+                               f"between transmissions")
         r.power = 0.0
         r.n_active = 0
         r.audible = 0
