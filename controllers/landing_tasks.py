@@ -41,11 +41,9 @@ from .landing import LandingConfig, initial_state, landing_nmpc
 
 __all__ = ["LandingTiming", "LandingRun", "run_landing", "landing_metrics", "SIM_PARAMS", "DEFAULT_FL_GAINS"]
 
-#: Simulation-model parameters of the ch. 2 experiments: the project defaults with
-#: 1 cm landers.  With l = 1 m a lander of height h stops the CoM at
-#: φ ≈ -α + asin(h - compression); 1 cm keeps the final elevation within 1° of -α
-#: (φ* = -30°) as in Fig. 2.8, where the 5 cm default stops it ~2.7° short.
-SIM_PARAMS = TetheredUAVParams(lander_height=0.01)
+#: Simulation-model parameters of the ch. 2 experiments: the project defaults (1 cm
+#: landers, which stop the CoM within 1° of φ* = -α as in Fig. 2.8).
+SIM_PARAMS = TetheredUAVParams()
 
 
 #: Gains of the low-level PID loops: triple pole at -60 rad/s (K_P = 10800 s⁻²,

@@ -79,9 +79,11 @@ class TetheredUAVParams:
     f_R_max: float = 15.0
     tau_R_max: float = 1.2
     f_L_max: float = 10.0
-    #: Lander height h of (2.17) [m]: 5 cm legs, more than the propeller clearance
-    #: needed when the body is parallel to the slope.
-    lander_height: float = 0.05
+    #: Lander height h of (2.17) [m]: 1 cm legs.  With l = 1 m the landers stop the CoM
+    #: at φ ≈ -α + asin(h/l), so 1 cm lets the landing reach φ* = -α within 1° as in
+    #: Fig. 2.8 (5 cm would stop it ~2.7° short); the propellers sit in the body plane,
+    #: so they still clear the slope when the body is parallel to it.
+    lander_height: float = 0.01
     #: Lander stiffness k_el of (2.17) [N/m]: deflects ~8 mm under the normal weight
     #: component m g cos α ≈ 8.5 N; contact natural frequency sqrt(k/m) ≈ 5 Hz.
     k_el: float = 1000.0
