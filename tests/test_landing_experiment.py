@@ -18,6 +18,9 @@ def test_ch2_landing_quick(tmp_path):
     assert w["rms_ratio_2lc_over_nmpc"] < 1.0
     assert w["wind_deviation_ratio"] < 0.5
     assert (saved["n_fallback"] == 0).all()
-    assert saved.loc["scheduled_2LC (NMPC from reference)", "nmpc_response_max"] < 0.01
+    # the scheduled runs charge the measured (wall-clock) solve time: its size depends on
+    # the machine, so only its presence is checked here (the exact accounting is in
+    # tests/test_landing.py, the cost in benchmarks/nmpc.py)
+    assert saved.loc["scheduled_2LC (NMPC from reference)", "nmpc_response_max"] > 0
     sig = pd.read_parquet(tmp_path / "signals.parquet")
     assert {"run", "controller", "time", "phi", "theta", "f_R", "tau_R", "f_L", "d_PG1", "d_PG2"} <= set(sig.columns)
