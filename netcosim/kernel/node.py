@@ -388,15 +388,21 @@ class Node:
         task = job.task
         job.finish = now
         job.state = "done"
-        job.killed = killed
+        if killed:
+            job.killed = True
         if self.running is job:
             self.running = None
         if self._loaded is job:
             self._loaded = None
-        for t in (job.deadline_timer, job.budget_timer, job.seg_timer):
-            if t is not None:
-                t.cancel()
-        job.seg_timer = job.budget_timer = job.deadline_timer = None
+        if job.seg_timer is not None:
+            job.seg_timer.cancel()
+            job.seg_timer = None
+        if job.deadline_timer is not None:
+            job.deadline_timer.cancel()
+            job.deadline_timer = None
+        if job.budget_timer is not None:
+            job.budget_timer.cancel()
+            job.budget_timer = None
         if job.held:
             names = [m.name for m in job.held]
             for m in list(job.held):
@@ -500,6 +506,7 @@ class Node:
 
     # ----------------------------------------------------------- statistics
     def _record(self, job: Job) -> None:
+        """Append the job's statistics (raw ticks; the trace derives the reported columns)."""
         dl = job.abs_deadline
         miss = job.missed or (dl is not None and job.finish > dl)
         if miss and not job.missed:

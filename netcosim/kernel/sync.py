@@ -169,7 +169,10 @@ class Monitor:
 
     def _grant(self, job):
         self.holder = job
-        job.held.append(self)
+        if job.held:
+            job.held.append(self)
+        else:
+            job.held = [self]
 
     def _cancel(self, job):
         if job in self.waiters:

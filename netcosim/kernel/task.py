@@ -82,6 +82,7 @@ class Job:
     killed = False
     missed = False
     budget_overrun = False
+    held = ()  # monitors held (a list once the job enters one)
 
     def __init__(self, task: "Task", index: int, release: int):
         self.task = task
@@ -91,7 +92,6 @@ class Job:
         d = task.deadline_ticks
         self.abs_deadline = None if d is None else release + d
         self.cls = task.cls
-        self.held = []
 
     @property
     def release_time(self) -> float:
