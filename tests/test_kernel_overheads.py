@@ -212,3 +212,20 @@ def test_execution_time_from_callable_distribution():
     sim.run(until=50)
     e = sim.trace.jobs()["execution_time"]
     assert 0.1 <= e.min() and e.max() <= 0.2 and e.std() > 0.01
+
+
+def test_killing_a_queued_job_records_it_and_keeps_the_queue():
+    sim = Simulation()
+    cpu = sim.node("cpu")
+    jobs = []
+
+    def body(ctx):
+        yield ctx.execute(3.0)
+    t = cpu.periodic(body, period=1.0, priority=1, name="t")
+    sim.call_at(int(2.5e12), lambda: t.pending[0].kill())  # job 1 (released at 1) is queued
+    sim.run(until=6.5)
+    df = sim.trace.jobs()
+    killed = df[df["killed"]]
+    assert killed["job"].tolist() == [1] and killed["finish"].isna().all()
+    done = df[df["finish"].notna() & ~df["killed"]]
+    assert done["job"].tolist() == [0, 2] and done["finish"].tolist() == [3.0, 6.0]

@@ -508,7 +508,7 @@ class Node:
     def _record(self, job: Job) -> None:
         """Append the job's statistics (raw ticks; the trace derives the reported columns)."""
         dl = job.abs_deadline
-        miss = job.missed or (dl is not None and job.finish > dl)
+        miss = job.missed or (dl is not None and job.finish is not None and job.finish > dl)
         if miss and not job.missed:
             job.task.misses += 1
             job.missed = True
