@@ -35,13 +35,21 @@ minus sign of (3.8), we keep the sign of (3.8) so that both forms give the same 
 
 from __future__ import annotations
 
+import bisect
+import hashlib
 import math
+import os
+import shutil
+import subprocess
+import tempfile
+import weakref
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+import casadi as ca
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.optimize import minimize_scalar
+from scipy.integrate._ivp import dop853_coefficients as _dop
 
 __all__ = [
     "SingularConfigurationError", "StarStructure", "WeightedNorm", "check_system",
@@ -394,6 +402,423 @@ FLOW_RTOL = 1e-10
 FLOW_ATOL_REL = 1e-12
 #: Absolute tolerance (in tau) of the minimisation giving tau_o.
 TAU_XTOL = 1e-10
+#: Compile the flow of systems that provide a CasADi Jacobian (``A_fun``) to machine
+#: code with the C compiler ``$CC`` (default ``cc``), cached on disk in
+#: ``$NETCOSIM_CACHE`` (default ``~/.cache/netcosim``).  Without a compiler, or when
+#: False, the same CasADi functions run in CasADi's virtual machine (about 6x slower).
+COMPILE_FLOW = True
+#: A QR pivot of ``A_q`` below this fraction of the largest one anywhere in a step of the
+#: CasADi flow sends the whole flow back to the SVD right-hand side (rank test
+#: :data:`RANK_RTOL`), which raises :class:`SingularConfigurationError` if needed.
+PIVOT_RTOL = 1e-7
+
+# DOP853 (Hairer, Norsett & Wanner): the tableau of SciPy's implementation.
+
+_NS = _dop.N_STAGES                      # 12 stages; the 13th is f at the new point
+_A, _B, _C = _dop.A, _dop.B, _dop.C
+_E3, _E5, _D = _dop.E3, _dop.E5, _dop.D
+_NSX = _dop.N_STAGES_EXTENDED           # + 3 stages for the dense output
+
+
+def _dense_to_monomial() -> np.ndarray:
+    """Matrix M (7x7) with ``y(x) - y_old = sum_k (M F)_k x^(k+1)`` for DOP853's dense
+    output ``x(F0 + (1-x)(F1 + x(F2 + (1-x)(F3 + x(F4 + (1-x)(F5 + x F6))))))``."""
+    P = np.polynomial.polynomial
+    M = np.zeros((7, 7))
+    for j in range(7):
+        poly = np.zeros(1)
+        for i in range(6, -1, -1):
+            poly = P.polyadd(poly, [1.0 if i == j else 0.0])
+            poly = P.polymul(poly, [0.0, 1.0] if i % 2 == 0 else [1.0, -1.0])
+        M[:len(poly) - 1, j] = poly[1:]
+    return M
+
+
+_MONO = _dense_to_monomial()
+#: Relative tolerance of the event location (tau_s) on the dense output.
+EVENT_XTOL = 64 * np.finfo(float).eps
+
+
+class _FallBack(Exception):
+    """The compiled flow met a (near-)singular A_q or a non-finite value."""
+
+
+class _SVDFlow:
+    """DOP853 stages of the flow with the SVD right-hand side ``-A^+_{q_r + x} c``
+    (:func:`_pinv_apply`): works for any kinematic system and raises
+    :class:`SingularConfigurationError` where ``A_q`` loses rank."""
+
+    def __init__(self, system, q_ref, c):
+        self.system, self.q_ref, self.c = system, q_ref, c
+        self.K = np.empty((_NSX, q_ref.shape[0]))
+        self.nfev = 0
+
+    def rhs(self, x):
+        self.nfev += 1
+        q = self.q_ref + x
+        return -_pinv_apply(_jacobian(self.system, q), self.c, q)
+
+    def step(self, y, f, h):
+        K = self.K
+        K[0] = f
+        for s in range(1, _NS):
+            K[s] = self.rhs(y + h * (K[:s].T @ _A[s, :s]))
+        y_new = y + h * (K[:_NS].T @ _B)
+        K[_NS] = f_new = self.rhs(y_new)
+        self._y, self._h = y, h
+        return y_new, f_new, K[:_NS + 1].T @ _E5, K[:_NS + 1].T @ _E3
+
+    def dense(self, y_new):
+        """The 7 dense-output vectors of the last step (3 more stages)."""
+        K, y, h = self.K, self._y, self._h
+        for s in range(_NS + 1, _NSX):
+            K[s] = self.rhs(y + h * (K[:s].T @ _A[s, :s]))
+        dy = y_new - y
+        F = np.empty((7, y.shape[0]))
+        F[0] = dy
+        F[1] = h * K[0] - dy
+        F[2] = 2.0 * dy - h * (K[_NS] + K[0])
+        F[3:] = h * (_D @ K)
+        return F
+
+
+def _casadi_flow_functions(system):
+    """CasADi Functions ``rhs(x, c, q_r) -> (f, piv)`` and ``step(y, f, h, c, q_r) ->
+    (y_new, f_new, err5, err3, F, piv)`` of the flow, or None if *system* has no
+    symbolic Jacobian ``A_fun``.  ``f = -A^+ c`` by QR (modified Gram-Schmidt),
+    ``piv = min |R_ii| / max |R_ii|``; ``step`` is one DOP853 step with its dense output,
+    the smallest ``piv`` of its stages and the sum of all stages (not finite if one is not)."""
+    A_fun = getattr(system, "A_fun", None)
+    n, m = int(system.n), int(system.m)
+    if not isinstance(A_fun, ca.Function) or n < m or A_fun.n_in() != 1 or A_fun.n_out() < 1 \
+            or A_fun.size_in(0) != (m, 1) or A_fun.size_out(0) != (n, m):
+        return None
+    x, c, qr = ca.SX.sym("x", m), ca.SX.sym("c", n), ca.SX.sym("q_r", m)
+    try:
+        A = ca.densify(A_fun(qr + x))
+    except Exception:  # e.g. an MX-only Function
+        return None
+    Q, R = ca.qr(A)
+    dR = ca.fabs(ca.diag(R))
+    rhs = ca.Function("flow_rhs", [x, c, qr], [-ca.solve(R, Q.T @ c), ca.mmin(dR) / ca.mmax(dR)],
+                      {"never_inline": True})
+    y, f0, h = ca.SX.sym("y", m), ca.SX.sym("f", m), ca.SX.sym("h")
+    K, piv = [f0], []
+
+    def stage(s):
+        dy = ca.SX.zeros(m)
+        for j in range(s):
+            if _A[s, j] != 0.0:
+                dy += float(_A[s, j]) * K[j]
+        fs, ps = rhs(y + h * dy, c, qr)
+        K.append(fs)
+        piv.append(ps)
+
+    for s in range(1, _NS):
+        stage(s)
+    y_new = y + h * sum(float(_B[j]) * K[j] for j in range(_NS) if _B[j] != 0.0)
+    f_new, p_new = rhs(y_new, c, qr)
+    K.append(f_new)
+    piv.append(p_new)
+    for s in range(_NS + 1, _NSX):
+        stage(s)
+    err5 = sum(float(_E5[j]) * K[j] for j in range(_NS + 1) if _E5[j] != 0.0)
+    err3 = sum(float(_E3[j]) * K[j] for j in range(_NS + 1) if _E3[j] != 0.0)
+    dy = y_new - y
+    F = [dy, h * K[0] - dy, 2.0 * dy - h * (f_new + K[0])]
+    for r in range(_D.shape[0]):
+        F.append(h * sum(float(_D[r, j]) * K[j] for j in range(_NSX) if _D[r, j] != 0.0))
+    step = ca.Function("flow_step", [y, f0, h, c, qr],
+                       [y_new, f_new, err5, err3, ca.horzcat(*F), ca.mmin(ca.vertcat(*piv)),
+                        ca.sum1(ca.sum2(ca.horzcat(*K)))])
+    return rhs, step
+
+
+def _compile(funs, tag):
+    """The CasADi Functions *funs* compiled to a shared library (cached on disk by a hash
+    of their C code), or *funs* themselves if that fails."""
+    cc = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
+    if not COMPILE_FLOW or cc is None:
+        return funs
+    flags = ["-O2", "-shared", "-fPIC"]
+    try:
+        cg = ca.CodeGenerator(f"{tag}.c", {"with_header": False})
+        for f in funs:
+            cg.add(f)
+        src = cg.dump()
+        key = hashlib.sha256("\n".join([src, ca.__version__, cc, *flags]).encode()).hexdigest()[:24]
+        root = os.environ.get("NETCOSIM_CACHE") or os.path.join(
+            os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "netcosim")
+        os.makedirs(root, exist_ok=True)
+        lib = os.path.join(root, f"{tag}_{key}.so")
+        if not os.path.exists(lib):
+            with tempfile.TemporaryDirectory(dir=root) as tmp:
+                csrc, out = os.path.join(tmp, f"{tag}.c"), os.path.join(tmp, f"{tag}.so")
+                with open(csrc, "w") as fh:
+                    fh.write(src)
+                subprocess.run([cc, *flags, csrc, "-o", out, "-lm"], check=True, capture_output=True, timeout=300)
+                os.replace(out, lib)
+        return [ca.external(f.name(), lib) for f in funs]
+    except Exception:
+        return funs
+
+
+class _Buffers:
+    """Numeric evaluation of a CasADi Function into preallocated arrays (no DM conversion)."""
+
+    def __init__(self, fun):
+        self.args = [np.zeros(fun.nnz_in(i)) for i in range(fun.n_in())]
+        self.res = [np.zeros(fun.nnz_out(i)) for i in range(fun.n_out())]
+        for i in range(fun.n_out()):
+            if not fun.sparsity_out(i).is_dense():
+                raise ValueError(f"{fun.name()}: output {i} must be dense")
+        self._buf, self.eval = fun.buffer()
+        for i, a in enumerate(self.args):
+            self._buf.set_arg(i, memoryview(a))
+        for i, a in enumerate(self.res):
+            self._buf.set_res(i, memoryview(a))
+
+
+class _CompiledFlow:
+    """DOP853 stages of the flow from the CasADi Functions of :func:`_casadi_flow_functions`
+    (one call per step, dense output included).  Raises :class:`_FallBack` when a QR pivot
+    drops below :data:`PIVOT_RTOL` or a value is not finite."""
+
+    def __init__(self, funs):
+        self.rhs_buf, self.step_buf = _Buffers(funs[0]), _Buffers(funs[1])
+        self.nfev = 0
+
+    def start(self, q_ref, c):
+        self.rhs_buf.args[1][:] = c
+        self.rhs_buf.args[2][:] = q_ref
+        self.step_buf.args[3][:] = c
+        self.step_buf.args[4][:] = q_ref
+        self.nfev = 0
+        return self
+
+    def rhs(self, x):
+        b = self.rhs_buf
+        b.args[0][:] = x
+        b.eval()
+        self.nfev += 1
+        if not (b.res[1][0] > PIVOT_RTOL and math.isfinite(b.res[0].sum())):
+            raise _FallBack
+        return b.res[0].copy()
+
+    def step(self, y, f, h):
+        b = self.step_buf
+        b.args[0][:] = y
+        b.args[1][:] = f
+        b.args[2][0] = h
+        b.eval()
+        self.nfev += _NSX - 1
+        if not (b.res[5][0] > PIVOT_RTOL and math.isfinite(b.res[6][0])):
+            raise _FallBack
+        return b.res[0].copy(), b.res[1].copy(), b.res[2].copy(), b.res[3].copy()
+
+    def dense(self, y_new):
+        return self.step_buf.res[4].reshape(7, -1)  # column-major m x 7 -> rows F_0..F_6
+
+
+_COMPILED_FLOWS = weakref.WeakKeyDictionary()      # system -> _CompiledFlow or None
+_BY_SOURCE: dict = {}                                # hash of the symbolic functions -> Functions
+
+
+def _compiled_flow(system):
+    """The :class:`_CompiledFlow` of *system* (built and compiled once), or None."""
+    try:
+        return _COMPILED_FLOWS[system]
+    except KeyError:
+        pass
+    except TypeError:  # not weakly referenceable: build every time would be too slow
+        return None
+    funs = _casadi_flow_functions(system)
+    flow = None
+    if funs is not None:
+        key = funs[1].serialize()
+        if key not in _BY_SOURCE:
+            _BY_SOURCE[key] = _compile(list(funs), f"netcosim_flow_{system.n}x{system.m}")
+        flow = _CompiledFlow(_BY_SOURCE[key])
+    _COMPILED_FLOWS[system] = flow
+    return flow
+
+
+class DenseFlow:
+    """Continuous DOP853 solution of the flow: one degree-7 polynomial per step.
+
+    ``t``: step boundaries (k+1,); ``y``: states there (k+1, m); ``P``: monomial
+    coefficients (k, 7, m) with ``y(t_i + x h_i) = y_i + sum_j P[i, j] x^(j+1)``, x in [0, 1].
+    Called like SciPy's ``OdeSolution``: ``sol(tau)`` is ``(m,)`` for a scalar tau and
+    ``(m, len(tau))`` for an array (tau outside ``[t_0, t_k]`` extrapolates the end pieces).
+    """
+
+    def __init__(self, t, y, P):
+        self.t = np.asarray(t, dtype=float)
+        self.y = np.asarray(y, dtype=float)
+        self.P = np.asarray(P, dtype=float)
+        self.h = np.diff(self.t)
+        self._tl, self._hl = self.t.tolist(), self.h.tolist()
+
+    def values(self, tau) -> np.ndarray:
+        """``e'(tau)`` for a 1-D array of tau, shape ``(len(tau), m)``."""
+        tau = np.asarray(tau, dtype=float)
+        i = np.searchsorted(self.t[1:-1], tau, side="right")  # piece, end pieces extended
+        x = (tau - self.t[i]) / self.h[i]
+        X = np.cumprod(np.repeat(x[:, None], 7, axis=1), axis=1)
+        return self.y[i] + np.einsum("kj,kjm->km", X, self.P[i])
+
+    def derivatives(self, tau: float) -> np.ndarray:
+        """Rows ``e'``, ``de'/dtau``, ``d2e'/dtau2`` at a scalar tau, shape ``(3, m)``."""
+        i = min(max(bisect.bisect_right(self._tl, tau) - 1, 0), len(self._hl) - 1)
+        h = self._hl[i]
+        x = (tau - self._tl[i]) / h
+        p = [1.0, x]
+        for _ in range(6):
+            p.append(p[-1] * x)
+        h2 = h * h
+        V = np.array((p[1:], [k * p[k - 1] / h for k in range(1, 8)],
+                      [0.0] + [k * (k - 1) * p[k - 2] / h2 for k in range(2, 8)]))
+        Y = V @ self.P[i]
+        Y[0] += self.y[i]
+        return Y
+
+    def __call__(self, tau):
+        tau = np.asarray(tau, dtype=float)
+        if tau.ndim == 0:
+            return self.values(tau[None])[0]
+        return self.values(tau.reshape(-1)).T.reshape((self.y.shape[1],) + tau.shape)
+
+
+def _rms(x):
+    return math.sqrt(float(np.dot(x, x)) / x.shape[0])
+
+
+def _dop853(stages, y0, t_bound, rtol, atol, fn):
+    """Integrate from ``tau = 0`` with DOP853 (SciPy's step-size control, initial step and
+    error norm) until ``fn.event(y) = ||y|| - ||e_h||`` rises through zero or ``t_bound``.
+
+    Returns ``(DenseFlow, tau_s)`` (``tau_s = inf`` without event).  The event is located
+    on the step's dense output by :func:`_root_increasing` to 4 ulp, as SciPy does with
+    Brent's method.
+    """
+    f = stages.rhs(y0)
+    # SciPy's select_initial_step (Hairer, Norsett & Wanner II.4), error order 7
+    scale = atol + np.abs(y0) * rtol
+    d0, d1 = _rms(y0 / scale), _rms(f / scale)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, t_bound)
+    d2 = _rms((stages.rhs(y0 + h0 * f) - f) / scale) / h0
+    h1 = max(1e-6, h0 * 1e-3) if d1 <= 1e-15 and d2 <= 1e-15 else (0.01 / max(d1, d2)) ** (1 / 8)
+    h_abs = min(100 * h0, h1, t_bound)
+
+    t, y, g = 0.0, y0, 0.0
+    ts, ys, Ps = [0.0], [y0], []
+    m = y0.shape[0]
+    while True:
+        min_step = 10 * abs(math.nextafter(t, math.inf) - t)
+        h_abs = max(h_abs, min_step)
+        rejected = False
+        while True:
+            if h_abs < min_step:
+                raise RuntimeError(f"auxiliary flow integration failed: step size too small at tau={t}")
+            t_new = min(t + h_abs, t_bound)
+            h = t_new - t
+            h_abs = abs(h)
+            y_new, f_new, e5, e3 = stages.step(y, f, h)
+            scale = atol + np.maximum(np.abs(y), np.abs(y_new)) * rtol
+            e5 = e5 / scale
+            e3 = e3 / scale
+            n5, n3 = float(np.dot(e5, e5)), float(np.dot(e3, e3))
+            err = 0.0 if n5 == 0.0 and n3 == 0.0 else h_abs * n5 / math.sqrt((n5 + 0.01 * n3) * m)
+            if err < 1.0:
+                factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** -0.125)
+                h_abs *= min(1.0, factor) if rejected else factor
+                break
+            h_abs *= max(0.2, 0.9 * err ** -0.125)
+            rejected = True
+        Ps.append(_MONO @ stages.dense(y_new))
+        ts.append(t_new)
+        ys.append(y_new)
+        g_new = fn.event(y_new)
+        if g <= 0.0 <= g_new:
+            sol = DenseFlow(ts, ys, Ps)
+            return sol, _root_increasing(lambda s: fn.event_slope(sol.derivatives(s)), t, t_new, EVENT_XTOL)
+        if t_new >= t_bound:
+            return DenseFlow(ts, ys, Ps), math.inf
+        t, y, f, g = t_new, y_new, f_new, g_new
+
+
+def _root_increasing(fun, lo, hi, xtol, maxiter=200):
+    """A zero of ``g`` on ``[lo, hi]`` where ``g(lo) <= 0 <= g(hi)``; ``fun(x) -> (g, g')``.
+
+    Newton's method safeguarded by the bracket: a step that leaves the bracket, or does
+    not halve the previous step, is replaced by bisection.  Returns once a Newton step
+    or the bracket is below ``xtol * max(1, |x|)``.
+    """
+    x = 0.5 * (lo + hi)
+    dx_old = hi - lo
+    for _ in range(maxiter):
+        g, dg = fun(x)
+        if g == 0.0:
+            return x
+        if g < 0.0:
+            lo = x
+        else:
+            hi = x
+        tol = xtol * max(1.0, abs(x))
+        xn = x - g / dg if dg > 0.0 else math.nan
+        if lo <= xn <= hi:
+            dx = abs(xn - x)
+            if dx <= tol:
+                return xn
+            if dx < 0.5 * dx_old:
+                dx_old, x = dx, xn
+                continue
+        dx_old = 0.5 * (hi - lo)
+        x = lo + dx_old
+        if dx_old <= tol:
+            return x
+    return x
+
+
+class _FlowNorm:
+    """The flow's norm ``||D y||_p`` with ``||e_h||``: the event ``||y|| - ||e_h||`` and the
+    derivatives along the dense output that locate ``tau_s`` and ``tau_o``."""
+
+    def __init__(self, nrm: WeightedNorm, m: int, n0: float):
+        self.w = None if nrm.weights is None else nrm.w(m)
+        self.two = nrm.p == 2
+        self.n0 = n0
+
+    def __call__(self, y) -> float:
+        z = y if self.w is None else self.w * y
+        if self.two:
+            return math.sqrt(float(np.dot(z, z)))
+        return float(np.max(np.abs(z)))
+
+    def event(self, y) -> float:
+        return self(y) - self.n0
+
+    def event_slope(self, Y):
+        """``(||e'|| - ||e_h||, d||e'||/dtau)`` from the rows ``e', e'_tau, e'_tautau``
+        (one-sided derivative for the max-norm)."""
+        Z = Y if self.w is None else self.w * Y
+        if self.two:
+            r = math.sqrt(float(np.dot(Z[0], Z[0])))
+            return r - self.n0, (float(np.dot(Z[0], Z[1])) / r if r > 0.0 else 0.0)
+        k = int(np.argmax(np.abs(Z[0])))
+        return abs(Z[0, k]) - self.n0, math.copysign(1.0, Z[0, k]) * Z[1, k]
+
+    def slope_curvature(self, Y):
+        """A function with the sign of ``d||e'||/dtau`` and its derivative: for the 2-norm
+        ``(z . z', z' . z' + z . z'')`` with ``z = D e'``; for the max-norm the one-sided
+        derivative of the largest ``|z_k|`` and its own derivative."""
+        Z = Y if self.w is None else self.w * Y
+        if self.two:
+            return float(np.dot(Z[0], Z[1])), float(np.dot(Z[1], Z[1]) + np.dot(Z[0], Z[2]))
+        k = int(np.argmax(np.abs(Z[0])))
+        s = math.copysign(1.0, Z[0, k])
+        return s * Z[1, k], s * Z[2, k]
 
 
 @dataclass
@@ -403,7 +828,8 @@ class AuxiliaryFlow:
     ``tau_s``: first ``tau > 0`` with ``||e'(tau)|| = ||e_h||`` (``inf`` if the norm
     stays below ``||e_h||`` up to ``tau_max``); ``tau_o``: argmin of ``||e'||`` over
     ``[0, min(tau_s, tau_max)]``; ``min_norm = ||e'(tau_o)||``.  Calling the object
-    evaluates ``e'`` (dense output) at one or many tau.
+    evaluates ``e'`` (dense output) at one or many tau.  ``sol``: the :class:`DenseFlow`;
+    ``nfev``: right-hand-side evaluations used.
     """
 
     e_h: np.ndarray
@@ -421,8 +847,8 @@ class AuxiliaryFlow:
             return np.broadcast_to(self.e_h, tau.shape + self.e_h.shape).copy() if tau.ndim else self.e_h.copy()
         if np.any(tau < -1e-15) or np.any(tau > self.tau_end * (1 + 1e-12) + 1e-15):
             raise ValueError(f"tau outside the solved range [0, {self.tau_end}]")
-        y = self.sol(np.clip(tau, 0.0, self.tau_end))
-        return y.T if tau.ndim else y
+        y = self.sol.values(np.clip(tau, 0.0, self.tau_end).reshape(-1))
+        return y.reshape(tau.shape + self.e_h.shape)
 
 
 def solve_auxiliary_flow(system: Any, q_ref: Any, e_h: Any, *, kbar: Any = None, norm: Any = None,
@@ -431,13 +857,21 @@ def solve_auxiliary_flow(system: Any, q_ref: Any, e_h: Any, *, kbar: Any = None,
     """Integrate ``e'_dot = -A^+_{q_r + e'} A_{q_r + e_h} K_bar e_h``, ``e'(0) = e_h``.
 
     This is (3.12) for square systems with ``K_bar = I`` and (4.17) in general.  The
-    integration (SciPy ``solve_ivp``, DOP853, ``rtol``, ``atol = atol_rel * ||e_h||_2``)
-    stops at the first return of the norm to ``||e_h||`` (terminal event, direction +1,
-    located by SciPy's root finder) or at ``tau_max`` (default ``10 / min(K_bar)``).
-    ``tau_o`` is found by scanning the dense output on ``n_grid`` points plus the solver's
-    own steps and refining the best bracket with bounded Brent minimisation to
+    integration (DOP853 with SciPy's step-size control, ``rtol``,
+    ``atol = atol_rel * ||e_h||_2``, dense output on every step) stops at the first return
+    of the norm to ``||e_h||`` (a rise through zero of ``||e'|| - ||e_h||`` at the end of a
+    step, located on the dense output by safeguarded Newton to 4 ulp) or at ``tau_max``
+    (default ``10 / min(K_bar)``).  ``tau_o`` is found by scanning the dense output on
+    ``n_grid`` points plus the step ends and solving ``d||e'||/dtau = 0`` (for the
+    max-norm: its one-sided version) on the best bracket by safeguarded Newton to
     :data:`TAU_XTOL`.  For ``e_h = 0`` the flow is at rest and ``tau_o := 1`` (the limit of
     Proposition 3.4.6).
+
+    Right-hand side: for systems with a CasADi Jacobian ``A_fun`` (every
+    :class:`plants.flycrane.MultiRobotSystem`) ``A^+ c`` comes from a QR factorisation in
+    one compiled function per step (see :data:`COMPILE_FLOW`); otherwise, or where a QR
+    pivot falls below :data:`PIVOT_RTOL`, from the SVD least squares of
+    :func:`configuration_rate`, which raises :class:`SingularConfigurationError` at rank loss.
     """
     check_system(system)
     m = system.m
@@ -454,38 +888,36 @@ def solve_auxiliary_flow(system: Any, q_ref: Any, e_h: Any, *, kbar: Any = None,
     if scale == 0.0:
         return AuxiliaryFlow(e_h, math.inf, 1.0, 0.0, tau_max, nrm, None, 0)
     c = _jacobian(system, q_ref + e_h) @ (kd * e_h)
-
-    def rhs(tau, x):
-        q = q_ref + x
-        return -_pinv_apply(_jacobian(system, q), c, q)
-
-    def back(tau, x):
-        return nrm(x) - n0
-    back.terminal = True
-    back.direction = 1.0
-
-    sol = solve_ivp(rhs, (0.0, tau_max), e_h, method="DOP853", rtol=rtol, atol=atol_rel * scale,
-                    events=back, dense_output=True)
-    if sol.status == -1:
-        raise RuntimeError(f"auxiliary flow integration failed: {sol.message}")
-    if sol.status == 1 and len(sol.t_events[0]):
-        tau_s = float(sol.t_events[0][0])
-        tau_end = tau_s
-    else:
-        tau_s = math.inf
-        tau_end = float(sol.t[-1])
+    fn = _FlowNorm(nrm, m, n0)
+    stages = _compiled_flow(system)
+    sol = None
+    if stages is not None:
+        try:
+            sol, tau_s = _dop853(stages.start(q_ref, c), e_h, tau_max, rtol, atol_rel * scale, fn)
+        except _FallBack:
+            sol = None
+    if sol is None:
+        stages = _SVDFlow(system, q_ref, c)
+        sol, tau_s = _dop853(stages, e_h, tau_max, rtol, atol_rel * scale, fn)
+    tau_end = tau_s if math.isfinite(tau_s) else float(sol.t[-1])
     grid = np.union1d(np.linspace(0.0, tau_end, n_grid), sol.t[sol.t <= tau_end])
-    vals = nrm.many(sol.sol(grid).T)
+    vals = nrm.many(sol.values(grid))
     j = int(np.argmin(vals))
-    lo = grid[max(j - 1, 0)]
-    hi = grid[min(j + 1, len(grid) - 1)]
+    lo = float(grid[max(j - 1, 0)])
+    hi = float(grid[min(j + 1, len(grid) - 1)])
     tau_o, best = float(grid[j]), float(vals[j])
     if hi > lo:
-        res = minimize_scalar(lambda t: nrm(sol.sol(t)), bounds=(lo, hi), method="bounded",
-                              options={"xatol": TAU_XTOL})
-        if res.fun < best:
-            tau_o, best = float(res.x), float(res.fun)
-    return AuxiliaryFlow(e_h, tau_s, tau_o, best, tau_end, nrm, sol.sol, int(sol.nfev))
+        slope = lambda s: fn.slope_curvature(sol.derivatives(s))  # noqa: E731
+        if slope(hi)[0] <= 0.0:      # still decreasing at the end of the bracket
+            t = hi
+        elif slope(lo)[0] >= 0.0:
+            t = lo
+        else:
+            t = _root_increasing(slope, lo, hi, TAU_XTOL)
+        v = fn(sol.derivatives(t)[0])
+        if v < best:
+            tau_o, best = t, v
+    return AuxiliaryFlow(e_h, tau_s, tau_o, best, tau_end, nrm, sol, int(stages.nfev))
 
 
 def online_gain(system: Any, q: Any, q_ref: Any, T: float, *, kbar: Any = None, norm: Any = None,
