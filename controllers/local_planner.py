@@ -537,7 +537,7 @@ def _casadi_flow_functions(system):
 def _compile(funs, tag):
     """The CasADi Functions *funs* compiled to a shared library (cached on disk by a hash
     of their C code), or *funs* themselves if that fails."""
-    cc = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
+    cc = shutil.which(os.environ.get("CC") or "cc")
     if not COMPILE_FLOW or cc is None:
         return funs
     flags = ["-O2", "-shared", "-fPIC"]
