@@ -435,6 +435,7 @@ def _dense_to_monomial() -> np.ndarray:
 
 
 _MONO = _dense_to_monomial()
+_POWERS = np.arange(1, 8)
 #: Relative tolerance of the event location (tau_s) on the dense output.
 EVENT_XTOL = 64 * np.finfo(float).eps
 
@@ -636,6 +637,7 @@ def _compiled_flow(system):
     flow = None
     if funs is not None:
         key = funs[1].serialize()
+        key = (key, COMPILE_FLOW)
         if key not in _BY_SOURCE:
             _BY_SOURCE[key] = _compile(list(funs), f"netcosim_flow_{system.n}x{system.m}")
         flow = _CompiledFlow(_BY_SOURCE[key])
@@ -664,8 +666,7 @@ class DenseFlow:
         tau = np.asarray(tau, dtype=float)
         i = np.searchsorted(self.t[1:-1], tau, side="right")  # piece, end pieces extended
         x = (tau - self.t[i]) / self.h[i]
-        X = np.cumprod(np.repeat(x[:, None], 7, axis=1), axis=1)
-        return self.y[i] + np.einsum("kj,kjm->km", X, self.P[i])
+        return self.y[i] + np.einsum("kj,kjm->km", x[:, None] ** _POWERS, self.P[i])
 
     def derivatives(self, tau: float) -> np.ndarray:
         """Rows ``e'``, ``de'/dtau``, ``d2e'/dtau2`` at a scalar tau, shape ``(3, m)``."""
