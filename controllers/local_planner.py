@@ -404,8 +404,9 @@ FLOW_ATOL_REL = 1e-12
 TAU_XTOL = 1e-10
 #: Compile the flow of systems that provide a CasADi Jacobian (``A_fun``) to machine
 #: code with the C compiler ``$CC`` (default ``cc``), cached on disk in
-#: ``$NETCOSIM_CACHE`` (default ``~/.cache/netcosim``).  Without a compiler, or when
-#: False, the same CasADi functions run in CasADi's virtual machine (about 6x slower).
+#: ``$NETCOSIM_CACHE`` (default ``$XDG_CACHE_HOME/netcosim`` or ``~/.cache/netcosim``).
+#: Read when a system's flow is first prepared.  Without a compiler, or when False, the
+#: same CasADi functions run in CasADi's virtual machine (a step about 6x slower).
 COMPILE_FLOW = True
 #: A QR pivot of ``A_q`` below this fraction of the largest one anywhere in a step of the
 #: CasADi flow sends the whole flow back to the SVD right-hand side (rank test
@@ -415,7 +416,7 @@ PIVOT_RTOL = 1e-7
 # DOP853 (Hairer, Norsett & Wanner): the tableau of SciPy's implementation.
 
 _NS = _dop.N_STAGES                      # 12 stages; the 13th is f at the new point
-_A, _B, _C = _dop.A, _dop.B, _dop.C
+_A, _B = _dop.A, _dop.B                  # the flow is autonomous: no C
 _E3, _E5, _D = _dop.E3, _dop.E5, _dop.D
 _NSX = _dop.N_STAGES_EXTENDED           # + 3 stages for the dense output
 
@@ -622,7 +623,7 @@ class _CompiledFlow:
 
 
 _COMPILED_FLOWS = weakref.WeakKeyDictionary()      # system -> _CompiledFlow or None
-_BY_SOURCE: dict = {}                                # hash of the symbolic functions -> Functions
+_BY_SOURCE: dict = {}  # (serialized symbolic step, COMPILE_FLOW) -> Functions, shared by equal systems
 
 
 def _compiled_flow(system):
@@ -699,8 +700,8 @@ def _dop853(stages, y0, t_bound, rtol, atol, fn):
     error norm) until ``fn.event(y) = ||y|| - ||e_h||`` rises through zero or ``t_bound``.
 
     Returns ``(DenseFlow, tau_s)`` (``tau_s = inf`` without event).  The event is located
-    on the step's dense output by :func:`_root_increasing` to 4 ulp, as SciPy does with
-    Brent's method.
+    on the dense output of the step where it occurs by :func:`_root_increasing`, to
+    :data:`EVENT_XTOL` (SciPy's ``solve_ivp`` uses Brent's method there, to 4 ulp).
     """
     f = stages.rhs(y0)
     # SciPy's select_initial_step (Hairer, Norsett & Wanner II.4), error order 7
@@ -861,7 +862,7 @@ def solve_auxiliary_flow(system: Any, q_ref: Any, e_h: Any, *, kbar: Any = None,
     integration (DOP853 with SciPy's step-size control, ``rtol``,
     ``atol = atol_rel * ||e_h||_2``, dense output on every step) stops at the first return
     of the norm to ``||e_h||`` (a rise through zero of ``||e'|| - ||e_h||`` at the end of a
-    step, located on the dense output by safeguarded Newton to 4 ulp) or at ``tau_max``
+    step, located on the dense output by safeguarded Newton to :data:`EVENT_XTOL`) or at ``tau_max``
     (default ``10 / min(K_bar)``).  ``tau_o`` is found by scanning the dense output on
     ``n_grid`` points plus the step ends and solving ``d||e'||/dtau = 0`` (for the
     max-norm: its one-sided version) on the best bracket by safeguarded Newton to
