@@ -54,7 +54,7 @@ from scipy.integrate._ivp import dop853_coefficients as _dop
 __all__ = [
     "SingularConfigurationError", "StarStructure", "WeightedNorm", "check_system",
     "check_gain_matrix", "check_period", "planner_velocity", "robot_velocity",
-    "configuration_rate", "project", "AuxiliaryFlow", "solve_auxiliary_flow",
+    "configuration_rate", "project", "AuxiliaryFlow", "DenseFlow", "solve_auxiliary_flow",
     "online_gain", "OfflineGain", "OnlineGain", "sampled_velocity", "simulate_sampled", "integrate_kinematics",
 ]
 

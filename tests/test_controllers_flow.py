@@ -12,6 +12,7 @@ trajectory and ``tau_s``, and to Brent's tolerance for ``tau_o``.
 from __future__ import annotations
 
 import math
+import shutil
 
 import numpy as np
 import pytest
@@ -118,7 +119,8 @@ def test_compiled_and_svd_right_hand_sides_agree():
         assert np.max(np.abs(fast(tau) - svd(tau))) < 1e-13, name
         # the same symbolic functions, uncompiled
         funs = lp._casadi_flow_functions(sys_)
-        vm, compiled = lp._CompiledFlow(funs).start(qr, np.ones(sys_.n)), lp._compiled_flow(sys_).start(qr, np.ones(sys_.n))
+        c = np.ones(sys_.n)
+        vm, compiled = lp._CompiledFlow(funs).start(qr, c), lp._compiled_flow(sys_).start(qr, c)
         y, f0 = 0.1 * e, vm.rhs(0.1 * e)
         assert np.max(np.abs(f0 - compiled.rhs(0.1 * e))) < 1e-13
         for a, b in zip(vm.step(y, f0, 0.4), compiled.step(y, f0, 0.4)):
@@ -136,7 +138,7 @@ def test_compilation_cache_and_fallback_without_compiler(tmp_path, monkeypatch):
     monkeypatch.setattr(lp, "COMPILE_FLOW", False)
     assert lp._compile(funs, "t") is funs
     monkeypatch.setattr(lp, "COMPILE_FLOW", True)
-    if lp.shutil.which("cc") is None:
+    if shutil.which("cc") is None:
         pytest.skip("no C compiler")
     out = lp._compile(funs, "t")
     libs = list(tmp_path.glob("t_*.so"))
