@@ -27,7 +27,7 @@ All angles in radians, forces in N, torques in N·m, times in seconds.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np

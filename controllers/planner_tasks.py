@@ -223,7 +223,7 @@ def deploy_planner(sim, system: Any, q0: Any, T: float, law: PlannerLaw, *, arch
                       integrator=integrator or plant_integrator(), log_interval=log_interval)
     net = network if network is not None else ideal_network(sim)
     pivot = sim.node("pivot")
-    piface = net.attach(pivot)
+    net.attach(pivot)
     robots, ifaces = [], []
     dep = Deployment(sim, plant, pivot, robots, net, architecture, law, st)
     rec = dep.records

@@ -20,6 +20,51 @@ import pandas as pd  # noqa: E402
 from .trace import TASK_STATES  # noqa: E402
 
 
+def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, order=None, t_range=None,
+                    ax=None, what: str = "row"):
+    """One TrueTime staircase per distinct ``df[label]`` (top row first).
+
+    ``df`` has columns ``time`` (s), *label* and ``state``; ``levels`` maps each state
+    to its offset above the row.  Returns ``(ax, row_of, (t0, t1))``.
+    """
+    labels = df[label].astype(str)
+    order = list(order) if order is not None else list(dict.fromkeys(labels))
+    t0, t1 = t_range if t_range is not None else (float(df["time"].min()), float(df["time"].max()))
+    if not t1 > t0:
+        t1 = t0 + 1e-9
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(10, 0.8 + 0.6 * len(order)))
+    row_of = {}
+    for row, lab in enumerate(reversed(order)):
+        row_of[lab] = row
+        sel = df[labels == lab]
+        if sel.empty:
+            raise KeyError(f"no {what} {lab!r} in the schedule; have {sorted(set(labels))}")
+        times = sel["time"].to_numpy(dtype=float)
+        lv = row + sel["state"].astype(str).map(levels).to_numpy(dtype=float)
+        # value in force at t0, then the changes inside the window, held to t1
+        before = times <= t0
+        start_level = lv[before][-1] if before.any() else row
+        inside = (times > t0) & (times < t1)
+        ts = np.concatenate(([t0], times[inside], [t1]))
+        ls = np.concatenate(([start_level], lv[inside], [lv[inside][-1] if inside.any() else start_level]))
+        ax.step(ts, ls, where="post", lw=1.2)
+    ax.set_yticks([r + 0.25 for r in range(len(order))])
+    ax.set_yticklabels(list(reversed(order)))
+    ax.set_xlim(t0, t1)
+    ax.set_xlabel("time [s]")
+    ax.grid(axis="x", alpha=0.3)
+    return ax, row_of, (t0, t1)
+
+
+def save(ax, path) -> None:
+    """Save the axes' figure as PNG (if *path* is given) and close it."""
+    if path is not None:
+        ax.figure.tight_layout()
+        ax.figure.savefig(path, dpi=120)
+        plt.close(ax.figure)
+
+
 def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None, t_range=None,
                   node: str | None = None, ax=None, path: str | Path | None = None, title: str | None = None):
     """Draw the schedule trace (``sim.trace.schedule()``) as one staircase per task.
@@ -34,33 +79,9 @@ def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None,
         raise ValueError("empty schedule: nothing to plot (did the simulation run?)")
     labels = (df["node"].astype(str) + "." + df["task"].astype(str)) if node is None else df["task"].astype(str)
     df = df.assign(label=labels.to_numpy())
-    order = list(tasks) if tasks is not None else list(dict.fromkeys(df["label"]))
-    t0, t1 = t_range if t_range is not None else (df["time"].min(), df["time"].max())
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(10, 0.8 + 0.6 * len(order)))
-    for row, lab in enumerate(reversed(order)):
-        sel = df[df["label"] == lab]
-        if sel.empty:
-            raise KeyError(f"no task {lab!r} in the schedule; have {sorted(set(df['label']))}")
-        times = sel["time"].to_numpy(dtype=float)
-        levels = row + sel["state"].astype(str).map(TASK_STATES).to_numpy(dtype=float)
-        # value in force at t0, then the changes inside the window, held to t1
-        before = times <= t0
-        start_level = levels[before][-1] if before.any() else row
-        inside = (times > t0) & (times < t1)
-        ts = np.concatenate(([t0], times[inside], [t1]))
-        ls = np.concatenate(([start_level], levels[inside], [levels[inside][-1] if inside.any() else start_level]))
-        ax.step(ts, ls, where="post", lw=1.2)
-    ax.set_yticks([r + 0.25 for r in range(len(order))])
-    ax.set_yticklabels(list(reversed(order)))
-    ax.set_xlim(t0, t1)
-    ax.set_xlabel("time [s]")
+    ax, _, _ = plot_staircases(df, "label", TASK_STATES, order=tasks, t_range=t_range, ax=ax, what="task")
     ax.set_title(title or "schedule (high = running, medium = ready, low = idle)")
-    ax.grid(axis="x", alpha=0.3)
-    if path is not None:
-        ax.figure.tight_layout()
-        ax.figure.savefig(path, dpi=120)
-        plt.close(ax.figure)
+    save(ax, path)
     return ax
 
 
@@ -79,8 +100,5 @@ def plot_signals(signals: pd.DataFrame, columns: Sequence[tuple[str, str]], *, p
     ax.grid(alpha=0.3)
     if title:
         ax.set_title(title)
-    if path is not None:
-        ax.figure.tight_layout()
-        ax.figure.savefig(path, dpi=120)
-        plt.close(ax.figure)
+    save(ax, path)
     return ax

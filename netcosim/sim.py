@@ -9,7 +9,7 @@ from __future__ import annotations
 import hashlib
 import math
 from time import monotonic
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 import simpy
@@ -17,6 +17,10 @@ import simpy.rt
 
 from .timebase import RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
 from .trace import Trace
+
+if TYPE_CHECKING:
+    from .continuous import PlantInstance
+    from .kernel.node import Node
 
 #: SimPy priority used for kernel dispatch decisions: after every ordinary event of
 #: the same instant, so that all releases/arrivals of an instant are seen first.

@@ -1,7 +1,6 @@
 """The shipped TrueTime examples: three servos under overload, the main job, real-time mode."""
 
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -1,6 +1,5 @@
 """Context-switch overhead, CPU speed, overrun handling, bad input, determinism."""
 
-import math
 
 import numpy as np
 import pandas as pd
@@ -217,7 +216,6 @@ def test_execution_time_from_callable_distribution():
 def test_killing_a_queued_job_records_it_and_keeps_the_queue():
     sim = Simulation()
     cpu = sim.node("cpu")
-    jobs = []
 
     def body(ctx):
         yield ctx.execute(3.0)

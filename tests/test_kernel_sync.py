@@ -1,6 +1,5 @@
 """Synchronisation primitives and priority inheritance."""
 
-import pytest
 
 from netcosim import Event, Mailbox, Monitor, Semaphore, Simulation
 

@@ -7,7 +7,7 @@ import pytest
 
 from controllers.landing import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
 from controllers.landing_tasks import LandingTiming, landing_metrics, run_landing
-from plants.tethered_uav import TetheredUAVParams
+
 
 DEG = math.pi / 180
 

@@ -1,7 +1,6 @@
 """The common pipeline (delays, queues, delivery to kernel tasks, traces) and the
 contention-free / scheduled MACs: ideal link, FDMA, round robin, TDMA."""
 
-import math
 
 import pytest
 

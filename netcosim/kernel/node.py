@@ -18,7 +18,7 @@ from typing import Any, Callable
 
 import simpy
 
-from ..sim import DISPATCH, NORMAL, Timer
+from ..sim import DISPATCH, NORMAL
 from ..timebase import TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy

@@ -11,14 +11,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg", force=False)
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from .base import NETWORK_STATES  # noqa: E402
+from ..plot import plot_staircases, save
+from .base import NETWORK_STATES
 
 
 def plot_network_schedule(schedule: pd.DataFrame, *, network: str | None = None, nodes: Sequence[str] | None = None,
@@ -38,26 +35,8 @@ def plot_network_schedule(schedule: pd.DataFrame, *, network: str | None = None,
         raise ValueError(f"schedule holds several networks {sorted(df['network'].unique())}; pass network=")
     if df.empty:
         raise ValueError("empty network schedule: nothing to plot (did the simulation run?)")
-    order = list(nodes) if nodes is not None else list(dict.fromkeys(df["node"].astype(str)))
-    t0, t1 = t_range if t_range is not None else (float(df["time"].min()), float(df["time"].max()))
-    if not t1 > t0:
-        t1 = t0 + 1e-9
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(10, 0.8 + 0.6 * len(order)))
-    row_of = {}
-    for row, node in enumerate(reversed(order)):
-        row_of[node] = row
-        sel = df[df["node"].astype(str) == node]
-        if sel.empty:
-            raise KeyError(f"no node {node!r} in the network schedule; have {sorted(set(df['node'].astype(str)))}")
-        times = sel["time"].to_numpy(dtype=float)
-        levels = row + sel["state"].astype(str).map(NETWORK_STATES).to_numpy(dtype=float)
-        before = times <= t0
-        start_level = levels[before][-1] if before.any() else row
-        inside = (times > t0) & (times < t1)
-        ts = np.concatenate(([t0], times[inside], [t1]))
-        ls = np.concatenate(([start_level], levels[inside], [levels[inside][-1] if inside.any() else start_level]))
-        ax.step(ts, ls, where="post", lw=1.2)
+    ax, row_of, (t0, t1) = plot_staircases(df, "node", NETWORK_STATES, order=nodes, t_range=t_range, ax=ax,
+                                           what="node")
     if frames is not None:
         fr = frames
         if network is not None:
@@ -68,14 +47,6 @@ def plot_network_schedule(schedule: pd.DataFrame, *, network: str | None = None,
         if len(xs):
             ax.plot(xs, ys, "x", color="red", ms=6, label="frame lost")
             ax.legend(loc="upper right")
-    ax.set_yticks([r + 0.25 for r in range(len(order))])
-    ax.set_yticklabels(list(reversed(order)))
-    ax.set_xlim(t0, t1)
-    ax.set_xlabel("time [s]")
     ax.set_title(title or "network schedule (high = sending, medium = waiting, low = idle)")
-    ax.grid(axis="x", alpha=0.3)
-    if path is not None:
-        ax.figure.tight_layout()
-        ax.figure.savefig(path, dpi=120)
-        plt.close(ax.figure)
+    save(ax, path)
     return ax
