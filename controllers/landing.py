@@ -20,11 +20,12 @@ Discretization (§2.4.1): N = 30 intervals of T_s = 10 ms, one RK4 step each.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+
+from netcosim.validate import check_numeric_fields
 
 from plants.tethered_uav import TetheredUAVParams, casadi_model, hover_thrust
 
@@ -69,14 +70,8 @@ class LandingConfig:
     rk4_steps: int = 1
 
     def __post_init__(self):
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"LandingConfig.{f.name} must be a finite number, got {v!r}")
-        for name in ("k_fR", "k_tauR", "k_theta", "k_dphi", "k_dtheta", "k_dphi_target",
-                     "k_dtheta_target", "terminal_factor"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"LandingConfig.{name} must be non-negative, got {getattr(self, name)!r}")
+        check_numeric_fields(self, non_negative=("k_fR", "k_tauR", "k_theta", "k_dphi", "k_dtheta",
+                                                  "k_dphi_target", "k_dtheta_target", "terminal_factor"))
         if not 0 < self.input_range <= 1:
             raise ValueError(f"LandingConfig.input_range must lie in (0, 1], got {self.input_range!r}")
         if self.k_s <= 0:

@@ -29,12 +29,13 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
 from netcosim.continuous import ContinuousSystem, HybridEvent
+from netcosim.validate import check_numeric_fields
 
 __all__ = [
     "TetheredUAVParams", "TetheredUAVModel", "TetheredUAV", "casadi_model", "wind",
@@ -103,18 +104,9 @@ class TetheredUAVParams:
     wind_sine_start: float = 0.1
 
     def __post_init__(self):
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"TetheredUAVParams.{f.name} must be a finite number, got {v!r}")
-        for name in ("m_B", "J_B", "l", "d", "g", "f_R_max", "tau_R_max", "f_L_max", "lander_height"):
-            v = getattr(self, name)
-            if v <= 0:
-                raise ValueError(f"TetheredUAVParams.{name} must be positive, got {v!r}")
-        for name in ("k_el", "xi", "wind_pulse_duration", "wind_sine_frequency", "wind_sine_start"):
-            v = getattr(self, name)
-            if v < 0:
-                raise ValueError(f"TetheredUAVParams.{name} must be non-negative, got {v!r}")
+        check_numeric_fields(
+            self, positive=("m_B", "J_B", "l", "d", "g", "f_R_max", "tau_R_max", "f_L_max", "lander_height"),
+            non_negative=("k_el", "xi", "wind_pulse_duration", "wind_sine_frequency", "wind_sine_start"))
         if not -math.pi / 2 < self.alpha < math.pi / 2:
             raise ValueError(f"TetheredUAVParams.alpha must lie in (-pi/2, pi/2) rad, got {self.alpha!r}")
         if self.lander_height >= self.l:
