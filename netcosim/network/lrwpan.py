@@ -42,16 +42,15 @@ import numpy as np
 from scipy.special import comb
 
 from ..timebase import to_ticks
-from .base import Network
+
 from .frame import BROADCAST
 from .interface import Interface
-from .medium import Transmission, WirelessMedium
+from .medium import RadioNetwork, Transmission, WirelessMedium
 from .radio import LogDistance, Modulation, PathLoss, as_position, db_to_ratio, dbm_to_watt, thermal_noise_dbm
 
 SYMBOL = 16e-6
 _K = np.arange(2, 17)
 _COEF = (-1.0) ** _K * comb(16, _K)
-
 
 def ber_oqpsk(sinr):
     """802.15.4 2.4 GHz O-QPSK bit error rate as a function of the (linear) SINR."""
@@ -60,8 +59,7 @@ def ber_oqpsk(sinr):
     ber = np.clip(8.0 / 15.0 / 16.0 * terms.sum(axis=1), 0.0, 0.5)
     return float(ber[0]) if np.ndim(sinr) == 0 else ber
 
-
-class IEEE802154(Network):
+class IEEE802154(RadioNetwork):
     """IEEE 802.15.4 network, unslotted CSMA/CA.  See the module docstring.
 
     Radio parameters as for :class:`~netcosim.network.wlan.WLAN80211b` (defaults:
@@ -137,11 +135,6 @@ class IEEE802154(Network):
         r.rng = self.sim.rng(f"{self.name}/{name}/backoff")
         self.medium.init_listener(r)
         return r
-
-    def rx_power_dbm(self, src, dst) -> float:
-        from .radio import watt_to_dbm
-        s, d = self.interface(src), self.interface(dst)
-        return watt_to_dbm(self.medium.powers_from(s)[d.index])
 
     def frame_time(self, size_bits: int) -> int:
         """Ticks on air of a data frame with *size_bits* of payload."""

@@ -27,8 +27,9 @@ from __future__ import annotations
 import math
 
 from ..timebase import TICKS_PER_SECOND
+from .base import Network
 from .frame import BROADCAST
-from .radio import distance, modulation_for
+from .radio import distance, modulation_for, watt_to_dbm
 
 _TOL = 1.0 - 1e-9    # power ratios within 1e-9 of the capture ratio count as meeting it
 
@@ -259,3 +260,17 @@ class WirelessMedium:
                 r.audible -= 1
             mac._rx_end(r, tx, ok, reason, locked)
             mac._reeval(r)
+
+
+class RadioNetwork(Network):
+    """A network whose stations share a :class:`WirelessMedium` (``self.medium``)."""
+
+    def position(self, node, t: float | None = None):
+        """Position of *node* at time *t* (s; default now)."""
+        r = self.interface(node)
+        return self.medium._position(r, self.sim.now if t is None else t)
+
+    def rx_power_dbm(self, src, dst) -> float:
+        """Power (dBm) at *dst* of a transmission by *src* starting now."""
+        s, d = self.interface(src), self.interface(dst)
+        return watt_to_dbm(self.medium.powers_from(s)[d.index])

@@ -64,10 +64,10 @@ import heapq
 import math
 
 from ..timebase import TICKS_PER_SECOND, to_ticks
-from .base import Network, check_positive
+from .base import check_positive
 from .frame import BROADCAST
 from .interface import Interface
-from .medium import Transmission, WirelessMedium
+from .medium import RadioNetwork, Transmission, WirelessMedium
 from .radio import (DSSS_BANDWIDTH, LogDistance, PathLoss, as_position, db_to_ratio, dbm_to_watt,
                     modulation_for, thermal_noise_dbm)
 
@@ -85,7 +85,7 @@ class WlanInterface(Interface):
     """Interface on a WLAN: radio parameters plus the DCF state of the station."""
 
 
-class WLAN80211b(Network):
+class WLAN80211b(RadioNetwork):
     """IEEE 802.11b DCF network.  See the module docstring for the semantics.
 
     Parameters (besides those of :class:`~netcosim.network.base.Network`)
@@ -242,17 +242,6 @@ class WLAN80211b(Network):
         r.rng = self.sim.rng(f"{self.name}/{name}/backoff")
         self.medium.init_listener(r)
         return r
-
-    def position(self, node, t: float | None = None):
-        """Position of *node* at time *t* (s; default now)."""
-        r = self.interface(node)
-        return self.medium._position(r, self.sim.now if t is None else t)
-
-    def rx_power_dbm(self, src, dst) -> float:
-        """Power (dBm) at *dst* of a transmission by *src* starting now."""
-        from .radio import watt_to_dbm
-        s, d = self.interface(src), self.interface(dst)
-        return watt_to_dbm(self.medium.powers_from(s)[d.index])
 
     # ------------------------------------------------------------------ timing helpers
     def data_time(self, size_bits: int) -> int:
