@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 import numbers
 
+from .errors import ConfigurationError, ConfigurationTypeError
+
 #: Seconds per tick.
 RESOLUTION = 1e-12
 #: Ticks per second.
@@ -23,16 +25,23 @@ TICKS_PER_SECOND = 10**12
 def to_ticks(seconds: float, what: str = "time", *, allow_negative: bool = False) -> int:
     """Convert a duration or instant in seconds to integer ticks (rounded to nearest).
 
-    Raises ``ValueError`` naming *what* if the value is not a finite real number, or
-    is negative when ``allow_negative`` is false.
+    Raises :class:`~netcosim.errors.ConfigurationTypeError` (a ``TypeError``) if the
+    value is not a real number, and :class:`~netcosim.errors.ConfigurationError` (a
+    ``ValueError``) naming *what* and the value if it is not finite, is negative when
+    ``allow_negative`` is false, or is non-zero but smaller in magnitude than
+    :data:`RESOLUTION` (it would round to an instant or a duration it does not mean:
+    a period of 1e-13 s would release forever at the same instant).
     """
     if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real):
-        raise TypeError(f"{what} must be a real number of seconds, got {seconds!r}")
+        raise ConfigurationTypeError(f"{what} must be a real number of seconds, got {seconds!r}")
     s = float(seconds)
     if not math.isfinite(s):
-        raise ValueError(f"{what} must be finite, got {seconds!r}")
+        raise ConfigurationError(f"{what} must be finite, got {seconds!r}")
     if s < 0 and not allow_negative:
-        raise ValueError(f"{what} must be non-negative, got {seconds!r}")
+        raise ConfigurationError(f"{what} must be non-negative, got {seconds!r}")
+    if s != 0.0 and abs(s) < RESOLUTION:
+        raise ConfigurationError(f"{what}={seconds!r} s is non-zero but below the time resolution "
+                                 f"{RESOLUTION} s (netcosim.RESOLUTION); use 0 or at least {RESOLUTION} s")
     return int(round(s * TICKS_PER_SECOND))
 
 

@@ -1,0 +1,47 @@
+"""The exceptions netcosim raises, in one place.
+
+Every error netcosim raises on purpose derives from :class:`NetcosimError`, so a
+caller can catch the framework's errors without catching unrelated bugs.  Errors about
+bad configuration values also derive from the built-in ``ValueError`` (or ``TypeError``
+for a value of the wrong kind), so code written against the standard library keeps
+working.  Each message names the offending value.
+"""
+
+from __future__ import annotations
+
+__all__ = ["NetcosimError", "ConfigurationError", "ConfigurationTypeError", "NotConnectedError",
+           "SingularConfigurationError", "SimulationFailedError", "UnyieldedExecuteError",
+           "IntegrationError"]
+
+
+class NetcosimError(Exception):
+    """Base class of every error netcosim raises deliberately."""
+
+
+class ConfigurationError(NetcosimError, ValueError):
+    """A parameter has a value the model cannot use (the message names the value)."""
+
+
+class ConfigurationTypeError(NetcosimError, TypeError):
+    """A parameter has a value of the wrong kind (the message names the value)."""
+
+
+class NotConnectedError(NetcosimError, RuntimeError):
+    """Reading or writing an I/O channel that has no plant port attached."""
+
+
+class SingularConfigurationError(NetcosimError, ValueError):
+    """A kinematic Jacobian ``A_q`` lost column rank (or is too ill-conditioned to use)
+    at the configuration where it was needed."""
+
+
+class SimulationFailedError(NetcosimError, RuntimeError):
+    """The simulation raised earlier and cannot continue; build a new one."""
+
+
+class UnyieldedExecuteError(NetcosimError, RuntimeError):
+    """A task asked for CPU time with ``ctx.execute(c)`` but did not ``yield`` it."""
+
+
+class IntegrationError(NetcosimError, RuntimeError):
+    """A plant could not be advanced (non-finite state or output, too many steps)."""
