@@ -16,10 +16,12 @@ Two controllers close the loop on the simulation model of §2.6.1
 Timing of the NMPC job (:class:`LandingTiming`): each job reads the plant at its
 start, runs the RTI *feedback* phase (QP solve), outputs, then runs the
 *preparation* phase (shift + linearization) for the next sample.  The CPU time of
-each phase is either zero (ideal, the thesis's Simulink setting), a fixed budget, or
-the wall-clock time the real computation just took multiplied by ``cpu_factor``
-(``nmpc_exec="measured"``), so that the simulated schedule reflects what the solver
-really costs.  Both tasks run on one node (fixed priority, FL above NMPC).
+each phase comes from a :mod:`netcosim.cputime` model: zero (ideal, the thesis's
+Simulink setting), a fixed budget, a recorded table of solve times replayed job by job
+(reproducible: what the experiments use), or -- on explicit opt-in only -- the
+wall-clock time the real computation just took on this host multiplied by
+``cpu_factor`` (``nmpc_exec="measured"``; not reproducible, flagged in the results
+and warned about).  Both tasks run on one node (fixed priority, FL above NMPC).
 
 All angles in radians, forces in N, torques in N·m, times in seconds.
 """
@@ -34,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from netcosim import RK4, Simulation
+from netcosim.cputime import CPUTimeModel, FixedCPUTime, WallClockCPUTime
 from plants.tethered_uav import TetheredUAV, TetheredUAVParams, ddphi_ddtheta, wind_disturbance
 
 from .feedback_linearization import C2Interpolator, FeedbackLinearization, PIDGains
@@ -57,10 +60,22 @@ DEFAULT_FL_GAINS = PIDGains.triple_pole(60.0)
 class LandingTiming:
     """CPU times of the tasks (seconds at node speed 1).
 
-    ``nmpc_exec``: ``0.0`` (ideal), a number (fixed budget for the whole job, split
-    between the phases in proportion ``feedback_share``), or ``"measured"``
-    (wall-clock time of each phase × ``cpu_factor``).  ``fl_exec``: CPU time of one
-    low-level job.  ``context_switch``: kernel context-switch time.
+    ``nmpc_exec`` says what one NMPC job costs:
+
+    * ``0.0`` (ideal) or a number: a fixed budget for the whole job, split between the
+      feedback and preparation phases in proportion ``feedback_share``;
+    * a :class:`netcosim.cputime.CPUTimeModel` with phases ``"feedback"`` and
+      ``"prepare"``, e.g. :class:`~netcosim.cputime.RecordedCPUTime` replaying solve
+      times recorded once (reproducible); each run starts from a fresh copy of it;
+    * ``"measured"``: the wall-clock time each phase took on this host ×
+      ``cpu_factor`` (:class:`~netcosim.cputime.WallClockCPUTime`).  Opt-in only: the
+      results then depend on the host's speed and load; each run warns
+      (:class:`~netcosim.cputime.NonReproducibleWarning`) and reports
+      ``reproducible=False``.  ``clock`` replaces :func:`time.perf_counter` for it
+      (tests inject a fake clock).
+
+    ``fl_exec``: CPU time of one low-level job.  ``context_switch``: kernel
+    context-switch time.
     """
 
     nmpc_exec: Any = 0.0
@@ -68,14 +83,19 @@ class LandingTiming:
     feedback_share: float = 0.8
     fl_exec: float = 0.0
     context_switch: float = 0.0
+    clock: Any = None
 
     def __post_init__(self):
         e = self.nmpc_exec
         if isinstance(e, str):
             if e != "measured":
-                raise ValueError(f"nmpc_exec must be a number of seconds or 'measured', got {e!r}")
+                raise ValueError(f"nmpc_exec must be a number of seconds or 'measured', got {e!r} "
+                                 f"(or a netcosim.cputime.CPUTimeModel)")
+        elif isinstance(e, CPUTimeModel):
+            pass
         elif isinstance(e, bool) or not isinstance(e, (int, float)) or not math.isfinite(e) or e < 0:
-            raise ValueError(f"nmpc_exec must be a non-negative number of seconds or 'measured', got {e!r}")
+            raise ValueError(f"nmpc_exec must be a non-negative number of seconds, a CPUTimeModel or 'measured', "
+                             f"got {e!r}")
         for name in ("cpu_factor",):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
@@ -86,13 +106,19 @@ class LandingTiming:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
                 raise ValueError(f"{name} must be a non-negative number of seconds, got {v!r}")
+        if self.clock is not None and not callable(self.clock):
+            raise ValueError(f"clock must be a callable returning seconds, got {self.clock!r}")
 
-    def nmpc_phase(self, phase: str, wall: float) -> float:
-        """CPU time of an NMPC phase ('feedback' or 'prepare') that took *wall* seconds."""
-        if self.nmpc_exec == "measured":
-            return wall * self.cpu_factor
-        share = self.feedback_share if phase == "feedback" else 1.0 - self.feedback_share
-        return float(self.nmpc_exec) * share
+    def nmpc_model(self) -> CPUTimeModel:
+        """A fresh CPU-time model for one run (phases ``"feedback"`` and ``"prepare"``)."""
+        e = self.nmpc_exec
+        if isinstance(e, CPUTimeModel):
+            return e.fresh()
+        if e == "measured":
+            kw = {} if self.clock is None else {"clock": self.clock}
+            return WallClockCPUTime(self.cpu_factor, **kw)
+        return FixedCPUTime({"feedback": float(e) * self.feedback_share,
+                             "prepare": float(e) * (1.0 - self.feedback_share)})
 
 
 @dataclass
@@ -105,7 +131,12 @@ class LandingRun:
     sample, ``status``, ``success``, ``fallback``, ``qp_iter``, ``t_feedback``,
     ``t_prepare`` wall-clock seconds, ``c_feedback``, ``c_prepare`` simulated CPU
     seconds); ``reference``: the 500 Hz reference of the low-level task (2LC only);
-    ``jobs``/``schedule``: kernel traces; ``sim``: the simulation.
+    ``jobs``/``schedule``: kernel traces; ``sim``: the simulation; ``cpu_times``: every
+    CPU time charged to the NMPC (:meth:`netcosim.cputime.CPUTimeModel.record`: replay
+    it with :class:`~netcosim.cputime.RecordedCPUTime` to reproduce the run);
+    ``reproducible``: False when the CPU times were measured on the wall clock.
+    The ``t_feedback``/``t_prepare`` columns of ``steps`` are the solver's own
+    wall-clock diagnostics; only ``c_feedback``/``c_prepare`` enter the simulation.
     """
 
     controller: str
@@ -119,6 +150,8 @@ class LandingRun:
     nmpc: Any
     fl: Any = None
     meta: dict = field(default_factory=dict)
+    cpu_times: pd.DataFrame | None = None
+    reproducible: bool = True
 
 
 def _plant_signals(sim: Simulation, plant_name: str, wind_on: bool, params) -> pd.DataFrame:
@@ -216,6 +249,7 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
         uav.inputs.write(xs0[4:6])  # hover thrust, zero torque until the first FL job
     cpu = sim.node("onboard", scheduler="fixed_priority", context_switch=timing.context_switch)
     nmpc = landing_nmpc(params, cfg, x0=xs0, **(nmpc_kw or {}))
+    cpu_model = timing.nmpc_model()
     steps: list[dict] = []
     ref_rows: list[tuple] = []
     Ts = cfg.Ts
@@ -236,8 +270,9 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
         x = np.asarray(y[:6], dtype=float) if len(y) >= 6 else np.concatenate([y[:4], [0.0, 0.0]])
         if controller == "2lc" and (actuator_state == "plan" or len(y) < 6):
             x[4:6] = nmpc.X[0, 4:6]  # the shifted plan's node 0 = previous plan at this instant
-        r = nmpc.feedback(x)
-        c_fb = timing.nmpc_phase("feedback", r.t_feedback)
+        with cpu_model.measure("feedback") as m:
+            r = nmpc.feedback(x)
+        c_fb = m.seconds
         yield ctx.execute(c_fb)
         if controller == "nmpc":
             ctx.write(in_port, r.u)
@@ -249,8 +284,9 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
                 apply_target(ctx.now, target)
             else:
                 send(target)
-        t_prep = nmpc.preparation()
-        c_prep = timing.nmpc_phase("prepare", t_prep)
+        with cpu_model.measure("prepare") as m:
+            t_prep = nmpc.preparation()
+        c_prep = m.seconds
         steps.append(dict(time=t_s, released=ctx.job.release_time, status=r.status, success=r.success,
                           fallback=r.fallback, qp_iter=r.qp_iter, step_norm=r.step_norm,
                           t_feedback=r.t_feedback, t_prepare=t_prep, c_feedback=c_fb, c_prepare=c_prep,
@@ -342,7 +378,8 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
                       reference=reference, jobs=sim.trace.jobs(), schedule=sim.trace.schedule(), sim=sim,
                       nmpc=nmpc, fl=fl, meta=dict(params=params, config=cfg, timing=timing, topology=topology,
                                                   nmpc_init=nmpc_init,
-                                                  n_reset=sum(1 for _, k in init_log if k == "measured")))
+                                                  n_reset=sum(1 for _, k in init_log if k == "measured")),
+                      cpu_times=cpu_model.record(), reproducible=cpu_model.reproducible)
 
 
 def landing_metrics(run: LandingRun, tol_deg: float = 1.0) -> dict:

@@ -6,10 +6,13 @@ Runs, on the simulation model with landers (1 cm, see
 * ``ideal``: NMPC alone and the two-layer controller (2LC), without and with wind,
   with zero computation times (the thesis's Simulink setting) -- Fig. 2.8–2.13;
 * ``scheduled``: the same controllers as netcosim tasks on one node whose NMPC job
-  costs the measured wall-clock time of the real RTI computation (100 µs per
+  costs the RTI computation's solve times recorded once by a calibration run and
+  replayed job by job (``experiments/data/ch2_nmpc_cpu_times.csv``; 100 µs per
   low-level job, 20 µs context switches), plus the 2LC started from the measurement
   (the thesis's initialization) to show its sensitivity to the computation delay,
-  and the 2LC on two nodes over a 1 Mbit/s link.
+  and the 2LC on two nodes over a 1 Mbit/s link.  The replay makes every run give
+  the same numbers on any host; :func:`calibrate` re-records the table on this host
+  (wall-clock solve times, not reproducible) for whoever wants their own machine's.
 
 Writes PNG figures and Parquet tables to *outdir* and returns the metrics table.
 Run ``python -m experiments.ch2_landing``.
@@ -28,12 +31,64 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from controllers.landing_tasks import SIM_PARAMS, LandingTiming, landing_metrics, run_landing  # noqa: E402
+from netcosim.cputime import RecordedCPUTime  # noqa: E402
 from netcosim.plot import plot_schedule  # noqa: E402
 
 DEG = 180.0 / math.pi
 COLORS = {"nmpc": "tab:blue", "2lc": "tab:red"}
 LABELS = {"nmpc": "NMPC", "2lc": "2LC"}
-SCHEDULED = LandingTiming(nmpc_exec="measured", cpu_factor=1.0, fl_exec=1e-4, context_switch=2e-5)
+#: Solve times of the RTI phases ("feedback", "prepare") recorded by :func:`calibrate`,
+#: one block per scheduled run (column ``run``), replayed by the scheduled runs.
+CALIBRATION = Path(__file__).resolve().parent / "data" / "ch2_nmpc_cpu_times.csv"
+#: Low-level job CPU time and context switch of the scheduled runs (s).
+FL_EXEC, CONTEXT_SWITCH = 1e-4, 2e-5
+
+
+def _scheduled_runs(timing_for, duration: float, quick: bool) -> dict:
+    """The scheduled runs, each with the timing ``timing_for(name)``."""
+    runs = {
+        "NMPC alone": lambda t: run_landing("nmpc", duration=duration, timing=t),
+        "2LC (NMPC from reference)": lambda t: run_landing("2lc", duration=duration, timing=t),
+    }
+    if not quick:
+        runs["2LC (NMPC from measurement)"] = lambda t: run_landing("2lc", duration=duration, timing=t,
+                                                                    nmpc_init="measured")
+        runs["2LC on two nodes (1 Mbit/s link)"] = lambda t: run_landing("2lc", duration=duration, timing=t,
+                                                                         topology="two_nodes")
+    return {name: fn(timing_for(name)) for name, fn in runs.items()}
+
+
+def recorded_timing(name: str, path: Path = CALIBRATION) -> LandingTiming:
+    """The timing of scheduled run *name*: its recorded solve times, replayed."""
+    table = pd.read_csv(path)
+    rows = table[table["run"] == name]
+    if rows.empty:
+        raise KeyError(f"no recorded CPU times for run {name!r} in {str(path)!r}; "
+                       f"have {sorted(table['run'].unique())}")
+    return LandingTiming(nmpc_exec=RecordedCPUTime(rows, beyond="error"), fl_exec=FL_EXEC,
+                         context_switch=CONTEXT_SWITCH)
+
+
+def calibrate(path: str | Path = CALIBRATION, duration: float = 1.5) -> pd.DataFrame:
+    """Record the wall-clock RTI solve times of every scheduled run on this host and
+    write them to *path* (CSV, columns ``run, phase, index, wall, cpu``).
+
+    The recording depends on this host's speed and load (run it on a quiet machine);
+    the runs that replay it do not.
+    """
+    import warnings
+
+    from netcosim.cputime import NonReproducibleWarning
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonReproducibleWarning)
+        measured = LandingTiming(nmpc_exec="measured", cpu_factor=1.0, fl_exec=FL_EXEC,
+                                 context_switch=CONTEXT_SWITCH)
+        runs = _scheduled_runs(lambda name: measured, duration, quick=False)
+    table = pd.concat([r.cpu_times.assign(run=name) for name, r in runs.items()], ignore_index=True)
+    table = table[["run", "phase", "index", "wall", "cpu"]]
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    table.to_csv(path, index=False, float_format="%.17g")
+    return table
 
 
 def _bounds(ax, lo=None, hi=None):
@@ -133,7 +188,7 @@ def _figure_scheduled(runs, path):
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)
-    fig.suptitle("Landing with the measured NMPC solve time as CPU time (one node, 500 Hz FL above 100 Hz NMPC)")
+    fig.suptitle("Landing with the recorded NMPC solve times as CPU time (one node, 500 Hz FL above 100 Hz NMPC)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -156,15 +211,7 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     for wind in (False, True):
         for c in ("nmpc", "2lc"):
             runs[f"ideal_{c}_{'wind' if wind else 'calm'}"] = run_landing(c, wind=wind, duration=duration)
-    scheduled = {
-        "NMPC alone": run_landing("nmpc", duration=duration, timing=SCHEDULED),
-        "2LC (NMPC from reference)": run_landing("2lc", duration=duration, timing=SCHEDULED),
-    }
-    if not quick:
-        scheduled["2LC (NMPC from measurement)"] = run_landing("2lc", duration=duration, timing=SCHEDULED,
-                                                               nmpc_init="measured")
-        scheduled["2LC on two nodes (1 Mbit/s link)"] = run_landing("2lc", duration=duration, timing=SCHEDULED,
-                                                                    topology="two_nodes")
+    scheduled = _scheduled_runs(recorded_timing, duration, quick)
     for name, run in scheduled.items():
         runs["scheduled_" + name] = run
 
@@ -180,7 +227,7 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     sched = scheduled["2LC (NMPC from reference)"]
     plot_schedule(sched.schedule, node="onboard", tasks=["fl", "nmpc"], t_range=(0.0, 0.05),
                   path=out / "schedule_2lc.png",
-                  title="2LC on one node: 500 Hz FL (top) preempts the 100 Hz NMPC (measured solve time)")
+                  title="2LC on one node: 500 Hz FL (top) preempts the 100 Hz NMPC (recorded solve times)")
 
     rows = []
     for name, run in runs.items():
@@ -205,6 +252,9 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     pd.concat([_tidy(n, r) for n, r in runs.items()], ignore_index=True).to_parquet(out / "signals.parquet")
     pd.concat([r.steps.assign(run=n) for n, r in runs.items()], ignore_index=True).to_parquet(out / "nmpc_steps.parquet")
     pd.concat([r.jobs.assign(run=n) for n, r in runs.items()], ignore_index=True).to_parquet(out / "jobs.parquet")
+    # the CPU times every scheduled run charged: replaying them reproduces the run exactly
+    pd.concat([r.cpu_times.assign(run=n) for n, r in scheduled.items()],
+              ignore_index=True).to_parquet(out / "cpu_times.parquet")
     metrics.reset_index().to_parquet(out / "metrics.parquet")
     cols = ["t_settle", "phi_final", "theta_final", "rms", "f_L_min", "f_L_max", "d_PG_min", "n_fallback"]
     with pd.option_context("display.width", 200, "display.max_columns", 20):

@@ -4,9 +4,11 @@ import math
 
 import numpy as np
 import pytest
+import pandas as pd
 
 from controllers.landing import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
 from controllers.landing_tasks import LandingTiming, landing_metrics, run_landing
+from netcosim.cputime import NonReproducibleWarning, RecordedCPUTime
 
 
 DEG = math.pi / 180
@@ -151,17 +153,37 @@ def test_two_node_variant_over_a_network():
     assert set(run.jobs["node"].astype(str)) == {"onboard", "ground"}
 
 
+class SteppingClock:
+    """A fake wall clock: each measured block (two reads) lasts the next given duration."""
+
+    def __init__(self, durations):
+        self.t, self.durations, self.inside = 0.0, iter(durations), False
+
+    def __call__(self):
+        if self.inside:
+            self.t += next(self.durations)
+        self.inside = not self.inside
+        return self.t
+
+
 def test_measured_solve_time_sets_the_nmpc_response_time():
     fl_exec, factor = 1e-4, 2.0
-    run = run_landing("2lc", duration=0.3, timing=LandingTiming(nmpc_exec="measured", cpu_factor=factor,
-                                                                   fl_exec=fl_exec))
+    # feedback / preparation wall times of each job; the 4.5 ms + 0.5 ms solves cost 10 ms
+    # of CPU at factor 2, so with the FL jobs on top the next NMPC release has to queue
+    walls = [(4.5e-3, 0.5e-3), (1.5e-3, 0.5e-3), (2.5e-3, 0.5e-3)] * 10
+    clock = SteppingClock([d for pair in walls for d in pair])
+    with pytest.warns(NonReproducibleWarning):
+        run = run_landing("2lc", duration=0.3, timing=LandingTiming(nmpc_exec="measured", cpu_factor=factor,
+                                                                       fl_exec=fl_exec, clock=clock))
+    assert not run.reproducible
     jobs = run.jobs
     nmpc = jobs[jobs["task"] == "nmpc"].sort_values("release").reset_index(drop=True)
     fl = jobs[jobs["task"] == "fl"]
     steps = run.steps.sort_values("released").reset_index(drop=True)
     assert len(nmpc) == len(steps) == 30
-    budget = factor * (steps["t_feedback"] + steps["t_prepare"])
+    budget = factor * np.array([fb + prep for fb, prep in walls])
     np.testing.assert_allclose(nmpc["execution_time"], budget, atol=1e-9)
+    np.testing.assert_allclose(steps["c_feedback"] + steps["c_prepare"], budget, atol=1e-15)
     # From the moment a job may run -- its release, or the previous job's finish when a
     # long measured solve made it queue -- to its finish: its own CPU time plus the
     # 500 Hz jobs released meanwhile (they have the higher priority).
@@ -170,9 +192,29 @@ def test_measured_solve_time_sets_the_nmpc_response_time():
                       for r, f in zip(ready, nmpc["finish"])])
     np.testing.assert_allclose(nmpc["finish"] - ready, budget + fl_exec * n_pre, atol=1e-9)
     assert n_pre.min() >= 1  # the FL job released with it always goes first
+    assert (ready > nmpc["release"].to_numpy() + 1e-6).any()  # some jobs did queue
     assert (nmpc["response_time"] > nmpc["execution_time"]).all()
     m = landing_metrics(run)
     assert m["n_fallback"] == 0
+
+
+def test_recorded_solve_times_replay_the_measured_run_bit_for_bit():
+    walls = [(2.0e-3, 0.4e-3), (3.0e-3, 0.6e-3)] * 10
+    clock = SteppingClock([d for pair in walls for d in pair])
+    with pytest.warns(NonReproducibleWarning):
+        measured = run_landing("2lc", duration=0.2, timing=LandingTiming(nmpc_exec="measured", fl_exec=1e-4,
+                                                                            clock=clock))
+    replay = RecordedCPUTime(measured.cpu_times)
+    timing = LandingTiming(nmpc_exec=replay, fl_exec=1e-4)
+    first, second = (run_landing("2lc", duration=0.2, timing=timing) for _ in range(2))
+    assert first.reproducible and second.reproducible
+    for run in (first, second):
+        pd.testing.assert_frame_equal(run.jobs, measured.jobs)
+        pd.testing.assert_frame_equal(run.signals, measured.signals)
+        pd.testing.assert_frame_equal(run.cpu_times[["phase", "index", "cpu"]],
+                                      measured.cpu_times[["phase", "index", "cpu"]])
+    # the replay never reads a clock, so the host's speed cannot enter
+    assert first.cpu_times["wall"].isna().all()
 
 
 def test_measured_initialization_degrades_with_delay_reference_initialization_does_not():

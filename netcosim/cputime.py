@@ -1,0 +1,269 @@
+"""How much simulated CPU time a controller job's real computation costs.
+
+A task whose body runs real code (an NMPC solve, a planner's online gain) must say how
+much CPU time that code takes on the simulated node: ``yield ctx.execute(c)``.  Where
+*c* comes from decides whether the run is reproducible:
+
+:class:`FixedCPUTime`
+    A fixed budget per phase (seconds).  Reproducible.
+:class:`RecordedCPUTime`
+    Replays a table of per-job costs recorded once (for instance by a calibration run
+    with :class:`WallClockCPUTime`), job by job.  Reproducible: the same table gives the
+    same schedule on any machine, however loaded.  The table is stored with the
+    results (:meth:`CPUTimeModel.record`), so a run can be replayed exactly later.
+:class:`WallClockCPUTime`
+    The wall-clock time the computation just took on *this* host, times ``factor``.
+    **Not reproducible**: the schedule, and so the control results, change with the
+    host's speed and load.  Opt-in only; constructing one emits a
+    :class:`NonReproducibleWarning`, and ``reproducible`` is False.
+
+Usage in a task body::
+
+    with cpu_model.measure("feedback") as m:
+        r = solver.feedback(x)          # the real computation
+    yield ctx.execute(m.seconds)        # charged to the simulated CPU
+
+Every charge is logged; :meth:`CPUTimeModel.record` returns them as a DataFrame with
+columns ``phase, index, wall, cpu`` (``index``: the n-th charge of that phase, from 0;
+``wall``: measured wall-clock seconds, NaN where no clock was read; ``cpu``: the
+seconds charged).  All times are in seconds of CPU at node speed 1.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import time
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+from .errors import ConfigurationError, ConfigurationTypeError
+
+__all__ = ["CPUTimeModel", "FixedCPUTime", "RecordedCPUTime", "WallClockCPUTime", "NonReproducibleWarning",
+           "RECORD_COLUMNS"]
+
+#: Columns of :meth:`CPUTimeModel.record`.
+RECORD_COLUMNS = ("phase", "index", "wall", "cpu")
+
+
+class NonReproducibleWarning(UserWarning):
+    """Results of this run depend on the host's speed and load (wall-clock CPU times)."""
+
+
+def _seconds(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ConfigurationTypeError(f"{what} must be a number of seconds, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v) or v < 0:
+        raise ConfigurationError(f"{what} must be a finite, non-negative number of seconds, got {value!r}")
+    return v
+
+
+class Measurement:
+    """Context manager returned by :meth:`CPUTimeModel.measure`; ``seconds`` is the CPU
+    time to charge once the block has exited (reading it earlier raises)."""
+
+    __slots__ = ("model", "phase", "_t0", "_seconds")
+
+    def __init__(self, model: "CPUTimeModel", phase: str):
+        self.model, self.phase = model, phase
+        self._t0 = None
+        self._seconds = None
+
+    def __enter__(self) -> "Measurement":
+        if self.model.reads_clock:
+            self._t0 = self.model.clock()
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is not None:
+            return
+        wall = self.model.clock() - self._t0 if self.model.reads_clock else math.nan
+        self._seconds = self.model._charge(self.phase, wall)
+
+    @property
+    def seconds(self) -> float:
+        """CPU seconds (at node speed 1) the measured block costs on the simulated node."""
+        if self._seconds is None:
+            raise RuntimeError(f"CPU time of phase {self.phase!r} read before its measured block finished")
+        return self._seconds
+
+
+class CPUTimeModel:
+    """Base: subclasses implement :meth:`cost`; the base logs every charge.
+
+    ``reproducible``: True when the charged times do not depend on the host.
+    ``reads_clock``: True when :meth:`measure` reads ``clock`` around the block.
+    """
+
+    reproducible = True
+    reads_clock = False
+
+    def __init__(self, clock: Callable[[], float] = time.perf_counter):
+        if not callable(clock):
+            raise ConfigurationTypeError(f"clock must be a callable returning seconds, got {clock!r}")
+        self.clock = clock
+        self._log: list[tuple[str, int, float, float]] = []
+        self._counts: dict[str, int] = {}
+
+    def cost(self, phase: str, index: int, wall: float) -> float:
+        """CPU seconds of the *index*-th execution of *phase* that took *wall* s (NaN if unmeasured)."""
+        raise NotImplementedError
+
+    def fresh(self) -> "CPUTimeModel":
+        """A copy with the same settings and an empty log (charge counts back at 0), so
+        that one model object can configure several runs that each start alike."""
+        import copy
+        other = copy.copy(self)
+        other._log = []
+        other._counts = {}
+        return other
+
+    def measure(self, phase: str) -> Measurement:
+        """Time the ``with`` block as one execution of *phase* (a name such as ``"feedback"``)."""
+        if not isinstance(phase, str) or not phase:
+            raise ConfigurationTypeError(f"phase must be a non-empty string, got {phase!r}")
+        return Measurement(self, phase)
+
+    def charge(self, phase: str) -> float:
+        """CPU seconds of one execution of *phase* without timing anything (fixed or
+        recorded models; a wall-clock model has nothing to measure and raises)."""
+        if self.reads_clock:
+            raise RuntimeError(f"{type(self).__name__} must time the computation: use measure({phase!r})")
+        return self._charge(phase, math.nan)
+
+    def _charge(self, phase: str, wall: float) -> float:
+        k = self._counts.get(phase, 0)
+        self._counts[phase] = k + 1
+        c = self.cost(phase, k, wall)
+        self._log.append((phase, k, wall, c))
+        return c
+
+    def record(self):
+        """Every charge so far as a DataFrame (columns :data:`RECORD_COLUMNS`)."""
+        import pandas as pd
+        return pd.DataFrame(self._log, columns=list(RECORD_COLUMNS))
+
+    def save(self, path: str | PathLike) -> Path:
+        """Write :meth:`record` to *path* (``.csv`` or ``.parquet``) for :meth:`RecordedCPUTime.load`."""
+        p = Path(path)
+        df = self.record()
+        if p.suffix == ".csv":
+            df.to_csv(p, index=False, float_format="%.17g")
+        else:
+            df.to_parquet(p, index=False)
+        return p
+
+
+class FixedCPUTime(CPUTimeModel):
+    """A fixed CPU time per phase: ``seconds`` (same for every phase) or a mapping
+    ``{phase: seconds}`` (a phase missing from it raises when charged)."""
+
+    def __init__(self, seconds: float | Mapping[str, float]):
+        super().__init__()
+        if isinstance(seconds, Mapping):
+            self.seconds = {str(k): _seconds(v, f"CPU time of phase {k!r}") for k, v in seconds.items()}
+        else:
+            self.seconds = _seconds(seconds, "CPU time")
+
+    def cost(self, phase, index, wall):
+        if isinstance(self.seconds, dict):
+            try:
+                return self.seconds[phase]
+            except KeyError:
+                raise ConfigurationError(f"no fixed CPU time for phase {phase!r}; have {sorted(self.seconds)}") \
+                    from None
+        return self.seconds
+
+
+class RecordedCPUTime(CPUTimeModel):
+    """Replays recorded CPU times, job by job.
+
+    ``table``: a DataFrame with columns ``phase`` and ``cpu`` (and optionally ``index``,
+    as written by :meth:`CPUTimeModel.record`), or a mapping ``{phase: [seconds, ...]}``.
+    The n-th charge of a phase costs the n-th recorded value of that phase times
+    ``scale``.  ``beyond`` says what happens after the recording runs out: ``"cycle"``
+    (start again from the first value), ``"last"`` (repeat the last value) or
+    ``"error"`` (raise).
+    """
+
+    def __init__(self, table: Any, *, scale: float = 1.0, beyond: str = "cycle"):
+        super().__init__()
+        self.scale = _seconds(scale, "scale")
+        if beyond not in ("cycle", "last", "error"):
+            raise ConfigurationError(f"beyond must be 'cycle', 'last' or 'error', got {beyond!r}")
+        self.beyond = beyond
+        if isinstance(table, Mapping):
+            values = {str(k): list(v) for k, v in table.items()}
+        elif hasattr(table, "columns"):
+            missing = {"phase", "cpu"} - set(table.columns)
+            if missing:
+                raise ConfigurationError(f"recorded CPU-time table lacks columns {sorted(missing)}; "
+                                         f"has {list(table.columns)}")
+            df = table.sort_values(["phase", "index"]) if "index" in table.columns else table
+            values = {str(p): g["cpu"].tolist() for p, g in df.groupby("phase", sort=False)}
+        else:
+            raise ConfigurationTypeError(f"table must be a DataFrame or a mapping phase -> seconds, got {table!r}")
+        if not values:
+            raise ConfigurationError("recorded CPU-time table is empty")
+        self.values: dict[str, list[float]] = {}
+        for phase, seq in values.items():
+            if not isinstance(seq, Sequence) or len(seq) == 0:
+                raise ConfigurationError(f"phase {phase!r} has no recorded CPU times")
+            self.values[phase] = [_seconds(v, f"recorded CPU time of phase {phase!r}") for v in seq]
+
+    @classmethod
+    def load(cls, path: str | PathLike, **kw) -> "RecordedCPUTime":
+        """Read a table written by :meth:`CPUTimeModel.save` (``.csv`` or ``.parquet``)."""
+        import pandas as pd
+        p = Path(path)
+        if not p.is_file():
+            raise FileNotFoundError(f"no recorded CPU-time table at {str(p)!r}")
+        df = pd.read_csv(p) if p.suffix == ".csv" else pd.read_parquet(p)
+        return cls(df, **kw)
+
+    def cost(self, phase, index, wall):
+        try:
+            seq = self.values[phase]
+        except KeyError:
+            raise ConfigurationError(f"no recorded CPU times for phase {phase!r}; have {sorted(self.values)}") \
+                from None
+        n = len(seq)
+        if index >= n:
+            if self.beyond == "error":
+                raise ConfigurationError(f"recorded CPU times of phase {phase!r} run out: charge {index} "
+                                         f"of a recording of {n}")
+            index = index % n if self.beyond == "cycle" else n - 1
+        return seq[index] * self.scale
+
+
+class WallClockCPUTime(CPUTimeModel):
+    """The wall-clock time the computation took on this host × ``factor``.
+
+    Not reproducible: emits :class:`NonReproducibleWarning` when constructed.  ``clock``
+    (default :func:`time.perf_counter`) is injectable, so a test can drive it with a
+    fake clock and get a deterministic schedule.
+    """
+
+    reproducible = False
+    reads_clock = True
+
+    def __init__(self, factor: float = 1.0, *, clock: Callable[[], float] = time.perf_counter, warn: bool = True):
+        super().__init__(clock)
+        f = _seconds(factor, "factor")
+        if f == 0:
+            raise ConfigurationError(f"factor must be positive, got {factor!r}")
+        self.factor = f
+        if warn:
+            warnings.warn("CPU times are the measured wall-clock times of this host: the schedule and the "
+                          "results depend on the host's speed and load and are not reproducible "
+                          "(use FixedCPUTime or RecordedCPUTime for reproducible runs)",
+                          NonReproducibleWarning, stacklevel=2)
+
+    def cost(self, phase, index, wall):
+        if not math.isfinite(wall) or wall < 0:
+            raise RuntimeError(f"clock gave a non-monotonic or non-finite duration {wall!r} for phase {phase!r}")
+        return wall * self.factor
