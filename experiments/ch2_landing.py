@@ -210,8 +210,12 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     runs = {}
     for wind in (False, True):
         for c in ("nmpc", "2lc"):
-            runs[f"ideal_{c}_{'wind' if wind else 'calm'}"] = run_landing(c, wind=wind, duration=duration)
+            name = f"ideal_{c}_{'wind' if wind else 'calm'}"
+            print(f"  ch2_landing: {name} ({duration} s simulated)", flush=True)
+            runs[name] = run_landing(c, wind=wind, duration=duration)
+    print("  ch2_landing: scheduled runs (recorded NMPC solve times)", flush=True)
     scheduled = _scheduled_runs(recorded_timing, duration, quick)
+    print("  ch2_landing: figures and tables", flush=True)
     for name, run in scheduled.items():
         runs["scheduled_" + name] = run
 
