@@ -173,7 +173,8 @@ class Task:
         self.cls = HANDLER if kind == "handler" else TASK
         self.body = _as_generator_function(body)
         self.priority = priority
-        self.period_ticks = _check_time(period, "period", self.name, positive=True)
+        self.period_ticks = _check_time(period, "period", self.name, positive=True,
+                                        allow_none=kind != "periodic")
         self.offset_ticks = _check_time(offset, "offset", self.name) or 0
         if deadline is None and period is not None:
             self.deadline_ticks = self.period_ticks
