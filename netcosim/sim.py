@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import traceback
 from time import monotonic
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -15,6 +16,7 @@ import numpy as np
 import simpy
 import simpy.rt
 
+from .errors import ConfigurationError, ConfigurationTypeError, SimulationFailedError
 from .timebase import RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
 from .trace import Trace
 
@@ -123,11 +125,17 @@ class Simulation:
     def __init__(self, seed: int = 0, *, realtime: bool = False, factor: float = 1.0,
                  strict: bool = True, max_lag: float = 0.01):
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+            raise ConfigurationError(f"seed must be a non-negative integer, got {seed!r}")
         self.seed = int(seed)
         if realtime:
-            if not (isinstance(factor, (int, float)) and factor > 0 and math.isfinite(factor)):
-                raise ValueError(f"real-time factor must be a positive number, got {factor!r}")
+            if isinstance(factor, bool) or not (isinstance(factor, (int, float)) and factor > 0
+                                                and math.isfinite(factor)):
+                raise ConfigurationError(f"real-time factor must be a positive number, got {factor!r}")
+            if isinstance(max_lag, bool) or not (isinstance(max_lag, (int, float)) and max_lag >= 0
+                                                 and math.isfinite(max_lag)):
+                raise ConfigurationError(f"max_lag must be a non-negative number of seconds, got {max_lag!r}")
+            if not isinstance(strict, bool):
+                raise ConfigurationTypeError(f"strict must be True or False, got {strict!r}")
             self.env: simpy.Environment = _Realtime(factor, strict, max_lag)
         else:
             self.env = simpy.Environment(initial_time=0)
@@ -139,6 +147,8 @@ class Simulation:
         self.plants: dict[str, Any] = {}
         self.networks: dict[str, Any] = {}
         self._finalizers: list[Callable[[], None]] = []
+        self._failure: BaseException | None = None
+        self._failure_time = 0.0
         self._stepping = 0  # > 0 while task code runs (kernel dispatch must then be deferred)
 
     # Time ------------------------------------------------------------------
@@ -190,11 +200,14 @@ class Simulation:
         return g
 
     # Components ------------------------------------------------------------
-    def _register(self, name: str, obj: Any) -> None:
+    def _check_new_name(self, name: str) -> None:
         if not isinstance(name, str) or not name:
-            raise ValueError(f"component name must be a non-empty string, got {name!r}")
+            raise ConfigurationError(f"component name must be a non-empty string, got {name!r}")
         if name in self._names:
-            raise ValueError(f"a component called {name!r} already exists")
+            raise ConfigurationError(f"a component called {name!r} already exists")
+
+    def _register(self, name: str, obj: Any) -> None:
+        self._check_new_name(name)
         self._names[name] = obj
 
     def node(self, name: str, scheduler: Any = "fixed_priority", *, context_switch: float = 0.0,
@@ -207,6 +220,7 @@ class Simulation:
         execution time (2.0 = twice as fast).
         """
         from .kernel.node import Node
+        self._check_new_name(name)
         node = Node(self, name, scheduler, context_switch=context_switch, speed=speed)
         self._register(name, node)
         self.nodes[name] = node
@@ -228,26 +242,84 @@ class Simulation:
         return p
 
     def add_finalizer(self, fn: Callable[[], None]) -> None:
-        """Call ``fn()`` at the end of every :meth:`run` (even a failed one)."""
+        """Call ``fn()`` at the end of every :meth:`run`, to bring a component up to the stop time.
+
+        After a failed run, finalizers are called at the failure instant, except the
+        failing component's own (a bound method of the object that raised), and an
+        exception they raise is attached to the original failure as a note.
+        """
         self._finalizers.append(fn)
 
     # Running ---------------------------------------------------------------
+    @property
+    def failure(self) -> BaseException | None:
+        """The exception that ended a failed :meth:`run` (None while the simulation is healthy)."""
+        return self._failure
+
     def run(self, until: float) -> None:
         """Advance the simulation to *until* seconds (absolute).
 
-        Whatever happens, plants are brought up to the stop time (or the failure
-        instant) and the traces keep everything recorded so far.
+        At the end the plants are brought up to the stop time.  If anything raises
+        during the run (a task body, a plant, a network), the exception propagates
+        exactly once, with the note ``netcosim: run failed at t = ... s``; every plant
+        except the failing one is first brought to the failure instant (the failing
+        plant keeps its last finite state), and the traces keep everything recorded so
+        far.  The simulation is then dead: a later ``run()`` raises
+        :class:`~netcosim.errors.SimulationFailedError` naming the original failure
+        (jobs were cut off mid-flight, so continuing would be wrong); build a new
+        :class:`Simulation` to run again.
         """
+        if self._failure is not None:
+            f = self._failure
+            raise SimulationFailedError(
+                f"this simulation failed at t = {self._failure_time:.9f} s with {type(f).__name__}: {f}; "
+                f"its traces stay readable, but it cannot continue: build a new Simulation") from f
         stop = to_ticks(until, "until")
         if stop < self.env._now:
-            raise ValueError(f"until={until} s lies before now={self.now} s")
+            raise ConfigurationError(f"until={until!r} s lies before now={self.now} s")
         try:
             self.env.run(until=stop)
-        except Exception as exc:
-            exc.add_note(f"netcosim: run failed at t = {self.now:.9f} s")
+        except BaseException as exc:
+            self._fail(exc)
             raise
-        finally:
-            for fn in self._finalizers:
+        for fn in self._finalizers:
+            try:
                 fn()
+            except BaseException as exc:
+                self._fail(exc)
+                raise
+
+    def _fail(self, exc: BaseException) -> None:
+        """Mark the simulation dead, note the time on *exc*, bring the other components to now."""
+        self._failure = exc
+        self._failure_time = self.now
+        exc.add_note(f"netcosim: run failed at t = {self.now:.9f} s")
+        culprit = _raising_component(exc)
+        for fn in self._finalizers:
+            if culprit is not None and getattr(fn, "__self__", None) is culprit:
+                continue  # its state stays the last good one; advancing it would fail again
+            try:
+                fn()
+            except Exception as other:
+                owner = getattr(fn, "__self__", fn)
+                exc.add_note(f"netcosim: bringing {getattr(owner, 'name', owner)!r} to the failure "
+                             f"instant also failed: {type(other).__name__}: {other}")
 
 
+def _raising_component(exc: BaseException) -> Any:
+    """The component (plant) whose own code raised *exc*, or None.
+
+    Walks the traceback from the raise point outwards and returns the first ``self``
+    that registered a finalizer (a :class:`~netcosim.continuous.PlantInstance`); a kernel
+    node met first means task code raised (possibly started from a plant callback), so
+    no plant is to blame.
+    """
+    from .continuous import PlantInstance
+    from .kernel.node import Node
+    for frame, _ in reversed(list(traceback.walk_tb(exc.__traceback__))):
+        owner = frame.f_locals.get("self")
+        if isinstance(owner, PlantInstance):
+            return owner
+        if isinstance(owner, Node):
+            return None
+    return None

@@ -14,12 +14,14 @@ with its next segment, or resumes when nothing else ran since it stopped, pays n
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any, Callable
 
 import simpy
 
+from ..errors import ConfigurationError, ConfigurationTypeError
 from ..sim import DISPATCH, NORMAL
-from ..timebase import TICKS_PER_SECOND, to_ticks
+from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
 from .task import HANDLER, Blocking, Job, Task
@@ -56,13 +58,19 @@ class Node:
         self.sim = sim
         self.name = name
         self.policy = make_policy(scheduler)
-        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (speed > 0) or speed == _INF:
-            raise ValueError(f"node {name!r}: speed must be a positive finite number, got {speed!r}")
+        if isinstance(speed, bool) or not isinstance(speed, numbers.Real):
+            raise ConfigurationTypeError(f"node {name!r}: speed must be a positive finite number, got {speed!r}")
+        if not (speed > 0) or speed == _INF:
+            raise ConfigurationError(f"node {name!r}: speed must be a positive finite number, got {speed!r}")
         self.speed = float(speed)
         self._tick_scale = TICKS_PER_SECOND / self.speed
         cs = to_ticks(context_switch, f"node {name!r} context_switch")
         self.context_switch = context_switch
         self._cs_ticks = int(round(cs / self.speed))
+        if cs and not self._cs_ticks:
+            raise ConfigurationError(
+                f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} is "
+                f"{context_switch / speed!r} s, below the time resolution {RESOLUTION} s")
         self.tasks: dict[str, Task] = {}
         self.ready: list[Job] = []
         self.running: Job | None = None
@@ -87,11 +95,11 @@ class Node:
     def _add_task(self, body, kind, name, **kw) -> Task:
         task = Task(self, body, name=name, kind=kind, **kw)
         if task.name in self.tasks:
-            raise ValueError(f"node {self.name!r} already has a task called {task.name!r}")
+            raise ConfigurationError(f"node {self.name!r} already has a task called {task.name!r}")
         if kind == "handler":
             p = task.priority
             if isinstance(p, bool) or not isinstance(p, (int, float)) or not math.isfinite(p):
-                raise TypeError(f"handler {task.name!r}: priority must be a finite number, got {p!r}")
+                raise ConfigurationTypeError(f"handler {task.name!r}: priority must be a finite number, got {p!r}")
         else:
             self.policy.validate(task)
         if kind != "handler" and self.policy.static:
@@ -330,6 +338,7 @@ class Node:
         gen = job.gen
         env = self._env
         sim = self.sim
+        ctx = job.task.ctx
         sim._stepping += 1
         finished = False
         try:
@@ -338,6 +347,8 @@ class Node:
                 try:
                     cmd = gen.send(value)
                 except StopIteration:
+                    if ctx._unyielded is not None:
+                        raise ctx._unyielded_error(f"finished at t = {sim.now:.9f} s") from None
                     finished = True
                     break
                 except Exception as exc:
@@ -345,6 +356,7 @@ class Node:
                                  f"job {job.index}, t = {sim.now:.9f} s")
                     raise
                 if type(cmd) is int:
+                    ctx._unyielded = None  # the execute request came back through the yield
                     if cmd > 0:
                         job.remaining = cmd
                         job.seg_start = env._now
@@ -355,6 +367,8 @@ class Node:
                     if cmd < 0:
                         raise ValueError(f"task {job.task.name!r}: yielded a negative execution time {cmd}")
                     continue
+                if ctx._unyielded is not None:
+                    raise ctx._unyielded_error(f"then yielded {cmd!r} at t = {sim.now:.9f} s")
                 if isinstance(cmd, Blocking):
                     if cmd.attempt(job):
                         continue
@@ -544,10 +558,11 @@ class KernelTimer:
         now = node.sim.env._now
         self._start = now if at is None else to_ticks(at, f"timer for {target.name!r} at")
         if self._start < now:
-            raise ValueError(f"timer for {target.name!r}: at={at} s lies in the past (now {node.sim.now} s)")
+            raise ConfigurationError(f"timer for {target.name!r}: at={at!r} s lies in the past "
+                                     f"(now {node.sim.now} s)")
         self._period = None if period is None else to_ticks(period, f"timer for {target.name!r} period")
         if self._period is not None and self._period <= 0:
-            raise ValueError(f"timer for {target.name!r}: period must be positive, got {period!r}")
+            raise ConfigurationError(f"timer for {target.name!r}: period must be positive, got {period!r}")
         self._k = 0
         self._timer = node.sim.call_at(self._start, self._fire)
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 import numbers
 
+from ..errors import ConfigurationError, ConfigurationTypeError
+
 
 class SchedulingPolicy:
     """Base class. Subclasses implement :meth:`key` (and may refine :meth:`validate`)."""
@@ -27,7 +29,7 @@ class SchedulingPolicy:
         """Check that *task* carries what this policy needs (raise naming the value)."""
         p = task.priority
         if p is not None and (isinstance(p, bool) or not isinstance(p, numbers.Real) or not math.isfinite(p)):
-            raise TypeError(f"task {task.name!r}: priority must be a finite number, got {p!r}")
+            raise ConfigurationTypeError(f"task {task.name!r}: priority must be a finite number, got {p!r}")
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
@@ -45,7 +47,8 @@ class FixedPriority(SchedulingPolicy):
     def validate(self, task):
         super().validate(task)
         if task.priority is None:
-            raise TypeError(f"task {task.name!r}: fixed-priority scheduling needs a numeric priority, got None")
+            raise ConfigurationTypeError(f"task {task.name!r}: fixed-priority scheduling needs a numeric "
+                                         f"priority, got None")
 
 
 class RateMonotonic(SchedulingPolicy):
@@ -93,6 +96,6 @@ def make_policy(spec) -> SchedulingPolicy:
     if isinstance(spec, str):
         cls = POLICIES.get(spec.lower())
         if cls is None:
-            raise ValueError(f"unknown scheduling policy {spec!r}; choose one of {sorted(POLICIES)}")
+            raise ConfigurationError(f"unknown scheduling policy {spec!r}; choose one of {sorted(POLICIES)}")
         return cls()
-    raise TypeError(f"scheduler must be a SchedulingPolicy or a policy name, got {spec!r}")
+    raise ConfigurationTypeError(f"scheduler must be a SchedulingPolicy or a policy name, got {spec!r}")

@@ -19,7 +19,14 @@ from __future__ import annotations
 from collections import deque
 from typing import Any
 
+from ..errors import ConfigurationError, ConfigurationTypeError
 from .task import Blocking
+
+
+def _check_name(kind: str, name) -> str:
+    if not isinstance(name, str) or not name:
+        raise ConfigurationTypeError(f"{kind} name must be a non-empty string, got {name!r}")
+    return name
 
 
 def _prio(job):
@@ -47,8 +54,9 @@ class Mailbox:
     """A FIFO message buffer; ``capacity=None`` is unbounded."""
 
     def __init__(self, name: str = "mailbox", capacity: int | None = None):
+        _check_name("mailbox", name)
         if capacity is not None and (isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1):
-            raise ValueError(f"mailbox {name!r}: capacity must be a positive integer or None, got {capacity!r}")
+            raise ConfigurationError(f"mailbox {name!r}: capacity must be a positive integer or None, got {capacity!r}")
         self.name, self.capacity = name, capacity
         self.items: deque = deque()
         self._getters: deque = deque()
@@ -118,8 +126,9 @@ class Semaphore:
     """A counting semaphore (FIFO waiters, no priority inheritance)."""
 
     def __init__(self, name: str = "semaphore", value: int = 1):
+        _check_name("semaphore", name)
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise ValueError(f"semaphore {name!r}: initial value must be a non-negative integer, got {value!r}")
+            raise ConfigurationError(f"semaphore {name!r}: initial value must be a non-negative integer, got {value!r}")
         self.name, self.value = name, value
         self._waiters: deque = deque()
 
@@ -149,7 +158,11 @@ class Monitor:
     """Mutual exclusion with (optional) priority inheritance."""
 
     def __init__(self, name: str = "monitor", inheritance: bool = True):
-        self.name, self.inheritance = name, bool(inheritance)
+        _check_name("monitor", name)
+        if not isinstance(inheritance, bool):
+            raise ConfigurationTypeError(f"monitor {name!r}: inheritance must be True or False, "
+                                         f"got {inheritance!r}")
+        self.name, self.inheritance = name, inheritance
         self.holder = None
         self.waiters: list = []
 
@@ -208,6 +221,9 @@ class Event:
     """
 
     def __init__(self, name: str = "event", monitor: Monitor | None = None):
+        _check_name("event", name)
+        if monitor is not None and not isinstance(monitor, Monitor):
+            raise ConfigurationTypeError(f"event {name!r}: monitor must be a Monitor or None, got {monitor!r}")
         self.name, self.monitor = name, monitor
         self._waiters: list = []
 

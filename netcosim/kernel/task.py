@@ -6,7 +6,9 @@ first ``execute`` runs when the job first gets the CPU; code between two ``execu
 calls runs at the end of the preceding segment (TrueTime's segment semantics).
 Blocking calls (``ctx.sleep``, mailbox fetch, semaphore wait, monitor enter, event
 wait) are also yielded; the value of the ``yield`` is the fetched item where there is
-one.
+one.  A ``ctx.execute(c)`` that is not yielded is an error
+(:class:`~netcosim.errors.UnyieldedExecuteError`), raised at the latest when the job
+next yields something else or finishes.
 """
 
 from __future__ import annotations
@@ -17,7 +19,8 @@ import numbers
 from collections import deque
 from typing import Any, Callable
 
-from ..timebase import TICKS_PER_SECOND, to_ticks
+from ..errors import ConfigurationError, ConfigurationTypeError, UnyieldedExecuteError
+from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 
 HANDLER, TASK = 0, 1  # job classes: handlers always beat tasks
 
@@ -131,14 +134,21 @@ def _as_generator_function(body: Callable) -> Callable:
 
 
 def _check_time(value, what, task_name, *, positive=False, allow_none=True):
+    """Ticks of a task duration *value* (s); None stays None when *allow_none*.
+
+    Raises ``ConfigurationTypeError`` for a non-number and ``ConfigurationError`` for a
+    non-finite, negative, zero (when *positive*) or sub-resolution value, naming the task,
+    the parameter and the value.
+    """
     if value is None and allow_none:
         return None
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ValueError(f"task {task_name!r}: {what} must be a finite number of seconds, got {value!r}")
-    if value < 0 or (positive and value == 0):
-        raise ValueError(f"task {task_name!r}: {what} must be {'positive' if positive else 'non-negative'}, "
-                         f"got {value!r}")
-    return to_ticks(value, what)
+    what = f"task {task_name!r}: {what}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ConfigurationTypeError(f"{what} must be a finite number of seconds, got {value!r}")
+    ticks = to_ticks(value, what)
+    if positive and ticks == 0:
+        raise ConfigurationError(f"{what} must be positive, got {value!r}")
+    return ticks
 
 
 class Task:
@@ -156,14 +166,15 @@ class Task:
                  period=None, offset=0.0, deadline=None, wcet=None, preemptible=True,
                  on_busy="queue", on_deadline_miss=None, on_budget_overrun=None):
         if not callable(body):
-            raise TypeError(f"task body must be a callable body(ctx), got {body!r}")
+            raise ConfigurationTypeError(f"task body must be a callable body(ctx), got {body!r}")
         self.node = node
         self.name = name or getattr(body, "__name__", "task")
         self.kind = kind
         self.cls = HANDLER if kind == "handler" else TASK
         self.body = _as_generator_function(body)
         self.priority = priority
-        self.period_ticks = _check_time(period, "period", self.name, positive=True)
+        self.period_ticks = _check_time(period, "period", self.name, positive=True,
+                                        allow_none=kind != "periodic")
         self.offset_ticks = _check_time(offset, "offset", self.name) or 0
         if deadline is None and period is not None:
             self.deadline_ticks = self.period_ticks
@@ -171,14 +182,16 @@ class Task:
             self.deadline_ticks = _check_time(deadline, "deadline", self.name, positive=True)
         self.wcet_ticks = _check_time(wcet, "wcet", self.name, positive=True)
         if not isinstance(preemptible, bool):
-            raise TypeError(f"task {self.name!r}: preemptible must be True or False, got {preemptible!r}")
+            raise ConfigurationTypeError(f"task {self.name!r}: preemptible must be True or False, "
+                                         f"got {preemptible!r}")
         self.preemptible = preemptible
         if on_busy not in ("queue", "skip"):
-            raise ValueError(f"task {self.name!r}: on_busy must be 'queue' or 'skip', got {on_busy!r}")
+            raise ConfigurationError(f"task {self.name!r}: on_busy must be 'queue' or 'skip', got {on_busy!r}")
         self.on_busy = on_busy
         for nm, h in (("on_deadline_miss", on_deadline_miss), ("on_budget_overrun", on_budget_overrun)):
             if h is not None and h != "kill" and not callable(h):
-                raise TypeError(f"task {self.name!r}: {nm} must be a callable(job) or 'kill', got {h!r}")
+                raise ConfigurationTypeError(f"task {self.name!r}: {nm} must be a callable(job) or 'kill', "
+                                             f"got {h!r}")
         self.on_deadline_miss = on_deadline_miss
         self.on_budget_overrun = on_budget_overrun
         self.active: Job | None = None
@@ -227,7 +240,7 @@ class Task:
 class TaskContext:
     """What a task body sees: time, CPU, I/O, synchronisation, logging, messages."""
 
-    __slots__ = ("task", "node", "sim", "job", "_exec_rng")
+    __slots__ = ("task", "node", "sim", "job", "_exec_rng", "_unyielded")
 
     def __init__(self, task: Task):
         self.task = task
@@ -235,6 +248,9 @@ class TaskContext:
         self.sim = task.node.sim
         self.job: Job | None = None
         self._exec_rng = None
+        #: the *c* of an ``execute(c)`` not yet yielded (the node clears it when the
+        #: request comes back through the generator, and raises if something else does)
+        self._unyielded = None
 
     @property
     def now(self) -> float:
@@ -247,25 +263,57 @@ class TaskContext:
         return self.sim.rng(f"{self.node.name}/{self.task.name}")
 
     def execute(self, c) -> int:
-        """Consume *c* seconds of CPU (at speed 1); preemptible.
+        """Request *c* seconds of CPU (at speed 1); preemptible.  Must be yielded:
+        ``yield ctx.execute(c)``.
 
-        *c* is a number, a frozen ``scipy.stats`` distribution (``.rvs``), or a callable
-        ``c(rng) -> seconds`` drawn from the task's execution-time stream.
+        *c* is a number of seconds (0, or at least the 1 ps resolution after division by
+        the node's ``speed``), a frozen ``scipy.stats`` distribution (``.rvs``), or a
+        callable ``c(rng) -> seconds`` drawn from the task's execution-time stream.
+        Returns the request (integer ticks at the node's speed) for the kernel.  A bad
+        or sub-resolution *c* raises naming it; calling ``execute`` again before the
+        previous request was yielded raises :class:`~netcosim.errors.UnyieldedExecuteError`.
         """
-        if type(c) is float and 0.0 <= c < 1e9:  # fast path
-            return int(c * self.node._tick_scale + 0.5)
+        if type(c) is float and 0.0 < c < 1e9 and self._unyielded is None:  # fast path
+            ticks = int(c * self.node._tick_scale + 0.5)
+            if ticks:
+                self._unyielded = c
+                return ticks
+        return self._execute_checked(c)
+
+    def _execute_checked(self, c) -> int:
+        node = self.node
+        who = f"task {self.task.name!r} on node {node.name!r}"
+        if self._unyielded is not None:
+            raise self._unyielded_error(f"then called ctx.execute({c!r})")
         if not isinstance(c, (int, float)) or isinstance(c, bool):
             if self._exec_rng is None:
-                self._exec_rng = self.sim.rng(f"{self.node.name}/{self.task.name}/execution")
+                self._exec_rng = self.sim.rng(f"{node.name}/{self.task.name}/execution")
             if hasattr(c, "rvs"):
                 c = float(c.rvs(random_state=self._exec_rng))
             elif callable(c):
                 c = c(self._exec_rng)
             if isinstance(c, bool) or not isinstance(c, numbers.Real):
-                raise TypeError(f"task {self.task.name!r}: execution time must be a number of seconds, got {c!r}")
+                raise ConfigurationTypeError(f"{who}: execution time must be a number of seconds, got {c!r}")
         if not (c >= 0) or c == math.inf:
-            raise ValueError(f"task {self.task.name!r}: execution time must be finite and >= 0, got {c!r}")
-        return int(round(c * self.node._tick_scale))
+            raise ConfigurationError(f"{who}: execution time must be finite and >= 0, got {c!r}")
+        if 0 < c < RESOLUTION:
+            raise ConfigurationError(f"{who}: execution time {c!r} s is non-zero but below the time "
+                                     f"resolution {RESOLUTION} s (netcosim.RESOLUTION)")
+        ticks = int(round(c * node._tick_scale))
+        if ticks == 0 and c > 0:
+            raise ConfigurationError(f"{who}: execution time {c!r} s at node speed {node.speed!r} is "
+                                     f"{c / node.speed!r} s, below the time resolution {RESOLUTION} s")
+        self._unyielded = c
+        return ticks
+
+    def _unyielded_error(self, what: str) -> UnyieldedExecuteError:
+        c, self._unyielded = self._unyielded, None
+        job = self.job
+        return UnyieldedExecuteError(
+            f"task {self.task.name!r} on node {self.node.name!r}"
+            f"{'' if job is None else f' (job {job.index})'} called ctx.execute({c!r}) without "
+            f"yielding it and {what}; write `yield ctx.execute({c!r})` (an unyielded request "
+            f"consumes no CPU time)")
 
     def sleep(self, seconds: float) -> Sleep:
         """Block for *seconds* (the CPU is free meanwhile)."""
