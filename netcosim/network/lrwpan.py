@@ -66,6 +66,9 @@ class IEEE802154(RadioNetwork):
     Radio parameters as for :class:`~netcosim.network.wlan.WLAN80211b` (defaults:
     0 dBm transmit power, -85 dBm threshold, thermal noise in 2 MHz, log-distance path
     loss with exponent 3).  ``ack=False`` sends unicast frames without acknowledgement.
+    ``min_be <= max_be`` (0..30), ``max_csma_backoffs`` and ``max_frame_retries`` are
+    integers >= 0, ``mac_overhead_bits`` an integer >= 0; powers and thresholds (also
+    per node in ``attach``) finite dBm, ``capture_db`` finite and >= 0.
     """
 
     def __init__(self, sim, name, *, data_rate: float = 250e3, min_be: int = 3, max_be: int = 5,

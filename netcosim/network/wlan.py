@@ -102,7 +102,9 @@ class WLAN80211b(RadioNetwork):
         Rates (bit/s) usable for ACKs; the ACK uses the highest one <= the data rate
         (or the data rate if it is below all of them).
     slot, sifs, cw_min, cw_max, mac_overhead_bits, ack_bits:
-        MAC constants (see the table above).
+        MAC constants (see the table above): ``slot``, ``sifs`` in seconds (> 0, at
+        least 1 ps), ``cw_min <= cw_max`` integer slot counts, ``mac_overhead_bits``
+        an integer >= 0, ``ack_bits`` an integer > 0.
     path_loss:
         A :class:`~netcosim.network.radio.PathLoss` (default log-distance, exponent 3).
     tx_power_dbm:
@@ -111,10 +113,13 @@ class WLAN80211b(RadioNetwork):
         Receiver threshold: decoding sensitivity and carrier-sense threshold (default
         -85 dBm); ``cs_threshold_dbm`` sets carrier sense separately.
     capture_db:
-        Capture threshold (dB): the signal-to-interference ratio a frame needs to
-        survive / to capture a receiver (default 10 dB).
+        Capture threshold (dB, finite, >= 0): the signal-to-interference ratio a frame
+        needs to survive / to capture a receiver (default 10 dB).
     noise_dbm:
-        Noise floor (dBm; default thermal noise in 22 MHz at 290 K, -100.6 dBm).
+        Noise floor (dBm, finite; default thermal noise in 22 MHz at 290 K, -100.6 dBm).
+
+    Every parameter is validated here (:mod:`netcosim.network.checks`); powers and
+    thresholds must be finite numbers of dBm, also when given per node to ``attach``.
     modulation:
         ``"auto"`` (by rate), ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
     """
