@@ -40,8 +40,10 @@ import hashlib
 import math
 import os
 import shutil
+import stat
 import subprocess
 import tempfile
+import warnings
 import weakref
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -51,16 +53,20 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
+# One exception class and one rank rule for the whole project (the rule, its threshold and
+# why are documented at plants.flycrane.kinematics.SINGULAR_RTOL).
+from netcosim.errors import SingularConfigurationError
+from plants.flycrane.kinematics import SINGULAR_RTOL, check_singular_values, conditioning
+
 __all__ = [
     "SingularConfigurationError", "StarStructure", "WeightedNorm", "check_system",
     "check_gain_matrix", "check_period", "planner_velocity", "robot_velocity",
     "configuration_rate", "project", "AuxiliaryFlow", "DenseFlow", "solve_auxiliary_flow",
     "online_gain", "OfflineGain", "OnlineGain", "sampled_velocity", "simulate_sampled", "integrate_kinematics",
+    "CompiledCodeWarning", "cache_dir",
 ]
 
 
-class SingularConfigurationError(ValueError):
-    """The Jacobian ``A_q`` lost column rank at a configuration the law had to use."""
 
 
 # ---------------------------------------------------------------------------
@@ -339,20 +345,21 @@ def robot_velocity(system: Any, structure: StarStructure, i: int, q_i: Any, q_V:
     return A[np.ix_(rows, idx)] @ (-(kd[idx] * e))
 
 
-#: Relative singular-value threshold below which ``A_q`` counts as rank deficient.
-RANK_RTOL = 1e-10
+#: Relative singular-value threshold below which ``A_q`` counts as rank deficient: the
+#: project's one rule, :data:`plants.flycrane.kinematics.SINGULAR_RTOL` (1e-8).
+RANK_RTOL = SINGULAR_RTOL
 
 
 def _pinv_apply(A: np.ndarray, v: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``A^+ v`` for a full-column-rank A (``A^{-1} v`` when square).
+    """``A^+ v`` for a full-rank A (``A^{-1} v`` when square).
 
-    Solved by SVD least squares; singular values below :data:`RANK_RTOL` times the
-    largest count as zero, and a rank below ``m`` raises SingularConfigurationError.
+    Solved by SVD least squares; :func:`plants.flycrane.kinematics.check_singular_values`
+    (singular when ``sigma_min <= RANK_RTOL * sigma_max``) raises
+    :class:`SingularConfigurationError` naming q, the rank, the smallest singular value
+    and the condition number.
     """
-    m = A.shape[1]
-    x, _, rank, _ = np.linalg.lstsq(A, v, rcond=RANK_RTOL)
-    if rank < m:
-        raise SingularConfigurationError(f"A_q is singular (rank {rank} < m={m}) at q={q.tolist()}")
+    x, _, _, sv = np.linalg.lstsq(A, v, rcond=RANK_RTOL)
+    check_singular_values(sv, f"q={np.asarray(q).tolist()}", RANK_RTOL)
     return x
 
 
@@ -403,10 +410,12 @@ FLOW_ATOL_REL = 1e-12
 #: Absolute tolerance (in tau) of the minimisation giving tau_o.
 TAU_XTOL = 1e-10
 #: Compile the flow of systems that provide a CasADi Jacobian (``A_fun``) to machine
-#: code with the C compiler ``$CC`` (default ``cc``), cached on disk in
-#: ``$NETCOSIM_CACHE`` (default ``$XDG_CACHE_HOME/netcosim`` or ``~/.cache/netcosim``).
+#: code with the C compiler ``$CC`` (default ``cc``), cached on disk in :func:`cache_dir`
+#: (``$NETCOSIM_CACHE_DIR``, default ``$XDG_CACHE_HOME/netcosim`` or ``~/.cache/netcosim``;
+#: private directory, libraries checked against a sha256 recorded at build time).
 #: Read when a system's flow is first prepared.  Without a compiler, or when False, the
-#: same CasADi functions run in CasADi's virtual machine (a step about 6x slower).
+#: same CasADi functions run in CasADi's virtual machine (a step about 6x slower); the
+#: former case issues one :class:`CompiledCodeWarning`.
 COMPILE_FLOW = True
 #: A QR pivot of ``A_q`` below this fraction of the largest one anywhere in a step of the
 #: CasADi flow sends the whole flow back to the SVD right-hand side (rank test
@@ -498,7 +507,7 @@ def _casadi_flow_functions(system):
     x, c, qr = ca.SX.sym("x", m), ca.SX.sym("c", n), ca.SX.sym("q_r", m)
     try:
         A = ca.densify(A_fun(qr + x))
-    except Exception:  # e.g. an MX-only Function
+    except (RuntimeError, NotImplementedError):  # e.g. an MX-only Function (CasADi raises RuntimeError)
         return None
     Q, R = ca.qr(A)
     dR = ca.fabs(ca.diag(R))
@@ -536,11 +545,114 @@ def _casadi_flow_functions(system):
     return rhs, step
 
 
+class CompiledCodeWarning(UserWarning):
+    """The compiled flow could not be built or loaded (no C compiler, a build error, an
+    unsafe cache directory); the same CasADi functions run uncompiled instead: the same
+    numbers, a step about 6x slower.  Issued once per process."""
+
+
+_warned_fallback = False
+
+
+def _warn_fallback(reason: str) -> None:
+    global _warned_fallback
+    if not _warned_fallback:
+        _warned_fallback = True
+        warnings.warn(f"netcosim: compiled flow unavailable, running it uncompiled (same results, slower): "
+                      f"{reason}", CompiledCodeWarning, stacklevel=4)
+
+
+def cache_dir() -> str:
+    """Directory of the compiled-code cache: ``$NETCOSIM_CACHE_DIR`` if set (the older
+    name ``$NETCOSIM_CACHE`` is still read), else ``$XDG_CACHE_HOME/netcosim``, else
+    ``~/.cache/netcosim``."""
+    root = os.environ.get("NETCOSIM_CACHE_DIR") or os.environ.get("NETCOSIM_CACHE")
+    if root:
+        return root
+    return os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
+                        "netcosim")
+
+
+def _safe_cache_dir() -> tuple[str | None, str]:
+    """``(directory, "")`` if the cache directory exists or was created (mode 0o700), is
+    a real directory (not a symbolic link), is owned by the current user and is not
+    writable by group or others; else ``(None, why)``.  Nobody else can then plant or
+    swap a library in it."""
+    root = cache_dir()
+    try:
+        os.makedirs(root, mode=0o700, exist_ok=True)
+        st = os.lstat(root)
+    except OSError as exc:
+        return None, f"cannot create the cache directory {root!r}: {exc}"
+    if not stat.S_ISDIR(st.st_mode):
+        return None, f"cache path {root!r} is not a directory (a symbolic link or a file)"
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        return None, f"cache directory {root!r} is owned by uid {st.st_uid}, not by the current user {os.getuid()}"
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return None, (f"cache directory {root!r} is writable by group or others (mode {stat.S_IMODE(st.st_mode):#o}); "
+                      f"not loading code from it (chmod 700 it to use the cache)")
+    return root, ""
+
+
+def _sha256_file(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _verified(lib: str) -> bool:
+    """Whether *lib* is a regular file whose sha256 matches the digest recorded beside it
+    (``lib + ".sha256"``) when it was built."""
+    side = lib + ".sha256"
+    try:
+        if not (stat.S_ISREG(os.lstat(lib).st_mode) and stat.S_ISREG(os.lstat(side).st_mode)):
+            return False
+        with open(side) as fh:
+            recorded = fh.read().strip()
+        return recorded == _sha256_file(lib)
+    except OSError:
+        return False
+
+
+def _build(cc: str, flags: list, src: str, root: str, tag: str, lib: str) -> None:
+    """Compile *src* into *lib* and record the sha256 of the library in ``lib.sha256``;
+    both appear atomically (built in a private temporary directory, then renamed)."""
+    with tempfile.TemporaryDirectory(dir=root) as tmp:
+        csrc, out = os.path.join(tmp, f"{tag}.c"), os.path.join(tmp, f"{tag}.so")
+        with open(csrc, "w") as fh:
+            fh.write(src)
+        subprocess.run([cc, *flags, csrc, "-o", out, "-lm"], check=True, capture_output=True, timeout=300)
+        side = out + ".sha256"
+        with open(side, "w") as fh:
+            fh.write(_sha256_file(out) + "\n")
+        os.replace(out, lib)
+        os.replace(side, lib + ".sha256")
+
+
 def _compile(funs, tag):
-    """The CasADi Functions *funs* compiled to a shared library (cached on disk by a hash
-    of their C code), or *funs* themselves if that fails."""
-    cc = shutil.which(os.environ.get("CC") or "cc")
-    if not COMPILE_FLOW or cc is None:
+    """The CasADi Functions *funs* compiled to a shared library, or *funs* themselves.
+
+    The library is cached in :func:`cache_dir` under a name holding a hash of its C
+    source, the CasADi version, the compiler and its flags; the sha256 of the library
+    bytes is recorded beside it at build time and checked before every load (a library
+    that does not match is rebuilt, never loaded).  The directory must be private (see
+    :func:`_safe_cache_dir`).  When the cache is unsafe, the compiler is missing or
+    fails, or CasADi cannot load the result, the uncompiled *funs* are returned and a
+    :class:`CompiledCodeWarning` is issued (once per process).  ``COMPILE_FLOW = False``
+    returns *funs* silently.
+    """
+    if not COMPILE_FLOW:
+        return funs
+    cc_name = os.environ.get("CC") or "cc"
+    cc = shutil.which(cc_name)
+    if cc is None:
+        _warn_fallback(f"C compiler {cc_name!r} not found (set $CC)")
+        return funs
+    root, why = _safe_cache_dir()
+    if root is None:
+        _warn_fallback(why)
         return funs
     flags = ["-O2", "-shared", "-fPIC"]
     try:
@@ -549,20 +661,22 @@ def _compile(funs, tag):
             cg.add(f)
         src = cg.dump()
         key = hashlib.sha256("\n".join([src, ca.__version__, cc, *flags]).encode()).hexdigest()[:24]
-        root = os.environ.get("NETCOSIM_CACHE") or os.path.join(
-            os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "netcosim")
-        os.makedirs(root, exist_ok=True)
         lib = os.path.join(root, f"{tag}_{key}.so")
-        if not os.path.exists(lib):
-            with tempfile.TemporaryDirectory(dir=root) as tmp:
-                csrc, out = os.path.join(tmp, f"{tag}.c"), os.path.join(tmp, f"{tag}.so")
-                with open(csrc, "w") as fh:
-                    fh.write(src)
-                subprocess.run([cc, *flags, csrc, "-o", out, "-lm"], check=True, capture_output=True, timeout=300)
-                os.replace(out, lib)
+        if not _verified(lib):
+            _build(cc, flags, src, root, tag, lib)
+            if not _verified(lib):
+                raise OSError(f"{lib!r} changed while it was being built")
         return [ca.external(f.name(), lib) for f in funs]
-    except Exception:
-        return funs
+    except subprocess.CalledProcessError as exc:
+        err = exc.stderr.decode(errors="replace").strip()[-400:] if exc.stderr else ""
+        _warn_fallback(f"{cc} failed with exit status {exc.returncode}: {err}")
+    except subprocess.TimeoutExpired as exc:
+        _warn_fallback(f"{cc} did not finish within {exc.timeout} s")
+    except OSError as exc:        # compiler vanished (FileNotFoundError), unwritable cache, ...
+        _warn_fallback(f"{type(exc).__name__}: {exc}")
+    except RuntimeError as exc:   # CasADi: code generation or loading the library (external)
+        _warn_fallback(f"CasADi could not generate or load the compiled code: {exc}")
+    return funs
 
 
 class _Buffers:
@@ -898,6 +1012,9 @@ def solve_auxiliary_flow(system: Any, q_ref: Any, e_h: Any, *, kbar: Any = None,
             sol, tau_s = _dop853(stages.start(q_ref, c), e_h, tau_max, rtol, atol_rel * scale, fn)
         except _FallBack:
             sol = None
+        # the QR pivot test is only a trigger; the rank rule itself is checked at every step end
+        if sol is not None and not _regular_along(system, q_ref, sol.y):
+            sol = None
     if sol is None:
         stages = _SVDFlow(system, q_ref, c)
         sol, tau_s = _dop853(stages, e_h, tau_max, rtol, atol_rel * scale, fn)
@@ -920,6 +1037,14 @@ def solve_auxiliary_flow(system: Any, q_ref: Any, e_h: Any, *, kbar: Any = None,
         if v < best:
             tau_o, best = t, v
     return AuxiliaryFlow(e_h, tau_s, tau_o, best, tau_end, nrm, sol, int(stages.nfev))
+
+
+def _regular_along(system, q_ref, ys) -> bool:
+    """Whether ``A_q`` passes the rank rule (:data:`RANK_RTOL`) at every ``q_ref + y``."""
+    for y in ys:
+        if conditioning(np.linalg.svd(_jacobian(system, q_ref + y), compute_uv=False), RANK_RTOL)[3]:
+            return False
+    return True
 
 
 def online_gain(system: Any, q: Any, q_ref: Any, T: float, *, kbar: Any = None, norm: Any = None,

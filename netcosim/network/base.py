@@ -36,7 +36,9 @@ import pandas as pd
 
 from ..kernel.task import Task
 from ..sim import DISPATCH
-from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+from ..errors import ConfigurationError
+from ..timebase import RESOLUTION, TICKS_PER_SECOND
+from .checks import check_bits, check_count, check_duration, check_positive, check_real
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
 from .loss import as_loss_model
@@ -72,24 +74,6 @@ def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
     else:
         df["time"] = df["time"].astype(float)
     return df
-
-
-def check_positive(value, what: str) -> float:
-    """*value* as a float, or ``ValueError`` naming it unless finite and > 0."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) or value <= 0:
-        raise ValueError(f"{what} must be a positive finite number, got {value!r}")
-    return float(value)
-
-
-def check_bits(value, what: str, *, allow_zero: bool = True) -> int:
-    """*value* as an int number of bits (raises naming it if negative or not integral)."""
-    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
-    if not ok and isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value):
-        ok = float(value).is_integer()
-    if not ok or value < 0 or (not allow_zero and value == 0):
-        kind = "non-negative" if allow_zero else "positive"
-        raise ValueError(f"{what} must be a {kind} integer number of bits, got {value!r}")
-    return int(value)
 
 
 class Network:
@@ -139,17 +123,19 @@ class Network:
         if max_frame_bits is not None:
             max_frame_bits = check_bits(max_frame_bits, f"{w}: max_frame_bits", allow_zero=False)
             if max_frame_bits < self.min_frame_bits:
-                raise ValueError(f"{w}: max_frame_bits={max_frame_bits} is below min_frame_bits="
+                raise ConfigurationError(f"{w}: max_frame_bits={max_frame_bits} is below min_frame_bits="
                                  f"{self.min_frame_bits}")
         self.max_frame_bits = max_frame_bits
-        self._pre = to_ticks(pre_delay, f"{w} pre_delay")
-        self._post = to_ticks(post_delay, f"{w} post_delay")
-        self._prop = to_ticks(propagation_delay, f"{w} propagation_delay")
+        self._pre = check_duration(pre_delay, f"{w}: pre_delay (s)")
+        self._post = check_duration(post_delay, f"{w}: post_delay (s)")
+        self._prop = check_duration(propagation_delay, f"{w}: propagation_delay (s)")
         self.pre_delay, self.post_delay, self.propagation_delay = pre_delay, post_delay, propagation_delay
         self.loss = as_loss_model(loss)
         self.queue = queue or self.default_queue
         TxQueue(self.queue, queue_capacity, what=w)  # validate now, not at attach
         self.queue_capacity = queue_capacity
+        if mailbox_capacity is not None:
+            mailbox_capacity = check_count(mailbox_capacity, f"{w}: mailbox_capacity (messages)", minimum=1)
         self.mailbox_capacity = mailbox_capacity
         self._trace_on = bool(trace)
         self.interfaces: dict[str, Interface] = {}
@@ -187,6 +173,9 @@ class Network:
             raise ValueError(f"network {self.name!r}: station name must be a non-empty string")
         if name in self.interfaces:
             raise ValueError(f"network {self.name!r}: node {name!r} is already attached")
+        if priority is not None:
+            check_real(priority, f"network {self.name!r}: default priority of node {name!r}",
+                       kind="a finite number (small = high) or None")
         iface = self._make_interface(
             name, knode, len(self._ifaces), options, priority=priority, mailbox=mailbox,
             mailbox_capacity=self.mailbox_capacity if mailbox_capacity is None else mailbox_capacity,
@@ -261,8 +250,8 @@ class Network:
     def _check_priority(self, priority, iface) -> None:
         if priority is not None and (isinstance(priority, bool) or not isinstance(priority, numbers.Real)
                                      or not math.isfinite(priority)):
-            raise ValueError(f"network {self.name!r}: priority of a message from {iface.name!r} must be a "
-                             f"finite number, got {priority!r}")
+            raise ConfigurationError(f"network {self.name!r}: priority of a message from {iface.name!r} must "
+                                     f"be a finite number, got {priority!r}")
 
     # ------------------------------------------------------------------ pipeline
     def _send(self, iface: Interface, dst, payload, size_bits, priority, sender) -> Message:

@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import math
 
+from ..errors import ConfigurationError
 from .bus import SharedBus
+from .checks import check_bits
 
 
 def can_frame_bits(data_bytes: int, *, extended: bool = False, stuffing: bool = True) -> int:
@@ -33,7 +35,7 @@ def can_frame_bits(data_bytes: int, *, extended: bool = False, stuffing: bool = 
     Worst-case bit stuffing (Davis et al. 2007) unless ``stuffing=False``.
     """
     if isinstance(data_bytes, bool) or not isinstance(data_bytes, int) or not 0 <= data_bytes <= 8:
-        raise ValueError(f"a CAN frame carries 0..8 data bytes, got {data_bytes!r}")
+        raise ConfigurationError(f"a CAN frame carries 0..8 data bytes, got {data_bytes!r}")
     g = 54 if extended else 34
     n = g + 8 * data_bytes + 13
     if stuffing:
@@ -55,15 +57,16 @@ class CAN(SharedBus):
     def __init__(self, sim, name, *, data_rate: float = 500e3, frame_format: str = "truetime",
                  extended: bool = False, stuffing: bool = True, max_frame_bits: int | None = None, **kw):
         if frame_format not in ("truetime", "standard"):
-            raise ValueError(f"network {name!r}: CAN frame_format must be 'truetime' or 'standard', "
-                             f"got {frame_format!r}")
+            raise ConfigurationError(f"network {name!r}: CAN frame_format must be 'truetime' or 'standard', "
+                                     f"got {frame_format!r}")
         if frame_format == "standard":
             if kw.get("min_frame_bits"):
-                raise ValueError(f"network {name!r}: min_frame_bits does not apply to the standard CAN format")
+                raise ConfigurationError(f"network {name!r}: min_frame_bits does not apply to the standard CAN "
+                                         f"format, got min_frame_bits={kw['min_frame_bits']!r}")
             if max_frame_bits is None:
                 max_frame_bits = 64
-            elif max_frame_bits > 64:
-                raise ValueError(f"network {name!r}: standard CAN frames carry at most 64 data bits, "
+            elif check_bits(max_frame_bits, f"network {name!r}: max_frame_bits", allow_zero=False) > 64:
+                raise ConfigurationError(f"network {name!r}: standard CAN frames carry at most 64 data bits, "
                                  f"got max_frame_bits={max_frame_bits!r}")
         self.frame_format = frame_format
         self.allow_empty = frame_format == "standard"

@@ -12,9 +12,9 @@ transmission and delivery.  Timing of a frame: ``queue wait + bits / data_rate +
 
 from __future__ import annotations
 
-import math
-
+from ..errors import ConfigurationError
 from .base import Network
+from .checks import check_duration, check_real
 from .interface import Interface
 
 
@@ -27,7 +27,8 @@ class IdealLink(Network):
     def __init__(self, sim, name: str, *, data_rate: float = 10e6, delay: float | None = None, **kw):
         if delay is not None:
             if kw.get("propagation_delay"):
-                raise ValueError(f"network {name!r}: give delay or propagation_delay, not both")
+                raise ConfigurationError(f"network {name!r}: give delay or propagation_delay, not both")
+            check_duration(delay, f"network {name!r}: delay (s)")
             kw["propagation_delay"] = delay
         super().__init__(sim, name, data_rate=data_rate, **kw)
 
@@ -76,13 +77,13 @@ class FDMA(IdealLink):
         share = options.pop("share", None)
         iface = super()._make_interface(name, node, index, options, **common)
         if share is None:
-            raise ValueError(f"network {self.name!r} (FDMA): attach({name!r}, share=...) needs a bandwidth share")
-        if isinstance(share, bool) or not isinstance(share, (int, float)) or not math.isfinite(share) \
-                or not 0 < share <= 1:
-            raise ValueError(f"network {self.name!r} (FDMA): share of {name!r} must be in (0, 1], got {share!r}")
+            raise ConfigurationError(f"network {self.name!r} (FDMA): attach({name!r}, share=...) needs a bandwidth "
+                                     f"share, got share=None")
+        share = check_real(share, f"network {self.name!r} (FDMA): share of {name!r}", low=0.0, high=1.0,
+                           low_open=True, kind="a fraction of the bandwidth in (0, 1]")
         total = sum(i.share for i in self._ifaces) + share
         if total > 1 + 1e-12:
-            raise ValueError(f"network {self.name!r} (FDMA): shares would sum to {total:g} > 1 with {name!r}")
+            raise ConfigurationError(f"network {self.name!r} (FDMA): shares would sum to {total:g} > 1 with {name!r}")
         iface.share = float(share)
         return iface
 

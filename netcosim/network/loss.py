@@ -24,12 +24,8 @@ from typing import Sequence
 
 import numpy as np
 
-
-def check_probability(p, what: str) -> float:
-    """Return *p* as a float, or raise ``ValueError`` naming it if not in [0, 1]."""
-    if isinstance(p, bool) or not isinstance(p, numbers.Real) or not math.isfinite(p) or not 0.0 <= p <= 1.0:
-        raise ValueError(f"{what} must be a probability in [0, 1], got {p!r}")
-    return float(p)
+from ..errors import ConfigurationError, ConfigurationTypeError
+from .checks import check_probability
 
 
 class LossModel:
@@ -112,9 +108,9 @@ class GilbertElliott(LossModel):
         self.loss_good = check_probability(loss_good, "Gilbert-Elliott loss_good")
         self.loss_bad = check_probability(loss_bad, "Gilbert-Elliott loss_bad")
         if start not in ("stationary", "good", "bad"):
-            raise ValueError(f"Gilbert-Elliott start must be 'stationary', 'good' or 'bad', got {start!r}")
+            raise ConfigurationError(f"Gilbert-Elliott start must be 'stationary', 'good' or 'bad', got {start!r}")
         if self.p_gb + self.p_bg == 0.0 and start == "stationary":
-            raise ValueError("Gilbert-Elliott with p_gb = p_bg = 0 has no stationary distribution; "
+            raise ConfigurationError("Gilbert-Elliott with p_gb = p_bg = 0 has no stationary distribution; "
                              "pass start='good' or 'bad'")
         self.start = start
 
@@ -169,10 +165,10 @@ class TraceLoss(LossModel):
     def __init__(self, sequence: Sequence, repeat: bool = True):
         seq = np.asarray(sequence)
         if seq.ndim != 1 or seq.size == 0:
-            raise ValueError(f"TraceLoss sequence must be a non-empty 1-D sequence of 0/1, got shape {seq.shape}")
+            raise ConfigurationError(f"TraceLoss sequence must be a non-empty 1-D sequence of 0/1, got shape {seq.shape}")
         if not np.all((seq == 0) | (seq == 1)):
             bad = seq[~((seq == 0) | (seq == 1))][0]
-            raise ValueError(f"TraceLoss sequence must contain only 0/1 or booleans, got {bad!r}")
+            raise ConfigurationError(f"TraceLoss sequence must contain only 0/1 or booleans, got {bad!r}")
         self.sequence = tuple(bool(v) for v in seq)
         self.repeat = bool(repeat)
 
@@ -200,7 +196,17 @@ class AnyLoss(LossModel):
     """Combination: the frame is lost if any of the models loses it."""
 
     def __init__(self, models: Sequence[LossModel]):
+        models = tuple(models)
+        if not models:
+            raise ConfigurationError("AnyLoss needs at least one loss model, got an empty list")
         self.models = tuple(as_loss_model(m) for m in models)
+        for m, given in zip(self.models, models):
+            if m is None and given is not None:
+                continue                       # a probability of 0: never loses
+            if m is None:
+                raise ConfigurationTypeError(f"AnyLoss: each entry must be a probability or a LossModel, "
+                                             f"got {given!r}")
+        self.models = tuple(m for m in self.models if m is not None)
 
     def link(self, rng):
         # independent child streams, derived deterministically from the link stream
@@ -220,4 +226,4 @@ def as_loss_model(loss) -> LossModel | None:
         return None if p == 0.0 else Bernoulli(p)
     if isinstance(loss, (list, tuple)):
         return AnyLoss(loss)
-    raise TypeError(f"loss must be a probability, a LossModel or a list of them, got {loss!r}")
+    raise ConfigurationTypeError(f"loss must be a probability, a LossModel or a list of them, got {loss!r}")

@@ -41,8 +41,9 @@ import math
 import numpy as np
 from scipy.special import comb
 
+from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import to_ticks
-
+from .checks import check_bits, check_count, check_finite, check_non_negative
 from .frame import BROADCAST
 from .interface import Interface
 from .medium import RadioNetwork, Transmission, WirelessMedium
@@ -65,6 +66,9 @@ class IEEE802154(RadioNetwork):
     Radio parameters as for :class:`~netcosim.network.wlan.WLAN80211b` (defaults:
     0 dBm transmit power, -85 dBm threshold, thermal noise in 2 MHz, log-distance path
     loss with exponent 3).  ``ack=False`` sends unicast frames without acknowledgement.
+    ``min_be <= max_be`` (0..30), ``max_csma_backoffs`` and ``max_frame_retries`` are
+    integers >= 0, ``mac_overhead_bits`` an integer >= 0; powers and thresholds (also
+    per node in ``attach``) finite dBm, ``capture_db`` finite and >= 0.
     """
 
     def __init__(self, sim, name, *, data_rate: float = 250e3, min_be: int = 3, max_be: int = 5,
@@ -75,16 +79,15 @@ class IEEE802154(RadioNetwork):
                  **kw):
         super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, **kw)
         w = f"network {name!r}"
-        for nm, v, lo in (("min_be", min_be, 0), ("max_be", max_be, 0), ("max_csma_backoffs", max_csma_backoffs, 0),
-                          ("max_frame_retries", max_frame_retries, 0)):
-            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise ValueError(f"{w}: {nm} must be a non-negative integer, got {v!r}")
-        if not min_be <= max_be:
-            raise ValueError(f"{w}: min_be={min_be} exceeds max_be={max_be}")
-        self.min_be, self.max_be = min_be, max_be
-        self.max_csma_backoffs, self.max_frame_retries = max_csma_backoffs, max_frame_retries
+        # macMinBE/macMaxBE: 2**BE - 1 unit periods must stay a sane integer (the standard allows 0..8)
+        self.min_be = check_count(min_be, f"{w}: min_be", minimum=0, maximum=30)
+        self.max_be = check_count(max_be, f"{w}: max_be", minimum=0, maximum=30)
+        if not self.min_be <= self.max_be:
+            raise ConfigurationError(f"{w}: min_be={min_be!r} exceeds max_be={max_be!r}")
+        self.max_csma_backoffs = check_count(max_csma_backoffs, f"{w}: max_csma_backoffs", minimum=0)
+        self.max_frame_retries = check_count(max_frame_retries, f"{w}: max_frame_retries", minimum=0)
         self.use_ack = bool(ack)
-        self.mac_overhead_bits = int(mac_overhead_bits)
+        self.mac_overhead_bits = check_bits(mac_overhead_bits, f"{w}: mac_overhead_bits")
         sym = to_ticks(SYMBOL)
         self.unit = 20 * sym
         self.cca = 8 * sym
@@ -93,16 +96,21 @@ class IEEE802154(RadioNetwork):
         self.ack_time = self.shr + self.duration(40)
         self.ack_wait = 54 * sym
         self.sifs, self.lifs = 12 * sym, 40 * sym
-        for nm, v in (("tx_power_dbm", tx_power_dbm), ("threshold_dbm", threshold_dbm), ("capture_db", capture_db)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"{w}: {nm} must be a finite number, got {v!r}")
-        self.tx_power_dbm, self.threshold_dbm = float(tx_power_dbm), float(threshold_dbm)
-        self.cs_threshold_dbm = float(threshold_dbm if cs_threshold_dbm is None else cs_threshold_dbm)
-        self.noise_dbm = thermal_noise_dbm(2e6) if noise_dbm is None else float(noise_dbm)
-        self.path_loss = path_loss or LogDistance(3.0)
+        self.tx_power_dbm = check_finite(tx_power_dbm, f"{w}: tx_power_dbm", "dBm")
+        self.threshold_dbm = check_finite(threshold_dbm, f"{w}: threshold_dbm", "dBm")
+        self.cs_threshold_dbm = (self.threshold_dbm if cs_threshold_dbm is None
+                                 else check_finite(cs_threshold_dbm, f"{w}: cs_threshold_dbm", "dBm"))
+        self.capture_db = check_non_negative(capture_db, f"{w}: capture_db (dB)")
+        self.noise_dbm = (thermal_noise_dbm(2e6) if noise_dbm is None
+                          else check_finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
+        if path_loss is None:
+            path_loss = LogDistance(3.0)
+        if not isinstance(path_loss, PathLoss):
+            raise ConfigurationTypeError(f"{w}: path_loss must be a PathLoss model, got {path_loss!r}")
+        self.path_loss = path_loss
         self.mod = Modulation("oqpsk", self.data_rate, ber_oqpsk, bandwidth=self.data_rate)
         self.medium = WirelessMedium(self, path_loss=self.path_loss, noise_w=dbm_to_watt(self.noise_dbm),
-                                     capture_ratio=db_to_ratio(capture_db))
+                                     capture_ratio=db_to_ratio(self.capture_db))
 
     # ------------------------------------------------------------------ attach
     def attach(self, node, *, position=(0.0, 0.0), tx_power_dbm: float | None = None,
@@ -116,12 +124,17 @@ class IEEE802154(RadioNetwork):
         pos, txp = opts.pop("position"), opts.pop("tx_power_dbm")
         thr, cst = opts.pop("threshold_dbm"), opts.pop("cs_threshold_dbm")
         if opts:
-            raise TypeError(f"network {self.name!r}: unknown attach option(s) {sorted(opts)}")
+            raise ConfigurationTypeError(f"network {self.name!r}: unknown attach option(s) {sorted(opts)}")
+        w = f"network {self.name!r} node {name!r}"
+        txp = self.tx_power_dbm if txp is None else check_finite(txp, f"{w}: tx_power_dbm", "dBm")
+        thr = self.threshold_dbm if thr is None else check_finite(thr, f"{w}: threshold_dbm", "dBm")
+        cst = self.cs_threshold_dbm if cst is None else check_finite(cst, f"{w}: cs_threshold_dbm", "dBm")
         r = Interface(self, name, node, index, **common)
-        r.pos = as_position(pos, f"network {self.name!r} node {name!r}")
-        r.tx_w = dbm_to_watt(self.tx_power_dbm if txp is None else txp)
-        r.sens_w = dbm_to_watt(self.threshold_dbm if thr is None else thr)
-        r.cs_w = dbm_to_watt(self.cs_threshold_dbm if cst is None else cst)
+        r.pos = as_position(pos, w)
+        r.tx_power_dbm = txp
+        r.tx_w = dbm_to_watt(txp)
+        r.sens_w = dbm_to_watt(thr)
+        r.cs_w = dbm_to_watt(cst)
         r.nb = r.be = 0
         r.in_cca = False
         r.cca_busy = False

@@ -28,11 +28,13 @@ with piecewise-constant interference the probabilities of the pieces multiply.
 from __future__ import annotations
 
 import math
-import numbers
 from typing import Callable, Sequence
 
 import numpy as np
 from scipy import constants, special, stats
+
+from ..errors import ConfigurationError, ConfigurationTypeError
+from .checks import check_non_negative, check_positive
 
 #: Channel bandwidth of 802.11b DSSS/CCK (Hz): noise bandwidth and processing-gain reference.
 DSSS_BANDWIDTH = 22e6
@@ -54,9 +56,14 @@ def db_to_ratio(db: float) -> float:
 
 def thermal_noise_dbm(bandwidth: float = DSSS_BANDWIDTH, temperature: float = 290.0,
                       noise_figure_db: float = 0.0) -> float:
-    """Thermal noise power ``k T B`` in dBm plus the receiver noise figure (dB)."""
-    if not (bandwidth > 0 and temperature > 0):
-        raise ValueError(f"bandwidth and temperature must be positive, got {bandwidth!r}, {temperature!r}")
+    """Thermal noise power ``k T B`` in dBm plus the receiver noise figure (dB).
+
+    ``bandwidth`` [Hz] and ``temperature`` [K] must be positive and finite;
+    ``noise_figure_db`` [dB] finite and >= 0 (a receiver adds noise, never removes it).
+    """
+    bandwidth = check_positive(bandwidth, "thermal noise bandwidth (Hz)")
+    temperature = check_positive(temperature, "thermal noise temperature (K)")
+    noise_figure_db = check_non_negative(noise_figure_db, "receiver noise_figure_db (dB)")
     return watt_to_dbm(constants.k * temperature * bandwidth) + noise_figure_db
 
 
@@ -79,22 +86,21 @@ class PathLoss:
 class LogDistance(PathLoss):
     """Log-distance path loss ``PL(d) = PL(d0) + 10 n log10(d/d0)`` dB (d clamped to >= d0).
 
-    ``reference_loss_db=None`` uses the free-space (Friis) loss at ``d0`` and
-    ``frequency``: ``20 log10(4 pi d0 f / c)`` (40.1 dB at 1 m and 2.412 GHz).
+    ``exponent`` n (dimensionless), ``reference_distance`` d0 [m] and ``frequency``
+    [Hz] must be positive and finite.  ``reference_loss_db`` [dB] is the loss at d0:
+    finite and >= 0 (a passive channel does not amplify); ``None`` uses the free-space
+    (Friis) loss at ``d0`` and ``frequency``: ``20 log10(4 pi d0 f / c)`` (40.1 dB at
+    1 m and 2.412 GHz).
     """
 
     def __init__(self, exponent: float = 3.0, reference_distance: float = 1.0,
                  reference_loss_db: float | None = None, frequency: float = CHANNEL_1):
-        for nm, v in (("exponent", exponent), ("reference_distance", reference_distance),
-                      ("frequency", frequency)):
-            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"LogDistance {nm} must be a positive number, got {v!r}")
-        self.exponent = float(exponent)
-        self.d0 = float(reference_distance)
-        self.frequency = float(frequency)
+        self.exponent = check_positive(exponent, "LogDistance exponent")
+        self.d0 = check_positive(reference_distance, "LogDistance reference_distance (m)")
+        self.frequency = check_positive(frequency, "LogDistance frequency (Hz)")
         if reference_loss_db is None:
             reference_loss_db = 20.0 * math.log10(4.0 * math.pi * self.d0 * self.frequency / constants.c)
-        self.pl0 = float(reference_loss_db)
+        self.pl0 = check_non_negative(reference_loss_db, "LogDistance reference_loss_db (dB)")
 
     def loss_db(self, d: float) -> float:
         d = d if d > self.d0 else self.d0
@@ -108,12 +114,11 @@ class LogDistance(PathLoss):
 
 
 class TrueTimePathLoss(PathLoss):
-    """TrueTime's model: ``P_rx = P_tx / (d + 1)^a`` with d in metres (default a = 3.5)."""
+    """TrueTime's model: ``P_rx = P_tx / (d + 1)^a`` with d in metres (default a = 3.5;
+    positive and finite)."""
 
     def __init__(self, exponent: float = 3.5):
-        if isinstance(exponent, bool) or not isinstance(exponent, numbers.Real) or not exponent > 0:
-            raise ValueError(f"TrueTimePathLoss exponent must be positive, got {exponent!r}")
-        self.exponent = float(exponent)
+        self.exponent = check_positive(exponent, "TrueTimePathLoss exponent")
 
     def gain(self, d: float) -> float:
         return (d + 1.0) ** (-self.exponent)
@@ -127,11 +132,14 @@ def as_position(p, what: str) -> tuple[float, ...] | Callable:
     if callable(p):
         return p
     try:
+        if isinstance(p, (str, bytes)):
+            raise TypeError
         v = tuple(float(x) for x in p)
-    except TypeError:
-        raise TypeError(f"{what}: position must be a 2-D/3-D point or a callable p(t), got {p!r}") from None
+    except (TypeError, ValueError):
+        raise ConfigurationTypeError(f"{what}: position must be a 2-D/3-D point or a callable p(t), "
+                                     f"got {p!r}") from None
     if len(v) not in (2, 3) or not all(math.isfinite(x) for x in v):
-        raise ValueError(f"{what}: position must be 2 or 3 finite coordinates (m), got {p!r}")
+        raise ConfigurationError(f"{what}: position must be 2 or 3 finite coordinates (m), got {p!r}")
     return v
 
 
@@ -208,9 +216,11 @@ def modulation_for(rate: float, kind: str = "auto") -> Modulation:
     is evaluated at the actual rate, so 1.2 Mbit/s is "DQPSK at 1.2 Mbit/s").
     Or force ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
     """
+    rate = check_positive(rate, "modulation bit rate (bit/s)")
+    f = {"dbpsk": ber_dbpsk, "dqpsk": ber_dqpsk, "cck": ber_cck}.get(kind) if isinstance(kind, str) else None
     if kind == "auto":
         kind = "dbpsk" if rate <= 1e6 else ("dqpsk" if rate <= 2e6 else "cck")
-    f = {"dbpsk": ber_dbpsk, "dqpsk": ber_dqpsk, "cck": ber_cck}.get(kind)
+        f = {"dbpsk": ber_dbpsk, "dqpsk": ber_dqpsk, "cck": ber_cck}[kind]
     if f is None:
-        raise ValueError(f"modulation must be 'auto', 'dbpsk', 'dqpsk' or 'cck', got {kind!r}")
+        raise ConfigurationError(f"modulation must be 'auto', 'dbpsk', 'dqpsk' or 'cck', got {kind!r}")
     return Modulation(kind, rate, f)

@@ -17,9 +17,10 @@ attempt ends with outcome ``switch_full``) -- TrueTime's two options.
 
 from __future__ import annotations
 
-from .base import Network, check_bits
+from ..errors import ConfigurationError
+from .base import Network
+from .checks import check_bits, check_duration
 from .interface import TxQueue
-from ..timebase import to_ticks
 
 
 class _Switch:
@@ -38,11 +39,11 @@ class SwitchedEthernet(Network):
             switch_memory_bits = check_bits(switch_memory_bits, f"{w}: switch_memory_bits", allow_zero=False)
         self.switch_memory_bits = switch_memory_bits
         if buffer not in ("shared", "symmetric"):
-            raise ValueError(f"{w}: buffer must be 'shared' or 'symmetric', got {buffer!r}")
+            raise ConfigurationError(f"{w}: buffer must be 'shared' or 'symmetric', got {buffer!r}")
         if overflow not in ("drop", "retransmit"):
-            raise ValueError(f"{w}: overflow must be 'drop' or 'retransmit', got {overflow!r}")
+            raise ConfigurationError(f"{w}: overflow must be 'drop' or 'retransmit', got {overflow!r}")
         self.buffer, self.overflow = buffer, overflow
-        self._switch_delay = to_ticks(switch_delay, f"{w} switch_delay")
+        self._switch_delay = check_duration(switch_delay, f"{w}: switch_delay (s)")
         TxQueue(port_queue, None, what=w)
         self.port_queue = port_queue
         self.memory_used = 0

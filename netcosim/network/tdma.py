@@ -16,8 +16,9 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from .base import Network, check_positive
-from ..timebase import to_ticks
+from ..errors import ConfigurationError, ConfigurationTypeError
+from .base import Network
+from .checks import check_duration
 
 
 class TDMA(Network):
@@ -26,18 +27,18 @@ class TDMA(Network):
     def __init__(self, sim, name, *, data_rate: float = 10e6, slot_time: float, schedule: Sequence, **kw):
         super().__init__(sim, name, data_rate=data_rate, **kw)
         w = f"network {name!r}"
-        check_positive(slot_time, f"{w}: slot_time (s)")
-        self._slot = to_ticks(slot_time, f"{w} slot_time")
-        if self._slot <= 0:
-            raise ValueError(f"{w}: slot_time rounds to zero ticks: {slot_time!r}")
+        self._slot = check_duration(slot_time, f"{w}: slot_time (s)", positive=True)
+        if isinstance(schedule, (str, bytes)) or not hasattr(schedule, "__iter__"):
+            raise ConfigurationTypeError(f"{w}: TDMA schedule must be a list of slot owners (node names or "
+                                         f"None), got {schedule!r}")
         sched = list(schedule)
         if not sched:
-            raise ValueError(f"{w}: TDMA schedule must list at least one slot owner")
+            raise ConfigurationError(f"{w}: TDMA schedule must list at least one slot owner, got {schedule!r}")
         for s in sched:
             if s is not None and not isinstance(s, str):
                 s = getattr(s, "name", s)
                 if not isinstance(s, str):
-                    raise TypeError(f"{w}: schedule entries must be node names or None, got {s!r}")
+                    raise ConfigurationTypeError(f"{w}: schedule entries must be node names or None, got {s!r}")
         self.schedule = [None if s is None else getattr(s, "name", s) for s in sched]
         self._cycle = self._slot * len(self.schedule)
         self._t0 = sim.env._now

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from .checks import check_count
+
 
 class SaturatedSource:
     """Keep *iface*'s sender queue non-empty: ``backlog`` frames to *dst* at start, one more
@@ -14,8 +16,7 @@ class SaturatedSource:
     """
 
     def __init__(self, iface, dst: Any, size_bits: int, backlog: int = 2):
-        if isinstance(backlog, bool) or not isinstance(backlog, int) or backlog < 1:
-            raise ValueError(f"SaturatedSource backlog must be a positive integer, got {backlog!r}")
+        backlog = check_count(backlog, "SaturatedSource backlog (frames)", minimum=1)
         self.iface, self.dst, self.size_bits = iface, dst, size_bits
         self.generated = 0
         iface.on_done.append(self._refill)

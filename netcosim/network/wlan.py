@@ -63,8 +63,9 @@ from __future__ import annotations
 import heapq
 import math
 
+from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import TICKS_PER_SECOND, to_ticks
-from .base import check_positive
+from .checks import check_bits, check_count, check_duration, check_finite, check_non_negative, check_positive
 from .frame import BROADCAST
 from .interface import Interface
 from .medium import RadioNetwork, Transmission, WirelessMedium
@@ -75,10 +76,6 @@ from .radio import (DSSS_BANDWIDTH, LogDistance, PathLoss, as_position, db_to_ra
 RATES = (1e6, 2e6, 5.5e6, 11e6)
 #: 802.11b basic rate set commonly configured (bit/s).
 BASIC_RATES = (1e6, 2e6)
-
-
-def _us(x: float) -> int:
-    return to_ticks(x)
 
 
 class WlanInterface(Interface):
@@ -105,7 +102,9 @@ class WLAN80211b(RadioNetwork):
         Rates (bit/s) usable for ACKs; the ACK uses the highest one <= the data rate
         (or the data rate if it is below all of them).
     slot, sifs, cw_min, cw_max, mac_overhead_bits, ack_bits:
-        MAC constants (see the table above).
+        MAC constants (see the table above): ``slot``, ``sifs`` in seconds (> 0, at
+        least 1 ps), ``cw_min <= cw_max`` integer slot counts, ``mac_overhead_bits``
+        an integer >= 0, ``ack_bits`` an integer > 0.
     path_loss:
         A :class:`~netcosim.network.radio.PathLoss` (default log-distance, exponent 3).
     tx_power_dbm:
@@ -114,10 +113,13 @@ class WLAN80211b(RadioNetwork):
         Receiver threshold: decoding sensitivity and carrier-sense threshold (default
         -85 dBm); ``cs_threshold_dbm`` sets carrier sense separately.
     capture_db:
-        Capture threshold (dB): the signal-to-interference ratio a frame needs to
-        survive / to capture a receiver (default 10 dB).
+        Capture threshold (dB, finite, >= 0): the signal-to-interference ratio a frame
+        needs to survive / to capture a receiver (default 10 dB).
     noise_dbm:
-        Noise floor (dBm; default thermal noise in 22 MHz at 290 K, -100.6 dBm).
+        Noise floor (dBm, finite; default thermal noise in 22 MHz at 290 K, -100.6 dBm).
+
+    Every parameter is validated here (:mod:`netcosim.network.checks`); powers and
+    thresholds must be finite numbers of dBm, also when given per node to ``attach``.
     modulation:
         ``"auto"`` (by rate), ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
     """
@@ -134,26 +136,24 @@ class WLAN80211b(RadioNetwork):
         super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, **kw)
         w = f"network {name!r}"
         if preamble not in ("long", "short"):
-            raise ValueError(f"{w}: preamble must be 'long' or 'short', got {preamble!r}")
+            raise ConfigurationError(f"{w}: preamble must be 'long' or 'short', got {preamble!r}")
         self.preamble = preamble
-        if isinstance(retry_limit, bool) or not isinstance(retry_limit, int) or retry_limit < 1:
-            raise ValueError(f"{w}: retry_limit must be a positive integer (attempts), got {retry_limit!r}")
-        self.retry_limit = retry_limit
-        for nm, v in (("cw_min", cw_min), ("cw_max", cw_max)):
-            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                raise ValueError(f"{w}: {nm} must be a non-negative integer, got {v!r}")
-        if cw_max < cw_min:
-            raise ValueError(f"{w}: cw_max={cw_max} is below cw_min={cw_min}")
-        self.cw_min, self.cw_max = cw_min, cw_max
-        self.slot = _us(check_positive(slot, f"{w}: slot (s)"))
-        self.sifs = _us(check_positive(sifs, f"{w}: sifs (s)"))
+        self.retry_limit = check_count(retry_limit, f"{w}: retry_limit (attempts)", minimum=1)
+        self.cw_min = check_count(cw_min, f"{w}: cw_min (slots)", minimum=0)
+        self.cw_max = check_count(cw_max, f"{w}: cw_max (slots)", minimum=0)
+        if self.cw_max < self.cw_min:
+            raise ConfigurationError(f"{w}: cw_max={cw_max!r} is below cw_min={cw_min!r}")
+        self.slot = check_duration(slot, f"{w}: slot (s)", positive=True)
+        self.sifs = check_duration(sifs, f"{w}: sifs (s)", positive=True)
         self.difs = self.sifs + 2 * self.slot
-        self.plcp = _us(192e-6 if preamble == "long" else 96e-6)
-        self.mac_overhead_bits = int(mac_overhead_bits)
-        self.ack_bits = int(ack_bits)
+        self.plcp = to_ticks(192e-6 if preamble == "long" else 96e-6)
+        self.mac_overhead_bits = check_bits(mac_overhead_bits, f"{w}: mac_overhead_bits")
+        self.ack_bits = check_bits(ack_bits, f"{w}: ack_bits", allow_zero=False)
+        if isinstance(basic_rates, (str, bytes)) or not hasattr(basic_rates, "__iter__"):
+            raise ConfigurationTypeError(f"{w}: basic_rates must be a sequence of rates (bit/s), got {basic_rates!r}")
         rates = sorted(check_positive(r, f"{w}: basic rate (bit/s)") for r in basic_rates)
         if not rates:
-            raise ValueError(f"{w}: basic_rates must not be empty")
+            raise ConfigurationError(f"{w}: basic_rates must not be empty, got {basic_rates!r}")
         self.basic_rates = tuple(rates)
         usable = [r for r in rates if r <= self.data_rate]
         self.ack_rate = usable[-1] if usable else self.data_rate
@@ -163,24 +163,23 @@ class WLAN80211b(RadioNetwork):
         if ack_timeout is None:
             self.ack_timeout = self.sifs + self.slot + self.plcp
         else:
-            self.ack_timeout = _us(check_positive(ack_timeout, f"{w}: ack_timeout (s)"))
+            self.ack_timeout = check_duration(ack_timeout, f"{w}: ack_timeout (s)", positive=True)
             if self.ack_timeout <= self.sifs:
-                raise ValueError(f"{w}: ack_timeout={ack_timeout!r} s must exceed SIFS ({self.sifs * 1e-12} s)")
+                raise ConfigurationError(f"{w}: ack_timeout={ack_timeout!r} s must exceed SIFS "
+                                         f"({self.sifs * 1e-12} s)")
         # radio
         if path_loss is None:
             path_loss = LogDistance(3.0)
         if not isinstance(path_loss, PathLoss):
-            raise TypeError(f"{w}: path_loss must be a PathLoss model, got {path_loss!r}")
+            raise ConfigurationTypeError(f"{w}: path_loss must be a PathLoss model, got {path_loss!r}")
         self.path_loss = path_loss
-        for nm, v in (("tx_power_dbm", tx_power_dbm), ("threshold_dbm", threshold_dbm),
-                      ("capture_db", capture_db)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"{w}: {nm} must be a finite number, got {v!r}")
-        self.tx_power_dbm = float(tx_power_dbm)
-        self.threshold_dbm = float(threshold_dbm)
-        self.cs_threshold_dbm = float(threshold_dbm if cs_threshold_dbm is None else cs_threshold_dbm)
-        self.capture_db = float(capture_db)
-        self.noise_dbm = thermal_noise_dbm(DSSS_BANDWIDTH) if noise_dbm is None else float(noise_dbm)
+        self.tx_power_dbm = check_finite(tx_power_dbm, f"{w}: tx_power_dbm", "dBm")
+        self.threshold_dbm = check_finite(threshold_dbm, f"{w}: threshold_dbm", "dBm")
+        self.cs_threshold_dbm = (self.threshold_dbm if cs_threshold_dbm is None
+                                 else check_finite(cs_threshold_dbm, f"{w}: cs_threshold_dbm", "dBm"))
+        self.capture_db = check_non_negative(capture_db, f"{w}: capture_db (dB)")
+        self.noise_dbm = (thermal_noise_dbm(DSSS_BANDWIDTH) if noise_dbm is None
+                          else check_finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
         self.data_mod = modulation_for(self.data_rate, modulation)
         self.ack_mod = modulation_for(self.ack_rate, "auto")
         self.medium = WirelessMedium(self, path_loss=path_loss, noise_w=dbm_to_watt(self.noise_dbm),
@@ -210,17 +209,15 @@ class WLAN80211b(RadioNetwork):
         thr = opts.pop("threshold_dbm")
         cst = opts.pop("cs_threshold_dbm")
         if opts:
-            raise TypeError(f"network {self.name!r}: unknown attach option(s) {sorted(opts)}")
+            raise ConfigurationTypeError(f"network {self.name!r}: unknown attach option(s) {sorted(opts)}")
         r = WlanInterface(self, name, node, index, **common)
         w = f"network {self.name!r} node {name!r}"
         r.pos = as_position(pos, w)
-        for nm, v in (("tx_power_dbm", txp), ("threshold_dbm", thr), ("cs_threshold_dbm", cst)):
-            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)):
-                raise ValueError(f"{w}: {nm} must be a finite number of dBm, got {v!r}")
-        r.tx_power_dbm = self.tx_power_dbm if txp is None else float(txp)
+        r.tx_power_dbm = self.tx_power_dbm if txp is None else check_finite(txp, f"{w}: tx_power_dbm", "dBm")
         r.tx_w = dbm_to_watt(r.tx_power_dbm)
-        r.sens_w = dbm_to_watt(self.threshold_dbm if thr is None else thr)
-        r.cs_w = dbm_to_watt(self.cs_threshold_dbm if cst is None else cst)
+        r.sens_w = dbm_to_watt(self.threshold_dbm if thr is None else check_finite(thr, f"{w}: threshold_dbm", "dBm"))
+        r.cs_w = dbm_to_watt(self.cs_threshold_dbm if cst is None
+                             else check_finite(cst, f"{w}: cs_threshold_dbm", "dBm"))
         # DCF state
         r.mac_busy = False
         r.idle_start = self._env._now

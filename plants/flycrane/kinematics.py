@@ -27,12 +27,50 @@ from ..buffered import BufferedFunction
 from .attachments import GeometryError, OneCable, PlanarAgent, TwoCable
 from .rotations import euler_zyx, rot_2d
 
+from netcosim.errors import SingularConfigurationError
+
 __all__ = ["MultiRobotSystem", "MassProperties", "SingularConfigurationError", "ConfigurationDomainError",
-           "plate_inertia"]
+           "plate_inertia", "SINGULAR_RTOL", "conditioning", "check_singular_values"]
+
+#: The one rank rule of the project (plants and planners): ``A_q`` counts as singular
+#: when its smallest singular value is at most ``SINGULAR_RTOL`` times its largest,
+#: i.e. when its condition number reaches ``1 / SINGULAR_RTOL = 1e8``.  Why 1e-8: it is
+#: about sqrt(machine epsilon) (1.5e-8); ``A_q^+ u`` computed in double precision has a
+#: relative error of about ``eps * cond(A_q)``, so beyond ``cond = 1e8`` fewer than half
+#: of the digits of ``q_dot`` are right and no integrator tolerance used here (1e-8 to
+#: 1e-13) can be met.  Near such a configuration ``|q_dot| ~ |u| / sigma_min`` grows
+#: without bound (the platform is not determined by the robot positions).  The rule is
+#: relative, so it does not depend on the units of q (rad and m mixed) or on the size
+#: of the platform.
+SINGULAR_RTOL = 1e-8
 
 
-class SingularConfigurationError(ValueError):
-    """``A_q`` is (numerically) rank deficient at the configuration used."""
+def conditioning(singular_values, rtol: float = SINGULAR_RTOL) -> tuple[int, float, float, bool]:
+    """``(rank, sigma_min, cond, singular)`` of a matrix from its singular values (any order).
+
+    ``rank`` counts the singular values above ``rtol * sigma_max``; ``cond =
+    sigma_max / sigma_min`` (inf when ``sigma_min = 0``); ``singular`` is true when the
+    rank is below the number of singular values (``min(n, m)``), i.e. when
+    ``sigma_min <= rtol * sigma_max`` -- or when a value is not finite.
+    """
+    sv = np.sort(np.abs(np.asarray(singular_values, dtype=float).reshape(-1)))[::-1]
+    if sv.size == 0 or not np.all(np.isfinite(sv)) or not sv[0] > 0.0:
+        return 0, (float(sv[-1]) if sv.size else 0.0), math.inf, True
+    smax, smin = float(sv[0]), float(sv[-1])
+    rank = int(np.count_nonzero(sv > rtol * smax))
+    cond = smax / smin if smin > 0.0 else math.inf
+    return rank, smin, cond, rank < sv.size
+
+
+def check_singular_values(singular_values, at: str, rtol: float = SINGULAR_RTOL) -> None:
+    """Raise :class:`~netcosim.errors.SingularConfigurationError` if the rule of
+    :data:`SINGULAR_RTOL` calls the matrix singular; *at* names where (``"q = [...]"``)."""
+    rank, smin, cond, singular = conditioning(singular_values, rtol)
+    if singular:
+        k = np.asarray(singular_values).size
+        raise SingularConfigurationError(
+            f"A_q is singular at {at}: rank {rank} < {k}, smallest singular value {smin:.3e}, "
+            f"condition number {cond:.3e} (singular when sigma_min <= {rtol:g} * sigma_max)")
 
 
 class ConfigurationDomainError(ValueError):
@@ -114,12 +152,13 @@ class MultiRobotSystem:
     pivot: ``"spatial"`` (q_V in R^6, Euler angles of (B.1)) or ``"planar"`` (R^3).
     mass: :class:`MassProperties` for the dynamics (spatial cable systems only).
     q_nominal: a valid, non-singular reference configuration (rad/m), checked.
-    singular_tol: configurations with smallest singular value of ``A_q`` at or below
-        this are singular.
+    singular_tol: relative rank tolerance: configurations where the smallest singular
+        value of ``A_q`` is at most ``singular_tol`` times the largest are singular
+        (default :data:`SINGULAR_RTOL` = 1e-8, the project's one rule; in [0, 1)).
     """
 
     def __init__(self, attachments: Sequence, *, pivot: str = "spatial", mass: MassProperties | None = None,
-                 q_nominal=None, name: str = "multi_robot", singular_tol: float = 1e-8):
+                 q_nominal=None, name: str = "multi_robot", singular_tol: float = SINGULAR_RTOL):
         if pivot not in ("spatial", "planar"):
             raise ValueError(f"pivot must be 'spatial' or 'planar', got {pivot!r}")
         atts = tuple(attachments)
@@ -135,8 +174,9 @@ class MultiRobotSystem:
                 raise ValueError("mass properties (dynamics) are defined for spatial cable systems only")
             if len(mass.robot_masses) != len(atts):
                 raise ValueError(f"mass.robot_masses has {len(mass.robot_masses)} entries for {len(atts)} robots")
-        if not (singular_tol >= 0):
-            raise ValueError(f"singular_tol must be non-negative, got {singular_tol!r}")
+        if isinstance(singular_tol, bool) or not isinstance(singular_tol, (int, float, np.integer, np.floating)) \
+                or not 0.0 <= float(singular_tol) < 1.0:
+            raise ValueError(f"singular_tol must be a relative tolerance in [0, 1), got {singular_tol!r}")
         self.name, self.pivot, self.attachments, self.mass = name, pivot, atts, mass
         self.singular_tol = float(singular_tol)
         self.N = len(atts)
@@ -223,11 +263,8 @@ class MultiRobotSystem:
         msg = self.domain_error(q)
         if msg:
             raise ConfigurationDomainError(f"{what} = {np.round(q, 12).tolist()} is outside the valid domain: {msg}")
-        s = self.singularity_measure(q)
-        if not s > self.singular_tol:
-            raise SingularConfigurationError(
-                f"{what} = {np.round(q, 12).tolist()} is singular for {self.name}: smallest singular value of "
-                f"A_q is {s:.3e} (tolerance {self.singular_tol:g})")
+        check_singular_values(self.singular_values(q), f"{what} = {np.round(q, 12).tolist()} for {self.name}",
+                              self.singular_tol)
         return q
 
     # -- kinematics (numpy in/out) --------------------------------------------
@@ -250,14 +287,27 @@ class MultiRobotSystem:
     def pinv(self, q) -> np.ndarray:
         """Moore–Penrose inverse ``A_q^† = (A_qᵀA_q)^{-1} A_qᵀ`` (ch. 4), shape (m, n);
         equals ``A_q^{-1}`` for square systems.  Raises
-        :class:`SingularConfigurationError` when A_q loses rank."""
+        :class:`SingularConfigurationError` (naming q, the rank, the smallest singular
+        value and the condition number) when A_q is singular by the rule of
+        :data:`SINGULAR_RTOL` (``singular_tol``)."""
         A = self.jacobian(q)
         U, s, Vt = np.linalg.svd(A, full_matrices=False)
-        if not s[-1] > self.singular_tol:
-            raise SingularConfigurationError(
-                f"A_q is singular at q = {np.round(self._q(q), 12).tolist()}: smallest singular value "
-                f"{s[-1]:.3e} (tolerance {self.singular_tol:g})")
+        check_singular_values(s, f"q = {np.round(self._q(q), 12).tolist()}", self.singular_tol)
         return (Vt.T / s) @ U.T
+
+    def signed_conditioning(self, q) -> float:
+        """``sign(det A_q) * sigma_min / sigma_max`` for square systems: continuous in q,
+        zero exactly on the singular set and of opposite signs on its two sides, so a
+        trajectory that crosses the singular set between two integration steps changes its
+        sign (the plain ``sigma_min`` touches zero without changing sign).  Only defined
+        for ``n == m``."""
+        if self.n != self.m:
+            raise ValueError(f"{self.name}: signed conditioning needs a square A_q, got n={self.n}, m={self.m}")
+        A = self.jacobian(q)
+        s = np.linalg.svd(A, compute_uv=False)
+        if not s[0] > 0.0:
+            return 0.0
+        return float(np.sign(np.linalg.det(A)) * s[-1] / s[0])
 
     def projector(self, q) -> np.ndarray:
         """Orthogonal projector ``Π_q = A_q A_q^†`` onto Im A_q (4.4), shape (n, n)."""
