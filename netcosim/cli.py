@@ -34,12 +34,13 @@ class UsageError(Exception):
     """A command-line argument the command cannot use; the message names it (exit status 2)."""
 
 
-def _load_module_from_file(path: Path):
+def _load_module_from_file(given: str):
+    path = Path(given)
     if not path.is_file():
-        raise UsageError(f"no experiment file {str(path)!r}")
+        raise UsageError(f"no experiment file {given!r}")
     name = path.stem
     if not name.isidentifier():
-        raise UsageError(f"experiment file {str(path)!r}: {name!r} is not a valid module name")
+        raise UsageError(f"experiment file {given!r}: {name!r} is not a valid module name")
     directory = str(path.resolve().parent)
     if directory not in sys.path:
         sys.path.insert(0, directory)      # as `python path/to/file.py` does: siblings are importable
@@ -76,7 +77,7 @@ def resolve_experiment(spec: str):
         raise UsageError(f"experiment {spec!r}: no function name after ':'")
     func = func or "main"
     if target.endswith(".py") or "/" in target or "\\" in target:
-        module = _load_module_from_file(Path(target))
+        module = _load_module_from_file(target)
         where = f"file {target!r}"
     elif sep or "." in target.removeprefix("experiments."):
         module = _import_module(target, f"no module {target!r} (experiment {spec!r})")
@@ -88,7 +89,7 @@ def resolve_experiment(spec: str):
         where = f"experiments.{name}"
     fn = getattr(module, func, None)
     if fn is None:
-        raise UsageError(f"{where} has no function {func!r}" + ("()" if func == "main" else ""))
+        raise UsageError(f"{where} has no function {func!r}")
     if not callable(fn):
         raise UsageError(f"{where}: {func!r} is not a function but {type(fn).__name__}")
     return fn
@@ -133,13 +134,14 @@ def time_window(t0: float | None, t1: float | None) -> tuple[float | None, float
 
 
 def _plot(args) -> int:
-    import pandas as pd
-
-    from .plot import plot_schedule
     t_range = time_window(args.t0, args.t1)
     path = Path(args.trace)
     if not path.is_file():
-        raise UsageError(f"cannot read {args.trace!r}: no such file")
+        why = "it is a directory" if path.is_dir() else "no such file"
+        raise UsageError(f"cannot read {args.trace!r}: {why}")
+    import pandas as pd
+
+    from .plot import plot_schedule
     try:
         df = pd.read_parquet(path)
     except (OSError, ValueError) as exc:      # pyarrow's ArrowInvalid is a ValueError
