@@ -90,11 +90,13 @@ def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, o
 
 
 def save(ax, path) -> None:
-    """Save the axes' figure as PNG (if *path* is given) and close it."""
+    """Save the axes' figure as PNG (if *path* is given) and close it (also if saving fails)."""
     if path is not None:
-        ax.figure.tight_layout()
-        ax.figure.savefig(path, dpi=120)
-        plt.close(ax.figure)
+        try:
+            ax.figure.tight_layout()
+            ax.figure.savefig(path, dpi=120)
+        finally:
+            plt.close(ax.figure)
 
 
 def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None, t_range=None,
