@@ -7,16 +7,19 @@ STAMP  := $(VENV)/.installed
 .PHONY: run test test-all bench clean
 
 $(BIN)/python:
+	@echo "== creating the virtual environment $(VENV)"
 	$(PYTHON) -m venv $(VENV)
 
 # Reinstall only when the dependency list changes.
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	@echo "== installing netcosim and its dependencies into $(VENV) (about a minute and a half the first time)"
+	$(BIN)/python -m pip install --progress-bar on --upgrade pip
+	$(BIN)/python -m pip install --progress-bar on -e '.[dev]'
 	touch $(STAMP)
 
+# Nine experiments, each in its own process (about two minutes in all); see experiments/main.py.
 run: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m experiments.main
+	MPLBACKEND=Agg $(BIN)/python -m experiments.main --outdir results
 
 test: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q -n 2

@@ -23,9 +23,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
@@ -272,4 +269,7 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
 
 
 if __name__ == "__main__":
-    main()
+    from experiments._cli import experiment_parser
+    a = experiment_parser(__doc__, "results/ch2",
+                          quick="1 s landings instead of 1.5 s, without the two extra scheduled runs").parse_args()
+    main(a.outdir, a.quick)

@@ -13,19 +13,15 @@ Run ``python -m experiments.ch3_fig3_8`` (``--quick`` for a fast check).  Writes
 
 from __future__ import annotations
 
-import argparse
 import os
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from controllers.gain_design import design, estimate_mu  # noqa: E402
-from controllers.local_planner import OfflineGain, OnlineGain, simulate_sampled  # noqa: E402
-from plants.flycrane.configurations import thesis_flycrane  # noqa: E402
+from controllers.gain_design import design, estimate_mu
+from controllers.local_planner import OfflineGain, OnlineGain, simulate_sampled
+from plants.flycrane.configurations import thesis_flycrane
 
 T = 0.01
 RADII = {"small": 0.08, "large": 0.5}
@@ -91,9 +87,7 @@ def main(outdir: str = "results/ch3_fig3_8", quick: bool = False) -> pd.DataFram
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--outdir", default="results/ch3_fig3_8")
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
+    from experiments._cli import experiment_parser
+    a = experiment_parser(__doc__, "results/ch3_fig3_8").parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(main(a.outdir, a.quick))

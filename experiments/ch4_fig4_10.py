@@ -21,21 +21,17 @@ samples).  Writes ``fig4_10.png``, ``samples.parquet``, ``summary.parquet``.
 
 from __future__ import annotations
 
-import argparse
 import os
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from scipy.integrate import solve_ivp
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from scipy.integrate import solve_ivp  # noqa: E402
-
-from controllers.gain_design import design_nonsquare, estimate_mu  # noqa: E402
-from controllers.local_planner import OfflineGain, OnlineGain, WeightedNorm, sampled_velocity  # noqa: E402
-from experiments.ch4_fig4_8_9 import KBAR, T, WEIGHTS, setting  # noqa: E402
-from plants.flycrane.input_modes import VelocityTrackingPlant  # noqa: E402
+from controllers.gain_design import design_nonsquare, estimate_mu
+from controllers.local_planner import OfflineGain, OnlineGain, WeightedNorm, sampled_velocity
+from experiments.ch4_fig4_8_9 import KBAR, T, WEIGHTS, setting
+from plants.flycrane.input_modes import VelocityTrackingPlant
 
 ALPHAS = (0.3, 3.0, 30.0)
 
@@ -113,9 +109,7 @@ def main(outdir: str = "results/ch4_fig4_10", quick: bool = False) -> pd.DataFra
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--outdir", default="results/ch4_fig4_10")
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
+    from experiments._cli import experiment_parser
+    a = experiment_parser(__doc__, "results/ch4_fig4_10").parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(main(a.outdir, a.quick))

@@ -17,20 +17,16 @@ Writes ``fig4_8.png``, ``fig4_9.png``, ``samples.parquet``, ``summary.parquet``.
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from controllers.gain_design import design_nonsquare, estimate_mu  # noqa: E402
-from controllers.local_planner import OfflineGain, OnlineGain, WeightedNorm, simulate_sampled  # noqa: E402
-from plants.flycrane.configurations import four_robot_nonsquare  # noqa: E402
+from controllers.gain_design import design_nonsquare, estimate_mu
+from controllers.local_planner import OfflineGain, OnlineGain, WeightedNorm, simulate_sampled
+from plants.flycrane.configurations import four_robot_nonsquare
 
 T = 1.5
 KBAR = np.ones(10)
@@ -100,9 +96,7 @@ def main(outdir: str = "results/ch4_fig4_8_9", quick: bool = False) -> pd.DataFr
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--outdir", default="results/ch4_fig4_8_9")
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
+    from experiments._cli import experiment_parser
+    a = experiment_parser(__doc__, "results/ch4_fig4_8_9").parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(main(a.outdir, a.quick))

@@ -28,20 +28,16 @@ T = 1.5 s only).  Writes ``fig5_8.png``, ``fig5_9a.png`` (and ``fig5_9b.png``),
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from controllers.sikm import (TABLE_5_1, Trajectory, collect_interval_samples, estimate_parameters,  # noqa: E402
+from controllers.sikm import (TABLE_5_1, Trajectory, collect_interval_samples, estimate_parameters,
                               optimal_offline_gain, simulate_tracking, tau_critical)
-from plants.flycrane.configurations import thesis_flycrane  # noqa: E402
+from plants.flycrane.configurations import thesis_flycrane
 
 OMEGA = 2 * math.pi / 30.0
 D2R = math.pi / 180
@@ -90,6 +86,7 @@ def estimate_theta(sys_, tr, quick: bool, seed: int = 0):
 def run(quick: bool = False, seed: int = 0):
     sys_ = thesis_flycrane(cable_length=1.5)
     tr = reference(sys_)
+    print("  estimating theta = (mu, alpha, gamma1, gamma2) by the QP (5.27)", flush=True)
     theta, qp_samples = estimate_theta(sys_, tr, quick, seed)
     duration = 21.0 if quick else 60.0
     periods = (1.5,) if quick else (0.5, 0.75, 1.5, 4.0)
@@ -101,6 +98,7 @@ def run(quick: bool = False, seed: int = 0):
         except ValueError:
             k_off = None
         for s, strat in TABLE_5_1.items():
+            print(f"  T = {T} s, strategy {s} ({strat.label}): {duration} s of tracking", flush=True)
             if strat.gain == "offline" and k_off is None:
                 summ.append(dict(T=T, strategy=s, k_off=np.nan, feasible=False, mean_err=np.nan, final_err=np.nan))
                 continue
@@ -185,10 +183,8 @@ def main(outdir: str = "results/ch5_fig5_8_9", quick: bool = False) -> pd.DataFr
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--outdir", default="results/ch5_fig5_8_9")
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
+    from experiments._cli import experiment_parser
+    a = experiment_parser(__doc__, "results/ch5_fig5_8_9").parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(main(a.outdir, a.quick))
         print(pd.read_parquet(os.path.join(a.outdir, "theta.parquet")))

@@ -23,18 +23,14 @@ Run ``python -m experiments.ch5_table5_2``.  Writes ``table5_2.parquet``,
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from controllers.sikm import (SIKMParams, in_stability_set, k_bar, k_o, optimal_offline_gain,  # noqa: E402
+from controllers.sikm import (SIKMParams, in_stability_set, k_bar, k_o, optimal_offline_gain,
                               rho_of_k, rho_of_tau, tau_critical, tau_o, tau_s, z)
 
 THESIS = SIKMParams(0.02, 0.13, 0.1, 0.2)
@@ -160,9 +156,7 @@ def main(outdir: str = "results/ch5_table5_2", quick: bool = False) -> pd.DataFr
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--outdir", default="results/ch5_table5_2")
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
+    from experiments._cli import experiment_parser
+    a = experiment_parser(__doc__, "results/ch5_table5_2").parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20, "display.max_colwidth", 60):
         print(main(a.outdir, a.quick))

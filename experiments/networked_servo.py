@@ -23,21 +23,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg", force=False)
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+from controllers.pid import PID
+from netcosim import RK4, Simulation
+from netcosim.network import CAN, CSMACD
+from netcosim.network.plot import plot_network_schedule
+from netcosim.plot import plot_schedule
+from plants.dc_servo import DCServo
 
-from controllers.pid import PID  # noqa: E402
-from netcosim import RK4, Simulation  # noqa: E402
-from netcosim.network import CAN, CSMACD  # noqa: E402
-from netcosim.network.plot import plot_network_schedule  # noqa: E402
-from netcosim.plot import plot_schedule  # noqa: E402
-from plants.dc_servo import DCServo  # noqa: E402
-
-from .servo import square_wave  # noqa: E402
+from .servo import square_wave
 
 DATA_RATE = 80e3        # bit/s
 FRAME_BITS = 80         # bits per message
@@ -155,6 +152,7 @@ def main(outdir: str = "results/networked_servo", quick: bool = False) -> pd.Dat
     rows, outputs = [], {}
     for network in ("csma_cd", "can"):
         for share in shares:
+            print(f"  {network}, interferer share {share}: {len(seeds)} run(s) of {until} s", flush=True)
             for seed in seeds:
                 sim, row = run_one(network, share, until, seed=seed)
                 rows.append(row)
@@ -207,4 +205,7 @@ def main(outdir: str = "results/networked_servo", quick: bool = False) -> pd.Dat
 
 
 if __name__ == "__main__":
-    main()
+    from experiments._cli import experiment_parser
+    a = experiment_parser(__doc__, "results/networked_servo",
+                          quick="shares 0 and 0.6, one seed, 1.5 s (instead of six shares, three seeds, 3 s)").parse_args()
+    main(a.outdir, a.quick)

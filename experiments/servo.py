@@ -60,7 +60,13 @@ def build(seed=0, *, integrator=None, period=0.006, execution=0.002, log_interva
     return sim
 
 
-def main(outdir="results/servo", until=2.0):
+def main(outdir="results/servo", until=2.0, quick=False):
+    """Simulate *until* seconds (0.5 s if *quick*); write the trace (Parquet) and two PNGs to *outdir*.
+
+    Returns the :class:`~netcosim.Simulation`.
+    """
+    if quick:
+        until = min(until, 0.5)
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     sim = build()
@@ -76,4 +82,7 @@ def main(outdir="results/servo", until=2.0):
 
 
 if __name__ == "__main__":
-    main()
+    from experiments._cli import experiment_parser
+    a = experiment_parser(__doc__, "results/servo", quick="simulate 0.5 s instead of 2 s").parse_args()
+    jobs = main(a.outdir, quick=a.quick).trace.jobs()
+    print(f"{len(jobs)} PID jobs, mean response {jobs['response_time'].mean() * 1e3:.3f} ms")

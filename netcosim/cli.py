@@ -1,61 +1,200 @@
 """Command line: ``netcosim run EXPERIMENT`` and ``netcosim plot schedule TRACE.parquet``.
 
-``run`` imports ``experiments.<EXPERIMENT>`` and calls its ``main(outdir)``;
+``run`` calls an experiment's entry point with ``outdir`` (and ``quick``) keyword
+arguments.  EXPERIMENT is one of
+
+* ``NAME``: the module ``experiments.NAME`` shipped with netcosim (e.g. ``servo``),
+  its function ``main``;
+* ``package.module``: any importable module, its function ``main``;
+* ``package.module:function``: that function of that module;
+* ``path/to/file.py`` (or ``path/to/file.py:function``): a Python file, loaded as a
+  module (its directory is put first on ``sys.path``), its ``main`` (or *function*).
+
 ``plot schedule`` draws a schedule table written by ``Trace.to_parquet``.
+
+Bad arguments (unknown experiment, unreadable trace, empty time window, ...) print one
+line naming the value on stderr and exit with status 2.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
+import inspect
+import math
 import sys
+from pathlib import Path
+
+#: Columns a schedule table (``sim.trace.schedule()``) must have to be plotted.
+SCHEDULE_COLUMNS = ("time", "node", "task", "state")
+
+
+class UsageError(Exception):
+    """A command-line argument the command cannot use; the message names it (exit status 2)."""
+
+
+def _load_module_from_file(given: str):
+    path = Path(given)
+    if not path.is_file():
+        raise UsageError(f"no experiment file {given!r}")
+    name = path.stem
+    if not name.isidentifier():
+        raise UsageError(f"experiment file {given!r}: {name!r} is not a valid module name")
+    directory = str(path.resolve().parent)
+    if directory not in sys.path:
+        sys.path.insert(0, directory)      # as `python path/to/file.py` does: siblings are importable
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def _import_module(name: str, what: str):
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        # only a missing target is a usage error; a missing dependency inside it is a real failure
+        parts = name.split(".")
+        if exc.name in {".".join(parts[:i]) for i in range(1, len(parts) + 1)}:
+            raise UsageError(what) from None
+        raise
+
+
+def resolve_experiment(spec: str):
+    """The callable that ``netcosim run SPEC`` runs (see the module docstring for SPEC).
+
+    Raises :class:`UsageError` naming *spec* if the module, file or function does not exist.
+    """
+    if not spec or not spec.strip():
+        raise UsageError(f"empty experiment name {spec!r}")
+    target, sep, func = spec.partition(":")
+    if sep and len(target) == 1 and target.isalpha():      # a Windows drive letter, C:\...
+        drive_rest, sep, func = func.partition(":")
+        target = f"{target}:{drive_rest}"
+    if sep and not func:
+        raise UsageError(f"experiment {spec!r}: no function name after ':'")
+    func = func or "main"
+    if target.endswith(".py") or "/" in target or "\\" in target:
+        module = _load_module_from_file(target)
+        where = f"file {target!r}"
+    elif sep or "." in target.removeprefix("experiments."):
+        module = _import_module(target, f"no module {target!r} (experiment {spec!r})")
+        where = f"module {target!r}"
+    else:
+        name = target.removeprefix("experiments.")
+        module = _import_module(f"experiments.{name}",
+                                f"no experiment {name!r} (looked for module experiments.{name})")
+        where = f"experiments.{name}"
+    fn = getattr(module, func, None)
+    if fn is None:
+        raise UsageError(f"{where} has no function {func!r}")
+    if not callable(fn):
+        raise UsageError(f"{where}: {func!r} is not a function but {type(fn).__name__}")
+    return fn
+
+
+def _accepts(fn, keyword: str) -> bool:
+    try:
+        params = inspect.signature(fn).parameters
+    except (TypeError, ValueError):
+        return True
+    return keyword in params or any(p.kind is p.VAR_KEYWORD for p in params.values())
 
 
 def _run(args) -> int:
-    name = args.experiment.removeprefix("experiments.")
-    try:
-        mod = importlib.import_module(f"experiments.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name in (f"experiments.{name}", "experiments"):
-            print(f"netcosim: no experiment {name!r} (looked for module experiments.{name})", file=sys.stderr)
-            return 2
-        raise
-    if not hasattr(mod, "main"):
-        print(f"netcosim: experiments.{name} has no main()", file=sys.stderr)
-        return 2
-    kwargs = {"outdir": args.outdir} if args.outdir else {}
-    mod.main(**kwargs)
+    fn = resolve_experiment(args.experiment)
+    kwargs = {}
+    if args.outdir is not None:
+        if not args.outdir.strip():
+            raise UsageError(f"--outdir must name a directory, got {args.outdir!r}")
+        kwargs["outdir"] = args.outdir
+    if args.quick:
+        if not _accepts(fn, "quick"):
+            raise UsageError(f"experiment {args.experiment!r} has no quick mode (its function takes no 'quick')")
+        kwargs["quick"] = True
+    fn(**kwargs)
     return 0
 
 
+def time_window(t0: float | None, t1: float | None) -> tuple[float | None, float | None] | None:
+    """``(t0, t1)`` in seconds for ``plot_schedule(t_range=...)``; ``None`` ends are open.
+
+    Raises :class:`UsageError` naming the values if one is not finite or if ``t1 <= t0``.
+    """
+    for flag, v in (("--t0", t0), ("--t1", t1)):
+        if v is not None and not math.isfinite(v):
+            raise UsageError(f"{flag} must be a finite number of seconds, got {v!r}")
+    if t0 is not None and t1 is not None and not t1 > t0:
+        raise UsageError(f"empty or reversed time window: --t0 {t0!r} --t1 {t1!r} (need t1 > t0)")
+    if t0 is None and t1 is None:
+        return None
+    return (t0, t1)
+
+
 def _plot(args) -> int:
+    t_range = time_window(args.t0, args.t1)
+    path = Path(args.trace)
+    if not path.is_file():
+        why = "it is a directory" if path.is_dir() else "no such file"
+        raise UsageError(f"cannot read {args.trace!r}: {why}")
     import pandas as pd
 
     from .plot import plot_schedule
-    df = pd.read_parquet(args.trace)
-    t_range = (args.t0, args.t1) if args.t1 is not None else None
-    plot_schedule(df, t_range=t_range, node=args.node, path=args.output)
+    try:
+        df = pd.read_parquet(path)
+    except (OSError, ValueError) as exc:      # pyarrow's ArrowInvalid is a ValueError
+        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UsageError(f"cannot read {args.trace!r} as Parquet: {reason}") from None
+    missing = [c for c in SCHEDULE_COLUMNS if c not in df.columns]
+    if missing:
+        raise UsageError(f"{args.trace!r} is not a schedule table (Trace.to_parquet's schedule.parquet): "
+                         f"missing columns {missing}")
+    try:
+        plot_schedule(df, t_range=t_range, node=args.node, path=args.output)
+    except KeyError as exc:
+        raise UsageError(str(exc.args[0]) if exc.args else repr(exc)) from None
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    except OSError as exc:
+        raise UsageError(f"cannot write {args.output!r}: {exc.strerror or exc}") from None
     print(args.output)
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="netcosim", description=__doc__.splitlines()[0])
+def build_parser() -> argparse.ArgumentParser:
+    """The ``netcosim`` argument parser."""
+    p = argparse.ArgumentParser(prog="netcosim", description=__doc__.splitlines()[0],
+                                epilog="\n".join(__doc__.splitlines()[2:]),
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run", help="run an experiment module's main()")
-    r.add_argument("experiment", help="name of a module in experiments/, e.g. servo")
+    r = sub.add_parser("run", help="run an experiment (calls its main(outdir=..., quick=...))")
+    r.add_argument("experiment",
+                   help="NAME of a module in experiments/ (e.g. servo), package.module[:function], "
+                        "or path/to/file.py[:function]")
     r.add_argument("--outdir", help="output directory (default: the experiment's own)")
+    r.add_argument("--quick", action="store_true", help="pass quick=True: the experiment's short run")
     r.set_defaults(fn=_run)
     pl = sub.add_parser("plot", help="plot a saved trace")
     pl.add_argument("kind", choices=["schedule"])
     pl.add_argument("trace", help="Parquet file written by Trace.to_parquet (schedule table)")
-    pl.add_argument("-o", "--output", default="schedule.png")
-    pl.add_argument("--node")
-    pl.add_argument("--t0", type=float, default=0.0)
-    pl.add_argument("--t1", type=float)
+    pl.add_argument("-o", "--output", default="schedule.png", help="image to write (default schedule.png)")
+    pl.add_argument("--node", help="plot only this node's tasks")
+    pl.add_argument("--t0", type=float, help="window start in seconds (default: start of the trace)")
+    pl.add_argument("--t1", type=float, help="window end in seconds (default: end of the trace)")
     pl.set_defaults(fn=_plot)
-    args = p.parse_args(argv)
-    return args.fn(args)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line with *argv* (default ``sys.argv[1:]``); returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.fn(args)
+    except UsageError as exc:
+        print(f"netcosim {args.cmd}: {exc}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -3,21 +3,54 @@
 One row per task, at height ``row``; the staircase sits at ``row + 0.5`` while the task
 runs, ``row + 0.25`` while ready (preempted or waiting for the CPU), ``row + 0.125`` while
 blocked and ``row`` while idle -- TrueTime's encoding.
+
+The backend is left to the user (``MPLBACKEND`` or ``matplotlib.use``); without a
+display matplotlib itself falls back to Agg, so saving PNGs works headless.
 """
 
 from __future__ import annotations
 
+import math
+import numbers
 from pathlib import Path
 from typing import Sequence
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg", force=False)
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+from .errors import ConfigurationError, ConfigurationTypeError
+from .trace import TASK_STATES
 
-from .trace import TASK_STATES  # noqa: E402
+
+def time_window(times, t_range) -> tuple[float, float]:
+    """The plotted window ``(t0, t1)`` in seconds for data at *times* (seconds).
+
+    ``t_range=None`` spans the data (a single instant gets a 1 ns window); otherwise
+    ``t_range = (t0, t1)`` where either end may be ``None`` for "start" / "end of the
+    data".  Raises :class:`~netcosim.errors.ConfigurationTypeError` if *t_range* is not
+    a pair of real numbers or ``None``, and :class:`~netcosim.errors.ConfigurationError`
+    naming it if an end is not finite or the window is empty or reversed (``t1 <= t0``).
+    """
+    lo, hi = float(np.min(times)), float(np.max(times))
+    if t_range is None:
+        return (lo, hi) if hi > lo else (lo, lo + 1e-9)
+    try:
+        t0, t1 = t_range
+    except (TypeError, ValueError):
+        raise ConfigurationTypeError(f"t_range must be a pair (t0, t1) of seconds, got {t_range!r}") from None
+    for v in (t0, t1):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, numbers.Real)):
+            raise ConfigurationTypeError(f"t_range must be a pair (t0, t1) of seconds, got {t_range!r}")
+    start = lo if t0 is None else float(t0)
+    end = hi if t1 is None else float(t1)
+    if not (math.isfinite(start) and math.isfinite(end)):
+        raise ConfigurationError(f"t_range must be finite, got {t_range!r}")
+    if not end > start:
+        data = f" (the data span {lo!r} to {hi!r} s)" if t0 is None or t1 is None else ""
+        raise ConfigurationError(f"t_range={t_range!r} is an empty or reversed window{data}: "
+                                 f"need t1 > t0")
+    return start, end
 
 
 def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, order=None, t_range=None,
@@ -25,13 +58,12 @@ def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, o
     """One TrueTime staircase per distinct ``df[label]`` (top row first).
 
     ``df`` has columns ``time`` (s), *label* and ``state``; ``levels`` maps each state
-    to its offset above the row.  Returns ``(ax, row_of, (t0, t1))``.
+    to its offset above the row; ``t_range`` is checked by :func:`time_window`.
+    Returns ``(ax, row_of, (t0, t1))``.
     """
     labels = df[label].astype(str)
     order = list(order) if order is not None else list(dict.fromkeys(labels))
-    t0, t1 = t_range if t_range is not None else (float(df["time"].min()), float(df["time"].max()))
-    if not t1 > t0:
-        t1 = t0 + 1e-9
+    t0, t1 = time_window(df["time"].to_numpy(dtype=float), t_range)
     if ax is None:
         fig, ax = plt.subplots(figsize=(10, 0.8 + 0.6 * len(order)))
     row_of = {}
@@ -58,11 +90,13 @@ def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, o
 
 
 def save(ax, path) -> None:
-    """Save the axes' figure as PNG (if *path* is given) and close it."""
+    """Save the axes' figure as PNG (if *path* is given) and close it (also if saving fails)."""
     if path is not None:
-        ax.figure.tight_layout()
-        ax.figure.savefig(path, dpi=120)
-        plt.close(ax.figure)
+        try:
+            ax.figure.tight_layout()
+            ax.figure.savefig(path, dpi=120)
+        finally:
+            plt.close(ax.figure)
 
 
 def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None, t_range=None,
@@ -70,11 +104,17 @@ def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None,
     """Draw the schedule trace (``sim.trace.schedule()``) as one staircase per task.
 
     ``tasks`` orders the rows (top row first; default: order of appearance); ``t_range``
-    = (t0, t1) in seconds restricts the window; ``path`` saves a PNG.  Returns the axes.
+    = (t0, t1) in seconds restricts the window (``None`` for an open end, e.g. ``(0.5,
+    None)`` is from 0.5 s to the end; see :func:`time_window` for the checks); ``node``
+    keeps one node's tasks (:class:`~netcosim.errors.ConfigurationError` naming it if
+    the schedule has no such node); ``path`` saves a PNG.  Returns the axes.
     """
     df = schedule
     if node is not None:
+        have = sorted(set(df["node"].astype(str)))
         df = df[df["node"] == node]
+        if df.empty and have:
+            raise ConfigurationError(f"no node {node!r} in the schedule; have {have}")
     if df.empty:
         raise ValueError("empty schedule: nothing to plot (did the simulation run?)")
     labels = (df["node"].astype(str) + "." + df["task"].astype(str)) if node is None else df["task"].astype(str)
