@@ -270,6 +270,15 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
 
 if __name__ == "__main__":
     from experiments._cli import experiment_parser
-    a = experiment_parser(__doc__, "results/ch2",
-                          quick="1 s landings instead of 1.5 s, without the two extra scheduled runs").parse_args()
-    main(a.outdir, a.quick)
+    ap = experiment_parser(__doc__, "results/ch2",
+                           quick="1 s landings instead of 1.5 s, without the two extra scheduled runs")
+    ap.add_argument("--calibrate", action="store_true",
+                    help=f"re-record the NMPC solve times on this host into {CALIBRATION} (wall clock: "
+                         "run on a quiet machine) instead of running the experiment")
+    a = ap.parse_args()
+    if a.calibrate:
+        t = calibrate()
+        print(t.groupby(["run", "phase"])["cpu"].describe()[["count", "50%", "max"]].to_string())
+        print(f"-> {CALIBRATION}")
+    else:
+        main(a.outdir, a.quick)
