@@ -50,12 +50,16 @@ uses (radians for the models of this project).
 from __future__ import annotations
 
 import math
+import numbers
 import time
+from collections import deque
 from dataclasses import dataclass, replace
 from typing import Any, Sequence
 
 import casadi as ca
 import numpy as np
+
+from netcosim.errors import ConfigurationError
 
 __all__ = ["OCP", "RTINMPC", "RTIStep", "FullSolution", "QP_SOLVERS", "rk4_discretize"]
 
@@ -507,10 +511,17 @@ class RTINMPC:
     x_guess, u_guess:
         Initial guess (state repeated over the horizon, inputs repeated); defaults
         to zeros; :meth:`reset` sets them later.
+    history_length:
+        How many of the latest :class:`RTIStep` results :attr:`history` keeps (a
+        ``deque`` that drops the oldest): default 1, enough for :attr:`last`; ``0``
+        keeps none; ``None`` keeps every step (grows by one step, with its whole
+        plan, per sample -- for offline analysis only).  :attr:`last` always holds
+        the latest step.
     """
 
     def __init__(self, ocp: OCP, *, qp_solver: str = "hpipm", qp_options: dict | None = None,
-                 hessian_reg: float = 1e-8, jit: bool = False, x_guess=None, u_guess=None):
+                 hessian_reg: float = 1e-8, jit: bool = False, x_guess=None, u_guess=None,
+                 history_length: int | None = 1):
         if not isinstance(ocp, OCP):
             raise TypeError(f"ocp must be an OCP, got {type(ocp).__name__}")
         if qp_solver not in QP_SOLVERS:
@@ -519,6 +530,11 @@ class RTINMPC:
             raise ValueError(f"qp_solver {qp_solver!r} is not available in this CasADi build")
         if not (isinstance(hessian_reg, (int, float)) and hessian_reg >= 0 and math.isfinite(hessian_reg)):
             raise ValueError(f"hessian_reg must be a non-negative number, got {hessian_reg!r}")
+        if history_length is not None and (isinstance(history_length, bool)
+                                           or not isinstance(history_length, numbers.Integral)
+                                           or history_length < 0):
+            raise ConfigurationError(f"history_length must be a non-negative integer or None, "
+                                     f"got {history_length!r}")
         self.ocp = ocp
         self.qp_solver = qp_solver
         self.tr = tr = _Transcription(ocp)
@@ -555,7 +571,11 @@ class RTINMPC:
 
         self.n_steps = 0
         self.n_fail = 0
-        self.history: list[RTIStep] = []
+        self.history_length = None if history_length is None else int(history_length)
+        #: the latest steps, oldest first (at most ``history_length``)
+        self.history: deque[RTIStep] = deque(maxlen=self.history_length)
+        #: the latest step (None before the first :meth:`feedback`)
+        self.last: RTIStep | None = None
         self._p = ocp.p_default.copy()
         self._qpdata = None
         self.reset(x_guess if x_guess is not None else np.zeros(ocp.nx), u_guess)
@@ -708,6 +728,7 @@ class RTINMPC:
         t1 = time.perf_counter()
         r = RTIStep(u=u, x_ref=X[1].copy(), X=X.copy(), status=status, success=ok, fallback=not ok, qp_iter=it,
                     step_norm=step, t_feedback=t1 - t0, t_prepare=0.0)
+        self.last = r
         self.history.append(r)
         return r
 
@@ -720,8 +741,11 @@ class RTINMPC:
         self.shift()
         self.prepare()
         dt = time.perf_counter() - t0
-        if self.history:
-            self.history[-1] = replace(self.history[-1], t_prepare=dt)
+        if self.last is not None:
+            r = replace(self.last, t_prepare=dt)
+            if self.history and self.history[-1] is self.last:
+                self.history[-1] = r
+            self.last = r
         return dt
 
     def shift(self) -> None:
@@ -746,7 +770,7 @@ class RTINMPC:
         """One sample: :meth:`feedback` with *x0*, then :meth:`preparation` for the next."""
         self.feedback(x0, p)
         self.preparation()
-        return self.history[-1]
+        return self.last
 
     # -- converged solves --------------------------------------------------------------------
     def cost(self, X=None, U=None, S=None, SN=None) -> float:

@@ -140,7 +140,7 @@ class Simulation:
         else:
             self.env = simpy.Environment(initial_time=0)
         self.realtime = realtime
-        self.trace = Trace()
+        self.trace = Trace(clock=lambda: self.env._now)
         self._rngs: dict[str, np.random.Generator] = {}
         self._names: dict[str, Any] = {}
         self.nodes: dict[str, Any] = {}

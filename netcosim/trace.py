@@ -1,9 +1,10 @@
 """Columnar recorders that turn a run into tidy pandas DataFrames.
 
-A :class:`Trace` holds named :class:`Recorder` tables.  Appending a row is a list
-append of a tuple (cheap on the hot path); the DataFrame is built only when asked.
-Every table reports times in seconds (float), under the column ``time``; hot-path
-tables may store integer ticks and convert when the frame is built (``transform``).
+A :class:`Trace` holds named :class:`Recorder` tables.  Appending a row is one call of
+a bound method (a plain ``list.append`` in the default mode, cheap on the hot path);
+the DataFrame is built only when asked.  Every table reports times in seconds
+(float), under the column ``time``; hot-path tables may store integer ticks and
+convert when the frame is built (``transform``).
 
 Standard tables:
 
@@ -13,17 +14,37 @@ Standard tables:
 
 Other components (networks, for instance) register their own tables with
 :meth:`Trace.table`.
+
+Memory
+------
+By default every table keeps every row (``mode="keep"``), which grows without bound
+in a long run.  :meth:`Trace.configure` (one table) and :meth:`Trace.configure_all`
+(every table, including those created later) bound it, at any time, also mid-run:
+
+``keep``    every row (the default)
+``off``     no rows at all
+``ring``    the last ``rows`` rows
+``window``  the rows whose time lies in the last ``seconds`` of simulated time
+``stream``  rows written to Parquet files in ``path`` every ``row_group`` rows; only
+            the unwritten rows stay in memory; reading the table returns both
+
+and, for tables with a per-signal key (``signals``), ``every=k`` keeps every k-th
+sample of each ``(source, signal)`` (the 1st, the (k+1)-th, ...) before the mode
+applies.  See ``docs/architecture.md``, section "Traces and memory".
 """
 
 from __future__ import annotations
 
+import numbers
 import os
+from collections import deque
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Callable, Iterable, Sequence
 
 import pandas as pd
 
-from .timebase import TICKS_PER_SECOND
+from .errors import ConfigurationError, ConfigurationTypeError
+from .timebase import TICKS_PER_SECOND, to_ticks
 
 #: Task states in the schedule trace, with TrueTime's plotting level offsets.
 TASK_STATES = {"idle": 0.0, "blocked": 0.125, "ready": 0.25, "running": 0.5}
@@ -37,6 +58,13 @@ JOB_COLUMNS = (
 #: Columns of the jobs table as stored by the kernel (times in integer ticks, None if unset).
 JOB_RAW = ("node", "task", "job", "release", "deadline", "start", "finish", "execution_time",
            "deadline_miss", "budget_overrun", "killed")
+
+#: Storage modes of a table (see :meth:`Trace.configure`).
+MODES = ("keep", "off", "ring", "window", "stream")
+#: Default number of rows per Parquet file in ``stream`` mode.
+DEFAULT_ROW_GROUP = 50_000
+#: Name pattern of the Parquet files a streamed table writes into its directory.
+PART_NAME = "part-{:06d}.parquet"
 
 
 def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
@@ -61,64 +89,362 @@ def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
     return df[list(JOB_COLUMNS)]
 
 
-class Recorder:
-    """One table: a fixed tuple of column names and a list of row tuples."""
+#: ``().count(row)`` is a C-level call that ignores its argument: the ``off`` mode's append.
+_discard = ().count
 
-    __slots__ = ("name", "columns", "rows", "categorical", "providers", "transform")
+
+def _positive_int(value, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ConfigurationTypeError(f"{what} must be a positive integer, got {value!r}")
+    if not isinstance(value, numbers.Integral) or value < 1:
+        raise ConfigurationError(f"{what} must be a positive integer, got {value!r}")
+    return int(value)
+
+
+class Sink:
+    """The stable object components append rows to: ``rec.rows.append(row)``.
+
+    Components keep a reference to it (or fetch it per call); :meth:`Trace.configure`
+    swaps what :attr:`append` does, never the object, so no reference goes stale.
+    ``append`` is a single bound-method call: ``list.append`` in ``keep`` mode,
+    ``deque.append`` with ``maxlen`` in ``ring`` mode, a C no-op in ``off`` mode, a
+    small function in ``window``/``stream`` mode or with decimation.
+    """
+
+    __slots__ = ("append", "_rec")
+
+    def __init__(self, rec: "Recorder"):
+        self._rec = rec
+        self.append: Callable[[tuple], object] = rec._buf.append
+
+    def replace(self, old: tuple, new: tuple) -> None:
+        """Overwrite the row *old* (the very object appended earlier) with *new*.
+
+        Used for "one row per instant" tables (the network schedule overwrites a state
+        that lasted zero time).  If *old* is no longer held in memory (dropped by the
+        ring or the window, written to Parquet, cleared) *new* is appended instead.
+        """
+        buf = self._rec._buf
+        for i in range(len(buf) - 1, -1, -1):
+            if buf[i] is old:
+                buf[i] = new
+                return
+        self.append(new)
+
+    def __len__(self) -> int:
+        """Rows held in memory now."""
+        return len(self._rec._buf)
+
+    def __iter__(self):
+        return iter(self._rec._buf)
+
+    def __getitem__(self, i):
+        return self._rec._buf[i]
+
+
+class Recorder:
+    """One table: a fixed tuple of column names and its rows, stored according to a mode.
+
+    ``rows`` is the :class:`Sink` components append to.  ``time`` names the column the
+    ``window`` mode measures (``None``: the table has no time and cannot be windowed),
+    ``time_unit`` is ``"ticks"`` (integer picoseconds) or ``"s"``.  ``key`` names the
+    columns that identify one signal, for decimation (``every``).
+    """
+
+    __slots__ = ("name", "columns", "rows", "categorical", "providers", "transform", "time_index",
+                 "time_scale", "key_index", "mode", "options", "_buf", "_clock", "_window", "_stream",
+                 "_counts", "_latest")
 
     def __init__(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
-                 transform=None):
+                 transform=None, *, time: str | None = "time", time_unit: str = "ticks",
+                 key: Sequence[str] = (), clock: Callable[[], int] | None = None):
         self.name = name
         self.columns = tuple(columns)
-        self.rows: list[tuple] = []
         self.categorical = tuple(c for c in categorical if c in self.columns)
         #: callables returning rows that describe the current state (e.g. unfinished
         #: jobs); evaluated each time the table is read, never stored.
         self.providers: list = []
         #: optional function turning the stored frame into the reported one
         self.transform = transform
+        if time_unit not in ("ticks", "s"):
+            raise ConfigurationError(f"table {name!r}: time_unit must be 'ticks' or 's', got {time_unit!r}")
+        self.time_index = self.columns.index(time) if time is not None and time in self.columns else None
+        #: stored time units per second
+        self.time_scale = TICKS_PER_SECOND if time_unit == "ticks" else 1.0
+        self.key_index = tuple(self.columns.index(k) for k in key) if key else ()
+        self._clock = clock
+        self._buf: list | deque = []
+        self._window = None      # stored-unit width of the window
+        self._stream = None      # _Stream in stream mode
+        self._counts: dict = {}  # decimation counters per key
+        self._latest = None      # latest stored time seen (window mode, no clock)
+        self.mode = "keep"
+        self.options: dict = {}
+        self.rows = Sink(self)
 
     def append(self, row: tuple) -> None:
         self.rows.append(row)
 
     def __len__(self) -> int:
-        return len(self.rows)
+        """Rows held: in memory plus, in stream mode, already written to Parquet."""
+        n = len(self._buf)
+        if self._stream is not None:
+            n += self._stream.written
+        return n
+
+    # -- configuration --------------------------------------------------------------
+    def configure(self, mode: str = "keep", *, rows=None, seconds=None, every=1, path=None,
+                  row_group=DEFAULT_ROW_GROUP, overwrite: bool = False) -> None:
+        """Set how this table stores rows; see :meth:`Trace.configure`."""
+        w = f"trace table {self.name!r}"
+        if not isinstance(mode, str) or mode not in MODES:
+            raise ConfigurationError(f"{w}: unknown mode {mode!r}; choose one of {MODES}")
+        given = {"rows": rows, "seconds": seconds, "path": path}
+        needed = {"ring": "rows", "window": "seconds", "stream": "path"}.get(mode)
+        for opt, value in given.items():
+            if value is not None and opt != needed:
+                raise ConfigurationError(f"{w}: option {opt}={value!r} does not apply to mode={mode!r}")
+        if needed is not None and given[needed] is None:
+            raise ConfigurationError(f"{w}: mode={mode!r} needs {needed}=..., got None")
+        every = _positive_int(every, f"{w}: every")
+        if every > 1:
+            if not self.key_index:
+                raise ConfigurationError(f"{w}: every={every!r} needs a per-signal table (signals); "
+                                         f"this table has no signal key")
+            if mode == "off":
+                raise ConfigurationError(f"{w}: every={every!r} does not apply to mode='off'")
+        row_group = _positive_int(row_group, f"{w}: row_group")
+        if mode == "ring":
+            rows = _positive_int(rows, f"{w}: rows")
+        window = None
+        if mode == "window":
+            if self.time_index is None:
+                raise ConfigurationError(f"{w}: has no time column, so mode='window' cannot apply")
+            ticks = to_ticks(seconds, f"{w}: seconds")
+            if ticks <= 0:
+                raise ConfigurationError(f"{w}: seconds must be positive, got {seconds!r}")
+            window = ticks if self.time_scale == TICKS_PER_SECOND else ticks / TICKS_PER_SECOND
+        stream = None
+        if mode == "stream":
+            stream = _Stream(self, path, row_group, overwrite)
+
+        # Everything valid: switch.  Rows held in memory carry over, within the new bounds;
+        # rows already written by an earlier stream stay in their files.
+        old = list(self._buf)
+        self.mode = mode
+        self.options = {k: v for k, v in dict(rows=rows, seconds=seconds, every=every, path=path,
+                                                   row_group=row_group).items()
+                        if v is not None and (k != "every" or v != 1) and (k != "row_group" or mode == "stream")}
+        self._window, self._stream, self._latest = window, stream, None
+        if every == 1:
+            self._counts = {}
+        if mode == "ring":
+            self._buf = deque(maxlen=rows)
+        elif mode == "window":
+            self._buf = deque()
+        else:
+            self._buf = []
+        store = self._make_store()
+        self.rows.append = self._decimator(store, every) if every > 1 else store
+        if mode != "off":
+            for r in old:
+                store(r)
+
+    def _make_store(self) -> Callable[[tuple], object]:
+        mode, buf = self.mode, self._buf
+        if mode == "off":
+            return _discard
+        if mode in ("keep", "ring"):
+            return buf.append
+        if mode == "window":
+            ti, width, rec = self.time_index, self._window, self
+
+            def window_append(row, buf=buf):
+                buf.append(row)
+                t = row[ti]
+                latest = rec._latest
+                if latest is None or t > latest:
+                    rec._latest = latest = t
+                # the clock is at least the latest row time: dropping rows older than
+                # (latest - width) never drops a row the window still shows
+                if buf[0][ti] < latest - width:
+                    cut = latest - width
+                    while buf and buf[0][ti] < cut:
+                        buf.popleft()
+            return window_append
+        stream = self._stream
+        limit = stream.row_group
+
+        def stream_append(row, buf=buf):
+            buf.append(row)
+            if len(buf) >= limit:
+                stream.flush()
+        return stream_append
+
+    def _decimator(self, store, every: int):
+        counts, ki = self._counts, self.key_index
+
+        def decimate(row):
+            key = tuple(row[i] for i in ki)
+            n = counts.get(key, 0)
+            counts[key] = n + 1
+            if n % every == 0:
+                store(row)
+        return decimate
+
+    def clear(self) -> None:
+        """Drop every row recorded so far; appending goes on in the same mode.
+
+        Safe at any instant: components keep appending to the same sink, providers
+        (unfinished jobs) still report, decimation keeps its phase, and in stream mode
+        the files written so far are deleted (the directory stays, later files are valid).
+        """
+        self._buf.clear()
+        self._latest = None
+        if self._stream is not None:
+            self._stream.clear()
+
+    # -- reading --------------------------------------------------------------------
+    def _now(self):
+        """Current time in stored units: the simulation clock if known, else the latest row."""
+        if self._clock is not None:
+            now = self._clock()
+            return now if self.time_scale == TICKS_PER_SECOND else now / TICKS_PER_SECOND
+        return self._latest
 
     def frame(self) -> pd.DataFrame:
         """The table as a DataFrame (a fresh copy every call)."""
-        rows = self.rows
-        if self.providers:
-            rows = rows + [r for p in self.providers for r in p()]
-        df = pd.DataFrame.from_records(rows, columns=list(self.columns))
-        if self.transform is not None:
-            df = self.transform(df)
+        if self.mode == "off":
+            rows: list = []
+        else:
+            rows = list(self._buf)
+            if self.providers:
+                rows += [r for p in self.providers for r in p()]
+            if self.mode == "window" and rows:
+                ti = self.time_index
+                now = self._now()
+                if now is None:
+                    now = max(r[ti] for r in rows)
+                cut = now - self._window
+                rows = [r for r in rows if r[ti] >= cut]
+        df = self._stored_frame(rows)
+        if self._stream is not None and self._stream.parts:
+            written = self._stream.read()
+            df = pd.concat([written, df], ignore_index=True) if len(df) else written
         for c in self.categorical:
             df[c] = df[c].astype("category")
         return df
 
+    def _stored_frame(self, rows) -> pd.DataFrame:
+        df = pd.DataFrame.from_records(rows, columns=list(self.columns))
+        if self.transform is not None:
+            df = self.transform(df)
+        return df
+
+
+class _Stream:
+    """Parquet output of one table: one file of ``row_group`` rows per flush in *path*."""
+
+    def __init__(self, rec: Recorder, path, row_group: int, overwrite: bool):
+        w = f"trace table {rec.name!r}"
+        try:
+            import pyarrow  # noqa: F401
+            import pyarrow.parquet  # noqa: F401
+        except ImportError as exc:  # pragma: no cover - pyarrow is a dependency
+            raise ConfigurationError(f"{w}: mode='stream' needs pyarrow ({exc})") from None
+        if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)) or not os.fspath(path):
+            raise ConfigurationTypeError(f"{w}: path must be a directory path (str or os.PathLike), got {path!r}")
+        if not isinstance(overwrite, bool):
+            raise ConfigurationTypeError(f"{w}: overwrite must be True or False, got {overwrite!r}")
+        p = Path(path)
+        if p.exists() and not p.is_dir():
+            raise ConfigurationError(f"{w}: stream path {str(p)!r} exists and is not a directory")
+        try:
+            p.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigurationError(f"{w}: cannot create stream directory {str(p)!r}: {exc.strerror}") from None
+        if not os.access(p, os.W_OK):
+            raise ConfigurationError(f"{w}: stream directory {str(p)!r} is not writable")
+        old = sorted(p.glob("part-*.parquet"))
+        if old:
+            if not overwrite:
+                raise ConfigurationError(f"{w}: stream directory {str(p)!r} already holds {len(old)} Parquet "
+                                         f"file(s) ({old[0].name}, ...); pass overwrite=True or another path")
+            for f in old:
+                f.unlink()
+        self.rec, self.path, self.row_group = rec, p, row_group
+        self.parts: list[Path] = []
+        self.written = 0
+        self._next = 0
+
+    def flush(self) -> None:
+        """Write the rows held in memory as one Parquet file and forget them."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+        rec = self.rec
+        buf = rec._buf
+        if not buf:
+            return
+        rows = list(buf)
+        df = rec._stored_frame(rows)
+        f = self.path / PART_NAME.format(self._next)
+        tmp = f.with_suffix(".parquet.tmp")
+        pq.write_table(pa.Table.from_pandas(df, preserve_index=False), tmp)
+        os.replace(tmp, f)  # a part file is either complete or absent
+        self._next += 1
+        self.parts.append(f)
+        self.written += len(rows)
+        buf.clear()
+
+    def read(self) -> pd.DataFrame:
+        import pyarrow.parquet as pq
+        frames = [pq.read_table(f).to_pandas() for f in self.parts]
+        return pd.concat(frames, ignore_index=True)
+
+    def clear(self) -> None:
+        for f in self.parts:
+            f.unlink(missing_ok=True)
+        self.parts = []
+        self.written = 0
+
 
 class Trace:
-    """All recorders of one simulation."""
+    """All recorders of one simulation.
 
-    def __init__(self) -> None:
+    ``clock`` (optional) returns the current simulated time in integer ticks; the
+    ``window`` mode measures its window back from it when a table is read (without a
+    clock: back from the latest row time).  :class:`~netcosim.Simulation` passes its own.
+    """
+
+    def __init__(self, clock: Callable[[], int] | None = None) -> None:
         self._tables: dict[str, Recorder] = {}
+        self._clock = clock
+        self._default: dict | None = None
         self.signal_rec = self.table("signals", ("time", "source", "signal", "value"),
-                                     categorical=("source", "signal"))
+                                     categorical=("source", "signal"), time_unit="s", key=("source", "signal"))
         # stored in ticks, reported in seconds
         self.schedule_rec = self.table("schedule", ("time", "node", "task", "state"),
                                        categorical=("node", "task", "state"), transform=_schedule_frame)
-        self.job_rec = self.table("jobs", JOB_RAW, categorical=("node", "task"), transform=_jobs_frame)
+        self.job_rec = self.table("jobs", JOB_RAW, categorical=("node", "task"), transform=_jobs_frame,
+                                  time="release")
 
     def table(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
-              transform=None) -> Recorder:
+              transform=None, *, time: str | None = "time", time_unit: str = "ticks",
+              key: Sequence[str] = ()) -> Recorder:
         """Create (or return the existing) recorder called *name*.
 
         ``columns`` are the stored columns; ``transform(df) -> df`` (optional) derives
-        the reported frame from the stored one (e.g. ticks to seconds).
+        the reported frame from the stored one (e.g. ticks to seconds).  ``time`` is the
+        stored column the ``window`` mode measures, in ``time_unit`` (``"ticks"`` or
+        ``"s"``); ``key`` the columns naming one signal (for ``every``).  A table created
+        after :meth:`configure_all` starts in that configuration.
         """
         rec = self._tables.get(name)
         if rec is None:
-            rec = self._tables[name] = Recorder(name, columns, categorical, transform)
+            rec = self._tables[name] = Recorder(name, columns, categorical, transform, time=time,
+                                                time_unit=time_unit, key=key, clock=self._clock)
+            if self._default is not None:
+                self._apply_default(rec)
         elif rec.columns != tuple(columns):
             raise ValueError(f"table {name!r} already exists with columns {rec.columns}, "
                              f"not {tuple(columns)}")
@@ -128,11 +454,116 @@ class Trace:
     def tables(self) -> list[str]:
         return list(self._tables)
 
+    def _rec(self, name) -> Recorder:
+        if not isinstance(name, str):
+            raise ConfigurationTypeError(f"trace table name must be a string, got {name!r}")
+        try:
+            return self._tables[name]
+        except KeyError:
+            raise ConfigurationError(f"no trace table {name!r}; have {self.tables} (network tables "
+                                     f"exist once a network is created)") from None
+
+    # Memory bounds ---------------------------------------------------------------
+    def configure(self, name: str, mode: str = "keep", *, rows: int | None = None,
+                  seconds: float | None = None, every: int = 1, path: str | os.PathLike | None = None,
+                  row_group: int = DEFAULT_ROW_GROUP, overwrite: bool = False) -> None:
+        """Choose how table *name* stores its rows; callable at any time, also mid-run.
+
+        mode:
+            ``"keep"`` every row (default); ``"off"`` none; ``"ring"`` the last
+            ``rows`` rows (positive integer); ``"window"`` the rows whose time lies
+            within the last ``seconds`` (positive, >= 1e-12 s) of simulated time,
+            i.e. ``time >= now - seconds`` when the table is read (the jobs table
+            measures ``release``); ``"stream"`` rows are written as Parquet files
+            ``path/part-000000.parquet, ...`` of ``row_group`` rows each (the reported
+            columns, times in seconds, categories as strings), so at most
+            ``row_group`` rows stay in memory; reading the table returns the written
+            rows followed by those in memory.  ``overwrite=True`` deletes part files
+            an earlier run left in ``path``; otherwise they are an error.
+        every:
+            Decimation for per-signal tables (``signals``): keep the 1st, (k+1)-th,
+            (2k+1)-th, ... sample of each ``(source, signal)``; applied before the mode.
+        Rows held in memory carry over to the new mode (within its bounds); rows an
+        earlier stream wrote stay in its files but are no longer part of the table.
+        Current-state rows from providers (unfinished jobs) are added when the table is
+        read in every mode but ``off`` (in ``window`` mode only if inside the window).
+        """
+        self._rec(name).configure(mode, rows=rows, seconds=seconds, every=every, path=path,
+                                  row_group=row_group, overwrite=overwrite)
+
+    def configure_all(self, mode: str = "keep", *, rows: int | None = None, seconds: float | None = None,
+                      path: str | os.PathLike | None = None, row_group: int = DEFAULT_ROW_GROUP,
+                      overwrite: bool = False) -> None:
+        """Configure every table, and every table created later, like :meth:`configure`.
+
+        In ``stream`` mode each table streams into its own directory ``path/<table>``.
+        Tables that cannot honour the mode (``window`` on a table without a time
+        column) raise before any table is changed.
+        """
+        options = dict(rows=rows, seconds=seconds, path=path, row_group=row_group, overwrite=overwrite)
+        # validate everything first, so that a bad value changes no table
+        if mode == "stream":
+            if path is None:
+                raise ConfigurationError("configure_all: mode='stream' needs path=..., got None")
+            if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)) or not os.fspath(path):
+                raise ConfigurationTypeError(f"configure_all: path must be a directory path, got {path!r}")
+            if Path(path).exists() and not Path(path).is_dir():
+                raise ConfigurationError(f"configure_all: stream path {os.fspath(path)!r} exists and is not "
+                                         f"a directory")
+            _positive_int(row_group, "configure_all: row_group")
+        else:
+            Recorder("configure_all", ("time",)).configure(mode, rows=rows, seconds=seconds, path=path,
+                                                            row_group=row_group)
+        if mode == "window":
+            for rec in self._tables.values():
+                if rec.time_index is None:
+                    raise ConfigurationError(f"configure_all: table {rec.name!r} has no time column, "
+                                             f"so mode='window' cannot apply")
+        self._default = dict(options, mode=mode)
+        for rec in self._tables.values():
+            self._apply_default(rec)
+
+    def _apply_default(self, rec: Recorder) -> None:
+        d = dict(self._default)
+        mode = d.pop("mode")
+        if mode == "stream":
+            d["path"] = Path(d["path"]) / rec.name
+        else:
+            d["path"] = None
+        if mode != "ring":
+            d["rows"] = None
+        if mode != "window":
+            d["seconds"] = None
+        rec.configure(mode, **d)
+
+    def clear(self, name: str | None = None) -> None:
+        """Drop the rows recorded so far in table *name* (default: every table).
+
+        Safe at any instant of a run: later rows keep appending in the same mode.
+        """
+        if name is None:
+            for rec in self._tables.values():
+                rec.clear()
+        else:
+            self._rec(name).clear()
+
+    def flush(self) -> None:
+        """Write the in-memory rows of every streamed table to Parquet now."""
+        for rec in self._tables.values():
+            if rec._stream is not None:
+                rec._stream.flush()
+
+    def mode(self, name: str) -> str:
+        """The storage mode of table *name*."""
+        return self._rec(name).mode
+
+    # Reading -----------------------------------------------------------------------
     def frame(self, name: str) -> pd.DataFrame:
         try:
-            return self._tables[name].frame()
-        except KeyError:
+            rec = self._tables[name]
+        except (KeyError, TypeError):
             raise KeyError(f"no trace table {name!r}; have {self.tables}") from None
+        return rec.frame()
 
     # Convenience accessors -------------------------------------------------
     def signals(self, wide: bool = False) -> pd.DataFrame:

@@ -188,8 +188,8 @@ class Network:
         if handler is not None:
             iface.on_receive(handler)
         if self._trace_on:
-            iface._row_t, iface._row_i = self._env._now, len(self._sched_rows)
-            self._sched_rows.append((self._env._now, self.name, name, "idle"))
+            iface._row_t, iface._row = self._env._now, (self._env._now, self.name, name, "idle")
+            self._sched_rows.append(iface._row)
         self._attached(iface)
         return iface
 

@@ -101,8 +101,8 @@ class Interface:
         self.sending = 0        # transmissions of this interface on the medium (0/1)
         self.receiving = 0      # frames addressed to this interface being received
         self.state = "idle"
-        self._row_t = -1        # tick and index of this interface's last network-schedule row
-        self._row_i = -1
+        self._row_t = -1        # tick of this interface's last network-schedule row, and the row
+        self._row = None
         self._seq = 0
         self.stats = {"sent": 0, "delivered": 0, "dropped": 0, "received": 0}
 
@@ -158,13 +158,13 @@ class Interface:
             if net._trace_on:
                 # one row per node and instant: a state that lasts zero time is overwritten
                 now = net._env._now
-                rows = net._sched_rows
+                row = (now, net.name, self.name, s)
                 if self._row_t == now:
-                    rows[self._row_i] = (now, net.name, self.name, s)
+                    net._sched_rows.replace(self._row, row)
                 else:
                     self._row_t = now
-                    self._row_i = len(rows)
-                    rows.append((now, net.name, self.name, s))
+                    net._sched_rows.append(row)
+                self._row = row
 
     def __repr__(self) -> str:
         return f"<Interface {self.network.name}/{self.name}>"
