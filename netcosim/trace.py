@@ -41,10 +41,13 @@ from collections import deque
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from .errors import ConfigurationError, ConfigurationTypeError
 from .timebase import TICKS_PER_SECOND, to_ticks
+
+if TYPE_CHECKING:  # pandas is imported on first use: a simulation does not need it
+    import pandas as pd
 
 #: Task states in the schedule trace, with TrueTime's plotting level offsets.
 TASK_STATES = {"idle": 0.0, "blocked": 0.125, "ready": 0.25, "running": 0.5}
@@ -68,6 +71,7 @@ PART_NAME = "part-{:06d}.parquet"
 
 
 def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
+    import pandas as pd
     for c in cols:
         df[c] = pd.to_numeric(df[c], errors="coerce").astype(float) / TICKS_PER_SECOND
     return df
@@ -314,6 +318,7 @@ class Recorder:
 
     def frame(self) -> pd.DataFrame:
         """The table as a DataFrame (a fresh copy every call)."""
+        import pandas as pd
         if self.mode == "off":
             rows: list = []
         else:
@@ -336,6 +341,7 @@ class Recorder:
         return df
 
     def _stored_frame(self, rows) -> pd.DataFrame:
+        import pandas as pd
         df = pd.DataFrame.from_records(rows, columns=list(self.columns))
         if self.transform is not None:
             df = self.transform(df)
@@ -397,6 +403,7 @@ class _Stream:
         buf.clear()
 
     def read(self) -> pd.DataFrame:
+        import pandas as pd
         import pyarrow.parquet as pq
         frames = [pq.read_table(f).to_pandas() for f in self.parts]
         return pd.concat(frames, ignore_index=True)
@@ -576,6 +583,7 @@ class Trace:
 
     def signal(self, source: str, signal: str) -> pd.Series:
         """One logged signal as a Series indexed by time."""
+        import pandas as pd
         df = self.frame("signals")
         sel = df[(df["source"] == source) & (df["signal"] == signal)]
         if sel.empty:

@@ -28,11 +28,12 @@ length take exactly equal time, and instants that coincide on paper coincide her
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import math
 import numbers
 from typing import Any
 
-import pandas as pd
 
 from ..kernel.task import Task
 from ..sim import DISPATCH
@@ -54,6 +55,10 @@ SCHEDULE_COLUMNS = ("time", "network", "node", "state")
 NETWORK_STATES = {"idle": 0.0, "receiving": 0.125, "waiting": 0.25, "sending": 0.5}
 
 _NAN = math.nan
+
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def _frames_frame(df: pd.DataFrame) -> pd.DataFrame:

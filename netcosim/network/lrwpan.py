@@ -39,7 +39,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import comb
 
 from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import to_ticks
@@ -51,7 +50,7 @@ from .radio import LogDistance, Modulation, PathLoss, as_position, db_to_ratio, 
 
 SYMBOL = 16e-6
 _K = np.arange(2, 17)
-_COEF = (-1.0) ** _K * comb(16, _K)
+_COEF = (-1.0) ** _K * np.array([math.comb(16, int(k)) for k in _K], dtype=float)
 
 def ber_oqpsk(sinr):
     """802.15.4 2.4 GHz O-QPSK bit error rate as a function of the (linear) SINR."""

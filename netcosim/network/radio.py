@@ -31,7 +31,6 @@ import math
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy import constants, special, stats
 
 from ..errors import ConfigurationError, ConfigurationTypeError
 from .checks import check_non_negative, check_positive
@@ -40,6 +39,9 @@ from .checks import check_non_negative, check_positive
 DSSS_BANDWIDTH = 22e6
 #: 802.11b channel 1 centre frequency (Hz).
 CHANNEL_1 = 2.412e9
+#: Boltzmann constant (J/K) and speed of light (m/s), exact SI values (as scipy.constants).
+BOLTZMANN = 1.380649e-23
+SPEED_OF_LIGHT = 299792458.0
 
 
 def dbm_to_watt(dbm: float) -> float:
@@ -64,7 +66,7 @@ def thermal_noise_dbm(bandwidth: float = DSSS_BANDWIDTH, temperature: float = 29
     bandwidth = check_positive(bandwidth, "thermal noise bandwidth (Hz)")
     temperature = check_positive(temperature, "thermal noise temperature (K)")
     noise_figure_db = check_non_negative(noise_figure_db, "receiver noise_figure_db (dB)")
-    return watt_to_dbm(constants.k * temperature * bandwidth) + noise_figure_db
+    return watt_to_dbm(BOLTZMANN * temperature * bandwidth) + noise_figure_db
 
 
 # ---------------------------------------------------------------------------- path loss
@@ -99,7 +101,7 @@ class LogDistance(PathLoss):
         self.d0 = check_positive(reference_distance, "LogDistance reference_distance (m)")
         self.frequency = check_positive(frequency, "LogDistance frequency (Hz)")
         if reference_loss_db is None:
-            reference_loss_db = 20.0 * math.log10(4.0 * math.pi * self.d0 * self.frequency / constants.c)
+            reference_loss_db = 20.0 * math.log10(4.0 * math.pi * self.d0 * self.frequency / SPEED_OF_LIGHT)
         self.pl0 = check_non_negative(reference_loss_db, "LogDistance reference_loss_db (dB)")
 
     def loss_db(self, d: float) -> float:
@@ -167,6 +169,7 @@ def ber_dqpsk(ebn0):
     g = np.asarray(ebn0, dtype=float)
     a = np.sqrt(2.0 * g * (1.0 - 1.0 / math.sqrt(2.0)))
     b = np.sqrt(2.0 * g * (1.0 + 1.0 / math.sqrt(2.0)))
+    from scipy import special, stats  # loaded on first use: most runs never need it
     q1 = stats.ncx2.sf(b * b, 2, a * a)
     # I0(ab) exp(-(a^2+b^2)/2) = i0e(ab) exp(-(a-b)^2/2), numerically safe
     ber = q1 - 0.5 * special.i0e(a * b) * np.exp(-0.5 * (a - b) ** 2)
@@ -176,6 +179,7 @@ def ber_dqpsk(ebn0):
 
 def ber_cck(ebn0):
     """Simple CCK model: coherent QPSK bit error rate ``Q(sqrt(2 Eb/N0)) = 1/2 erfc(sqrt(Eb/N0))``."""
+    from scipy import special
     g = np.asarray(ebn0, dtype=float)
     ber = 0.5 * special.erfc(np.sqrt(g))
     return float(ber) if np.ndim(ebn0) == 0 else ber
