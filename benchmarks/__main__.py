@@ -1,4 +1,4 @@
-"""Run every benchmark module found in this package."""
+"""Run every benchmark module found in this package (except tools that set ``RUN_WITH_ALL = False``)."""
 
 import importlib
 import pkgutil
@@ -11,7 +11,7 @@ def main() -> None:
         if info.name.startswith("_"):
             continue
         mod = importlib.import_module(f"benchmarks.{info.name}")
-        if hasattr(mod, "main"):
+        if hasattr(mod, "main") and getattr(mod, "RUN_WITH_ALL", True):
             print(f"== benchmarks.{info.name}")
             mod.main()
 
