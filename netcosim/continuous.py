@@ -94,7 +94,7 @@ class ContinuousSystem:
 
     def __init__(self, f: Callable | None = None, h: Callable | None = None, *,
                  states: int | Sequence[str] | None = None, inputs: int | Sequence[str] | None = None,
-                 outputs: int | Sequence[str] | None = None, disturbances: int | Sequence[str] = (),
+                 outputs: int | Sequence[str] | None = None, disturbances: int | Sequence[str] | None = None,
                  events: Sequence[HybridEvent] = (), params: Any = None, name: str | None = None):
         if f is not None:
             self._f = f
