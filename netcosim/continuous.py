@@ -63,7 +63,7 @@ class HybridEvent:
 
     def __post_init__(self):
         if self.direction not in (-1, 0, 1):
-            raise ValueError(f"event {self.name!r}: direction must be -1, 0 or +1, got {self.direction!r}")
+            raise ConfigurationError(f"event {self.name!r}: direction must be -1, 0 or +1, got {self.direction!r}")
 
 
 class ContinuousSystem:
@@ -104,11 +104,18 @@ class ContinuousSystem:
                                    ("output_names", outputs, "y"), ("disturbance_names", disturbances, "d")):
             if spec is None:
                 continue
+            if isinstance(spec, (str, bool)) or not isinstance(spec, (int, np.integer, Sequence, np.ndarray)):
+                raise ConfigurationTypeError(f"{attr.split('_')[0]}s must be a count or a sequence of names, "
+                                             f"got {spec!r}")
             if isinstance(spec, (int, np.integer)):
                 if spec < 0:
-                    raise ValueError(f"number of {attr.split('_')[0]}s must be >= 0, got {spec}")
+                    raise ConfigurationError(f"number of {attr.split('_')[0]}s must be >= 0, got {spec!r}")
                 spec = tuple(f"{prefix}{i}" for i in range(spec)) if spec else ()
-            setattr(self, attr, tuple(spec))
+            spec = tuple(spec)
+            dup = sorted({n for n in spec if spec.count(n) > 1})
+            if dup:
+                raise ConfigurationError(f"{attr.split('_')[0]} names must be unique, {dup[0]!r} repeats in {spec!r}")
+            setattr(self, attr, spec)
         if events:
             self.events = tuple(events)
         if params is not None:
@@ -417,7 +424,7 @@ def _select(names: Sequence[str], key, kind: str, plant: str):
         if not -len(names) <= key < len(names):
             raise IndexError(f"plant {plant!r} has {len(names)} {kind}s, index {key} is out of range")
         return int(key), names[key]
-    raise TypeError(f"{kind} selector must be a name, index, slice or list, got {key!r}")
+    raise ConfigurationTypeError(f"{kind} selector must be a name, index, slice or list, got {key!r}")
 
 
 # ---------------------------------------------------------------------------
@@ -449,6 +456,8 @@ class PlantInstance:
                  log_interval=None, log="io"):
         system = _as_system(system, name)
         self.sim, self.name, self.system = sim, name, system
+        if x0 is None or isinstance(x0, (str, bytes, dict)):
+            raise ConfigurationTypeError(f"plant {name!r}: x0 must be {system.nx} numbers, got {x0!r}")
         try:
             x0a = np.array(x0, dtype=float).reshape(-1)
         except (TypeError, ValueError):
@@ -616,13 +625,19 @@ class PlantInstance:
         return self.x.copy()
 
     def set_input(self, index, value, label="inputs") -> None:
-        v = np.asarray(value, dtype=float)
+        """Hold *value* (in the input's units) on input(s) *index* from now on (ZOH)."""
+        if value is None or isinstance(value, (str, bytes)):
+            raise ConfigurationTypeError(f"plant {self.name!r}: input {label} takes numbers, got {value!r}")
+        try:
+            v = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigurationError(f"plant {self.name!r}: input {label} takes numbers, got {value!r}") from None
         if not np.all(np.isfinite(v)):
-            raise ValueError(f"plant {self.name!r}: non-finite value {value!r} written to input {label}")
+            raise ConfigurationError(f"plant {self.name!r}: non-finite value {value!r} written to input {label}")
         target_shape = np.shape(self.u[index])
         if v.shape != target_shape and v.size != int(np.prod(target_shape)):
-            raise ValueError(f"plant {self.name!r}: input {label} takes {int(np.prod(target_shape))} "
-                             f"value(s), got {value!r}")
+            raise ConfigurationError(f"plant {self.name!r}: input {label} takes {int(np.prod(target_shape))} "
+                                     f"value(s), got {value!r}")
         self.advance()
         if self._log_io:
             self._log(self.t)
