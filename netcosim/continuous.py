@@ -12,6 +12,17 @@ writes it, when the logger samples, or when a subscribed hybrid event is due; th
 no fixed-step loop over the horizon.  Integrators (:class:`RK4`, :class:`SolveIVP`) all
 stop exactly at I/O instants, so the choice of integrator never changes the I/O
 semantics, only the numerical error between them.
+
+Every advance is bounded: :class:`RK4` refuses an advance of more than ``max_steps``
+steps and :class:`SolveIVP` one of more than ``max_evaluations`` evaluations of ``f``,
+raising :class:`~netcosim.errors.IntegrationError` (a stiff plant under an explicit
+method is the usual cause; use ``SolveIVP(method="Radau")`` or ``"BDF"``).  A
+non-finite state, derivative or output also raises ``IntegrationError``, naming the
+plant, the signal and the time, so NaN never reaches a task or a trace.
+
+Systems of python-control (``StateSpace``, ``TransferFunction``,
+``NonlinearIOSystem``) are accepted as plants and converted by
+:mod:`netcosim.pycontrol` (imported only then).
 """
 
 from __future__ import annotations
@@ -24,7 +35,11 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from .timebase import TICKS_PER_SECOND, to_ticks
+from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NotConnectedError
+from .timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+
+__all__ = ["EVENT_REARM", "HybridEvent", "ContinuousSystem", "RK4", "SolveIVP", "SOLVE_IVP_METHODS",
+           "OutputPort", "InputPort", "PlantInstance", "NotConnectedError", "IntegrationError"]
 
 #: Events firing again within this many seconds of the previous firing of the same
 #: event are treated as the same crossing (numerical chatter at the located root).
@@ -48,7 +63,7 @@ class HybridEvent:
 
     def __post_init__(self):
         if self.direction not in (-1, 0, 1):
-            raise ValueError(f"event {self.name!r}: direction must be -1, 0 or +1, got {self.direction!r}")
+            raise ConfigurationError(f"event {self.name!r}: direction must be -1, 0 or +1, got {self.direction!r}")
 
 
 class ContinuousSystem:
@@ -60,6 +75,11 @@ class ContinuousSystem:
 
         ContinuousSystem(f=lambda t, x, u, p: ..., states=2, inputs=1, outputs=1,
                          h=lambda t, x, u, p: x[:1])
+
+    ``h`` must return ``ny`` finite values.  A subclass may also define
+    ``jac(t, x, u, params) -> d f / d x`` (an ``nx`` × ``nx`` array); the implicit
+    methods of :class:`SolveIVP` (Radau, BDF, LSODA) then use it instead of finite
+    differences.
     """
 
     name: str = "plant"
@@ -69,10 +89,12 @@ class ContinuousSystem:
     disturbance_names: tuple[str, ...] = ()
     events: tuple[HybridEvent, ...] = ()
     params: Any = None
+    #: Optional ``jac(t, x, u, params) -> df/dx``; None: the integrator estimates it.
+    jac: Callable[..., Any] | None = None
 
     def __init__(self, f: Callable | None = None, h: Callable | None = None, *,
                  states: int | Sequence[str] | None = None, inputs: int | Sequence[str] | None = None,
-                 outputs: int | Sequence[str] | None = None, disturbances: int | Sequence[str] = (),
+                 outputs: int | Sequence[str] | None = None, disturbances: int | Sequence[str] | None = None,
                  events: Sequence[HybridEvent] = (), params: Any = None, name: str | None = None):
         if f is not None:
             self._f = f
@@ -82,11 +104,18 @@ class ContinuousSystem:
                                    ("output_names", outputs, "y"), ("disturbance_names", disturbances, "d")):
             if spec is None:
                 continue
+            if isinstance(spec, (str, bool)) or not isinstance(spec, (int, np.integer, Sequence, np.ndarray)):
+                raise ConfigurationTypeError(f"{attr.split('_')[0]}s must be a count or a sequence of names, "
+                                             f"got {spec!r}")
             if isinstance(spec, (int, np.integer)):
                 if spec < 0:
-                    raise ValueError(f"number of {attr.split('_')[0]}s must be >= 0, got {spec}")
+                    raise ConfigurationError(f"number of {attr.split('_')[0]}s must be >= 0, got {spec!r}")
                 spec = tuple(f"{prefix}{i}" for i in range(spec)) if spec else ()
-            setattr(self, attr, tuple(spec))
+            spec = tuple(spec)
+            dup = sorted({n for n in spec if spec.count(n) > 1})
+            if dup:
+                raise ConfigurationError(f"{attr.split('_')[0]} names must be unique, {dup[0]!r} repeats in {spec!r}")
+            setattr(self, attr, spec)
         if events:
             self.events = tuple(events)
         if params is not None:
@@ -142,14 +171,40 @@ class RK4:
     """Classical fixed-step Runge–Kutta 4 with step *dt* seconds.
 
     The last step before an I/O instant is shortened so that every I/O instant is hit
-    exactly.  Events are located on the RK4 step map with Brent's method to ``xtol``.
+    exactly.  Events are located on the RK4 step map with Brent's method to ``xtol``
+    seconds.  Cost: 4 evaluations of ``f`` per step, ``ceil(interval / dt)`` steps per
+    advance.  Explicit: stable only if ``dt`` is below about ``2.8 / |λ|`` for the
+    fastest mode λ of the plant, so a stiff plant needs :class:`SolveIVP` with an
+    implicit method instead.
+
+    Parameters
+    ----------
+    dt: step in seconds; finite, positive and at least the time resolution
+        (:data:`netcosim.RESOLUTION` = 1e-12 s).
+    xtol: absolute tolerance in seconds on located event instants (> 0).
+    max_steps: most steps one advance (one call of :meth:`integrate`) may take; an
+        advance needing more raises :class:`~netcosim.errors.IntegrationError` before
+        any step is taken (default 10**6, about 4·10**6 evaluations of ``f``).
     """
 
-    def __init__(self, dt: float = 1e-3, xtol: float = 1e-12):
-        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
-            raise ValueError(f"RK4 step dt must be a positive number of seconds, got {dt!r}")
+    def __init__(self, dt: float = 1e-3, xtol: float = 1e-12, max_steps: int = 10**6):
+        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
+            raise ConfigurationTypeError(f"RK4 step dt must be a positive number of seconds, got {dt!r}")
+        if not (math.isfinite(dt) and dt > 0):
+            raise ConfigurationError(f"RK4 step dt must be a positive number of seconds, got {dt!r}")
+        if dt < RESOLUTION:
+            raise ConfigurationError(f"RK4 step dt={dt!r} s is below the time resolution {RESOLUTION} s "
+                                     f"(netcosim.RESOLUTION)")
+        if isinstance(xtol, bool) or not isinstance(xtol, (int, float, np.integer, np.floating)) \
+                or not (math.isfinite(xtol) and xtol > 0):
+            raise ConfigurationError(f"RK4 xtol must be a positive number of seconds, got {xtol!r}")
+        _check_count(max_steps, "RK4 max_steps")
         self.dt = float(dt)
-        self.xtol = xtol
+        self.xtol = float(xtol)
+        self.max_steps = int(max_steps)
+
+    def __repr__(self):
+        return f"RK4(dt={self.dt!r})"
 
     @staticmethod
     def step(rhs, t, x, h):
@@ -164,6 +219,11 @@ class RK4:
         dt = self.dt
         gvals = [g(t, x) for g, _ in gs] if gs else None
         n = max(1, math.ceil((t1 - t0) / dt - 1e-9))
+        if n > self.max_steps:
+            raise IntegrationError(
+                f"RK4(dt={dt!r}) would need {n} steps to advance from t={t0!r} to t={t1!r} s "
+                f"({t1 - t0!r} s), more than max_steps={self.max_steps}; use a larger dt, "
+                f"SolveIVP(method='Radau') for a stiff plant, or raise max_steps")
         for i in range(n):
             tn = t1 if i == n - 1 else t0 + (i + 1) * dt
             h = tn - t
@@ -199,32 +259,112 @@ class RK4:
         return t + s, self.step(rhs, t, x, s), j
 
 
+#: The ``method`` names ``scipy.integrate.solve_ivp`` accepts (a subclass of
+#: ``scipy.integrate.OdeSolver`` is accepted too).
+SOLVE_IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+
+#: The implicit (stiff-capable) ones among them.
+IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
+
+
+def _check_count(v, what: str) -> None:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+        raise ConfigurationTypeError(f"{what} must be a positive integer, got {v!r}")
+    if v < 1:
+        raise ConfigurationError(f"{what} must be a positive integer, got {v!r}")
+
+
+class _BudgetExceeded(Exception):
+    """Raised inside ``solve_ivp`` to stop it; turned into an IntegrationError."""
+
+
 class SolveIVP:
-    """SciPy ``solve_ivp`` with event location (default integrator).
+    """SciPy ``solve_ivp`` with event location (the default integrator).
 
     Each lazy advance is one ``solve_ivp`` call from the last I/O instant to the next,
-    stopped at the first event.  ``method``, ``rtol``, ``atol`` and ``max_step`` are
-    passed through.
+    stopped at the first event.
+
+    Parameters
+    ----------
+    method: one of :data:`SOLVE_IVP_METHODS` or an ``OdeSolver`` subclass.
+
+        * ``"RK45"`` (default), ``"DOP853"`` (tight tolerances), ``"RK23"``: explicit,
+          cheap per step, for non-stiff plants.
+        * ``"Radau"``, ``"BDF"``, ``"LSODA"``: implicit (LSODA switches
+          automatically), for **stiff** plants, whose fastest modes (|λ| of the
+          Jacobian) are far faster than the sampling and than the dynamics of
+          interest, e.g. λ = 10**6 1/s under 1 ms sampling.  An explicit method must
+          then take steps of about 1/|λ| whatever the tolerance (one simulated second
+          at λ = 10**6 takes RK45 about 10**6 steps); an implicit one takes steps set by
+          the accuracy only.  Each implicit step costs a Jacobian (``system.jac`` if the
+          system defines it, else ``nx`` extra evaluations of ``f``) and a linear solve.
+    rtol, atol: relative and absolute error tolerances (finite, > 0), per state, in
+        the state's units.
+    max_step: longest step in seconds (> 0, ``inf`` = no limit).
+    max_evaluations: most evaluations of ``f`` one advance (one call of
+        :meth:`integrate`) may use; beyond it the advance stops with
+        :class:`~netcosim.errors.IntegrationError` suggesting an implicit method.
+        Default 50 000 (about 8 000 RK45 steps).
     """
 
     def __init__(self, method: str = "RK45", rtol: float = 1e-8, atol: float = 1e-10,
-                 max_step: float = math.inf):
-        for nm, v in (("rtol", rtol), ("atol", atol)):
-            if not (isinstance(v, (int, float)) and v > 0):
-                raise ValueError(f"SolveIVP {nm} must be positive, got {v!r}")
+                 max_step: float = math.inf, max_evaluations: int = 50_000):
+        from scipy.integrate import OdeSolver
+        if isinstance(method, type) and issubclass(method, OdeSolver):
+            pass
+        elif not isinstance(method, str) or method not in SOLVE_IVP_METHODS:
+            raise ConfigurationError(f"SolveIVP method must be one of {list(SOLVE_IVP_METHODS)} "
+                                     f"(or an OdeSolver subclass), got {method!r}")
+        for nm, v in (("rtol", rtol), ("atol", atol), ("max_step", max_step)):
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                    or math.isnan(v) or v <= 0 or (nm != "max_step" and math.isinf(v)):
+                raise ConfigurationError(f"SolveIVP {nm} must be a positive number, got {v!r}")
+        _check_count(max_evaluations, "SolveIVP max_evaluations")
         self.method, self.rtol, self.atol, self.max_step = method, rtol, atol, max_step
+        self.max_evaluations = int(max_evaluations)
 
-    def integrate(self, rhs, t0, x0, t1, gs):
+    def __repr__(self):
+        m = self.method if isinstance(self.method, str) else self.method.__name__
+        return f"SolveIVP(method={m!r})"
+
+    @property
+    def implicit(self) -> bool:
+        """True for the stiff-capable methods (Radau, BDF, LSODA)."""
+        return self.method in IMPLICIT_METHODS
+
+    def integrate(self, rhs, t0, x0, t1, gs, jac=None):
         events = []
         for g, d in gs:
             ev = (lambda t, x, g=g: g(t, x))
             ev.terminal = True
             ev.direction = d
             events.append(ev)
-        sol = solve_ivp(rhs, (t0, t1), x0, method=self.method, rtol=self.rtol, atol=self.atol,
-                        max_step=self.max_step, events=events or None)
+        budget = self.max_evaluations
+        count = 0
+        reached = [t0]
+
+        def counted(t, x):
+            nonlocal count
+            count += 1
+            if count > budget:
+                raise _BudgetExceeded
+            reached[0] = t
+            return rhs(t, x)
+        kw = {"jac": jac} if jac is not None and self.implicit else {}
+        try:
+            sol = solve_ivp(counted, (t0, t1), x0, method=self.method, rtol=self.rtol, atol=self.atol,
+                            max_step=self.max_step, events=events or None, **kw)
+        except _BudgetExceeded:
+            hint = ("the plant is probably stiff (modes much faster than this interval): use "
+                    "SolveIVP(method='Radau') or SolveIVP(method='BDF')" if not self.implicit else
+                    "the plant may be very stiff or discontinuous")
+            raise IntegrationError(
+                f"{self!r} used more than max_evaluations={budget} evaluations of f advancing from "
+                f"t={t0!r} to t={t1!r} s and got only to t={reached[0]!r} s; {hint}, "
+                f"or raise max_evaluations") from None
         if sol.status == -1:
-            raise RuntimeError(f"solve_ivp failed between t={t0} and t={t1} s: {sol.message}")
+            raise IntegrationError(f"solve_ivp ({self!r}) failed between t={t0!r} and t={t1!r} s: "
+                                   f"{sol.message}")
         if sol.status == 1:
             first = None
             for j, te in enumerate(sol.t_events):
@@ -237,10 +377,6 @@ class SolveIVP:
 # ---------------------------------------------------------------------------
 # Ports
 # ---------------------------------------------------------------------------
-
-class NotConnectedError(RuntimeError):
-    """Reading or writing an I/O channel that has no plant port attached."""
-
 
 class OutputPort:
     """Read side of a plant: samples ``h(t, x, u)`` (selected outputs) at ``now``."""
@@ -288,7 +424,7 @@ def _select(names: Sequence[str], key, kind: str, plant: str):
         if not -len(names) <= key < len(names):
             raise IndexError(f"plant {plant!r} has {len(names)} {kind}s, index {key} is out of range")
         return int(key), names[key]
-    raise TypeError(f"{kind} selector must be a name, index, slice or list, got {key!r}")
+    raise ConfigurationTypeError(f"{kind} selector must be a name, index, slice or list, got {key!r}")
 
 
 # ---------------------------------------------------------------------------
@@ -300,31 +436,52 @@ class PlantInstance:
 
     Parameters
     ----------
-    x0: initial state (length ``system.nx``).
+    system: a :class:`ContinuousSystem`, or a python-control ``StateSpace``,
+        ``TransferFunction`` or ``NonlinearIOSystem`` (continuous-time), converted by
+        :func:`netcosim.pycontrol.from_control`; ``self.system`` is the converted one.
+    x0: initial state (length ``system.nx``, finite, in the states' units).
     integrator: :class:`SolveIVP` (default) or :class:`RK4`, or anything with the
         same ``integrate`` method.
     params: passed as ``params`` to f, h and events (default ``system.params``).
-    disturbance: ``d(t) -> array`` of length ``system.nd`` (default zeros).
+    disturbance: ``d(t) -> array`` of length ``system.nd`` (default zeros); ``t`` in s.
     log_interval: log states, inputs and outputs every ``log_interval`` s; when None,
         ``log="io"`` logs at every read and write instant, ``log="none"`` not at all.
+
+    A non-finite state, derivative ``f`` or output ``h`` (returned by a read or
+    logged) raises :class:`~netcosim.errors.IntegrationError` naming the plant, the
+    signals and the time.
     """
 
     def __init__(self, sim, name, system, x0, *, integrator=None, params=None, disturbance=None,
                  log_interval=None, log="io"):
+        system = _as_system(system, name)
         self.sim, self.name, self.system = sim, name, system
-        x0 = np.array(x0, dtype=float).reshape(-1)
-        if x0.shape[0] != system.nx:
-            raise ValueError(f"plant {name!r}: x0 has {x0.shape[0]} entries, the system has "
-                             f"{system.nx} states {list(system.state_names)}")
-        if not np.all(np.isfinite(x0)):
-            raise ValueError(f"plant {name!r}: x0 must be finite, got {x0.tolist()}")
-        self.x = x0
+        if x0 is None or isinstance(x0, (str, bytes, dict)):
+            raise ConfigurationTypeError(f"plant {name!r}: x0 must be {system.nx} numbers, got {x0!r}")
+        try:
+            x0a = np.array(x0, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise ConfigurationError(f"plant {name!r}: x0 must be {system.nx} numbers, got {x0!r}") from None
+        if x0a.shape[0] != system.nx:
+            raise ConfigurationError(f"plant {name!r}: x0 has {x0a.shape[0]} entries, the system has "
+                                     f"{system.nx} states {list(system.state_names)}")
+        if not np.all(np.isfinite(x0a)):
+            raise ConfigurationError(f"plant {name!r}: x0 must be finite, got {x0a.tolist()}")
+        self.x = x0a
         self.t = sim.now  # seconds the state refers to
         self.u = np.zeros(system.nu)
         self.params = system.params if params is None else params
+        if integrator is not None and not callable(getattr(integrator, "integrate", None)):
+            raise ConfigurationTypeError(f"plant {name!r}: integrator must be an RK4, a SolveIVP or an object "
+                                         f"with an integrate method, got {integrator!r}")
         self.integrator = integrator if integrator is not None else SolveIVP()
+        jac = getattr(system, "jac", None)
+        self._jac = None
+        if callable(jac) and isinstance(self.integrator, SolveIVP):
+            self._jac = lambda t, x: jac(t, x, self._u_full(t), self.params)  # noqa: E731
         if disturbance is not None and not callable(disturbance):
-            raise TypeError(f"plant {name!r}: disturbance must be a callable d(t), got {disturbance!r}")
+            raise ConfigurationTypeError(f"plant {name!r}: disturbance must be a callable d(t), "
+                                         f"got {disturbance!r}")
         if disturbance is None and system.nd:
             zeros = np.zeros(system.nd)
             disturbance = lambda t: zeros  # noqa: E731
@@ -336,7 +493,7 @@ class PlantInstance:
         self._predict_timer = None
         self.prediction_horizon = 0.05
         if log not in ("io", "none"):
-            raise ValueError(f"plant {name!r}: log must be 'io' or 'none', got {log!r}")
+            raise ConfigurationError(f"plant {name!r}: log must be 'io' or 'none', got {log!r}")
         self._log_io = log_interval is None and log == "io"
         self._rec = sim.trace.signal_rec
         self._log_names = ([f"x.{s}" for s in system.state_names] + [f"u.{s}" for s in system.input_names]
@@ -346,7 +503,7 @@ class PlantInstance:
         if log_interval is not None:
             self._log_every = to_ticks(log_interval, f"plant {name!r} log_interval")
             if self._log_every <= 0:
-                raise ValueError(f"plant {name!r}: log_interval must be positive, got {log_interval!r}")
+                raise ConfigurationError(f"plant {name!r}: log_interval must be positive, got {log_interval!r}")
             self._log_k = 0
             sim.call_at(sim.now_ticks, self._log_tick)
         sim.add_finalizer(self._finish)
@@ -367,10 +524,45 @@ class PlantInstance:
         if self.disturbance is None:
             return self.u
         d = np.asarray(self.disturbance(t), dtype=float).reshape(-1)
+        if d.shape[0] != self.system.nd:
+            raise ConfigurationError(
+                f"plant {self.name!r}: disturbance d(t={t!r}) returned {d.shape[0]} values {d.tolist()!r}, "
+                f"the system has {self.system.nd} disturbances {list(self.system.disturbance_names)}")
         return np.concatenate((self.u, d))
 
     def _rhs(self, t, x):
-        return np.asarray(self.system.f(t, x, self._u_full(t), self.params), dtype=float)
+        dx = np.asarray(self.system.f(t, x, self._u_full(t), self.params), dtype=float)
+        if not np.isfinite(dx).all():
+            bad = [n for n, v in zip(self.system.state_names, np.ravel(dx)) if not math.isfinite(v)]
+            raise IntegrationError(
+                f"plant {self.name!r}: derivative of {bad} is non-finite at t={t!r} s "
+                f"(x={np.asarray(x).tolist()!r}, u={self._u_full(t).tolist()!r}): f returned {dx.tolist()!r}")
+        return dx
+
+    def _integrate(self, t0, x0, t1, gs):
+        """One integrator call, with the plant named in any IntegrationError."""
+        try:
+            if self._jac is not None:
+                return self.integrator.integrate(self._rhs, t0, x0, t1, gs, jac=self._jac)
+            return self.integrator.integrate(self._rhs, t0, x0, t1, gs)
+        except IntegrationError as exc:
+            if str(exc).startswith(f"plant {self.name!r}"):
+                raise
+            raise IntegrationError(f"plant {self.name!r}: {exc}") from None
+
+    def _outputs(self, t) -> np.ndarray:
+        """``h(t, x, u, params)`` at the current state, checked (length ``ny``, finite)."""
+        y = np.asarray(self.system.h(t, self.x, self._u_full(t), self.params), dtype=float).reshape(-1)
+        if y.shape[0] != self.system.ny:
+            raise ConfigurationError(
+                f"plant {self.name!r}: h returned {y.shape[0]} values {y.tolist()!r} at t={t!r} s, the system "
+                f"has {self.system.ny} outputs {list(self.system.output_names)}")
+        if not np.isfinite(y).all():
+            bad = [n for n, v in zip(self.system.output_names, y.tolist()) if not math.isfinite(v)]
+            raise IntegrationError(
+                f"plant {self.name!r}: output {', '.join(bad)} is non-finite at t={t!r} s: y={y.tolist()!r} "
+                f"(x={self.x.tolist()!r}, u={self._u_full(t).tolist()!r})")
+        return y
 
     def _gs(self):
         out = []
@@ -388,10 +580,12 @@ class PlantInstance:
         t, x = self.t, self.x
         progress_guard = 0
         while t < t_target:
-            t_new, x_new, j = self.integrator.integrate(self._rhs, t, x, t_target, gs)
+            t_new, x_new, j = self._integrate(t, x, t_target, gs)
             if not np.all(np.isfinite(x_new)):
-                raise FloatingPointError(
-                    f"plant {self.name!r}: state became non-finite between t={t} and t={t_new} s: {x_new}")
+                bad = [n for n, v in zip(self.system.state_names, np.ravel(x_new)) if not math.isfinite(v)]
+                raise IntegrationError(
+                    f"plant {self.name!r}: state {bad} became non-finite between t={t!r} and t={t_new!r} s: "
+                    f"x={np.asarray(x_new).tolist()!r}")
             if j is not None:
                 ev = self.system.events[j]
                 last = self._last_fire.get(j)
@@ -406,7 +600,7 @@ class PlantInstance:
                 if t_new <= t:
                     progress_guard += 1
                     if progress_guard > 100:
-                        raise RuntimeError(f"plant {self.name!r}: event {ev.name!r} chatters at t={t} s")
+                        raise IntegrationError(f"plant {self.name!r}: event {ev.name!r} chatters at t={t} s")
                     # step over the located root on the integrator's own scale
                     t_new = min(t_target, t + EVENT_REARM)
                     x_new = x_new + (t_new - t) * self._rhs(t, x_new)
@@ -419,7 +613,7 @@ class PlantInstance:
         """Advance to now and return ``h(t, x, u)``."""
         self.advance()
         t = self.t
-        y = np.asarray(self.system.h(t, self.x, self._u_full(t), self.params), dtype=float).reshape(-1)
+        y = self._outputs(t)
         if self._log_io:
             self._log(t, y)
         return y
@@ -431,13 +625,19 @@ class PlantInstance:
         return self.x.copy()
 
     def set_input(self, index, value, label="inputs") -> None:
-        v = np.asarray(value, dtype=float)
+        """Hold *value* (in the input's units) on input(s) *index* from now on (ZOH)."""
+        if value is None or isinstance(value, (str, bytes)):
+            raise ConfigurationTypeError(f"plant {self.name!r}: input {label} takes numbers, got {value!r}")
+        try:
+            v = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigurationError(f"plant {self.name!r}: input {label} takes numbers, got {value!r}") from None
         if not np.all(np.isfinite(v)):
-            raise ValueError(f"plant {self.name!r}: non-finite value {value!r} written to input {label}")
+            raise ConfigurationError(f"plant {self.name!r}: non-finite value {value!r} written to input {label}")
         target_shape = np.shape(self.u[index])
         if v.shape != target_shape and v.size != int(np.prod(target_shape)):
-            raise ValueError(f"plant {self.name!r}: input {label} takes {int(np.prod(target_shape))} "
-                             f"value(s), got {value!r}")
+            raise ConfigurationError(f"plant {self.name!r}: input {label} takes {int(np.prod(target_shape))} "
+                                     f"value(s), got {value!r}")
         self.advance()
         if self._log_io:
             self._log(self.t)
@@ -450,7 +650,7 @@ class PlantInstance:
     # Logging -------------------------------------------------------------------
     def _log(self, t, y=None):
         if y is None:
-            y = np.asarray(self.system.h(t, self.x, self._u_full(t), self.params), dtype=float).reshape(-1)
+            y = self._outputs(t)
         vals = np.concatenate((self.x, self.u, y))
         app = self._rec.rows.append
         name = self.name
@@ -486,7 +686,7 @@ class PlantInstance:
         self.advance()
         gs = self._gs()
         t0 = self.t
-        t_end, _, j = self.integrator.integrate(self._rhs, t0, self.x.copy(), t0 + self.prediction_horizon, gs)
+        t_end, _, j = self._integrate(t0, self.x.copy(), t0 + self.prediction_horizon, gs)
         ticks = math.ceil(t_end * TICKS_PER_SECOND)
         if j is not None and ticks <= self.sim.now_ticks:
             ticks = self.sim.now_ticks + 1
@@ -496,3 +696,19 @@ class PlantInstance:
         self._predict_timer = None
         self.advance()
         self._schedule_prediction()
+
+
+def _as_system(system, name) -> ContinuousSystem:
+    """*system* itself, or the conversion of a python-control system."""
+    if isinstance(system, ContinuousSystem):
+        return system
+    from .pycontrol import from_control, is_control_system
+    if is_control_system(system):
+        return from_control(system)
+    needed = ("f", "h", "state_names", "input_names", "output_names", "nx", "nu", "nd", "ny", "events", "params")
+    missing = [a for a in needed if not hasattr(system, a)]
+    if missing:
+        raise ConfigurationTypeError(
+            f"plant {name!r}: system must be a ContinuousSystem or a python-control StateSpace, "
+            f"TransferFunction or NonlinearIOSystem, got {system!r} (it has no {', '.join(missing)})")
+    return system

@@ -6,13 +6,27 @@ State x = (angle, angular velocity), input u (V), output y = angle (rad).
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 
 from netcosim.continuous import ContinuousSystem
+from netcosim.errors import ConfigurationError, ConfigurationTypeError
+
+
+def _real(v, what: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+        raise ConfigurationTypeError(f"{what} must be a real number, got {v!r}")
+    return float(v)
 
 
 class DCServo(ContinuousSystem):
-    """DC servo ``k / (s (s + a))`` as a netcosim plant (``A``, ``B``, ``C`` for analysis)."""
+    """DC servo ``k / (s (s + a))`` as a netcosim plant (``A``, ``B``, ``C`` for analysis).
+
+    ``k``: gain in rad/(V·s²), finite and non-zero; ``a``: pole in 1/s, finite and >= 0.
+    :meth:`jac` returns ``A``, so the implicit ``SolveIVP`` methods need no finite
+    differences.
+    """
 
     name = "servo"
     state_names = ("angle", "velocity")
@@ -21,11 +35,12 @@ class DCServo(ContinuousSystem):
 
     def __init__(self, k: float = 1000.0, a: float = 1.0):
         super().__init__()
-        if not (np.isfinite(k) and k != 0):
-            raise ValueError(f"DC servo gain k must be finite and non-zero, got {k!r}")
-        if not (np.isfinite(a) and a >= 0):
-            raise ValueError(f"DC servo pole a must be finite and >= 0, got {a!r}")
-        self.k, self.a = float(k), float(a)
+        kf, af = _real(k, "DC servo gain k"), _real(a, "DC servo pole a")
+        if not (np.isfinite(kf) and kf != 0):
+            raise ConfigurationError(f"DC servo gain k must be finite and non-zero, got {k!r}")
+        if not (np.isfinite(af) and af >= 0):
+            raise ConfigurationError(f"DC servo pole a must be finite and >= 0, got {a!r}")
+        self.k, self.a = kf, af
         self.A = np.array([[0.0, 1.0], [0.0, -self.a]])
         self.B = np.array([[0.0], [self.k]])
         self.C = np.array([[1.0, 0.0]])
@@ -35,3 +50,6 @@ class DCServo(ContinuousSystem):
 
     def h(self, t, x, u, params):
         return x[:1]
+
+    def jac(self, t, x, u, params):
+        return self.A
