@@ -32,8 +32,6 @@ from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NotConnectedError
 from .timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
@@ -249,6 +247,7 @@ class RK4:
             if g0s[j] == 0.0:
                 s = 0.0
             else:
+                from scipy.optimize import brentq  # loaded on first event location
                 s = brentq(phi, 0.0, h, xtol=self.xtol)
                 # take the side after the crossing so that the event is not re-found
                 if not _crossed(g0s[j], phi(s), d):
@@ -352,6 +351,7 @@ class SolveIVP:
             return rhs(t, x)
         kw = {"jac": jac} if jac is not None and self.implicit else {}
         try:
+            from scipy.integrate import solve_ivp  # loaded on first use
             sol = solve_ivp(counted, (t0, t1), x0, method=self.method, rtol=self.rtol, atol=self.atol,
                             max_step=self.max_step, events=events or None, **kw)
         except _BudgetExceeded:
@@ -488,6 +488,8 @@ class PlantInstance:
         self.disturbance = disturbance
         self.event_counts: dict[str, int] = {e.name: 0 for e in system.events}
         self.event_log: list[tuple[float, str]] = []
+        #: the exception that stopped this plant's integration (None while it integrates fine)
+        self.failure: BaseException | None = None
         self._last_fire: dict[int, float] = {}
         self._subscribers: dict[str, list[Callable[[float], None]]] = {}
         self._predict_timer = None
@@ -580,12 +582,17 @@ class PlantInstance:
         t, x = self.t, self.x
         progress_guard = 0
         while t < t_target:
-            t_new, x_new, j = self._integrate(t, x, t_target, gs)
-            if not np.all(np.isfinite(x_new)):
-                bad = [n for n, v in zip(self.system.state_names, np.ravel(x_new)) if not math.isfinite(v)]
-                raise IntegrationError(
-                    f"plant {self.name!r}: state {bad} became non-finite between t={t!r} and t={t_new!r} s: "
-                    f"x={np.asarray(x_new).tolist()!r}")
+            try:
+                t_new, x_new, j = self._integrate(t, x, t_target, gs)
+                if not np.all(np.isfinite(x_new)):
+                    bad = [n for n, v in zip(self.system.state_names, np.ravel(x_new)) if not math.isfinite(v)]
+                    raise IntegrationError(
+                        f"plant {self.name!r}: state {bad} became non-finite between t={t!r} and t={t_new!r} s: "
+                        f"x={np.asarray(x_new).tolist()!r}")
+            except Exception as exc:
+                # the state stays the last finite one (at self.t); the end-of-run update skips this plant
+                self.failure = exc
+                raise
             if j is not None:
                 ev = self.system.events[j]
                 last = self._last_fire.get(j)
@@ -600,7 +607,8 @@ class PlantInstance:
                 if t_new <= t:
                     progress_guard += 1
                     if progress_guard > 100:
-                        raise IntegrationError(f"plant {self.name!r}: event {ev.name!r} chatters at t={t} s")
+                        self.failure = IntegrationError(f"plant {self.name!r}: event {ev.name!r} chatters at t={t} s")
+                        raise self.failure
                     # step over the located root on the integrator's own scale
                     t_new = min(t_target, t + EVENT_REARM)
                     x_new = x_new + (t_new - t) * self._rhs(t, x_new)
@@ -665,7 +673,10 @@ class PlantInstance:
         self.sim.call_at((self._log_k) * self._log_every, self._log_tick)
 
     def _finish(self):
-        self.advance()
+        """End of a run (or the failure instant of a failed one): bring the state to now,
+        unless this plant's own integration failed (its state stays the last finite one)."""
+        if self.failure is None:
+            self.advance()
 
     # Event subscription -------------------------------------------------------
     def on_event(self, name: str, callback: Callable[[float], None]) -> None:

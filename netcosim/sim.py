@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import traceback
 from time import monotonic
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -290,36 +289,18 @@ class Simulation:
                 raise
 
     def _fail(self, exc: BaseException) -> None:
-        """Mark the simulation dead, note the time on *exc*, bring the other components to now."""
+        """Mark the simulation dead, note the time on *exc*, bring the other components to now.
+
+        A plant whose own integration raised keeps its last finite state (its finalizer
+        skips it, see :attr:`PlantInstance.failure <netcosim.continuous.PlantInstance.failure>`).
+        """
         self._failure = exc
         self._failure_time = self.now
         exc.add_note(f"netcosim: run failed at t = {self.now:.9f} s")
-        culprit = _raising_component(exc)
         for fn in self._finalizers:
-            if culprit is not None and getattr(fn, "__self__", None) is culprit:
-                continue  # its state stays the last good one; advancing it would fail again
             try:
                 fn()
             except Exception as other:
                 owner = getattr(fn, "__self__", fn)
                 exc.add_note(f"netcosim: bringing {getattr(owner, 'name', owner)!r} to the failure "
                              f"instant also failed: {type(other).__name__}: {other}")
-
-
-def _raising_component(exc: BaseException) -> Any:
-    """The component (plant) whose own code raised *exc*, or None.
-
-    Walks the traceback from the raise point outwards and returns the first ``self``
-    that registered a finalizer (a :class:`~netcosim.continuous.PlantInstance`); a kernel
-    node met first means task code raised (possibly started from a plant callback), so
-    no plant is to blame.
-    """
-    from .continuous import PlantInstance
-    from .kernel.node import Node
-    for frame, _ in reversed(list(traceback.walk_tb(exc.__traceback__))):
-        owner = frame.f_locals.get("self")
-        if isinstance(owner, PlantInstance):
-            return owner
-        if isinstance(owner, Node):
-            return None
-    return None
