@@ -15,12 +15,15 @@ import numbers
 from pathlib import Path
 from typing import Sequence
 
-import matplotlib.pyplot as plt
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from .errors import ConfigurationError, ConfigurationTypeError
 from .trace import TASK_STATES
+
+if TYPE_CHECKING:  # matplotlib and pandas load when a plot is drawn, not on import
+    import pandas as pd
 
 
 def time_window(times, t_range) -> tuple[float, float]:
@@ -65,6 +68,7 @@ def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, o
     order = list(order) if order is not None else list(dict.fromkeys(labels))
     t0, t1 = time_window(df["time"].to_numpy(dtype=float), t_range)
     if ax is None:
+        import matplotlib.pyplot as plt
         fig, ax = plt.subplots(figsize=(10, 0.8 + 0.6 * len(order)))
     row_of = {}
     for row, lab in enumerate(reversed(order)):
@@ -96,6 +100,7 @@ def save(ax, path) -> None:
             ax.figure.tight_layout()
             ax.figure.savefig(path, dpi=120)
         finally:
+            import matplotlib.pyplot as plt
             plt.close(ax.figure)
 
 
@@ -129,6 +134,7 @@ def plot_signals(signals: pd.DataFrame, columns: Sequence[tuple[str, str]], *, p
                  title: str | None = None, drawstyle: str = "default"):
     """Plot selected ``(source, signal)`` pairs from the tidy signals table."""
     if ax is None:
+        import matplotlib.pyplot as plt
         fig, ax = plt.subplots(figsize=(10, 4))
     for source, signal in columns:
         sel = signals[(signals["source"] == source) & (signals["signal"] == signal)]

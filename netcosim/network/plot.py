@@ -11,11 +11,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from ..plot import plot_staircases, save
 from .base import NETWORK_STATES
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def plot_network_schedule(schedule: pd.DataFrame, *, network: str | None = None, nodes: Sequence[str] | None = None,
