@@ -107,7 +107,7 @@ def test_equal_priority_is_fifo_and_does_not_preempt():
     a = cpu.aperiodic(make("a", 2.0), priority=5, name="a")
     b = cpu.aperiodic(make("b", 1.0), priority=5, name="b")
     sim.call_at(0, a.release)
-    sim.call_at(int(0.5e12), b.release)
+    sim.call_at(0.5, b.release)
     sim.run(until=5)
     assert log == [("a", 0.0), ("b", 2.0)]
 
@@ -133,8 +133,8 @@ def test_handlers_beat_tasks_and_nonpreemptible_tasks():
     hi = cpu.aperiodic(high, priority=1, name="high")
     h = cpu.handler(irq, priority=100)  # numerically "low", still beats every task
     sim.call_at(0, lo.release)
-    sim.call_at(int(1e12), hi.release)
-    sim.call_at(int(1e12), h.release)
+    sim.call_at(1.0, hi.release)
+    sim.call_at(1.0, h.release)
     sim.run(until=10)
     # the handler preempts the non-preemptible task; the high task must wait for it
     assert order == [("low", 0.0), ("irq", 1.0), ("low-done", 3.5), ("high", 3.5)]
@@ -193,7 +193,7 @@ def test_timers_and_triggers_release_handlers():
     cpu.timer(tk, at=0.5, period=1.0)
     trig = cpu.trigger(h, min_interval=0.3)
     for t in (0.2, 0.4, 0.6, 0.65, 1.0):
-        sim.call_at(int(t * 10**12), trig.fire)
+        sim.call_at(t, trig.fire)
     sim.run(until=2.6)
     assert hits == [("irq", 0.2), ("tick", 0.5), ("irq", 0.6), ("irq", 1.0), ("tick", 1.5), ("tick", 2.5)]
     assert trig.ignored == 2  # 0.4 and 0.65 came too soon after an accepted edge
