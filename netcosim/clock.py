@@ -46,25 +46,33 @@ def _call(timer: "Timer") -> None:
 class Timer(simpy.events.Event):
     """A callback scheduled ``delay`` ticks from now that can be cancelled before it fires.
 
-    By default SimPy's firing calls ``fn()`` (or ``fn(arg)`` when *arg* is given).  With
-    ``direct=True`` SimPy calls ``fn(timer)`` itself, saving one call on hot paths (the
-    kernel's segment ends and releases); the callback then reads ``timer.arg``.
-    ``cancel()`` empties the callback list: a cancelled timer stays in SimPy's queue and
-    fires into nothing.
+    ``Timer(env, delay, callback, arg)``: SimPy's firing calls ``callback(timer)``
+    directly (the kernel's hot path: the callback reads ``timer.arg``).
+    ``Timer.call(env, delay, fn, arg)``: the firing calls ``fn()``, or ``fn(arg)`` when
+    *arg* is given (what :meth:`Simulation.call_at <netcosim.sim.Simulation.call_at>`
+    returns).  ``cancel()`` empties the callback list: a cancelled timer stays in SimPy's
+    queue and fires into nothing.
     """
 
-    __slots__ = ("fn", "arg")
+    __slots__ = ("arg", "fn")
     NOARG = _NOARG
 
-    def __init__(self, env: simpy.Environment, delay: int, fn: Callable, arg: Any = _NOARG,
-                 priority: int = NORMAL, direct: bool = False):
+    def __init__(self, env: simpy.Environment, delay: int, callback: Callable[["Timer"], None],
+                 arg: Any = None, priority: int = NORMAL):
         self.env = env
-        self.fn = fn
         self.arg = arg
         self._ok = True
         self._value = None
-        self.callbacks = [fn] if direct else [_call]
+        self.callbacks = [callback]
         env.schedule(self, priority, delay)
+
+    @classmethod
+    def call(cls, env: simpy.Environment, delay: int, fn: Callable, arg: Any = _NOARG,
+             priority: int = NORMAL) -> "Timer":
+        """A timer whose firing calls ``fn()`` (or ``fn(arg)``)."""
+        t = cls(env, delay, _call, arg, priority)
+        t.fn = fn
+        return t
 
     def cancel(self) -> None:
         """Make the timer a no-op (idempotent; harmless after it fired)."""

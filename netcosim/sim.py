@@ -131,19 +131,19 @@ class Simulation:
 
     def call_in(self, delay: float, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
         """Call ``fn()`` (``fn(arg)`` if *arg* is given) *delay* seconds from now; see :meth:`call_at`."""
-        return Timer(self.env, to_ticks(delay, "call_in delay"), fn, arg, priority)
+        return Timer.call(self.env, to_ticks(delay, "call_in delay"), fn, arg, priority)
 
     def call_at_ticks(self, ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
         """:meth:`call_at` with the instant in integer ticks (for components that compute in ticks)."""
         env = self.env
         if ticks < env._now:
             raise ValueError(f"cannot schedule in the past: {to_seconds(ticks)} s < now {self.now} s")
-        return Timer(env, ticks - env._now, fn, arg, priority)
+        return Timer.call(env, ticks - env._now, fn, arg, priority)
 
     def call_in_ticks(self, delay_ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG
                       ) -> Timer:
         """:meth:`call_in` with the delay in integer ticks (for components that compute in ticks)."""
-        return Timer(self.env, delay_ticks, fn, arg, priority)
+        return Timer.call(self.env, delay_ticks, fn, arg, priority)
 
     def timeout(self, seconds: float) -> simpy.Timeout:
         """A SimPy timeout of *seconds* (for user processes written against SimPy)."""

@@ -101,7 +101,7 @@ class Node:
             task = self._add_task(fn, "periodic", name, priority=priority, period=period, offset=offset,
                                   deadline=deadline, wcet=wcet, preemptible=preemptible, on_busy=on_busy,
                                   on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun)
-            task._release_timer = Timer(self._env, task.offset_ticks, task._periodic_release, None, direct=True)
+            task._release_timer = Timer(self._env, task.offset_ticks, task._periodic_release, None)
             task._k = 0
             task.offset_ticks += self.sim.env._now
             return task
@@ -168,7 +168,7 @@ class Node:
 
     # ------------------------------------------------------------------ kernel
     def _wake(self, callback, job, delay: int) -> Timer:
-        return Timer(self._env, delay, callback, job, direct=True)
+        return Timer(self._env, delay, callback, job)
 
     def _trace(self, task: Task, state: str) -> None:
         if task.state != state:
@@ -268,7 +268,7 @@ class Node:
         self.running = job
         if self._cs_ticks and self._loaded is not job:
             self._in_cs = True
-            Timer(self._env, self._cs_ticks, self._cs_done, job, direct=True)
+            Timer(self._env, self._cs_ticks, self._cs_done, job)
             return
         self._run(job)
 
@@ -297,7 +297,7 @@ class Node:
             self._sched.append((now, self.name, task.name, "running"))
         if job.remaining > 0:
             job.seg_start = now
-            job.seg_timer = Timer(self._env, job.remaining, self._segment_done, job, direct=True)
+            job.seg_timer = Timer(self._env, job.remaining, self._segment_done, job)
             self._arm_budget(job)
         else:
             self._step(job)
@@ -340,7 +340,7 @@ class Node:
                     if cmd > 0:
                         job.remaining = cmd
                         job.seg_start = env._now
-                        job.seg_timer = Timer(env, cmd, self._segment_done, job, direct=True)
+                        job.seg_timer = Timer(env, cmd, self._segment_done, job)
                         if job.task.wcet_ticks is not None and job.budget_timer is None:
                             self._arm_budget(job)
                         break
