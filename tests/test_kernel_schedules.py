@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from netcosim import Simulation
+from netcosim.testing import assert_schedule, running_intervals
 
 
 def run_taskset(tasks, policy, until, **node_kw):
@@ -37,6 +38,10 @@ def test_edf_c123_t468_no_miss_over_hyperperiod():
         ("t1", 0, 0, 1), ("t2", 0, 1, 3), ("t3", 0, 3, 6), ("t1", 1, 6, 7), ("t2", 1, 7, 9),
         ("t1", 2, 9, 10), ("t3", 1, 10, 13), ("t1", 3, 13, 14), ("t2", 2, 14, 16),
         ("t1", 4, 16, 17), ("t3", 2, 17, 20), ("t2", 3, 20, 22), ("t1", 5, 22, 23)]
+    assert_schedule(sim.trace.schedule(), {
+        "t1": [(0, 1), (6, 7), (9, 10), (13, 14), (16, 17), (22, 23)],
+        "t2": [(1, 3), (7, 9), (14, 16), (20, 22)],
+        "t3": [(3, 6), (10, 13), (17, 20)]}, t_range=(0, 24))
 
 
 def test_rate_monotonic_t3_misses_first_deadline_at_8():
@@ -47,6 +52,16 @@ def test_rate_monotonic_t3_misses_first_deadline_at_8():
     # hand-derived: t1 0-1, t2 1-3, t3 3-4, t1 4-5, t3 5-6, t2 6-8, t1 8-9, t3 9-10
     t3 = jobs[(jobs["task"] == "t3") & (jobs["job"] == 0)].iloc[0]
     assert t3["start"] == 3.0 and t3["response_time"] == 10.0
+    assert_schedule(sim.trace.schedule(), {"t1": [(0, 1), (4, 5), (8, 9)], "t2": [(1, 3), (6, 8)],
+                                           "t3": [(3, 4), (5, 6), (9, 10)]}, t_range=(0, 10))
+
+
+def test_assert_schedule_names_the_task_and_the_interval_that_differ():
+    sim, _ = run_taskset([(1, 4), (2, 6), (3, 8)], "rate_monotonic", until=10)
+    assert running_intervals(sim.trace.schedule(), until=10)["t1"] == [(0, 1), (4, 5), (8, 9)]
+    with pytest.raises(AssertionError, match=r"task 't3' ran in \[\(3.0, 4.0\), \(5.0, 6.0\), \(9.0, 10.0\)\], "
+                                             r"expected \[\(3.0, 6.0\)\].*interval 0"):
+        assert_schedule(sim.trace.schedule(), {"t3": [(3, 6)]}, t_range=(0, 10))
 
 
 def rta(tasks):
