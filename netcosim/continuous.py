@@ -507,7 +507,7 @@ class PlantInstance:
             if self._log_every <= 0:
                 raise ConfigurationError(f"plant {name!r}: log_interval must be positive, got {log_interval!r}")
             self._log_k = 0
-            sim.call_at(sim.now_ticks, self._log_tick)
+            sim.call_at_ticks(sim.now_ticks, self._log_tick)
         sim.add_finalizer(self._finish)
 
     # Ports -------------------------------------------------------------------
@@ -670,7 +670,7 @@ class PlantInstance:
         self.advance(ticks / TICKS_PER_SECOND)
         self._log(self.t)
         self._log_k += 1
-        self.sim.call_at((self._log_k) * self._log_every, self._log_tick)
+        self.sim.call_at_ticks((self._log_k) * self._log_every, self._log_tick)
 
     def _finish(self):
         """End of a run (or the failure instant of a failed one): bring the state to now,
@@ -701,7 +701,7 @@ class PlantInstance:
         ticks = math.ceil(t_end * TICKS_PER_SECOND)
         if j is not None and ticks <= self.sim.now_ticks:
             ticks = self.sim.now_ticks + 1
-        self._predict_timer = self.sim.call_at(ticks, self._wake)
+        self._predict_timer = self.sim.call_at_ticks(ticks, self._wake)
 
     def _wake(self):
         self._predict_timer = None

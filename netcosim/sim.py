@@ -6,7 +6,6 @@ Time inside the environment is integer ticks of 1 ps (see :mod:`netcosim.timebas
 
 from __future__ import annotations
 
-import hashlib
 import math
 from time import monotonic
 from typing import TYPE_CHECKING, Any, Callable
@@ -15,6 +14,7 @@ import numpy as np
 import simpy
 import simpy.rt
 
+from .clock import DISPATCH, NORMAL, URGENT, Timer, stable_hash  # noqa: F401 (re-exported)
 from .errors import ConfigurationError, ConfigurationTypeError, SimulationFailedError
 from .timebase import RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
 from .trace import Trace
@@ -22,52 +22,6 @@ from .trace import Trace
 if TYPE_CHECKING:
     from .continuous import PlantInstance
     from .kernel.node import Node
-
-#: SimPy priority used for kernel dispatch decisions: after every ordinary event of
-#: the same instant, so that all releases/arrivals of an instant are seen first.
-DISPATCH = 2
-#: Priority of ordinary events.
-NORMAL = simpy.events.NORMAL
-#: Priority for events that must precede ordinary ones at the same instant.
-URGENT = simpy.events.URGENT
-
-
-def stable_hash(name: str) -> int:
-    """A 64-bit hash of *name* that is the same in every process and Python run."""
-    return int.from_bytes(hashlib.blake2b(name.encode("utf-8"), digest_size=8).digest(), "little")
-
-
-class Timer(simpy.events.Event):
-    """A scheduled call ``fn()`` (or ``fn(arg)``) that can be cancelled before it fires."""
-
-    __slots__ = ("fn", "arg")
-    _NOARG = object()
-
-    def __init__(self, env: simpy.Environment, fn: Callable, arg: Any = _NOARG):
-        self.env = env
-        self.fn = fn
-        self.arg = arg
-        self._ok = True
-        self._value = None
-        self.callbacks = [self._fire]
-
-    def _fire(self, _event) -> None:
-        fn = self.fn
-        if fn is not None:
-            self.fn = None
-            if self.arg is Timer._NOARG:
-                fn()
-            else:
-                fn(self.arg)
-
-    def cancel(self) -> None:
-        """Make the timer a no-op (it stays in SimPy's queue but does nothing)."""
-        self.fn = None
-
-    @property
-    def pending(self) -> bool:
-        return self.fn is not None
-
 
 class _Realtime(simpy.rt.RealtimeEnvironment):
     """Real-time environment with a lag tolerance in seconds and lag recording.
@@ -165,22 +119,30 @@ class Simulation:
         """Real-time mode: (simulated time, lag in s) of every event processed late."""
         return list(getattr(self.env, "lags", []))
 
-    def call_at(self, ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer._NOARG
-                ) -> "Timer":
-        """Call ``fn()`` (``fn(arg)`` if *arg* is given) at absolute *ticks*; returns a cancellable Timer."""
+    def call_at(self, t: float, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
+        """Call ``fn()`` (``fn(arg)`` if *arg* is given) at absolute time *t* (s).
+
+        Returns a :class:`~netcosim.clock.Timer` whose ``cancel()`` withdraws the call.
+        ``priority`` orders calls of the same instant (:data:`~netcosim.clock.NORMAL`
+        by default; smaller first).
+        """
+        return self.call_at_ticks(to_ticks(t, "call_at time"), fn, priority, arg)
+
+    def call_in(self, delay: float, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
+        """Call ``fn()`` (``fn(arg)`` if *arg* is given) *delay* seconds from now; see :meth:`call_at`."""
+        return Timer.call(self.env, to_ticks(delay, "call_in delay"), fn, arg, priority)
+
+    def call_at_ticks(self, ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
+        """:meth:`call_at` with the instant in integer ticks (for components that compute in ticks)."""
         env = self.env
         if ticks < env._now:
             raise ValueError(f"cannot schedule in the past: {to_seconds(ticks)} s < now {self.now} s")
-        t = Timer(env, fn, arg)
-        env.schedule(t, priority, ticks - env._now)
-        return t
+        return Timer.call(env, ticks - env._now, fn, arg, priority)
 
-    def call_in(self, delay_ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer._NOARG
-                ) -> "Timer":
-        """Call ``fn()`` (``fn(arg)`` if *arg* is given) after *delay_ticks*; returns a cancellable Timer."""
-        t = Timer(self.env, fn, arg)
-        self.env.schedule(t, priority, delay_ticks)
-        return t
+    def call_in_ticks(self, delay_ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG
+                      ) -> Timer:
+        """:meth:`call_in` with the delay in integer ticks (for components that compute in ticks)."""
+        return Timer.call(self.env, delay_ticks, fn, arg, priority)
 
     def timeout(self, seconds: float) -> simpy.Timeout:
         """A SimPy timeout of *seconds* (for user processes written against SimPy)."""

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from netcosim import Simulation
+from netcosim.testing import assert_schedule, running_intervals
 
 
 def run_taskset(tasks, policy, until, **node_kw):
@@ -37,6 +38,10 @@ def test_edf_c123_t468_no_miss_over_hyperperiod():
         ("t1", 0, 0, 1), ("t2", 0, 1, 3), ("t3", 0, 3, 6), ("t1", 1, 6, 7), ("t2", 1, 7, 9),
         ("t1", 2, 9, 10), ("t3", 1, 10, 13), ("t1", 3, 13, 14), ("t2", 2, 14, 16),
         ("t1", 4, 16, 17), ("t3", 2, 17, 20), ("t2", 3, 20, 22), ("t1", 5, 22, 23)]
+    assert_schedule(sim.trace.schedule(), {
+        "t1": [(0, 1), (6, 7), (9, 10), (13, 14), (16, 17), (22, 23)],
+        "t2": [(1, 3), (7, 9), (14, 16), (20, 22)],
+        "t3": [(3, 6), (10, 13), (17, 20)]}, t_range=(0, 24))
 
 
 def test_rate_monotonic_t3_misses_first_deadline_at_8():
@@ -47,6 +52,16 @@ def test_rate_monotonic_t3_misses_first_deadline_at_8():
     # hand-derived: t1 0-1, t2 1-3, t3 3-4, t1 4-5, t3 5-6, t2 6-8, t1 8-9, t3 9-10
     t3 = jobs[(jobs["task"] == "t3") & (jobs["job"] == 0)].iloc[0]
     assert t3["start"] == 3.0 and t3["response_time"] == 10.0
+    assert_schedule(sim.trace.schedule(), {"t1": [(0, 1), (4, 5), (8, 9)], "t2": [(1, 3), (6, 8)],
+                                           "t3": [(3, 4), (5, 6), (9, 10)]}, t_range=(0, 10))
+
+
+def test_assert_schedule_names_the_task_and_the_interval_that_differ():
+    sim, _ = run_taskset([(1, 4), (2, 6), (3, 8)], "rate_monotonic", until=10)
+    assert running_intervals(sim.trace.schedule(), until=10)["t1"] == [(0, 1), (4, 5), (8, 9)]
+    with pytest.raises(AssertionError, match=r"task 't3' ran in \[\(3.0, 4.0\), \(5.0, 6.0\), \(9.0, 10.0\)\], "
+                                             r"expected \[\(3.0, 6.0\)\].*interval 0"):
+        assert_schedule(sim.trace.schedule(), {"t3": [(3, 6)]}, t_range=(0, 10))
 
 
 def rta(tasks):
@@ -107,7 +122,7 @@ def test_equal_priority_is_fifo_and_does_not_preempt():
     a = cpu.aperiodic(make("a", 2.0), priority=5, name="a")
     b = cpu.aperiodic(make("b", 1.0), priority=5, name="b")
     sim.call_at(0, a.release)
-    sim.call_at(int(0.5e12), b.release)
+    sim.call_at(0.5, b.release)
     sim.run(until=5)
     assert log == [("a", 0.0), ("b", 2.0)]
 
@@ -133,8 +148,8 @@ def test_handlers_beat_tasks_and_nonpreemptible_tasks():
     hi = cpu.aperiodic(high, priority=1, name="high")
     h = cpu.handler(irq, priority=100)  # numerically "low", still beats every task
     sim.call_at(0, lo.release)
-    sim.call_at(int(1e12), hi.release)
-    sim.call_at(int(1e12), h.release)
+    sim.call_at(1.0, hi.release)
+    sim.call_at(1.0, h.release)
     sim.run(until=10)
     # the handler preempts the non-preemptible task; the high task must wait for it
     assert order == [("low", 0.0), ("irq", 1.0), ("low-done", 3.5), ("high", 3.5)]
@@ -193,7 +208,7 @@ def test_timers_and_triggers_release_handlers():
     cpu.timer(tk, at=0.5, period=1.0)
     trig = cpu.trigger(h, min_interval=0.3)
     for t in (0.2, 0.4, 0.6, 0.65, 1.0):
-        sim.call_at(int(t * 10**12), trig.fire)
+        sim.call_at(t, trig.fire)
     sim.run(until=2.6)
     assert hits == [("irq", 0.2), ("tick", 0.5), ("irq", 0.6), ("irq", 1.0), ("tick", 1.5), ("tick", 2.5)]
     assert trig.ignored == 2  # 0.4 and 0.65 came too soon after an accepted edge

@@ -3,7 +3,6 @@
 
 from netcosim import Event, Mailbox, Monitor, Semaphore, Simulation
 
-S = 10**12  # ticks per second
 
 
 def inversion_scenario(inheritance: bool, c_medium: float):
@@ -29,8 +28,8 @@ def inversion_scenario(inheritance: bool, c_medium: float):
     H = cpu.aperiodic(high, priority=1, name="H")
     M = cpu.aperiodic(medium, priority=2, name="M")
     sim.call_at(0, L.release)
-    sim.call_at(1 * S, H.release)
-    sim.call_at(2 * S, M.release)
+    sim.call_at(1.0, H.release)
+    sim.call_at(2.0, M.release)
     sim.run(until=100)
     jobs = sim.trace.jobs().set_index("task")
     return jobs
@@ -83,9 +82,9 @@ def test_transitive_inheritance():
     tasks = {n: cpu.aperiodic(b, priority=p, name=n) for n, b, p in
              (("L", low, 4), ("M", mid, 2), ("H", high, 1), ("N", noise, 3))}
     sim.call_at(0, tasks["L"].release)
-    sim.call_at(1 * S // 2, tasks["M"].release)   # t=0.5: M takes B, blocks on A
-    sim.call_at(1 * S, tasks["H"].release)        # t=1: H blocks on B
-    sim.call_at(3 * S // 2, tasks["N"].release)   # t=1.5: N must not run before H
+    sim.call_at(0.5, tasks["M"].release)   # t=0.5: M takes B, blocks on A
+    sim.call_at(1.0, tasks["H"].release)        # t=1: H blocks on B
+    sim.call_at(1.5, tasks["N"].release)   # t=1.5: N must not run before H
     sim.run(until=100)
     jobs = sim.trace.jobs().set_index("task")
     # L: 0-0.5, 0.5-... (M blocks at 0.5), runs to 3.0; M 3-4; H 4-5; N 5-55
@@ -141,7 +140,7 @@ def test_semaphore_fifo_and_event_notify_priority():
     w1 = cpu.aperiodic(waiter("w1"), priority=5, name="w1")
     w2 = cpu.aperiodic(waiter("w2"), priority=1, name="w2")
     w1.release()
-    sim.call_at(S // 10, w2.release)
+    sim.call_at(0.1, w2.release)
 
     def signaller(ctx):
         sem.signal()
@@ -151,7 +150,7 @@ def test_semaphore_fifo_and_event_notify_priority():
         yield ctx.execute(1.0)
         assert ev.notify_all() == 1
     cpu.aperiodic(signaller, priority=9, name="sig")
-    sim.call_at(S, cpu.tasks["sig"].release)
+    sim.call_at(1.0, cpu.tasks["sig"].release)
     sim.run(until=10)
     # semaphore FIFO: w1 waited first; w2 has higher priority but FIFO order holds for wake-up,
     # and w2 then runs first because of its priority

@@ -68,7 +68,7 @@ def simulated_worst_response(rate, m, horizon=0.5):
         size, period = MESSAGES[i]
         T = int(round(period * 1e12))
         for t in range(1, int(horizon * 1e12), T):
-            sim.call_at(t, lambda i=i, size=size: nodes[i].send("sink", None, 8 * size))
+            sim.call_at_ticks(t, lambda i=i, size=size: nodes[i].send("sink", None, 8 * size))
     sim.run(horizon + 0.05)
     df = can.frames()
     mine = df[df["src"] == f"n{m}"]
@@ -114,7 +114,7 @@ def test_arbitration_by_priority_at_each_idle_instant_and_no_preemption():
     a, b, c = (can.attach(n, priority=p) for n, p in (("a", 5), ("b", 1), ("c", 3)))
     can.attach("sink", priority=0)
     a.send("sink", "A", 100)                                   # alone: starts at once
-    sim.call_at(int(10e-6 * 1e12), lambda: (c.send("sink", "C", 100), b.send("sink", "B", 100)))
+    sim.call_at(10e-6, lambda: (c.send("sink", "C", 100), b.send("sink", "B", 100)))
     sim.run(1e-3)
     st = can.frames().query("event == 'attempt_start'")
     assert list(st["src"]) == ["a", "b", "c"]
@@ -128,7 +128,7 @@ def test_frames_queued_at_the_instant_the_bus_goes_idle_compete():
     can.attach("sink", priority=0)
     lo.send("sink", None, 100)
     lo.send("sink", None, 100)
-    sim.call_at(int(100e-6 * 1e12), lambda: hi.send("sink", None, 100))   # exactly at the end of lo's frame
+    sim.call_at(100e-6, lambda: hi.send("sink", None, 100))   # exactly at the end of lo's frame
     sim.run(1e-3)
     st = can.frames().query("event == 'attempt_start'")
     assert list(st["src"]) == ["lo", "hi", "lo"]

@@ -19,7 +19,7 @@ def ev(net, event, src=None):
 
 
 def at(sim, t, fn):
-    sim.call_at(int(round(t * 1e12)), fn)
+    sim.call_at(t, fn)
 
 
 def csma(seed=0, **kw):

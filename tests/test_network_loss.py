@@ -106,7 +106,7 @@ def test_loss_on_wlan_unicast_silences_the_link_and_causes_retries():
     a = net.attach("a", position=(0.0, 0.0))
     net.attach("b", position=(10.0, 0.0), mailbox=False)
     for k in range(n):
-        sim.call_at(int(round(k * 20e-3 * 1e12)), lambda: a.send("b", None, 800))
+        sim.call_at(k * 20e-3, lambda: a.send("b", None, 800))
     sim.run(n * 20e-3 + 0.1)
     df = net.frames()
     ends = df[df["event"] == "attempt_end"]
@@ -128,7 +128,7 @@ def test_loss_on_wlan_broadcast_is_drawn_per_receiver():
     for name in ("b", "c"):
         net.attach(name, position=(10.0, 5.0), mailbox=False)
     for k in range(n):
-        sim.call_at(int(round(k * 2e-3 * 1e12)), lambda: a.send(BROADCAST, None, 800))
+        sim.call_at(k * 2e-3, lambda: a.send(BROADCAST, None, 800))
     sim.run(n * 2e-3 + 0.1)
     df = net.frames()
     for rx in ("b", "c"):

@@ -68,7 +68,7 @@ def test_busy_cca_raises_the_backoff_exponent_until_the_channel_is_clear(seed):
     b = net.attach("b", position=(10.0, 0.0))
     net.attach("c", position=(0.0, 10.0))
     a.send(BROADCAST, None, 928)                                   # 4.256 ms on the air
-    sim.call_at(int(round(0.5e-3 * 1e12)), lambda: b.send("c", None, 80))
+    sim.call_at(0.5e-3, lambda: b.send("c", None, 80))
     sim.run(0.2)
     st = frames(net, "attempt_start")
     a0 = st[st["node"] == "a"]["time"].iloc[0]
@@ -85,7 +85,7 @@ def test_channel_access_failure_after_max_csma_backoffs():
         a = net.attach("a", position=(0.0, 0.0))
         b = net.attach("b", position=(10.0, 0.0))
         a.send(BROADCAST, None, 928)
-        sim.call_at(int(round(0.5e-3 * 1e12)), lambda: b.send("a", None, 80))
+        sim.call_at(0.5e-3, lambda: b.send("a", None, 80))
         sim.run(0.2)
         st = frames(net, "attempt_start")
         a0 = st[st["node"] == "a"]["time"].iloc[0]
@@ -129,7 +129,7 @@ def test_oqpsk_ber_and_frame_success_rate():
     a = net.attach("a", position=(0.0, 0.0))
     net.attach("b", position=(10.0, 0.0))
     for k in range(n):
-        sim.call_at(int(round(k * 10e-3 * 1e12)), lambda: a.send(BROADCAST, None, L))
+        sim.call_at(k * 10e-3, lambda: a.send(BROADCAST, None, L))
     sim.run(n * 10e-3 + 0.1)
     p = (1 - ber_oqpsk(10 ** (snr_db / 10))) ** (48 + MAC_BITS + L)
     assert 0.3 < p < 0.95

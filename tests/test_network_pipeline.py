@@ -111,7 +111,7 @@ def test_network_schedule_states_for_one_frame():
     net = IdealLink(sim, "link", data_rate=1e6, pre_delay=5e-6)
     a = net.attach("a")
     net.attach("b")
-    sim.call_at(int(10e-6 * 1e12), lambda: a.send("b", None, 100))
+    sim.call_at(10e-6, lambda: a.send("b", None, 100))
     sim.run(0.001)
     sch = net.schedule()
     rows = list(zip(sch["time"].round(9), sch["node"], sch["state"]))
@@ -143,7 +143,7 @@ def test_round_robin_gives_each_node_one_frame_per_turn():
     for _ in range(2):
         nodes[2].send("sink", None, 100)      # c alone at an idle bus: it sends at once
     # a and b queue during c's frame; the token continues after c: a, b, c, a, b
-    sim.call_at(int(50e-6 * 1e12), lambda: [nodes[i].send("sink", None, 100) for i in (1, 0, 1, 0)])
+    sim.call_at(50e-6, lambda: [nodes[i].send("sink", None, 100) for i in (1, 0, 1, 0)])
     sim.run(0.01)
     st = ev(net, "attempt_start")
     assert st["src"].tolist() == ["c", "a", "b", "c", "a", "b"]
@@ -156,9 +156,9 @@ def test_tdma_suspends_frames_at_slot_end_and_resumes_in_the_next_own_slot():
     a = net.attach("a")
     b = net.attach("b")
     ma = a.send("b", None, 1500)             # 1.5 ms: 1 ms in slot 0, 0.5 ms in slot 3
-    sim.call_at(int(0.2e-3 * 1e12), lambda: b.send("a", None, 300))
-    sim.call_at(int(3.7e-3 * 1e12), lambda: a.send("b", None, 200))   # rest of a's slot after the first frame
-    sim.call_at(int(3.9e-3 * 1e12), lambda: a.send("b", None, 200))   # does not fit: 0.1 ms now, 0.1 ms in slot 6
+    sim.call_at(0.2e-3, lambda: b.send("a", None, 300))
+    sim.call_at(3.7e-3, lambda: a.send("b", None, 200))   # rest of a's slot after the first frame
+    sim.call_at(3.9e-3, lambda: a.send("b", None, 200))   # does not fit: 0.1 ms now, 0.1 ms in slot 6
     sim.run(0.02)
     assert ma.delivered == pytest.approx(3.5e-3, abs=1e-12)
     d = ev(net, "delivered")
@@ -207,7 +207,7 @@ def test_plot_network_schedule_writes_a_png(tmp_path):
     a = net.attach("a")
     net.attach("b")
     for k in range(10):
-        sim.call_at(int(k * 1e-3 * 1e12), lambda: a.send("b", None, 300))
+        sim.call_at(k * 1e-3, lambda: a.send("b", None, 300))
     sim.run(0.02)
     path = tmp_path / "net.png"
     ax = plot_network_schedule(sim.trace.frame("network_schedule"), frames=sim.trace.frame("frames"),

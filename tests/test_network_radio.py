@@ -81,7 +81,7 @@ def _capture_setup(d_weak_over_d_strong, stagger=None, strong_first=True):
     else:
         first, second = (s, wk) if strong_first else (wk, s)
         first.send(BROADCAST, None, 1000)
-        sim.call_at(int(round(stagger * 1e12)), lambda: second.send(BROADCAST, None, 1000))
+        sim.call_at(stagger, lambda: second.send(BROADCAST, None, 1000))
     sim.run(0.05)
     df = net.frames()
     at_r = df[df["node"] == "r"]
@@ -129,7 +129,7 @@ def test_frame_success_rate_equals_one_minus_ber_to_the_bits(rate):
     a = net.attach("a", position=(0.0, 0.0))
     net.attach("b", position=(10.0, 0.0))
     for k in range(n):
-        sim.call_at(int(round(k * 3e-3 * 1e12)), lambda: a.send(BROADCAST, None, L))
+        sim.call_at(k * 3e-3, lambda: a.send(BROADCAST, None, L))
     sim.run(n * 3e-3 + 0.01)
     g = 10 ** (snr_db / 10)
     if rate == 1e6:
@@ -152,7 +152,7 @@ def test_a_moving_node_leaves_the_range_where_the_formula_says():
     a = net.attach("a", position=(0.0, 0.0))
     net.attach("rover", position=lambda t: (10.0 * t, 0.0))
     for k in range(20):
-        sim.call_at(int(round(k * 1.0 * 1e12)), lambda: a.send(BROADCAST, None, 100))
+        sim.call_at(k * 1.0, lambda: a.send(BROADCAST, None, 100))
     sim.run(20.0)
     pl0 = 20 * math.log10(4 * math.pi * 2.412e9 / constants.c)
     d_max = 10 ** ((15.0 + 85.0 - pl0) / 30.0)                 # ~99 m

@@ -40,7 +40,7 @@ def test_unicast_on_idle_channel_takes_difs_plcp_data_sifs_ack(rate, preamble, s
     a = net.attach("a", position=(0.0, 0.0))
     net.attach("b", position=(30.0, 0.0))
     t_send = 0.0123
-    sim.call_at(int(round(t_send * 1e12)), lambda: a.send("b", "hello", size))
+    sim.call_at(t_send, lambda: a.send("b", "hello", size))
     sim.run(0.2)
     plcp = PLCP_LONG if preamble == "long" else PLCP_SHORT
     data_air = plcp + (MAC_BITS + size) / rate
@@ -85,7 +85,7 @@ def test_frame_queued_while_medium_busy_defers_past_nav_and_backs_off():
     c = net.attach("c", position=(0.0, 20.0))
     net.attach("b", position=(20.0, 0.0))
     a.send("b", None, 8000)
-    sim.call_at(int(1e-3 * 1e12), lambda: c.send("b", None, 800))    # a is on the air at 1 ms
+    sim.call_at(1e-3, lambda: c.send("b", None, 800))    # a is on the air at 1 ms
     sim.run(0.1)
     st = rows(net, "attempt_start")
     end_a = rows(net, "attempt_end", "a")["time"][0]
@@ -163,9 +163,9 @@ def _hidden_pair(seed, c_position, cs_range_note=""):
     net.attach("b", position=(0.0, 0.0))
     c = net.attach("c", position=c_position)
     for k in range(100):
-        sim.call_at(int(round(k * 10e-3 * 1e12)), lambda: a.send(BROADCAST, None, 1600))
+        sim.call_at(k * 10e-3, lambda: a.send(BROADCAST, None, 1600))
     for k in range(137):
-        sim.call_at(int(round((0.4e-3 + k * 7.3e-3) * 1e12)), lambda: c.send(BROADCAST, None, 1600))
+        sim.call_at((0.4e-3 + k * 7.3e-3), lambda: c.send(BROADCAST, None, 1600))
     sim.run(1.2)
     return net
 

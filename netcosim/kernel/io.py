@@ -3,12 +3,12 @@
 A channel is connected to a plant port; ``ctx.read(node.analog_in(0))`` samples the
 plant output at that instant, ``ctx.write(node.analog_out(0), u)`` sets the plant input,
 which is held (zero-order hold) until the next write.  Using a channel that is not
-connected raises :class:`~netcosim.continuous.NotConnectedError`.
+connected raises :class:`~netcosim.errors.NotConnectedError`.
 """
 
 from __future__ import annotations
 
-from ..continuous import NotConnectedError
+from ..errors import NotConnectedError
 
 
 class _Channel:

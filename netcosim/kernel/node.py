@@ -20,34 +20,14 @@ from typing import Any, Callable
 import simpy
 
 from ..errors import ConfigurationError, ConfigurationTypeError
-from ..sim import DISPATCH, NORMAL
+from ..clock import DISPATCH, Timer
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
 from .task import HANDLER, Blocking, Job, Task
+from .timers import KernelTimer, Trigger
 
 _INF = math.inf
-
-
-class _Wake(simpy.events.Event):
-    """Kernel-internal timed event calling ``callback(event)`` directly (hot path).
-
-    ``cancel()`` empties the callback list, so a cancelled wake-up fires into nothing.
-    """
-
-    __slots__ = ("job",)
-
-    def __init__(self, env, callback, job, delay: int):
-        self.env = env
-        self.job = job
-        self._ok = True
-        self._value = None
-        self.callbacks = [callback]
-        env.schedule(self, NORMAL, delay)
-
-    def cancel(self) -> None:
-        if self.callbacks:
-            self.callbacks = []
 
 
 class Node:
@@ -121,7 +101,7 @@ class Node:
             task = self._add_task(fn, "periodic", name, priority=priority, period=period, offset=offset,
                                   deadline=deadline, wcet=wcet, preemptible=preemptible, on_busy=on_busy,
                                   on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun)
-            task._release_timer = _Wake(self._env, task._periodic_release, None, task.offset_ticks)
+            task._release_timer = Timer(self._env, task.offset_ticks, task._periodic_release, None)
             task._k = 0
             task.offset_ticks += self.sim.env._now
             return task
@@ -187,8 +167,8 @@ class Node:
         return iface.send(dst, payload, size_bits, priority=priority, sender=sender)
 
     # ------------------------------------------------------------------ kernel
-    def _wake(self, callback, job, delay: int) -> _Wake:
-        return _Wake(self._env, callback, job, delay)
+    def _wake(self, callback, job, delay: int) -> Timer:
+        return Timer(self._env, delay, callback, job)
 
     def _trace(self, task: Task, state: str) -> None:
         if task.state != state:
@@ -199,7 +179,7 @@ class Node:
         task.jobs_released += 1
         job = Job(task, task.jobs_released - 1, t)
         if job.abs_deadline is not None and task.on_deadline_miss is not None:
-            job.deadline_timer = self.sim.call_at(job.abs_deadline, self._deadline_due, arg=job)
+            job.deadline_timer = self.sim.call_at_ticks(job.abs_deadline, self._deadline_due, arg=job)
         if task.active is not None:
             if task.on_busy == "skip":
                 task.skipped += 1
@@ -288,12 +268,12 @@ class Node:
         self.running = job
         if self._cs_ticks and self._loaded is not job:
             self._in_cs = True
-            _Wake(self._env, self._cs_done, job, self._cs_ticks)
+            Timer(self._env, self._cs_ticks, self._cs_done, job)
             return
         self._run(job)
 
-    def _cs_done(self, ev: _Wake) -> None:
-        job = ev.job
+    def _cs_done(self, ev: Timer) -> None:
+        job = ev.arg
         self._in_cs = False
         self._loaded = job
         if job.killed:
@@ -317,13 +297,13 @@ class Node:
             self._sched.append((now, self.name, task.name, "running"))
         if job.remaining > 0:
             job.seg_start = now
-            job.seg_timer = _Wake(self._env, self._segment_done, job, job.remaining)
+            job.seg_timer = Timer(self._env, job.remaining, self._segment_done, job)
             self._arm_budget(job)
         else:
             self._step(job)
 
-    def _segment_done(self, ev: _Wake) -> None:
-        job = ev.job
+    def _segment_done(self, ev: Timer) -> None:
+        job = ev.arg
         now = self._env._now
         job.exec_done += now - job.seg_start
         job.remaining = 0
@@ -360,7 +340,7 @@ class Node:
                     if cmd > 0:
                         job.remaining = cmd
                         job.seg_start = env._now
-                        job.seg_timer = _Wake(env, self._segment_done, job, cmd)
+                        job.seg_timer = Timer(env, cmd, self._segment_done, job)
                         if job.task.wcet_ticks is not None and job.budget_timer is None:
                             self._arm_budget(job)
                         break
@@ -483,7 +463,7 @@ class Node:
         left = task.wcet_ticks - job.exec_done
         if task.on_budget_overrun is None:
             return
-        job.budget_timer = self.sim.call_in(max(left, 0), self._budget_due, arg=job)
+        job.budget_timer = self.sim.call_in_ticks(max(left, 0), self._budget_due, arg=job)
 
     def _stop_budget(self, job: Job) -> None:
         if job.budget_timer is not None:
@@ -548,52 +528,3 @@ class Node:
 
     def __repr__(self):
         return f"<Node {self.name} {self.policy.name}>"
-
-
-class KernelTimer:
-    """Releases a task at an absolute time, optionally periodically (TrueTime's timers)."""
-
-    def __init__(self, node: Node, target: Task, at: float | None, period: float | None):
-        self.node, self.target = node, target
-        now = node.sim.env._now
-        self._start = now if at is None else to_ticks(at, f"timer for {target.name!r} at")
-        if self._start < now:
-            raise ConfigurationError(f"timer for {target.name!r}: at={at!r} s lies in the past "
-                                     f"(now {node.sim.now} s)")
-        self._period = None if period is None else to_ticks(period, f"timer for {target.name!r} period")
-        if self._period is not None and self._period <= 0:
-            raise ConfigurationError(f"timer for {target.name!r}: period must be positive, got {period!r}")
-        self._k = 0
-        self._timer = node.sim.call_at(self._start, self._fire)
-
-    def _fire(self):
-        self._k += 1
-        if self._period is not None:
-            self._timer = self.node.sim.call_at(self._start + self._k * self._period, self._fire)
-        else:
-            self._timer = None
-        self.target.release()
-
-    def cancel(self) -> None:
-        if self._timer is not None:
-            self._timer.cancel()
-            self._timer = None
-
-
-class Trigger:
-    """An external trigger edge source; ``fire()`` releases the target unless too soon."""
-
-    def __init__(self, node: Node, target: Task, min_interval: float):
-        self.node, self.target = node, target
-        self._min = to_ticks(min_interval, f"trigger for {target.name!r} min_interval")
-        self._last = None
-        self.ignored = 0
-
-    def fire(self) -> bool:
-        now = self.node.sim.env._now
-        if self._last is not None and now - self._last < self._min:
-            self.ignored += 1
-            return False
-        self._last = now
-        self.target.release()
-        return True

@@ -213,8 +213,11 @@ class Monitor:
             nxt.node._unblock(nxt, None)
 
 
-class Event:
-    """A kernel event (condition variable); optionally tied to a monitor.
+class ConditionVariable:
+    """A kernel condition variable (TrueTime's "event"); optionally tied to a monitor.
+
+    Named so as not to be confused with SimPy's ``Event`` or a plant's
+    :class:`~netcosim.continuous.HybridEvent`; ``Event`` remains an alias.
 
     With a monitor, ``wait`` must be called while holding it: the monitor is released
     during the wait and re-acquired before the waiter continues.
@@ -271,3 +274,7 @@ class Event:
         for job in waiters:
             self._wake(job)
         return len(waiters)
+
+
+#: Former name of :class:`ConditionVariable` (TrueTime calls it an event).
+Event = ConditionVariable

@@ -55,7 +55,7 @@ class Sleep(Blocking):
         node = job.node
         if self.until <= node.sim.env._now:
             return True
-        self.timer = node.sim.call_at(self.until, lambda: node._unblock(job, None))
+        self.timer = node.sim.call_at_ticks(self.until, lambda: node._unblock(job, None))
         return False
 
     def cancel(self, job):

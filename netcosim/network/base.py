@@ -36,17 +36,13 @@ from typing import Any
 
 
 from ..kernel.task import Task
-from ..sim import DISPATCH
+from ..clock import ARBITRATE  # noqa: F401 (re-exported: MAC arbitration priority)
 from ..errors import ConfigurationError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND
 from .checks import check_bits, check_count, check_duration, check_positive, check_real
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
 from .loss import as_loss_model
-
-#: SimPy priority of MAC arbitration decisions: after kernel dispatch at the same
-#: instant, so every frame queued at an instant competes in that instant's arbitration.
-ARBITRATE = DISPATCH + 1
 
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
                  "bits", "backoff")
@@ -283,7 +279,7 @@ class Network:
             self._rows.append((now, self.name, frame.id, "created", iface.name, frame.dname, iface.name, 0, "",
                                size, _NAN))
         if self._pre:
-            self.sim.call_in(self._pre, self._enqueue, arg=frame)
+            self.sim.call_in_ticks(self._pre, self._enqueue, arg=frame)
         else:
             self._enqueue(frame)
         return msg
@@ -338,7 +334,7 @@ class Network:
             return False
         delay = self._post + self._prop
         if delay:
-            self.sim.call_in(delay, self._hand_over, arg=(frame, rx))
+            self.sim.call_in_ticks(delay, self._hand_over, arg=(frame, rx))
         else:
             self._hand_over((frame, rx))
         return True

@@ -24,7 +24,7 @@ class SharedBus(Network):
     def _kick(self, iface: Interface) -> None:
         if not self._busy and not self._arb:
             self._arb = True
-            self.sim.call_in(0, self._arbitrate, ARBITRATE)
+            self.sim.call_in_ticks(0, self._arbitrate, ARBITRATE)
 
     def _choose(self) -> Interface | None:
         """The interface whose head-of-queue frame wins the bus now (None: nobody waits)."""
@@ -50,7 +50,7 @@ class SharedBus(Network):
         self._trace("attempt_start", f, iface.name, bits=f.bits)
         d = self.duration(f.bits)
         self.busy_ticks += d
-        self.sim.call_in(d, self._end, arg=f)
+        self.sim.call_in_ticks(d, self._end, arg=f)
 
     def _end(self, f) -> None:
         iface = f.src

@@ -104,10 +104,10 @@ class CSMACD(Network):
             self._active[iface] = now
             if self._abort_timer is not None:
                 self._abort_timer.cancel()
-            self._abort_timer = self.sim.call_in(self._window + self._jam, self._abort)
+            self._abort_timer = self.sim.call_in_ticks(self._window + self._jam, self._abort)
         else:
             self._active[iface] = now
-            iface.timer = self.sim.call_in(self.duration(f.bits), self._end, arg=iface)
+            iface.timer = self.sim.call_in_ticks(self.duration(f.bits), self._end, arg=iface)
 
     def _stop(self, iface):
         del self._active[iface]
@@ -145,7 +145,7 @@ class CSMACD(Network):
                 self._finish(f, False)
                 continue
             k = int(iface.rng.integers(0, 2 ** min(f.attempts, self.backoff_limit)))
-            iface.timer = self.sim.call_at(now + k * self._slot, self._try, arg=iface)
+            iface.timer = self.sim.call_at_ticks(now + k * self._slot, self._try, arg=iface)
             iface._state()
         self._medium_idle()
         for iface in colliders:
@@ -160,7 +160,7 @@ class CSMACD(Network):
     def _schedule_release(self):
         if self._waiting and not self._release_pending and not self._active:
             self._release_pending = True
-            self.sim.call_at(max(self._idle_at, self._env._now), self._release, ARBITRATE)
+            self.sim.call_at_ticks(max(self._idle_at, self._env._now), self._release, ARBITRATE)
 
     def _release(self):
         self._release_pending = False

@@ -51,7 +51,7 @@ class IdealLink(Network):
             r._state()
         iface._state()
         self._trace("attempt_start", f, iface.name, bits=f.bits)
-        self.sim.call_in(self.duration(f.bits, self.rate_of(iface)), self._end, arg=f)
+        self.sim.call_in_ticks(self.duration(f.bits, self.rate_of(iface)), self._end, arg=f)
 
     def _end(self, f) -> None:
         iface = f.src

@@ -161,7 +161,7 @@ class IEEE802154(RadioNetwork):
     def _csma_start(self, r) -> None:
         now = self._env._now
         if r.ifs_until > now:
-            self.sim.call_at(r.ifs_until, self._csma_start, arg=r)
+            self.sim.call_at_ticks(r.ifs_until, self._csma_start, arg=r)
             return
         r.nb, r.be = 0, self.min_be
         self._backoff(r)
@@ -169,12 +169,12 @@ class IEEE802154(RadioNetwork):
     def _backoff(self, r) -> None:
         k = int(r.rng.integers(0, 2 ** r.be))
         r.bo_drawn = k
-        self.sim.call_in(k * self.unit, self._cca_start, arg=r)
+        self.sim.call_in_ticks(k * self.unit, self._cca_start, arg=r)
 
     def _cca_start(self, r) -> None:
         r.in_cca = True
         r.cca_busy = bool(r.audible or r.tx is not None or r.responding)
-        self.sim.call_in(self.cca, self._cca_end, arg=r)
+        self.sim.call_in_ticks(self.cca, self._cca_end, arg=r)
 
     def _cca_end(self, r) -> None:
         r.in_cca = False
@@ -189,7 +189,7 @@ class IEEE802154(RadioNetwork):
                 return
             self._backoff(r)
             return
-        self.sim.call_in(self.turnaround, self._transmit, arg=r)
+        self.sim.call_in_ticks(self.turnaround, self._transmit, arg=r)
 
     def _transmit(self, r) -> None:
         if r.tx is not None:            # busy sending an ACK: start over
@@ -209,7 +209,7 @@ class IEEE802154(RadioNetwork):
         r.sending = 1
         r._state()
         self.medium.start(tx)
-        self.sim.call_at(tx.end, self._tx_end, arg=tx)
+        self.sim.call_at_ticks(tx.end, self._tx_end, arg=tx)
 
     def _ifs(self, bits) -> int:
         return self.sifs if bits <= 18 * 8 else self.lifs
@@ -228,7 +228,7 @@ class IEEE802154(RadioNetwork):
             else:
                 r.awaiting = tx
                 r.ack_wait = False
-                r.ack_timer = self.sim.call_in(self.ack_wait, self._ack_timeout, arg=r)
+                r.ack_timer = self.sim.call_in_ticks(self.ack_wait, self._ack_timeout, arg=r)
         else:
             r.responding -= 1
         r._state()
@@ -290,7 +290,7 @@ class IEEE802154(RadioNetwork):
                         self._deliver(f, r, apply_loss=False)
                     if self.use_ack and r.tx is None:
                         r.responding += 1
-                        self.sim.call_in(self.turnaround, self._send_ack, arg=tx)
+                        self.sim.call_in_ticks(self.turnaround, self._send_ack, arg=tx)
                 if not ok and not self.use_ack:
                     self._lost(f, r, reason)
             elif f.dst is BROADCAST:

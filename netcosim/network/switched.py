@@ -65,7 +65,7 @@ class SwitchedEthernet(Network):
             iface.sending = 1
             iface._state()
             self._trace("attempt_start", f, iface.name, bits=f.bits)
-            self.sim.call_in(self.duration(f.bits), self._at_switch, arg=f)
+            self.sim.call_in_ticks(self.duration(f.bits), self._at_switch, arg=f)
 
     def _fits(self, f, outs) -> bool:
         mem = self.switch_memory_bits
@@ -102,7 +102,7 @@ class SwitchedEthernet(Network):
         src._state()
         self._finish(f, True)
         if self._switch_delay:
-            self.sim.call_in(self._switch_delay, self._forward, arg=(f, outs))
+            self.sim.call_in_ticks(self._switch_delay, self._forward, arg=(f, outs))
         else:
             self._forward((f, outs))
         self._kick(src)
@@ -120,7 +120,7 @@ class SwitchedEthernet(Network):
         o.port_current = f
         o.receiving += 1
         o._state()
-        self.sim.call_in(self.duration(f.bits), self._port_end, arg=o)
+        self.sim.call_in_ticks(self.duration(f.bits), self._port_end, arg=o)
 
     def _port_end(self, o):
         f = o.port_current

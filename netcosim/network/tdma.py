@@ -85,7 +85,7 @@ class TDMA(Network):
         now = self._env._now
         start, end = self.window(iface, now)
         if start > now:
-            iface.timer = self.sim.call_at(start, self._resume, arg=iface)
+            iface.timer = self.sim.call_at_ticks(start, self._resume, arg=iface)
             iface._state()
             return
         f = iface.current
@@ -102,7 +102,7 @@ class TDMA(Network):
         for r in self.receivers(f):
             r.receiving += 1
             r._state()
-        iface.timer = self.sim.call_in(run, self._segment_end, arg=iface)
+        iface.timer = self.sim.call_in_ticks(run, self._segment_end, arg=iface)
 
     def _segment_end(self, iface):
         iface.timer = None

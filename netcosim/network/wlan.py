@@ -294,7 +294,7 @@ class WLAN80211b(RadioNetwork):
         if self._acc_timer is not None:
             self._acc_timer.cancel()
         self._acc_timer_at = at
-        self._acc_timer = self.sim.call_at(at, self._access_due)
+        self._acc_timer = self.sim.call_at_ticks(at, self._access_due)
 
     def _access_due(self) -> None:
         """Every station whose access instant is now transmits (in station order)."""
@@ -358,7 +358,7 @@ class WLAN80211b(RadioNetwork):
         r.mac_busy = True
         r._state()
         self.medium.start(tx)
-        self.sim.call_at(tx.end, self._tx_end, arg=tx)
+        self.sim.call_at_ticks(tx.end, self._tx_end, arg=tx)
 
     def _tx_end(self, tx) -> None:
         r = tx.src
@@ -373,7 +373,7 @@ class WLAN80211b(RadioNetwork):
             else:
                 r.awaiting = tx
                 r.ack_wait = False
-                r.ack_timer = self.sim.call_at(tx.end + self.ack_timeout, self._ack_timeout, arg=r)
+                r.ack_timer = self.sim.call_at_ticks(tx.end + self.ack_timeout, self._ack_timeout, arg=r)
         else:
             r.responding -= 1
         r._state()
@@ -444,7 +444,7 @@ class WLAN80211b(RadioNetwork):
                             self._deliver(f, r, apply_loss=False)
                         if r.tx is None:
                             r.responding += 1
-                            self.sim.call_in(self.sifs, self._send_ack, arg=tx)
+                            self.sim.call_in_ticks(self.sifs, self._send_ack, arg=tx)
                 elif dst is BROADCAST:
                     self._deliver(f, r, apply_loss=True)
                 else:
@@ -454,7 +454,7 @@ class WLAN80211b(RadioNetwork):
                         waiting = self._nav.get(nav)
                         if waiting is None:
                             waiting = self._nav[nav] = []
-                            self.sim.call_at(nav, self._nav_due, arg=nav)
+                            self.sim.call_at_ticks(nav, self._nav_due, arg=nav)
                         waiting.append(r)
             else:
                 if locked and self.use_eifs:

@@ -1,0 +1,68 @@
+"""Kernel timers and external triggers (TrueTime's ``ttCreateTimer`` and trigger inputs).
+
+A :class:`KernelTimer` releases a task at an absolute time, optionally periodically;
+a :class:`Trigger` releases a task on each external edge, ignoring edges closer than a
+minimum interval.  Create them with :meth:`Node.timer <netcosim.kernel.node.Node.timer>`
+and :meth:`Node.trigger <netcosim.kernel.node.Node.trigger>`.  Times in seconds at the
+API, integer ticks inside.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..errors import ConfigurationError
+from ..timebase import to_ticks
+
+if TYPE_CHECKING:
+    from .node import Node
+    from .task import Task
+
+
+class KernelTimer:
+    """Releases a task at an absolute time, optionally periodically (TrueTime's timers)."""
+
+    def __init__(self, node: Node, target: Task, at: float | None, period: float | None):
+        self.node, self.target = node, target
+        now = node.sim.env._now
+        self._start = now if at is None else to_ticks(at, f"timer for {target.name!r} at")
+        if self._start < now:
+            raise ConfigurationError(f"timer for {target.name!r}: at={at!r} s lies in the past "
+                                     f"(now {node.sim.now} s)")
+        self._period = None if period is None else to_ticks(period, f"timer for {target.name!r} period")
+        if self._period is not None and self._period <= 0:
+            raise ConfigurationError(f"timer for {target.name!r}: period must be positive, got {period!r}")
+        self._k = 0
+        self._timer = node.sim.call_at_ticks(self._start, self._fire)
+
+    def _fire(self):
+        self._k += 1
+        if self._period is not None:
+            self._timer = self.node.sim.call_at_ticks(self._start + self._k * self._period, self._fire)
+        else:
+            self._timer = None
+        self.target.release()
+
+    def cancel(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+
+
+class Trigger:
+    """An external trigger edge source; ``fire()`` releases the target unless too soon."""
+
+    def __init__(self, node: Node, target: Task, min_interval: float):
+        self.node, self.target = node, target
+        self._min = to_ticks(min_interval, f"trigger for {target.name!r} min_interval")
+        self._last = None
+        self.ignored = 0
+
+    def fire(self) -> bool:
+        now = self.node.sim.env._now
+        if self._last is not None and now - self._last < self._min:
+            self.ignored += 1
+            return False
+        self._last = now
+        self.target.release()
+        return True

@@ -1,0 +1,118 @@
+"""The layering of ``netcosim/``: no import cycle, and the framework knows nothing of
+the plants, controllers or experiments built on it.
+
+Imports are read from the source with :mod:`ast`, including those inside functions
+(a lazy import is still a dependency), except those under ``if TYPE_CHECKING:`` (type
+annotations only).  A package's ``__init__`` re-exporting its
+submodules is not counted as a dependency of those submodules on the package.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PKG = ROOT / "netcosim"
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _imports(path: Path) -> set[str]:
+    """Absolute names of every module *path* imports (at module level or inside a function)."""
+    name = _module_name(path)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out: set[str] = set()
+    tree = ast.parse(path.read_text(), str(path))
+    typing_only = {id(n) for top in ast.walk(tree) if isinstance(top, ast.If)
+                   and isinstance(top.test, ast.Name) and top.test.id == "TYPE_CHECKING"
+                   for stmt in top.body for n in ast.walk(stmt)}
+    for node in ast.walk(tree):
+        if id(node) in typing_only:
+            continue
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - (node.level - 1)]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            out.add(mod)
+            out.update(f"{mod}.{a.name}" for a in node.names)  # `from pkg import submodule`
+    return out
+
+
+def _graph() -> dict[str, set[str]]:
+    modules = {_module_name(p): p for p in PKG.rglob("*.py")}
+    graph: dict[str, set[str]] = {}
+    for name, path in modules.items():
+        deps = {d for d in _imports(path) if d in modules and d != name}
+        if path.name != "__init__.py":
+            # importing netcosim.x.y runs netcosim/__init__ and netcosim/x/__init__: not a real edge back
+            deps = {d for d in deps if not name.startswith(d + ".")}
+        graph[name] = deps
+    return graph
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+    counter = [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_the_graph_is_read_from_the_code():
+    g = _graph()
+    assert "netcosim.clock" in g["netcosim.kernel.node"]
+    assert "netcosim.kernel.node" in g["netcosim.sim"]  # Simulation.node builds a Node (lazily)
+
+
+def test_no_import_cycle_in_netcosim():
+    assert _cycles(_graph()) == []
+
+
+def test_the_cycle_detector_finds_a_cycle():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == [["a", "b", "c"]]
+
+
+def test_netcosim_does_not_import_the_applications():
+    offenders = {}
+    for path in PKG.rglob("*.py"):
+        bad = {d for d in _imports(path) if d.split(".")[0] in ("plants", "controllers", "experiments")}
+        if bad:
+            offenders[_module_name(path)] = sorted(bad)
+    assert offenders == {}
