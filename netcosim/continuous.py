@@ -21,7 +21,7 @@ non-finite state, derivative or output also raises ``IntegrationError``, naming 
 plant, the signal and the time, so NaN never reaches a task or a trace.
 
 Systems of python-control (``StateSpace``, ``TransferFunction``,
-``NonlinearIOSystem``) are accepted as plants and converted by
+``NonlinearIOSystem``) are accepted by ``Simulation.plant``, which converts them with
 :mod:`netcosim.pycontrol` (imported only then).
 """
 
@@ -436,9 +436,9 @@ class PlantInstance:
 
     Parameters
     ----------
-    system: a :class:`ContinuousSystem`, or a python-control ``StateSpace``,
-        ``TransferFunction`` or ``NonlinearIOSystem`` (continuous-time), converted by
-        :func:`netcosim.pycontrol.from_control`; ``self.system`` is the converted one.
+    system: a :class:`ContinuousSystem` (:meth:`Simulation.plant
+        <netcosim.sim.Simulation.plant>` converts python-control systems with
+        :func:`netcosim.pycontrol.from_control` before they get here).
     x0: initial state (length ``system.nx``, finite, in the states' units).
     integrator: :class:`SolveIVP` (default) or :class:`RK4`, or anything with the
         same ``integrate`` method.
@@ -710,12 +710,9 @@ class PlantInstance:
 
 
 def _as_system(system, name) -> ContinuousSystem:
-    """*system* itself, or the conversion of a python-control system."""
+    """*system* itself, if it has what a plant needs."""
     if isinstance(system, ContinuousSystem):
         return system
-    from .pycontrol import from_control, is_control_system
-    if is_control_system(system):
-        return from_control(system)
     needed = ("f", "h", "state_names", "input_names", "output_names", "nx", "nu", "nd", "ny", "events", "params")
     missing = [a for a in needed if not hasattr(system, a)]
     if missing:

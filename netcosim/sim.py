@@ -192,10 +192,16 @@ class Simulation:
               log_interval: float | None = None, log: str = "io") -> "PlantInstance":
         """Add a continuous system integrated lazily alongside the discrete world.
 
-        See :class:`netcosim.continuous.PlantInstance` for the arguments.
+        *system* is a :class:`~netcosim.continuous.ContinuousSystem`, or a python-control
+        ``StateSpace``, ``TransferFunction`` or ``NonlinearIOSystem`` (converted by
+        :func:`netcosim.pycontrol.from_control`).  See
+        :class:`netcosim.continuous.PlantInstance` for the other arguments.
         """
         from .continuous import PlantInstance
+        from .pycontrol import from_control, is_control_system
         name = name or getattr(system, "name", None) or f"plant{len(self.plants)}"
+        if is_control_system(system):
+            system = from_control(system)
         p = PlantInstance(self, name, system, x0, integrator=integrator, params=params,
                           disturbance=disturbance, log_interval=log_interval, log=log)
         self._register(name, p)

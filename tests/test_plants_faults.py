@@ -68,7 +68,7 @@ class TableDerivative(ContinuousSystem):
 def test_non_finite_derivative_raises_integration_error_naming_the_state(integrator):
     sim = Simulation()
     p = sim.plant(TableDerivative(), x0=[0.0], name="p", integrator=integrator, log="none")
-    sim.call_at(3 * 10**12, lambda: p.state)
+    sim.call_at(3.0, lambda: p.state)
     with pytest.raises(IntegrationError, match=r"plant 'p': derivative of \['x'\] is non-finite at t="):
         sim.run(until=5.0)
 
@@ -119,7 +119,7 @@ def _radau_run(system):
     times = [0.5e-3 * k for k in range(1, 21)]  # every 0.5 ms up to 10 ms
     got = []
     for t in times:
-        sim.call_at(round(t * 1e12), lambda: got.append(p.output(0).read()))
+        sim.call_at(t, lambda: got.append(p.output(0).read()))
     sim.run(until=0.011)
     exact = np.array([fast_lag_exact(t) for t in times])
     lagless = np.sin(OMEGA * np.array(times))
@@ -151,7 +151,7 @@ def test_radau_uses_the_jacobian_the_system_provides():
 def test_rk4_refuses_an_advance_needing_more_than_max_steps_before_stepping():
     system = FastLag()
     sim, p = _fast_lag_sim(system, RK4(dt=1e-12))
-    sim.call_at(10**9, lambda: p.state)
+    sim.call_at(1e-3, lambda: p.state)
     with pytest.raises(IntegrationError,
                        match=r"plant 'lag': RK4\(dt=1e-12\) would need 1000000000 steps .*from t=0\.0 to "
                              r"t=0\.001 s.*max_steps=1000000"):
