@@ -1,0 +1,30 @@
+"""Thesis ch. 2: the landing of a tethered UAV with NMPC and a two-layer controller.
+
+Modules, from the problem to the scenario:
+
+=========================================  ===============================================
+:mod:`~controllers.landing.ocp`            the landing OCP of §2.3 and its RTI NMPC (§2.4)
+:mod:`~controllers.landing.feedback_linearization`  low-level controller of §2.5
+:mod:`~controllers.landing.interpolation`  the C² reference interpolator of Fig. 2.6
+:mod:`~controllers.landing.tasks`          both controllers as netcosim tasks (§2.6.2)
+=========================================  ===============================================
+
+Every public name is re-exported here, so ``from controllers.landing import
+LandingConfig, landing_nmpc, run_landing`` works whatever module holds it.  The
+former modules ``controllers.landing_tasks`` and ``controllers.feedback_linearization``
+remain as aliases.
+"""
+
+from .feedback_linearization import FeedbackLinearization, PIDGains, SingularityError
+from .interpolation import C2Interpolator, quintic_coefficients
+from .ocp import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
+from .tasks import DEFAULT_FL_GAINS, SIM_PARAMS, LandingRun, LandingTiming, landing_metrics, run_landing
+
+__all__ = [
+    # ocp
+    "LandingConfig", "landing_ocp", "landing_nmpc", "sigmoid", "initial_state",
+    # feedback linearization and interpolation
+    "FeedbackLinearization", "PIDGains", "SingularityError", "C2Interpolator", "quintic_coefficients",
+    # tasks
+    "LandingTiming", "LandingRun", "run_landing", "landing_metrics", "SIM_PARAMS", "DEFAULT_FL_GAINS",
+]
