@@ -65,6 +65,17 @@ class PIDGains:
         return cls(kp=3.0 * omega ** 2, kd=3.0 * omega, ki=omega ** 3)
 
 
+def _check_sampling(dt, cos_min, on_singular) -> None:
+    """Sampling period *dt* > 0 [s], singularity threshold *cos_min* in (0, 1) and
+    *on_singular* ``"raise"`` or ``"saturate"``."""
+    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+        raise ValueError(f"sampling period dt must be a positive number of seconds, got {dt!r}")
+    if not (isinstance(cos_min, (int, float)) and 0 < cos_min < 1):
+        raise ValueError(f"cos_min must lie in (0, 1), got {cos_min!r}")
+    if on_singular not in ("raise", "saturate"):
+        raise ValueError(f"on_singular must be 'raise' or 'saturate', got {on_singular!r}")
+
+
 class FeedbackLinearization:
     """Feedback linearization + PID/feed-forward for the force model (2.3).
 
@@ -89,12 +100,7 @@ class FeedbackLinearization:
         self.params = p = TetheredUAVParams() if params is None else params
         if not isinstance(p, TetheredUAVParams):
             raise TypeError(f"params must be TetheredUAVParams, got {params!r}")
-        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
-            raise ValueError(f"sampling period dt must be a positive number of seconds, got {dt!r}")
-        if not (isinstance(cos_min, (int, float)) and 0 < cos_min < 1):
-            raise ValueError(f"cos_min must lie in (0, 1), got {cos_min!r}")
-        if on_singular not in ("raise", "saturate"):
-            raise ValueError(f"on_singular must be 'raise' or 'saturate', got {on_singular!r}")
+        _check_sampling(dt, cos_min, on_singular)
         self.dt = float(dt)
         self.gains_phi = gains_phi or PIDGains.triple_pole(25.0)
         self.gains_theta = gains_theta or PIDGains.triple_pole(25.0)
