@@ -3,6 +3,6 @@
 The code lives in the package :mod:`controllers.landing`.
 """
 
-from .landing.tasks import DEFAULT_FL_GAINS, SIM_PARAMS, LandingRun, LandingTiming, landing_metrics, run_landing
+from .landing import DEFAULT_FL_GAINS, SIM_PARAMS, LandingRun, LandingTiming, landing_metrics, run_landing
 
 __all__ = ["LandingTiming", "LandingRun", "run_landing", "landing_metrics", "SIM_PARAMS", "DEFAULT_FL_GAINS"]
