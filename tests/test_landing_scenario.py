@@ -50,7 +50,9 @@ def test_scenario_fills_in_the_defaults():
     sc = LandingScenario()
     assert sc.params is SIM_PARAMS and sc.fl_gains is DEFAULT_FL_GAINS
     assert sc.config == LandingConfig() and sc.timing == LandingTiming() and sc.nmpc_kw == {}
-    assert sc.ff_lead == pytest.approx(0.001)  # half the 2 ms low-level period
+    assert sc.ff_lead is None and sc.feedforward_lead == pytest.approx(0.001)  # half the 2 ms period
+    assert dataclasses.replace(sc, fl_period=0.004).feedforward_lead == pytest.approx(0.002)
+    assert LandingScenario(ff_lead=0.0).feedforward_lead == 0.0
     np.testing.assert_array_equal(sc.x0, np.zeros(4))
     assert sc.plant_inputs == "forces" and LandingScenario(controller="nmpc").plant_inputs == "rates"
     xs0 = LandingScenario(x0=[0.1, 0.2, -0.1, 0.3]).initial_state()

@@ -52,8 +52,9 @@ class LandingScenario:
     :data:`SIM_PARAMS`, ``config`` → ``LandingConfig()``, ``timing`` →
     ``LandingTiming()`` (ideal, zero CPU times), ``fl_gains`` →
     :data:`DEFAULT_FL_GAINS`, ``x0`` → hover at φ = ϑ = 0 (as an array
-    ``[φ, φ̇, ϑ, ϑ̇]``), ``nmpc_kw`` → ``{}``, ``ff_lead`` → half the low-level period.
-    Vary one field with :func:`dataclasses.replace`.
+    ``[φ, φ̇, ϑ, ϑ̇]``), ``nmpc_kw`` → ``{}``.  ``ff_lead=None`` stays ``None``:
+    :attr:`feedforward_lead` derives half the low-level period from it.  Vary one
+    field with :func:`dataclasses.replace`.
     """
 
     controller: str = "2lc"
@@ -111,9 +112,7 @@ class LandingScenario:
             raise ValueError(f"{name} must be {a!r} or {b!r}, got {v!r}")
 
     def _check_ff_lead(self) -> None:
-        if self.ff_lead is None:
-            object.__setattr__(self, "ff_lead", 0.5 * self.fl_period)
-        v = self.ff_lead
+        v = self.feedforward_lead
         if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= self.nmpc_period):
             raise ValueError(f"ff_lead must be a number of seconds in [0, nmpc_period], got {v!r}")
 
@@ -123,6 +122,12 @@ class LandingScenario:
         for name, value in defaults.items():
             if getattr(self, name) is None:
                 object.__setattr__(self, name, value)
+
+    @property
+    def feedforward_lead(self) -> float:
+        """``ff_lead`` [s], or half the low-level period when it is ``None`` (derived on
+        each read, so that :func:`dataclasses.replace` of ``fl_period`` moves it too)."""
+        return 0.5 * self.fl_period if self.ff_lead is None else self.ff_lead
 
     @property
     def plant_inputs(self) -> str:

@@ -164,8 +164,9 @@ class LandingLoop:
         y = ctx.read(self.out_port)
         t = ctx.now
         pos, vel, acc = self.interp.evaluate(t)
-        if self.scenario.ff_lead:
-            acc = self.interp.evaluate(t + self.scenario.ff_lead)[2]
+        lead = self.scenario.feedforward_lead
+        if lead:
+            acc = self.interp.evaluate(t + lead)[2]
         u = self.fl(y[:4], pos, vel, acc)
         self.ref_rows.append((t, pos[0], pos[1], vel[0], vel[1], acc[0], acc[1], u[0], u[1]))
         yield ctx.execute(self.scenario.timing.fl_exec)
