@@ -195,7 +195,8 @@ def _ideal_runs(duration: float) -> dict:
 def _figures(out: Path, calm: dict, windy: dict, scheduled: dict) -> None:
     _figure_angles(calm, out / "fig2_8_angles.png", "Landing without wind (cf. Fig. 2.8)")
     _figure_inputs(calm, out / "fig2_9_inputs.png", "Inputs without wind (cf. Fig. 2.9)")
-    _figure_constraints(calm, out / "fig2_10_constraints.png", "Propeller–ground distances and cable stress (cf. Fig. 2.10)")
+    _figure_constraints(calm, out / "fig2_10_constraints.png",
+                        "Propeller–ground distances and cable stress (cf. Fig. 2.10)")
     _figure_angles(windy, out / "fig2_11_wind_angles.png", "Landing under wind (cf. Fig. 2.11)")
     _figure_inputs(windy, out / "fig2_12_wind_inputs.png", "Inputs under wind (cf. Fig. 2.12)")
     _figure_constraints(windy, out / "fig2_13_wind_constraints.png", "Constraints under wind (cf. Fig. 2.13)")
@@ -227,7 +228,8 @@ def _metrics(runs: dict, calm: dict, windy: dict) -> pd.DataFrame:
 
 def _write_tables(out: Path, runs: dict, scheduled: dict, metrics: pd.DataFrame) -> None:
     pd.concat([_tidy(n, r) for n, r in runs.items()], ignore_index=True).to_parquet(out / "signals.parquet")
-    pd.concat([r.steps.assign(run=n) for n, r in runs.items()], ignore_index=True).to_parquet(out / "nmpc_steps.parquet")
+    pd.concat([r.steps.assign(run=n) for n, r in runs.items()],
+              ignore_index=True).to_parquet(out / "nmpc_steps.parquet")
     pd.concat([r.jobs.assign(run=n) for n, r in runs.items()], ignore_index=True).to_parquet(out / "jobs.parquet")
     # the CPU times every scheduled run charged: replaying them reproduces the run exactly
     pd.concat([r.cpu_times.assign(run=n) for n, r in scheduled.items()],
