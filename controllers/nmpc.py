@@ -129,12 +129,22 @@ def _weight_sqrt(w, n: int, what: str) -> np.ndarray:
         raise ValueError(f"{what} is required for a residual of {n} entries")
     a = np.asarray(w, dtype=float)
     if a.ndim == 0 or a.ndim == 1:
-        a = np.broadcast_to(a, (n,)) if a.ndim == 0 else a
-        if a.shape != (n,):
-            raise ValueError(f"{what} must have shape ({n},) or ({n}, {n}), got {np.asarray(w).shape}")
-        if np.any(~np.isfinite(a)) or np.any(a < 0):
-            raise ValueError(f"{what} must be finite and non-negative, got {a.tolist()}")
-        return np.diag(np.sqrt(a))
+        return _diagonal_weight_sqrt(w, a, n, what)
+    return _matrix_weight_sqrt(a, n, what)
+
+
+def _diagonal_weight_sqrt(w, a: np.ndarray, n: int, what: str) -> np.ndarray:
+    """:func:`_weight_sqrt` of a scalar or vector weight *a* (given as *w*)."""
+    a = np.broadcast_to(a, (n,)) if a.ndim == 0 else a
+    if a.shape != (n,):
+        raise ValueError(f"{what} must have shape ({n},) or ({n}, {n}), got {np.asarray(w).shape}")
+    if np.any(~np.isfinite(a)) or np.any(a < 0):
+        raise ValueError(f"{what} must be finite and non-negative, got {a.tolist()}")
+    return np.diag(np.sqrt(a))
+
+
+def _matrix_weight_sqrt(a: np.ndarray, n: int, what: str) -> np.ndarray:
+    """:func:`_weight_sqrt` of a weight matrix *a*: its symmetric PSD square root."""
     if a.shape != (n, n):
         raise ValueError(f"{what} must have shape ({n},) or ({n}, {n}), got {a.shape}")
     if not np.all(np.isfinite(a)) or not np.allclose(a, a.T, rtol=1e-10, atol=1e-12):
@@ -143,6 +153,21 @@ def _weight_sqrt(w, n: int, what: str) -> np.ndarray:
     if lam.min() < -1e-10 * max(1.0, abs(lam).max()):
         raise ValueError(f"{what} must be positive semidefinite; smallest eigenvalue {lam.min()!r}")
     return (V * np.sqrt(np.clip(lam, 0.0, None))) @ V.T  # symmetric square root
+
+
+def _is_positive_int(v) -> bool:
+    """True for an int (NumPy's included, bools excluded) greater than zero."""
+    return not isinstance(v, bool) and isinstance(v, (int, np.integer)) and v > 0
+
+
+def _check_discretization(N, Ts, rk4_steps) -> None:
+    """Horizon *N* (intervals), interval *Ts* [s] and *rk4_steps* per interval."""
+    if not _is_positive_int(N):
+        raise ValueError(f"horizon N must be a positive integer number of intervals, got {N!r}")
+    if not (isinstance(Ts, (int, float, np.floating)) and math.isfinite(Ts) and Ts > 0):
+        raise ValueError(f"shooting interval Ts must be a positive number of seconds, got {Ts!r}")
+    if not _is_positive_int(rk4_steps):
+        raise ValueError(f"rk4_steps must be a positive integer, got {rk4_steps!r}")
 
 
 def rk4_discretize(x: ca.SX, u: ca.SX, p: ca.SX, xdot: ca.SX, Ts: float, steps: int = 1,
@@ -201,12 +226,7 @@ class OCP:
                  h_N=None, lbh_N=None, ubh_N=None, soft_N: Sequence[int] = (), soft_weights_N=None,
                  p_default=None, state_names: Sequence[str] | None = None,
                  input_names: Sequence[str] | None = None):
-        if isinstance(N, bool) or not isinstance(N, (int, np.integer)) or N <= 0:
-            raise ValueError(f"horizon N must be a positive integer number of intervals, got {N!r}")
-        if not (isinstance(Ts, (int, float, np.floating)) and math.isfinite(Ts) and Ts > 0):
-            raise ValueError(f"shooting interval Ts must be a positive number of seconds, got {Ts!r}")
-        if isinstance(rk4_steps, bool) or not isinstance(rk4_steps, (int, np.integer)) or rk4_steps <= 0:
-            raise ValueError(f"rk4_steps must be a positive integer, got {rk4_steps!r}")
+        _check_discretization(N, Ts, rk4_steps)
         self.N, self.Ts, self.rk4_steps = int(N), float(Ts), int(rk4_steps)
         self.x = _symbol(x, "x")
         self.u = _symbol(u, "u")
@@ -217,7 +237,17 @@ class OCP:
         self.xdot = _expr(xdot, "xdot", self.nx)
         allowed = ca.vertcat(self.x, self.u, self.p)
         self._check_free(self.xdot, allowed, "xdot")
+        self._set_costs(allowed, residual, weights, terminal_residual, terminal_weights)
+        self._set_boxes(lbx, ubx, lbu, ubu)
+        self._set_path(allowed, h, lbh, ubh, soft, soft_weights)
+        self._set_terminal(h_N, lbh_N, ubh_N, soft_N, soft_weights_N)
+        self._set_names(p_default, state_names, input_names)
+        self.F = rk4_discretize(self.x, self.u, self.p, self.xdot, self.Ts, self.rk4_steps)
+        # rows of h imposed at node 0: those that depend on u
+        self.h_rows_node0 = tuple(i for i in range(self.h.size1()) if ca.depends_on(self.h[i], self.u))
 
+    # -- the parts of the problem, in the order they are checked -------------------------
+    def _set_costs(self, allowed, residual, weights, terminal_residual, terminal_weights) -> None:
         self.residual = _expr(residual, "residual")
         self._check_free(self.residual, allowed, "residual")
         self.terminal_residual = _expr(terminal_residual, "terminal_residual")
@@ -227,6 +257,7 @@ class OCP:
         self.weights = np.asarray(weights, dtype=float) if weights is not None else None
         self.terminal_weights = np.asarray(terminal_weights, dtype=float) if terminal_weights is not None else None
 
+    def _set_boxes(self, lbx, ubx, lbu, ubu) -> None:
         self.lbx = _vec(lbx, self.nx, -np.inf, "lbx")
         self.ubx = _vec(ubx, self.nx, np.inf, "ubx")
         self.lbu = _vec(lbu, self.nu, -np.inf, "lbu")
@@ -234,6 +265,7 @@ class OCP:
         _check_bounds(self.lbx, self.ubx, "x")
         _check_bounds(self.lbu, self.ubu, "u")
 
+    def _set_path(self, allowed, h, lbh, ubh, soft, soft_weights) -> None:
         self.h = _expr(h, "h")
         self._check_free(self.h, allowed, "h")
         nh = self.h.size1()
@@ -243,6 +275,7 @@ class OCP:
         self.soft = self._soft_rows(soft, nh, "soft")
         self.soft_weights = self._soft_weights(soft_weights, len(self.soft), "soft_weights")
 
+    def _set_terminal(self, h_N, lbh_N, ubh_N, soft_N, soft_weights_N) -> None:
         self.h_N = _expr(h_N, "h_N")
         self._check_free(self.h_N, ca.vertcat(self.x, self.p), "h_N")
         nhN = self.h_N.size1()
@@ -252,6 +285,7 @@ class OCP:
         self.soft_N = self._soft_rows(soft_N, nhN, "soft_N")
         self.soft_weights_N = self._soft_weights(soft_weights_N, len(self.soft_N), "soft_weights_N")
 
+    def _set_names(self, p_default, state_names, input_names) -> None:
         self.p_default = _vec(p_default, self.np, 0.0, "p_default")
         if not np.all(np.isfinite(self.p_default)):
             raise ValueError(f"p_default must be finite, got {self.p_default.tolist()}")
@@ -261,10 +295,6 @@ class OCP:
             raise ValueError(f"state_names must have {self.nx} entries, got {list(self.state_names)}")
         if len(self.input_names) != self.nu:
             raise ValueError(f"input_names must have {self.nu} entries, got {list(self.input_names)}")
-
-        self.F = rk4_discretize(self.x, self.u, self.p, self.xdot, self.Ts, self.rk4_steps)
-        # rows of h imposed at node 0: those that depend on u
-        self.h_rows_node0 = tuple(i for i in range(nh) if ca.depends_on(self.h[i], self.u))
 
     # -- validation helpers ------------------------------------------------------------
     @staticmethod
@@ -306,6 +336,25 @@ class OCP:
 # Transcription (shared by the RTI and the full solvers)
 # ---------------------------------------------------------------------------
 
+class _NLPParts:
+    """The lists a transcription is assembled from: variables with their bounds,
+    constraints with their bounds, weighted residuals."""
+
+    def __init__(self):
+        self.w, self.lbw, self.ubw = [], [], []
+        self.g, self.lbg, self.ubg = [], [], []
+        self.res = []
+
+    def bound_w(self, lb, ub) -> None:
+        self.lbw.append(lb)
+        self.ubw.append(ub)
+
+    def constrain(self, g, lb, ub) -> None:
+        self.g.append(g)
+        self.lbg.append(lb)
+        self.ubg.append(ub)
+
+
 class _Transcription:
     """The multiple-shooting NLP of an :class:`OCP` in stage-wise variable order.
 
@@ -317,7 +366,6 @@ class _Transcription:
     def __init__(self, ocp: OCP):
         self.ocp = o = ocp
         N, nx, nu = o.N, o.nx, o.nu
-        nh = o.h.size1()
         ns, nsN = len(o.soft), len(o.soft_N)
         self.ns, self.nsN = ns, nsN
         p = ca.SX.sym("p", o.np)
@@ -326,77 +374,103 @@ class _Transcription:
         U = [ca.SX.sym(f"u_{k}", nu) for k in range(N)]
         S = [ca.SX.sym(f"s_{k}", ns) for k in range(N)]
         SN = ca.SX.sym("s_N", nsN)
-        fh = ca.Function("h", [o.x, o.u, o.p], [o.h])
-        fr = ca.Function("eta", [o.x, o.u, o.p], [o.residual])
-        frN = ca.Function("eta_N", [o.x, o.p], [o.terminal_residual])
-        fhN = ca.Function("h_N", [o.x, o.p], [o.h_N])
-        hard_N = [i for i in range(o.h_N.size1()) if i not in o.soft_N]
+        self._fh = ca.Function("h", [o.x, o.u, o.p], [o.h])
+        self._fr = ca.Function("eta", [o.x, o.u, o.p], [o.residual])
+        self._frN = ca.Function("eta_N", [o.x, o.p], [o.terminal_residual])
+        self._fhN = ca.Function("h_N", [o.x, o.p], [o.h_N])
 
-        w, lbw, ubw = [], [], []
-        g, lbg, ubg = [], [], []
-        res = []
+        nlp = _NLPParts()
         self.nu_stage, self.ng_stage = [], []
-        inf = np.inf
         for k in range(N):
-            w.append(X[k])
-            if k == 0:
-                lbw.append(np.full(nx, -inf)); ubw.append(np.full(nx, inf))  # set to x_hat at solve time
-            else:
-                lbw.append(o.lbx); ubw.append(o.ubx)
-            v = [U[k], S[k]] + ([SN] if k == N - 1 else [])
-            w.extend(v)
-            lbw.append(o.lbu); ubw.append(o.ubu)
-            lbw.append(np.full(ns, -inf)); ubw.append(np.full(ns, inf))
-            if k == N - 1:
-                lbw.append(np.full(nsN, -inf)); ubw.append(np.full(nsN, inf))
-            self.nu_stage.append(nu + ns + (nsN if k == N - 1 else 0))
-            xn = o.F(X[k], U[k], p)
-            # gap
-            g.append(xn - X[k + 1]); lbg.append(np.zeros(nx)); ubg.append(np.zeros(nx))
-            # stage constraints
-            rows_g, rows_lb, rows_ub = [], [], []
-            if nh:
-                hk = fh(X[k], U[k], p)
-                sigma = ca.SX.zeros(nh)
-                for j, i in enumerate(o.soft):
-                    sigma[i] = S[k][j]
-                rows = range(nh) if k > 0 else o.h_rows_node0
-                for i in rows:
-                    rows_g.append(hk[i] - sigma[i]); rows_lb.append(o.lbh[i]); rows_ub.append(o.ubh[i])
-            if k == N - 1 and nsN:
-                hN_pred = fhN(xn, p)
-                for j, i in enumerate(o.soft_N):
-                    rows_g.append(hN_pred[i] - SN[j]); rows_lb.append(o.lbh_N[i]); rows_ub.append(o.ubh_N[i])
-            g.append(ca.vertcat(*rows_g) if rows_g else ca.SX(0, 1))
-            lbg.append(np.array(rows_lb, dtype=float)); ubg.append(np.array(rows_ub, dtype=float))
-            self.ng_stage.append(len(rows_g))
-            # residuals
-            if o.residual.size1():
-                res.append(ca.mtimes(o.L.T, fr(X[k], U[k], p)))
-            if ns:
-                res.append(np.sqrt(o.soft_weights) * S[k])
-        w.append(X[N])
-        lbw.append(o.lbx); ubw.append(o.ubx)
+            self._stage(nlp, k, X[k], U[k], S[k], X[k + 1], SN, p)
+        self._terminal(nlp, X[N], SN, p)
+        self._assemble(nlp)
+        self._index_maps()
+        self.cost = 0.5 * ca.dot(self.r, self.r)
+
+    def _stage(self, nlp: "_NLPParts", k: int, xk, uk, sk, x_next, SN, p) -> None:
+        """Variables, gap, constraint rows and residuals of stage *k* (< N)."""
+        o = self.ocp
+        last = k == o.N - 1
+        self._stage_variables(nlp, k, xk, uk, sk, SN)
+        xn = o.F(xk, uk, p)
+        nlp.constrain(xn - x_next, np.zeros(o.nx), np.zeros(o.nx))  # gap
+        rows = self._path_rows(k, xk, uk, sk, p)
+        if last and self.nsN:
+            rows += self._soft_terminal_rows(xn, SN, p)
+        rows_g = [r[0] for r in rows]
+        nlp.constrain(ca.vertcat(*rows_g) if rows_g else ca.SX(0, 1),
+                      np.array([r[1] for r in rows], dtype=float), np.array([r[2] for r in rows], dtype=float))
+        self.ng_stage.append(len(rows_g))
+        if o.residual.size1():
+            nlp.res.append(ca.mtimes(o.L.T, self._fr(xk, uk, p)))
+        if self.ns:
+            nlp.res.append(np.sqrt(o.soft_weights) * sk)
+
+    def _stage_variables(self, nlp: "_NLPParts", k: int, xk, uk, sk, SN) -> None:
+        """``x_k`` and ``v_k = [u_k, sigma_k (, sigma_N)]`` with their bounds."""
+        o = self.ocp
+        last = k == o.N - 1
+        inf = np.inf
+        nlp.w.append(xk)
+        if k == 0:
+            nlp.bound_w(np.full(o.nx, -inf), np.full(o.nx, inf))  # set to x_hat at solve time
+        else:
+            nlp.bound_w(o.lbx, o.ubx)
+        nlp.w.extend([uk, sk] + ([SN] if last else []))
+        nlp.bound_w(o.lbu, o.ubu)
+        nlp.bound_w(np.full(self.ns, -inf), np.full(self.ns, inf))
+        if last:
+            nlp.bound_w(np.full(self.nsN, -inf), np.full(self.nsN, inf))
+        self.nu_stage.append(o.nu + self.ns + (self.nsN if last else 0))
+
+    def _path_rows(self, k: int, xk, uk, sk, p) -> list:
+        """``(h_i - sigma_i, lbh_i, ubh_i)`` of the path constraints imposed at node *k*."""
+        o = self.ocp
+        nh = o.h.size1()
+        if not nh:
+            return []
+        hk = self._fh(xk, uk, p)
+        sigma = ca.SX.zeros(nh)
+        for j, i in enumerate(o.soft):
+            sigma[i] = sk[j]
+        rows = range(nh) if k > 0 else o.h_rows_node0
+        return [(hk[i] - sigma[i], o.lbh[i], o.ubh[i]) for i in rows]
+
+    def _soft_terminal_rows(self, xn, SN, p) -> list:
+        """The soft terminal rows, imposed on ``h_N(F(x_{N-1}, u_{N-1}))`` in the last stage."""
+        o = self.ocp
+        hN_pred = self._fhN(xn, p)
+        return [(hN_pred[i] - SN[j], o.lbh_N[i], o.ubh_N[i]) for j, i in enumerate(o.soft_N)]
+
+    def _terminal(self, nlp: "_NLPParts", xN, SN, p) -> None:
+        """The last node: its bounds, hard terminal rows and terminal residuals."""
+        o = self.ocp
+        hard_N = [i for i in range(o.h_N.size1()) if i not in o.soft_N]
+        nlp.w.append(xN)
+        nlp.bound_w(o.lbx, o.ubx)
         if hard_N:
-            hN = fhN(X[N], p)
-            g.append(ca.vertcat(*[hN[i] for i in hard_N]))
-            lbg.append(o.lbh_N[hard_N]); ubg.append(o.ubh_N[hard_N])
+            hN = self._fhN(xN, p)
+            nlp.constrain(ca.vertcat(*[hN[i] for i in hard_N]), o.lbh_N[hard_N], o.ubh_N[hard_N])
         self.ng_stage.append(len(hard_N))
         if o.terminal_residual.size1():
-            res.append(ca.mtimes(o.L_N.T, frN(X[N], p)))
-        if nsN:
-            res.append(np.sqrt(o.soft_weights_N) * SN)
+            nlp.res.append(ca.mtimes(o.L_N.T, self._frN(xN, p)))
+        if self.nsN:
+            nlp.res.append(np.sqrt(o.soft_weights_N) * SN)
 
-        self.w = ca.vertcat(*w)
-        self.g = ca.vertcat(*g)
-        self.r = ca.vertcat(*res) if res else ca.SX(0, 1)
-        self.lbw = np.concatenate(lbw)
-        self.ubw = np.concatenate(ubw)
-        self.lbg = np.concatenate(lbg) if lbg else np.zeros(0)
-        self.ubg = np.concatenate(ubg) if ubg else np.zeros(0)
+    def _assemble(self, nlp: "_NLPParts") -> None:
+        self.w = ca.vertcat(*nlp.w)
+        self.g = ca.vertcat(*nlp.g)
+        self.r = ca.vertcat(*nlp.res) if nlp.res else ca.SX(0, 1)
+        self.lbw = np.concatenate(nlp.lbw)
+        self.ubw = np.concatenate(nlp.ubw)
+        self.lbg = np.concatenate(nlp.lbg) if nlp.lbg else np.zeros(0)
+        self.ubg = np.concatenate(nlp.ubg) if nlp.ubg else np.zeros(0)
         self.nw, self.ng = self.w.size1(), self.g.size1()
 
-        # index maps: where x_k, u_k, sigma_k live in w
+    def _index_maps(self) -> None:
+        """Where x_k, u_k, sigma_k and sigma_N live in w."""
+        N, nx, nu, ns, nsN = self.ocp.N, self.ocp.nx, self.ocp.nu, self.ns, self.nsN
         stride = [nx + n for n in self.nu_stage]
         starts = np.concatenate(([0], np.cumsum(stride)))
         self.ix = np.array([np.arange(starts[k], starts[k] + nx) for k in range(N + 1)])
@@ -404,7 +478,6 @@ class _Transcription:
         self.isg = np.array([np.arange(starts[k] + nx + nu, starts[k] + nx + nu + ns) for k in range(N)]).reshape(N, ns)
         sN0 = starts[N - 1] + nx + nu + ns
         self.isN = np.arange(sN0, sN0 + nsN)
-        self.cost = 0.5 * ca.dot(self.r, self.r)
 
     def pack(self, X: np.ndarray, U: np.ndarray, S: np.ndarray, SN: np.ndarray) -> np.ndarray:
         w = np.empty(self.nw)
@@ -490,6 +563,62 @@ _DEFAULT_QP_OPTIONS: dict[str, dict[str, Any]] = {
 }
 
 
+def _check_rti_arguments(ocp, qp_solver, hessian_reg, history_length) -> None:
+    """The arguments of :class:`RTINMPC` that are checked before anything is built."""
+    if not isinstance(ocp, OCP):
+        raise TypeError(f"ocp must be an OCP, got {type(ocp).__name__}")
+    if qp_solver not in QP_SOLVERS:
+        raise ValueError(f"unknown qp_solver {qp_solver!r}; choose one of {QP_SOLVERS}")
+    if not ca.has_conic(qp_solver):
+        raise ValueError(f"qp_solver {qp_solver!r} is not available in this CasADi build")
+    if not (isinstance(hessian_reg, (int, float)) and hessian_reg >= 0 and math.isfinite(hessian_reg)):
+        raise ValueError(f"hessian_reg must be a non-negative number, got {hessian_reg!r}")
+    _check_history_length(history_length)
+
+
+def _check_history_length(history_length) -> None:
+    """``None`` or a non-negative integer."""
+    if history_length is not None and (isinstance(history_length, bool)
+                                       or not isinstance(history_length, numbers.Integral)
+                                       or history_length < 0):
+        raise ConfigurationError(f"history_length must be a non-negative integer or None, "
+                                 f"got {history_length!r}")
+
+
+def _linearization(tr: _Transcription, hessian_reg: float, jit: bool):
+    """The preparation function ``(w, p) -> (H, g, A, c, cost)`` of the Gauss–Newton QP,
+    and the SX expressions of ``H`` and ``A`` (for their sparsity)."""
+    Jr = ca.jacobian(tr.r, tr.w)
+    H = ca.mtimes(Jr.T, Jr)
+    if hessian_reg > 0:
+        H = H + hessian_reg * ca.SX.eye(tr.nw)
+    gradient = ca.mtimes(Jr.T, tr.r)
+    A = ca.jacobian(tr.g, tr.w)
+    opts: dict[str, Any] = {}
+    if jit:
+        opts = {"jit": True, "compiler": "shell",
+                "jit_options": {"flags": ["-O2"], "verbose": False}, "jit_temp_suffix": True}
+    lin = ca.Function("rti_linearize", [tr.w, tr.p_sym], [H, gradient, A, tr.g, tr.cost],
+                      ["w", "p"], ["H", "g", "A", "c", "cost"], opts)
+    return lin, H, A
+
+
+def _qp_options(qp_solver: str, ocp: OCP, tr: _Transcription, qp_options: dict | None) -> dict:
+    """This module's defaults for *qp_solver* (with HPIPM's stage dimensions), the
+    user's *qp_options* merged over them (one level deep for nested dicts)."""
+    qopts = dict(_DEFAULT_QP_OPTIONS.get(qp_solver, {}))
+    if qp_solver == "hpipm":
+        qopts.update({"N": ocp.N, "nx": [ocp.nx] * (ocp.N + 1), "nu": list(tr.nu_stage) + [0],
+                      "ng": list(tr.ng_stage)})
+    for k, v in (qp_options or {}).items():
+        if isinstance(v, dict) and isinstance(qopts.get(k), dict):
+            qopts[k] = {**qopts[k], **v}
+        else:
+            qopts[k] = v
+    qopts.setdefault("error_on_fail", False)
+    return qopts
+
+
 class RTINMPC:
     """Real-time-iteration NMPC for an :class:`OCP` (see module doc).
 
@@ -522,49 +651,15 @@ class RTINMPC:
     def __init__(self, ocp: OCP, *, qp_solver: str = "hpipm", qp_options: dict | None = None,
                  hessian_reg: float = 1e-8, jit: bool = False, x_guess=None, u_guess=None,
                  history_length: int | None = 1):
-        if not isinstance(ocp, OCP):
-            raise TypeError(f"ocp must be an OCP, got {type(ocp).__name__}")
-        if qp_solver not in QP_SOLVERS:
-            raise ValueError(f"unknown qp_solver {qp_solver!r}; choose one of {QP_SOLVERS}")
-        if not ca.has_conic(qp_solver):
-            raise ValueError(f"qp_solver {qp_solver!r} is not available in this CasADi build")
-        if not (isinstance(hessian_reg, (int, float)) and hessian_reg >= 0 and math.isfinite(hessian_reg)):
-            raise ValueError(f"hessian_reg must be a non-negative number, got {hessian_reg!r}")
-        if history_length is not None and (isinstance(history_length, bool)
-                                           or not isinstance(history_length, numbers.Integral)
-                                           or history_length < 0):
-            raise ConfigurationError(f"history_length must be a non-negative integer or None, "
-                                     f"got {history_length!r}")
+        _check_rti_arguments(ocp, qp_solver, hessian_reg, history_length)
         self.ocp = ocp
         self.qp_solver = qp_solver
         self.tr = tr = _Transcription(ocp)
         self.hessian_reg = float(hessian_reg)
         self.jit = bool(jit)
-
-        # Linearization (preparation) function: (w, p) -> QP data.
-        Jr = ca.jacobian(tr.r, tr.w)
-        H = ca.mtimes(Jr.T, Jr)
-        if hessian_reg > 0:
-            H = H + hessian_reg * ca.SX.eye(tr.nw)
-        gradient = ca.mtimes(Jr.T, tr.r)
-        A = ca.jacobian(tr.g, tr.w)
-        opts: dict[str, Any] = {}
-        if jit:
-            opts = {"jit": True, "compiler": "shell",
-                    "jit_options": {"flags": ["-O2"], "verbose": False}, "jit_temp_suffix": True}
-        self._lin = ca.Function("rti_linearize", [tr.w, tr.p_sym], [H, gradient, A, tr.g, tr.cost],
-                                ["w", "p"], ["H", "g", "A", "c", "cost"], opts)
+        self._lin, H, A = _linearization(tr, hessian_reg, jit)
         self.H_sparsity, self.A_sparsity = H.sparsity(), A.sparsity()
-        qopts = dict(_DEFAULT_QP_OPTIONS.get(qp_solver, {}))
-        if qp_solver == "hpipm":
-            qopts.update({"N": ocp.N, "nx": [ocp.nx] * (ocp.N + 1), "nu": list(tr.nu_stage) + [0],
-                          "ng": list(tr.ng_stage)})
-        for k, v in (qp_options or {}).items():
-            if isinstance(v, dict) and isinstance(qopts.get(k), dict):
-                qopts[k] = {**qopts[k], **v}
-            else:
-                qopts[k] = v
-        qopts.setdefault("error_on_fail", False)
+        qopts = _qp_options(qp_solver, ocp, tr, qp_options)
         self._qp_options = qopts
         self._qp = ca.conic("rti_qp", qp_solver, {"h": self.H_sparsity, "a": self.A_sparsity}, qopts)
         self._qp_accurate = None

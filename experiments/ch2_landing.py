@@ -1,7 +1,7 @@
 """Thesis ch. 2, §2.6.2: landing of the tethered UAV on a 30° slope.
 
 Runs, on the simulation model with landers (1 cm, see
-:data:`controllers.landing_tasks.SIM_PARAMS`) and optionally the wind of §2.6.1:
+:data:`controllers.landing.SIM_PARAMS`) and optionally the wind of §2.6.1:
 
 * ``ideal``: NMPC alone and the two-layer controller (2LC), without and with wind,
   with zero computation times (the thesis's Simulink setting) -- Fig. 2.8–2.13;
@@ -27,7 +27,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from controllers.landing_tasks import SIM_PARAMS, LandingTiming, landing_metrics, run_landing  # noqa: E402
+from controllers.landing import SIM_PARAMS, LandingTiming, landing_metrics, run_landing  # noqa: E402
 from netcosim.cputime import RecordedCPUTime  # noqa: E402
 from netcosim.plot import plot_schedule  # noqa: E402
 
@@ -95,27 +95,11 @@ def _bounds(ax, lo=None, hi=None):
 
 
 def _figure_angles(runs, path, title):
+    """Fig. 2.8/2.11: φ, ϑ and their rates of every run in *runs* (controller -> run)."""
     fig, axes = plt.subplots(2, 2, figsize=(11, 6), sharex=True)
-    for c, run in runs.items():
-        s = run.signals
-        ls = "--" if c == "nmpc" else "-"
-        axes[0, 0].plot(s["time"], s["phi"] * DEG, ls, color=COLORS[c], label=f"$\\varphi_{{{LABELS[c]}}}$")
-        axes[0, 1].plot(s["time"], s["theta"] * DEG, ls, color=COLORS[c], label=f"$\\vartheta_{{{LABELS[c]}}}$")
-        axes[1, 0].plot(s["time"], s["dphi"] * DEG, ls, color=COLORS[c], label=LABELS[c])
-        axes[1, 1].plot(s["time"], s["dtheta"] * DEG, ls, color=COLORS[c], label=LABELS[c])
-    axes[0, 0].axhline(-30, color="gold", lw=1.5, label="$\\varphi^*$")
-    axes[0, 1].axhline(30, color="gold", lw=1.5, label="$\\vartheta^*$")
-    any_run = next(iter(runs.values()))
-    if any_run.wind:
-        ax2 = axes[0, 0].twinx()
-        ax2.plot(any_run.signals["time"], any_run.signals["wind"], color="grey", lw=1)
-        ax2.set_ylabel("wind force [N]", color="grey")
-    for ax, lab in zip(axes.ravel(), ["elevation φ [deg]", "attitude ϑ [deg]", "φ̇ [deg/s]", "ϑ̇ [deg/s]"]):
-        ax.set_ylabel(lab)
-        ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
-    for ax in axes[1]:
-        ax.set_xlabel("time [s]")
+    for i, (c, run) in enumerate(runs.items()):
+        run.plot(axes, label=LABELS[c], targets=i == 0, wind=i == 0, linestyle="--" if c == "nmpc" else "-",
+                 color=COLORS[c])
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -192,50 +176,39 @@ def _figure_scheduled(runs, path):
 
 
 def _tidy(name, run):
-    s = run.signals.copy()
+    s = run.to_pandas()
     s.insert(0, "run", name)
-    s.insert(1, "controller", run.controller)
-    s.insert(2, "wind_on", run.wind)
     return s
 
 
-def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFrame:
-    """Run the ch. 2 landing experiments; write figures and Parquet tables to *outdir*."""
-    out = Path(outdir)
-    out.mkdir(parents=True, exist_ok=True)
-    duration = 1.0 if quick else 1.5
+def _ideal_runs(duration: float) -> dict:
+    """NMPC alone and the 2LC, without and with wind, zero computation times."""
     runs = {}
     for wind in (False, True):
         for c in ("nmpc", "2lc"):
             name = f"ideal_{c}_{'wind' if wind else 'calm'}"
             print(f"  ch2_landing: {name} ({duration} s simulated)", flush=True)
             runs[name] = run_landing(c, wind=wind, duration=duration)
-    print("  ch2_landing: scheduled runs (recorded NMPC solve times)", flush=True)
-    scheduled = _scheduled_runs(recorded_timing, duration, quick)
-    print("  ch2_landing: figures and tables", flush=True)
-    for name, run in scheduled.items():
-        runs["scheduled_" + name] = run
+    return runs
 
-    calm = {c: runs[f"ideal_{c}_calm"] for c in ("nmpc", "2lc")}
-    windy = {c: runs[f"ideal_{c}_wind"] for c in ("nmpc", "2lc")}
+
+def _figures(out: Path, calm: dict, windy: dict, scheduled: dict) -> None:
     _figure_angles(calm, out / "fig2_8_angles.png", "Landing without wind (cf. Fig. 2.8)")
     _figure_inputs(calm, out / "fig2_9_inputs.png", "Inputs without wind (cf. Fig. 2.9)")
-    _figure_constraints(calm, out / "fig2_10_constraints.png", "Propeller–ground distances and cable stress (cf. Fig. 2.10)")
+    _figure_constraints(calm, out / "fig2_10_constraints.png",
+                        "Propeller–ground distances and cable stress (cf. Fig. 2.10)")
     _figure_angles(windy, out / "fig2_11_wind_angles.png", "Landing under wind (cf. Fig. 2.11)")
     _figure_inputs(windy, out / "fig2_12_wind_inputs.png", "Inputs under wind (cf. Fig. 2.12)")
     _figure_constraints(windy, out / "fig2_13_wind_constraints.png", "Constraints under wind (cf. Fig. 2.13)")
     _figure_scheduled(scheduled, out / "scheduled_landing.png")
-    sched = scheduled["2LC (NMPC from reference)"]
-    plot_schedule(sched.schedule, node="onboard", tasks=["fl", "nmpc"], t_range=(0.0, 0.05),
-                  path=out / "schedule_2lc.png",
+    plot_schedule(scheduled["2LC (NMPC from reference)"].schedule, node="onboard", tasks=["fl", "nmpc"],
+                  t_range=(0.0, 0.05), path=out / "schedule_2lc.png",
                   title="2LC on one node: 500 Hz FL (top) preempts the 100 Hz NMPC (recorded solve times)")
 
-    rows = []
-    for name, run in runs.items():
-        m = landing_metrics(run)
-        m["run"] = name
-        rows.append(m)
-    metrics = pd.DataFrame(rows).set_index("run")
+
+def _metrics(runs: dict, calm: dict, windy: dict) -> pd.DataFrame:
+    """:func:`landing_metrics` of every run, plus the wind and response-time comparisons."""
+    metrics = pd.DataFrame([dict(landing_metrics(run), run=name) for name, run in runs.items()]).set_index("run")
     # wind-induced deviation: RMS over the run of (run with wind - run without), degrees
     for c in ("nmpc", "2lc"):
         a, b = calm[c].signals, windy[c].signals
@@ -245,18 +218,26 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
                                                                 / metrics.loc["ideal_nmpc_wind", "rms"])
     metrics.loc["ideal_2lc_wind", "wind_deviation_ratio"] = (metrics.loc["ideal_2lc_wind", "wind_deviation"]
                                                              / metrics.loc["ideal_nmpc_wind", "wind_deviation"])
-    jobs = sched.jobs
+    sched = "scheduled_2LC (NMPC from reference)"
+    jobs = runs[sched].jobs
     nm = jobs[jobs["task"] == "nmpc"]
-    metrics.loc["scheduled_2LC (NMPC from reference)", "nmpc_response_median"] = float(nm["response_time"].median())
-    metrics.loc["scheduled_2LC (NMPC from reference)", "nmpc_response_max"] = float(nm["response_time"].max())
+    metrics.loc[sched, "nmpc_response_median"] = float(nm["response_time"].median())
+    metrics.loc[sched, "nmpc_response_max"] = float(nm["response_time"].max())
+    return metrics
 
+
+def _write_tables(out: Path, runs: dict, scheduled: dict, metrics: pd.DataFrame) -> None:
     pd.concat([_tidy(n, r) for n, r in runs.items()], ignore_index=True).to_parquet(out / "signals.parquet")
-    pd.concat([r.steps.assign(run=n) for n, r in runs.items()], ignore_index=True).to_parquet(out / "nmpc_steps.parquet")
+    pd.concat([r.steps.assign(run=n) for n, r in runs.items()],
+              ignore_index=True).to_parquet(out / "nmpc_steps.parquet")
     pd.concat([r.jobs.assign(run=n) for n, r in runs.items()], ignore_index=True).to_parquet(out / "jobs.parquet")
     # the CPU times every scheduled run charged: replaying them reproduces the run exactly
     pd.concat([r.cpu_times.assign(run=n) for n, r in scheduled.items()],
               ignore_index=True).to_parquet(out / "cpu_times.parquet")
     metrics.reset_index().to_parquet(out / "metrics.parquet")
+
+
+def _print_summary(metrics: pd.DataFrame) -> None:
     cols = ["t_settle", "phi_final", "theta_final", "rms", "f_L_min", "f_L_max", "d_PG_min", "n_fallback"]
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(metrics[cols].round(4).to_string())
@@ -265,6 +246,25 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
               f"ratio {w['rms_ratio_2lc_over_nmpc']:.4f}; wind-induced deviation NMPC "
               f"{metrics.loc['ideal_nmpc_wind', 'wind_deviation']:.4f}, 2LC {w['wind_deviation']:.4f}, "
               f"ratio {w['wind_deviation_ratio']:.3f}")
+
+
+def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFrame:
+    """Run the ch. 2 landing experiments; write figures and Parquet tables to *outdir*."""
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    duration = 1.0 if quick else 1.5
+    runs = _ideal_runs(duration)
+    print("  ch2_landing: scheduled runs (recorded NMPC solve times)", flush=True)
+    scheduled = _scheduled_runs(recorded_timing, duration, quick)
+    print("  ch2_landing: figures and tables", flush=True)
+    for name, run in scheduled.items():
+        runs["scheduled_" + name] = run
+    calm = {c: runs[f"ideal_{c}_calm"] for c in ("nmpc", "2lc")}
+    windy = {c: runs[f"ideal_{c}_wind"] for c in ("nmpc", "2lc")}
+    _figures(out, calm, windy, scheduled)
+    metrics = _metrics(runs, calm, windy)
+    _write_tables(out, runs, scheduled, metrics)
+    _print_summary(metrics)
     return metrics
 
 

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from controllers.feedback_linearization import (C2Interpolator, FeedbackLinearization, PIDGains,
-                                                SingularityError, quintic_coefficients)
+from controllers.landing import (C2Interpolator, FeedbackLinearization, PIDGains, SingularityError,
+                                 quintic_coefficients)
 from plants.tethered_uav import TetheredUAVParams, ddphi_ddtheta, force_dynamics
 
 P = TetheredUAVParams()

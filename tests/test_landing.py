@@ -6,12 +6,26 @@ import numpy as np
 import pytest
 import pandas as pd
 
-from controllers.landing import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
-from controllers.landing_tasks import LandingTiming, landing_metrics, run_landing
+from controllers.landing import (LandingConfig, LandingTiming, initial_state, landing_metrics, landing_nmpc,
+                                 landing_ocp, run_landing, sigmoid)
 from netcosim.cputime import NonReproducibleWarning, RecordedCPUTime
 
 
 DEG = math.pi / 180
+
+
+# ---------------------------------------------------------------------------
+# The package layout
+# ---------------------------------------------------------------------------
+
+def test_former_module_paths_alias_the_package():
+    import controllers.feedback_linearization as old_fl
+    import controllers.landing as pkg
+    import controllers.landing_tasks as old_tasks
+    for old in (old_fl, old_tasks):
+        for name in old.__all__:
+            assert getattr(old, name) is getattr(pkg, name), name
+    assert set(old_fl.__all__) | set(old_tasks.__all__) <= set(pkg.__all__)
 
 
 # ---------------------------------------------------------------------------

@@ -29,7 +29,7 @@ from netcosim.validate import check_numeric_fields
 
 from plants.tethered_uav import TetheredUAVParams, casadi_model, hover_thrust
 
-from .nmpc import OCP, RTINMPC
+from ..nmpc import OCP, RTINMPC
 
 __all__ = ["LandingConfig", "landing_ocp", "landing_nmpc", "sigmoid", "initial_state"]
 

@@ -1,0 +1,39 @@
+"""Thesis ch. 2: the landing of a tethered UAV with NMPC and a two-layer controller.
+
+Modules, from the problem to the scenario:
+
+=====================================================  =============================================
+:mod:`~controllers.landing.ocp`                        the landing OCP of §2.3 and its RTI NMPC (§2.4)
+:mod:`~controllers.landing.feedback_linearization`     low-level controller of §2.5
+:mod:`~controllers.landing.interpolation`              the C² reference interpolator of Fig. 2.6
+:mod:`~controllers.landing.timing`                     CPU times of the tasks
+:mod:`~controllers.landing.scenario`                   one run's validated configuration
+:mod:`~controllers.landing.tasks`                      shared loop state and the task factories
+:mod:`~controllers.landing.topology`                   wiring per topology, :func:`run_landing`
+:mod:`~controllers.landing.result`                     :class:`LandingRun`, metrics, plot
+=====================================================  =============================================
+
+Every public name is re-exported here, so ``from controllers.landing import
+LandingConfig, landing_nmpc, run_landing`` works whatever module holds it.  The
+former modules ``controllers.landing_tasks`` and ``controllers.feedback_linearization``
+remain as aliases.
+"""
+
+from .feedback_linearization import FeedbackLinearization, PIDGains, SingularityError
+from .interpolation import C2Interpolator, quintic_coefficients
+from .ocp import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
+from .result import LandingRun, landing_metrics
+from .scenario import DEFAULT_FL_GAINS, SIM_PARAMS, LandingScenario
+from .tasks import LandingLoop
+from .timing import LandingTiming
+from .topology import run_landing, simulate_landing
+
+__all__ = [
+    # the optimal control problem
+    "LandingConfig", "landing_ocp", "landing_nmpc", "sigmoid", "initial_state",
+    # the low-level controller and its reference
+    "FeedbackLinearization", "PIDGains", "SingularityError", "C2Interpolator", "quintic_coefficients",
+    # the landing as netcosim tasks
+    "LandingTiming", "LandingScenario", "LandingLoop", "LandingRun", "run_landing", "simulate_landing",
+    "landing_metrics", "SIM_PARAMS", "DEFAULT_FL_GAINS",
+]
