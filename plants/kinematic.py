@@ -193,6 +193,28 @@ def signed_conditioning(system: Any, q: Any) -> float:
     return float(np.sign(np.linalg.det(A)) * s[-1] / s[0])
 
 
+def _signal_names(system: Any, indexed: bool) -> tuple[list, list, list, list]:
+    """``(states, inputs, outputs, noisy outputs)`` of :class:`KinematicPlant`."""
+    if not indexed and hasattr(system, "coordinate_names") and hasattr(system, "position_names"):
+        coords = list(system.coordinate_names)
+        return (coords, [f"u.{c}" for c in system.position_names], [f"q.{c}" for c in coords],
+                [f"meas.{c}" for c in coords])
+    q = [f"q{i}" for i in range(system.m)]
+    return q, [f"u{i}" for i in range(system.n)], q, [f"meas{i}" for i in range(system.m)]
+
+
+def _noise_std(noise_std, rng, m: int) -> np.ndarray | None:
+    """The per-coordinate measurement noise standard deviations, checked, or None."""
+    if noise_std is None:
+        return None
+    std = np.broadcast_to(np.asarray(noise_std, dtype=float), (m,)).copy()
+    if not np.all(np.isfinite(std)) or np.any(std < 0):
+        raise ValueError(f"noise_std must be finite and non-negative, got {noise_std!r}")
+    if rng is None or not isinstance(rng, np.random.Generator):
+        raise ValueError(f"noisy measurements need rng=numpy.random.Generator (e.g. sim.rng(name)), got {rng!r}")
+    return std
+
+
 class KinematicPlant(ContinuousSystem):
     """The netcosim plant ``q_dot = A_q^+ u`` (3.4)/(4.5)-(4.6)/(4.13): the robots realise
     ``p_dot = Pi_q u`` (``p_dot = u`` when square), for any kinematic system.
@@ -225,25 +247,10 @@ class KinematicPlant(ContinuousSystem):
         check_system(system)
         self.system = system
         self.rtol = rank_rtol(system)
-        named = not indexed and hasattr(system, "coordinate_names") and hasattr(system, "position_names")
-        if named:
-            states = list(system.coordinate_names)
-            inputs = [f"u.{c}" for c in system.position_names]
-            outs = [f"q.{c}" for c in system.coordinate_names]
-            meas = [f"meas.{c}" for c in system.coordinate_names]
-        else:
-            states = outs = [f"q{i}" for i in range(system.m)]
-            inputs = [f"u{i}" for i in range(system.n)]
-            meas = [f"meas{i}" for i in range(system.m)]
-        self.noise_std = None
-        if noise_std is not None:
-            std = np.broadcast_to(np.asarray(noise_std, dtype=float), (system.m,)).copy()
-            if not np.all(np.isfinite(std)) or np.any(std < 0):
-                raise ValueError(f"noise_std must be finite and non-negative, got {noise_std!r}")
-            if rng is None or not isinstance(rng, np.random.Generator):
-                raise ValueError(f"noisy measurements need rng=numpy.random.Generator (e.g. sim.rng(name)), "
-                                 f"got {rng!r}")
-            self.noise_std, self.rng = std, rng
+        states, inputs, outs, meas = _signal_names(system, indexed)
+        self.noise_std = _noise_std(noise_std, rng, system.m)
+        if self.noise_std is not None:
+            self.rng = rng
             outs = outs + meas
         events = ()
         if singular_event and system.n == system.m:

@@ -43,7 +43,7 @@ def test_tasks_reproduce_pure_math_over_ideal_network(sys_, qr, e0, gain, arch, 
         # d||e'||/dtau by round-off
         assert np.allclose(df.k.values[:H], ref.k.values[:H], rtol=1e-12, atol=0)
     # every command left at the sample instant (zero delays)
-    assert all(abs(r["t_done"] - r["t"]) < 1e-12 for r in dep.records)
+    assert all(abs(r.t_done - r.t) < 1e-12 for r in dep.records)
 
 
 def test_online_gain_in_sparse_architecture_is_rejected():
@@ -71,8 +71,8 @@ def test_execution_times_delay_the_commands():
     dep = deploy_planner(sim, sys_, qr + E3, 0.5, PlannerLaw(OfflineGain(1.6), q_ref=qr), architecture="sparse",
                          exec_pivot=0.01, exec_robot=0.02)
     sim.run(until=2.0)
-    robots = [r for r in dep.records if r["node"] != "pivot"]
-    assert robots and all(r["t_done"] == pytest.approx(r["t"] + 0.03, abs=1e-12) for r in robots)
+    robots = [r for r in dep.records if r.node != "pivot"]
+    assert robots and all(r.t_done == pytest.approx(r.t + 0.03, abs=1e-12) for r in robots)
     jobs = sim.trace.jobs()
     assert set(jobs.node.unique()) >= {"pivot", "robot1", "robot2", "robot3"}
     # the delayed loop still converges, but differs from the delay-free pure-math loop
