@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.local_planner import OfflineGain, OnlineGain, simulate_sampled
-from controllers.planner_tasks import PlannerLaw, deploy_planner
-from controllers.sikm import Trajectory
+from controllers.planner import OfflineGain, OnlineGain, simulate_sampled
+from controllers.planner.tasks import PlannerLaw, deploy_planner
+from controllers.planner.sikm import Trajectory
 from netcosim import Simulation
 from test_controllers_systems import CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane
 
@@ -52,8 +52,8 @@ def test_online_gain_in_sparse_architecture_is_rejected():
         deploy_planner(sim, PlanarCrane(3), CRANE3_QREF, 0.5, PlannerLaw(OnlineGain(), q_ref=CRANE3_QREF))
     with pytest.raises(ValueError, match="T must be a finite positive.*-1"):
         deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, -1, PlannerLaw(OfflineGain(1.0), q_ref=CRANE3_QREF))
-    from controllers.gain_design import design
-    from controllers.sikm import SIKMParams
+    from controllers.planner.gain_design import design
+    from controllers.planner.sikm import SIKMParams
     with pytest.raises(ValueError, match="outside the stability interval"):
         deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, 1.0,
                        PlannerLaw(OfflineGain(2.5), q_ref=CRANE3_QREF), guarantee=design(0.3))
