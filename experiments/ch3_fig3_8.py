@@ -19,8 +19,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from controllers.gain_design import design, estimate_mu
-from controllers.local_planner import OfflineGain, OnlineGain, simulate_sampled
+from controllers.planner import OfflineGain, OnlineGain, simulate_sampled
+from controllers.planner.gain_design import design, estimate_mu
 from plants.flycrane.configurations import thesis_flycrane
 
 T = 0.01

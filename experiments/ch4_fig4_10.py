@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
-from controllers.gain_design import design_nonsquare, estimate_mu
-from controllers.local_planner import OfflineGain, OnlineGain, WeightedNorm, sampled_velocity
+from controllers.planner import OfflineGain, OnlineGain, WeightedNorm, sampled_velocity
+from controllers.planner.gain_design import design_nonsquare, estimate_mu
 from experiments.ch4_fig4_8_9 import KBAR, T, WEIGHTS, setting
 from plants.flycrane.input_modes import VelocityTrackingPlant
 

@@ -24,8 +24,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from controllers.gain_design import design_nonsquare, estimate_mu
-from controllers.local_planner import OfflineGain, OnlineGain, WeightedNorm, simulate_sampled
+from controllers.planner import OfflineGain, OnlineGain, WeightedNorm, simulate_sampled
+from controllers.planner.gain_design import design_nonsquare, estimate_mu
 from plants.flycrane.configurations import four_robot_nonsquare
 
 T = 1.5

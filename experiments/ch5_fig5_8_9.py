@@ -35,8 +35,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from controllers.sikm import (TABLE_5_1, Trajectory, collect_interval_samples, estimate_parameters,
-                              optimal_offline_gain, simulate_tracking, tau_critical)
+from controllers.planner.sikm import (TABLE_5_1, Trajectory, collect_interval_samples, estimate_parameters,
+                                      optimal_offline_gain, simulate_tracking, tau_critical)
 from plants.flycrane.configurations import thesis_flycrane
 
 OMEGA = 2 * math.pi / 30.0

@@ -19,9 +19,11 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
-import controllers.local_planner as lp
-from controllers.local_planner import (SingularConfigurationError, WeightedNorm, _diag_gain, _jacobian,
-                                       _pinv_apply, online_gain, solve_auxiliary_flow)
+import controllers.planner.flow as aux_flow
+import plants.casadi_tools as ct
+from controllers.planner import (SingularConfigurationError, WeightedNorm, diag_gain, jacobian, online_gain,
+                                 pinv_solve, solve_auxiliary_flow)
+from controllers.planner.dop853 import root_increasing
 from test_controllers_systems import CRANE4_QREF, PlanarCrane
 
 
@@ -31,14 +33,14 @@ def reference_flow(system, q_ref, e_h, *, kbar=None, norm=None, tau_max=None, n_
     ``n_grid`` points plus the steps, the best bracket refined by bounded Brent (xatol 1e-10)."""
     m = system.m
     q_ref, e_h = np.asarray(q_ref, float), np.asarray(e_h, float)
-    kd = _diag_gain(kbar, m)
+    kd = diag_gain(kbar, m)
     nrm = WeightedNorm.of(norm)
     tau_max = 10.0 / kd.min() if tau_max is None else tau_max
     n0 = nrm(e_h)
-    c = _jacobian(system, q_ref + e_h) @ (kd * e_h)
+    c = jacobian(system, q_ref + e_h) @ (kd * e_h)
 
     def rhs(tau, x):
-        return -_pinv_apply(_jacobian(system, q_ref + x), c, q_ref + x)
+        return -pinv_solve(jacobian(system, q_ref + x), c, q_ref + x)
 
     def back(tau, x):
         return nrm(x) - n0
@@ -112,15 +114,15 @@ def test_compiled_and_svd_right_hand_sides_agree():
         e = 0.3 * np.cos(np.arange(sys_.m))
         fast = solve_auxiliary_flow(sys_, qr, e, norm=norm, kbar=kbar)
         svd = solve_auxiliary_flow(NumericOnly(sys_), qr, e, norm=norm, kbar=kbar)
-        assert lp._compiled_flow(sys_) is not None and lp._compiled_flow(NumericOnly(sys_)) is None
+        assert aux_flow._compiled_flow(sys_) is not None and aux_flow._compiled_flow(NumericOnly(sys_)) is None
         assert fast.tau_s == pytest.approx(svd.tau_s, rel=1e-13), name
         assert fast.tau_o == pytest.approx(svd.tau_o, rel=1e-11), name
         tau = np.linspace(0.0, fast.tau_end, 21)
         assert np.max(np.abs(fast(tau) - svd(tau))) < 1e-13, name
         # the same symbolic functions, uncompiled
-        funs = lp._casadi_flow_functions(sys_)
+        funs = aux_flow._casadi_flow_functions(sys_)
         c = np.ones(sys_.n)
-        vm, compiled = lp._CompiledFlow(funs).start(qr, c), lp._compiled_flow(sys_).start(qr, c)
+        vm, compiled = aux_flow._CompiledFlow(funs).start(qr, c), aux_flow._compiled_flow(sys_).start(qr, c)
         y, f0 = 0.1 * e, vm.rhs(0.1 * e)
         assert np.max(np.abs(f0 - compiled.rhs(0.1 * e))) < 1e-13
         for a, b in zip(vm.step(y, f0, 0.4), compiled.step(y, f0, 0.4)):
@@ -130,21 +132,21 @@ def test_compiled_and_svd_right_hand_sides_agree():
 
 def test_compilation_cache_and_fallback_without_compiler(tmp_path, monkeypatch):
     from plants.flycrane.configurations import thesis_flycrane
-    funs = lp._casadi_flow_functions(thesis_flycrane(cable_length=1.5))
+    funs = aux_flow._casadi_flow_functions(thesis_flycrane(cable_length=1.5))
     monkeypatch.setenv("NETCOSIM_CACHE", str(tmp_path))
     monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
-    assert lp._compile(funs, "t") is funs          # no compiler: CasADi's virtual machine
+    assert ct.compile_functions(funs, "t") is funs          # no compiler: CasADi's virtual machine
     monkeypatch.delenv("CC")
-    monkeypatch.setattr(lp, "COMPILE_FLOW", False)
-    assert lp._compile(funs, "t") is funs
-    monkeypatch.setattr(lp, "COMPILE_FLOW", True)
+    monkeypatch.setattr(ct, "COMPILE", False)
+    assert ct.compile_functions(funs, "t") is funs
+    monkeypatch.setattr(ct, "COMPILE", True)
     if shutil.which("cc") is None:
         pytest.skip("no C compiler")
-    out = lp._compile(funs, "t")
+    out = ct.compile_functions(funs, "t")
     libs = list(tmp_path.glob("t_*.so"))
     assert out is not funs and len(libs) == 1
     mtime = libs[0].stat().st_mtime_ns
-    lp._compile(funs, "t")                           # second time: loaded from the cache
+    ct.compile_functions(funs, "t")                           # second time: loaded from the cache
     assert libs[0].stat().st_mtime_ns == mtime and list(tmp_path.glob("t_*.so")) == libs
 
 
@@ -156,7 +158,7 @@ def test_singular_configuration_raises_through_the_fallback():
         q[-2] = math.pi / 2  # Euler angles at gimbal lock: A_q loses a rank
         with pytest.raises(SingularConfigurationError, match=r"singular .*at q="):
             online_gain(s, q, qr, 0.01)
-        assert lp._compiled_flow(s) is not None
+        assert aux_flow._compiled_flow(s) is not None
     with pytest.raises(ValueError, match="e_h must be finite"):
         solve_auxiliary_flow(s, qr, np.full(s.m, np.nan))
     with pytest.raises(ValueError, match="tau_max must be a finite positive.*-2"):
@@ -170,12 +172,12 @@ def test_dense_output_and_its_derivatives():
     f = solve_auxiliary_flow(s, qr, s.q_from([75] * 4, [0.05, 0, 0, 0, 0, 0]) - qr)
     sol = f.sol
     assert np.array_equal(sol.values(sol.t), sol.y) or np.max(np.abs(sol.values(sol.t) - sol.y)) < 1e-15
-    c = _jacobian(s, qr + f.e_h) @ f.e_h
+    c = jacobian(s, qr + f.e_h) @ f.e_h
     for tau in np.linspace(0.0, f.tau_end, 13):
         Y = sol.derivatives(tau)
         assert np.max(np.abs(Y[0] - f(tau))) < 1e-15
         # the dense output satisfies the flow equation to the integration tolerance
-        rhs = -_pinv_apply(_jacobian(s, qr + Y[0]), c, qr + Y[0])
+        rhs = -pinv_solve(jacobian(s, qr + Y[0]), c, qr + Y[0])
         assert np.max(np.abs(Y[1] - rhs)) < 1e-8 * np.linalg.norm(rhs)
         d = 1e-5
         fd = (sol.derivatives(tau + d)[1] - sol.derivatives(tau - d)[1]) / (2 * d)
@@ -185,11 +187,11 @@ def test_dense_output_and_its_derivatives():
 
 
 def test_bracketed_newton_root():
-    r = lp._root_increasing(lambda x: (x ** 3 - 2.0, 3 * x * x), 0.0, 3.0, 1e-15)
+    r = root_increasing(lambda x: (x ** 3 - 2.0, 3 * x * x), 0.0, 3.0, 1e-15)
     assert r == pytest.approx(2 ** (1 / 3), abs=4e-15)
     # a jump (max-norm kink): bisection down to the tolerance
-    r = lp._root_increasing(lambda x: (-1.0 if x < 0.3 else 1.0, 0.0), 0.0, 1.0, 1e-10)
+    r = root_increasing(lambda x: (-1.0 if x < 0.3 else 1.0, 0.0), 0.0, 1.0, 1e-10)
     assert abs(r - 0.3) < 2e-10
     # g(lo) = 0 at the start of the bracket is not taken as the root (tau_s > 0)
-    r = lp._root_increasing(lambda x: (x * (x - 1.5), 2 * x - 1.5), 0.0, 2.0, 1e-14)
+    r = root_increasing(lambda x: (x * (x - 1.5), 2 * x - 1.5), 0.0, 2.0, 1e-14)
     assert r == pytest.approx(1.5, abs=1e-13)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.local_planner import StarStructure
+from controllers.planner import StarStructure
 
 
 def _rot(a):

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.local_planner import OfflineGain, OnlineGain, simulate_sampled
-from controllers.planner_tasks import PlannerLaw, deploy_planner
-from controllers.sikm import Trajectory
+from controllers.planner import OfflineGain, OnlineGain, simulate_sampled
+from controllers.planner.tasks import PlannerLaw, deploy_planner
+from controllers.planner.sikm import Trajectory
 from netcosim import Simulation
 from test_controllers_systems import CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane
 
@@ -43,7 +43,7 @@ def test_tasks_reproduce_pure_math_over_ideal_network(sys_, qr, e0, gain, arch, 
         # d||e'||/dtau by round-off
         assert np.allclose(df.k.values[:H], ref.k.values[:H], rtol=1e-12, atol=0)
     # every command left at the sample instant (zero delays)
-    assert all(abs(r["t_done"] - r["t"]) < 1e-12 for r in dep.records)
+    assert all(abs(r.t_done - r.t) < 1e-12 for r in dep.records)
 
 
 def test_online_gain_in_sparse_architecture_is_rejected():
@@ -52,8 +52,8 @@ def test_online_gain_in_sparse_architecture_is_rejected():
         deploy_planner(sim, PlanarCrane(3), CRANE3_QREF, 0.5, PlannerLaw(OnlineGain(), q_ref=CRANE3_QREF))
     with pytest.raises(ValueError, match="T must be a finite positive.*-1"):
         deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, -1, PlannerLaw(OfflineGain(1.0), q_ref=CRANE3_QREF))
-    from controllers.gain_design import design
-    from controllers.sikm import SIKMParams
+    from controllers.planner.gain_design import design
+    from controllers.planner.sikm import SIKMParams
     with pytest.raises(ValueError, match="outside the stability interval"):
         deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, 1.0,
                        PlannerLaw(OfflineGain(2.5), q_ref=CRANE3_QREF), guarantee=design(0.3))
@@ -71,8 +71,8 @@ def test_execution_times_delay_the_commands():
     dep = deploy_planner(sim, sys_, qr + E3, 0.5, PlannerLaw(OfflineGain(1.6), q_ref=qr), architecture="sparse",
                          exec_pivot=0.01, exec_robot=0.02)
     sim.run(until=2.0)
-    robots = [r for r in dep.records if r["node"] != "pivot"]
-    assert robots and all(r["t_done"] == pytest.approx(r["t"] + 0.03, abs=1e-12) for r in robots)
+    robots = [r for r in dep.records if r.node != "pivot"]
+    assert robots and all(r.t_done == pytest.approx(r.t + 0.03, abs=1e-12) for r in robots)
     jobs = sim.trace.jobs()
     assert set(jobs.node.unique()) >= {"pivot", "robot1", "robot2", "robot3"}
     # the delayed loop still converges, but differs from the delay-free pure-math loop

@@ -29,7 +29,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ..buffered import BufferedFunction
+from ..casadi_tools import BufferedFunction
 from .rotations import body_rate_matrix
 
 __all__ = ["LagrangianModel"]

@@ -2,7 +2,8 @@
 
 * :class:`KinematicPlant` — velocity input ``ṗ = u`` for square systems (3.4) and its
   projection ``ṗ = Π_q u`` for non-square ones (4.5), i.e. ``q̇ = A_q^† u`` (4.6).
-  State q, input u (n, m/s).
+  State q, input u (n, m/s).  The project's one kinematic plant, defined for any
+  kinematic system in :mod:`plants.kinematic` and re-exported here.
 * :class:`VelocityTrackingPlant` — the dynamics (4.10) driven by the force
   ``F = -α (ṗ - u) + F_g(q)`` of (4.11) with gravity compensation, input u.  State
   (q, q̇).  As α grows, q̇ → A_q^† u (§4.3).
@@ -27,7 +28,8 @@ import numpy as np
 
 from netcosim.continuous import ContinuousSystem, HybridEvent
 
-from .kinematics import MultiRobotSystem, SingularConfigurationError, conditioning
+from ..kinematic import KinematicPlant
+from .kinematics import MultiRobotSystem, SingularConfigurationError
 
 __all__ = ["KinematicPlant", "VelocityTrackingPlant", "ForcePlant"]
 
@@ -58,56 +60,6 @@ class _FlyCranePlant(ContinuousSystem):
         if self.noise_std is not None:
             parts.append(q + self.noise_std * self.rng.standard_normal(q.shape[0]))
         return np.concatenate(parts)
-
-
-class KinematicPlant(_FlyCranePlant):
-    """``q̇ = A_q^† u`` (3.4)/(4.5)-(4.6): the robots realise ``ṗ = Π_q u``.
-
-    Raises :class:`~netcosim.errors.SingularConfigurationError` naming the time [s],
-    the configuration q and the measure (rank, smallest singular value, condition
-    number) if the trajectory reaches a singular configuration, by the project's one
-    rule (:data:`~plants.flycrane.kinematics.SINGULAR_RTOL`):
-
-    * wherever the integrator evaluates ``A_q^†`` at a configuration that the rule calls
-      singular (adaptive integrators shrink their steps towards the blow-up of ``q̇``);
-    * for square systems (n = m), also when a step *jumps over* the singular set, which
-      a fixed-step integrator does: the hybrid event ``singular_configuration``
-      watches :meth:`~plants.flycrane.kinematics.MultiRobotSystem.signed_conditioning`
-      (``sign(det A_q) σ_min/σ_max``), the integrator locates its zero crossing and the
-      plant raises there instead of continuing on the other side with a garbage
-      configuration (robot angles jumping by tens of degrees within one step).
-    """
-
-    def __init__(self, system: MultiRobotSystem, *, noise_std=None, rng=None, name=None):
-        events = ()
-        if system.n == system.m:
-            events = (HybridEvent("singular_configuration", self._signed_conditioning, 0, self._crossed),)
-        super().__init__(system, system.coordinate_names, tuple(f"u.{c}" for c in system.position_names), (),
-                         noise_std=noise_std, rng=rng, events=events, name=name)
-
-    def _signed_conditioning(self, t, x, u, params):
-        return self.system.signed_conditioning(x)
-
-    def _crossed(self, t, x, u, params):
-        q = np.asarray(x, dtype=float)
-        rank, smin, cond, _ = conditioning(self.system.singular_values(q), self.system.singular_tol)
-        raise SingularConfigurationError(
-            f"{self.name}: the trajectory reached a singular configuration at t = {t:.9f} s, "
-            f"q = {np.round(q, 9).tolist()}: det A_q changed sign (rank {rank} of {self.system.m} there, "
-            f"smallest singular value {smin:.3e}, condition number {cond:.3e})")
-
-    def initial_state(self, q0) -> np.ndarray:
-        """x0 = q0 after checking domain and singularity."""
-        return self.system.check_configuration(q0, what="q0")
-
-    def f(self, t, x, u, params):
-        try:
-            return self.system.pinv(x) @ u[: self.system.n]
-        except SingularConfigurationError as exc:
-            raise SingularConfigurationError(f"{self.name}: at t = {t:.9f} s, {exc}") from None
-
-    def h(self, t, x, u, params):
-        return self._measure(np.asarray(x, dtype=float), ())
 
 
 class _DynamicPlant(_FlyCranePlant):

@@ -23,54 +23,17 @@ from typing import Sequence
 import casadi as ca
 import numpy as np
 
-from ..buffered import BufferedFunction
+from ..casadi_tools import BufferedFunction
 from .attachments import GeometryError, OneCable, PlanarAgent, TwoCable
 from .rotations import euler_zyx, rot_2d
 
 from netcosim.errors import SingularConfigurationError
 
+# the rank rule is the project's one rule, defined with the kinematic model
+from ..kinematic import SINGULAR_RTOL, check_singular_values, conditioning, pinv_solve
+
 __all__ = ["MultiRobotSystem", "MassProperties", "SingularConfigurationError", "ConfigurationDomainError",
            "plate_inertia", "SINGULAR_RTOL", "conditioning", "check_singular_values"]
-
-#: The one rank rule of the project (plants and planners): ``A_q`` counts as singular
-#: when its smallest singular value is at most ``SINGULAR_RTOL`` times its largest,
-#: i.e. when its condition number reaches ``1 / SINGULAR_RTOL = 1e8``.  Why 1e-8: it is
-#: about sqrt(machine epsilon) (1.5e-8); ``A_q^+ u`` computed in double precision has a
-#: relative error of about ``eps * cond(A_q)``, so beyond ``cond = 1e8`` fewer than half
-#: of the digits of ``q_dot`` are right and no integrator tolerance used here (1e-8 to
-#: 1e-13) can be met.  Near such a configuration ``|q_dot| ~ |u| / sigma_min`` grows
-#: without bound (the platform is not determined by the robot positions).  The rule is
-#: relative, so it does not depend on the units of q (rad and m mixed) or on the size
-#: of the platform.
-SINGULAR_RTOL = 1e-8
-
-
-def conditioning(singular_values, rtol: float = SINGULAR_RTOL) -> tuple[int, float, float, bool]:
-    """``(rank, sigma_min, cond, singular)`` of a matrix from its singular values (any order).
-
-    ``rank`` counts the singular values above ``rtol * sigma_max``; ``cond =
-    sigma_max / sigma_min`` (inf when ``sigma_min = 0``); ``singular`` is true when the
-    rank is below the number of singular values (``min(n, m)``), i.e. when
-    ``sigma_min <= rtol * sigma_max`` -- or when a value is not finite.
-    """
-    sv = np.sort(np.abs(np.asarray(singular_values, dtype=float).reshape(-1)))[::-1]
-    if sv.size == 0 or not np.all(np.isfinite(sv)) or not sv[0] > 0.0:
-        return 0, (float(sv[-1]) if sv.size else 0.0), math.inf, True
-    smax, smin = float(sv[0]), float(sv[-1])
-    rank = int(np.count_nonzero(sv > rtol * smax))
-    cond = smax / smin if smin > 0.0 else math.inf
-    return rank, smin, cond, rank < sv.size
-
-
-def check_singular_values(singular_values, at: str, rtol: float = SINGULAR_RTOL) -> None:
-    """Raise :class:`~netcosim.errors.SingularConfigurationError` if the rule of
-    :data:`SINGULAR_RTOL` calls the matrix singular; *at* names where (``"q = [...]"``)."""
-    rank, smin, cond, singular = conditioning(singular_values, rtol)
-    if singular:
-        k = np.asarray(singular_values).size
-        raise SingularConfigurationError(
-            f"A_q is singular at {at}: rank {rank} < {k}, smallest singular value {smin:.3e}, "
-            f"condition number {cond:.3e} (singular when sigma_min <= {rtol:g} * sigma_max)")
 
 
 class ConfigurationDomainError(ValueError):
@@ -290,10 +253,8 @@ class MultiRobotSystem:
         :class:`SingularConfigurationError` (naming q, the rank, the smallest singular
         value and the condition number) when A_q is singular by the rule of
         :data:`SINGULAR_RTOL` (``singular_tol``)."""
-        A = self.jacobian(q)
-        U, s, Vt = np.linalg.svd(A, full_matrices=False)
-        check_singular_values(s, f"q = {np.round(self._q(q), 12).tolist()}", self.singular_tol)
-        return (Vt.T / s) @ U.T
+        return pinv_solve(self.jacobian(q), np.eye(self.n), lambda: f"q = {np.round(self._q(q), 12).tolist()}",
+                          self.singular_tol)
 
     def signed_conditioning(self, q) -> float:
         """``sign(det A_q) * sigma_min / sigma_max`` for square systems: continuous in q,
@@ -318,7 +279,8 @@ class MultiRobotSystem:
         u = np.asarray(u, dtype=float).reshape(-1)
         if u.shape != (self.n,):
             raise ValueError(f"u must have n={self.n} entries, got {u.shape}")
-        return self.pinv(q) @ u
+        return pinv_solve(self.jacobian(q), u, lambda: f"q = {np.round(self._q(q), 12).tolist()}",
+                          self.singular_tol)
 
     def block_indices(self):
         """``(rows, cols, pivot_cols)``: index tuples of p_i, q_i and q_V (the layout of (3.3))."""
