@@ -28,10 +28,11 @@ from .radio import (LogDistance, TrueTimePathLoss, ber_cck, ber_dbpsk, ber_dqpsk
 from .switched import SwitchedEthernet
 from .tdma import TDMA
 from .traffic import SaturatedSource
+from .wireless import RadioNetwork, RadioStation
 from .wlan import RATES, WLAN80211b
 
 __all__ = ["ARBITRATE", "AnyLoss", "BROADCAST", "Bernoulli", "CAN", "CSMACD", "FDMA", "GilbertElliott",
            "IEEE802154", "IdealLink", "Interface", "LOSS_REASONS", "LogDistance", "LossModel", "Message", "NETWORK_STATES",
-           "Network", "RATES", "RoundRobin", "SaturatedSource", "SharedBus", "SwitchedEthernet", "TDMA",
+           "Network", "RATES", "RadioNetwork", "RadioStation", "RoundRobin", "SaturatedSource", "SharedBus", "SwitchedEthernet", "TDMA",
            "TraceLoss", "TrueTimePathLoss", "WLAN80211b", "ber_cck", "ber_dbpsk", "ber_dqpsk", "can_frame_bits",
            "dbm_to_watt", "thermal_noise_dbm", "watt_to_dbm"]
