@@ -119,6 +119,8 @@ class IEEE802154(RadioNetwork):
         self._ack_plcp = 0
         self._ack_delay = self.turnaround
         self.ack_bits = 40
+        self.max_attempts = self.max_frame_retries + 1
+        self._ack_timeout_ticks = self.ack_wait
 
     def default_noise_dbm(self) -> float:
         """Thermal noise in the 2 MHz channel at 290 K (dBm)."""
@@ -159,7 +161,8 @@ class IEEE802154(RadioNetwork):
             if r.nb > self.max_csma_backoffs:
                 f = r.iface.current
                 self._attempt_end(r.iface, f, "channel_access")
-                self._drop(r.iface, f, "channel_access")
+                self._lost(f, r.iface, "channel_access")
+                self._frame_done(r, f, False)
                 return
             self._backoff(r)
             return
@@ -180,37 +183,13 @@ class IEEE802154(RadioNetwork):
     def _ifs(self, bits) -> int:
         return self.sifs if bits <= 18 * 8 else self.lifs
 
-    def _tx_end(self, tx) -> None:
-        r = tx.src
-        self.medium.end(tx)
-        r.tx = None
-        r.iface.sending = 0
-        if tx.kind == "data":
-            f = tx.frame
-            if f.dst is BROADCAST or not self.use_ack:
-                self._attempt_end(r.iface, f, "sent")
-                r.ifs_until = self._env._now + self._ifs(self.mac_overhead_bits + f.bits)
-                self._done(r.iface, f, True)
-            else:
-                self._await_ack(r, tx, self.ack_wait)
-        else:
-            r.responding -= 1
-        r.iface._state()
+    def _frame_done(self, r, f, ok: bool) -> None:
+        if ok:
+            r.ifs_until = self._env._now + self._ifs(self.mac_overhead_bits + f.bits)
+        self._done(r.iface, f, ok)
 
-    def _ack_fail(self, r) -> None:
-        tx = self._stop_waiting(r)
-        f = tx.frame
-        self._attempt_end(r.iface, f, tx.dst_reason or ("ack_lost" if tx.acked else "no_ack"))
-        if f.attempts > self.max_frame_retries:
-            self._drop(r.iface, f, "retry_limit")
-        else:
-            self._csma_start(r)
-
-    def _ack_ok(self, r) -> None:
-        f = self._stop_waiting(r).frame
-        self._attempt_end(r.iface, f, "ok")
-        r.ifs_until = self._env._now + self._ifs(self.mac_overhead_bits + f.bits)
-        self._done(r.iface, f, True)
+    def _retry(self, r) -> None:
+        self._csma_start(r)
 
     # ------------------------------------------------------------------ medium callbacks
     def _reeval(self, r) -> None:

@@ -13,8 +13,13 @@ A wireless MAC subclasses it and provides:
 * ``_kick(iface)`` (base :class:`~netcosim.network.base.Network`) -- start medium access;
 * ``_reeval(r)`` -- the medium's view of station *r* changed (carrier sense);
 * ``_rx_end(r, tx, ok, reason, locked)`` -- *tx* ended at listener *r*;
-* ``_ack_delay`` (ticks from the end of a data frame to its ACK), ``ack_time``,
-  ``ack_bits`` and ``_ack_mod`` for :meth:`RadioNetwork._send_ack`.
+* ``_retry(r)`` -- the ACK did not come and attempts remain;
+* optionally ``_frame_done(r, f, ok)`` -- the station is done with a frame (default
+  :meth:`~netcosim.network.base.Network._done`);
+* attributes ``use_ack``, ``max_attempts`` (transmissions of a unicast frame),
+  ``_ack_timeout_ticks`` (from the end of a data frame), ``_ack_delay`` (ticks from
+  the end of a data frame to its ACK), ``ack_time``, ``ack_bits``, ``_ack_plcp`` and
+  ``_ack_mod`` for :meth:`RadioNetwork._send_ack`.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import math
 from ..errors import ConfigurationTypeError
 from .base import Network
 from .checks import check_finite, check_non_negative
+from .frame import BROADCAST
 from .interface import Interface
 from .medium import Transmission, WirelessMedium
 from .radio import LogDistance, PathLoss, as_position, db_to_ratio, dbm_to_watt, watt_to_dbm
@@ -113,6 +119,8 @@ class RadioNetwork(Network):
                           else check_finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
         self.medium = WirelessMedium(self, path_loss=path_loss, noise_w=dbm_to_watt(self.noise_dbm),
                                      capture_ratio=db_to_ratio(self.capture_db))
+        #: unicast attempts that failed by a collision at the destination
+        self.collisions = 0
 
     def default_noise_dbm(self) -> float:
         """Noise floor (dBm) when ``noise_dbm`` is not given."""
@@ -168,6 +176,28 @@ class RadioNetwork(Network):
         self.sim.call_at(tx.end, self._tx_end, arg=tx)
 
     def _tx_end(self, tx: Transmission) -> None:
+        """*tx* left the air: an ACK is done, a broadcast (or unacknowledged) data frame is
+        sent, a unicast data frame waits for its ACK."""
+        r = tx.src
+        self.medium.end(tx)
+        r.tx = None
+        r.iface.sending = 0
+        if tx.kind != "data":
+            r.responding -= 1
+        elif tx.dst is BROADCAST or not self.use_ack:
+            self._attempt_end(r.iface, tx.frame, "sent")
+            self._frame_done(r, tx.frame, True)
+        else:
+            self._await_ack(r, tx, self._ack_timeout_ticks)
+        r.iface._state()
+        self._reeval(r)
+
+    def _frame_done(self, r: RadioStation, f, ok: bool) -> None:
+        """Hook: station *r* is done with *f* (sent/acknowledged, or dropped)."""
+        self._done(r.iface, f, ok)
+
+    def _retry(self, r: RadioStation) -> None:
+        """Hook: the ACK for *r*'s current frame did not come; try again."""
         raise NotImplementedError
 
     def _await_ack(self, r: RadioStation, tx: Transmission, timeout: int) -> None:
@@ -196,8 +226,27 @@ class RadioNetwork(Network):
             r.ack_timer = None
         return tx
 
+    def _ack_ok(self, r: RadioStation) -> None:
+        f = self._stop_waiting(r).frame
+        self._attempt_end(r.iface, f, "ok")
+        self._frame_done(r, f, True)
+        r.iface._state()
+
     def _ack_fail(self, r: RadioStation) -> None:
-        raise NotImplementedError
+        """No (intact) ACK: the attempt failed for the reason the destination missed the frame
+        (``ack_lost`` if it did receive it); retry, or drop after ``max_attempts``."""
+        tx = self._stop_waiting(r)
+        f = tx.frame
+        reason = tx.dst_reason or ("ack_lost" if tx.acked else "no_ack")
+        if reason == "collision":
+            self.collisions += 1
+        self._attempt_end(r.iface, f, reason)
+        if f.attempts >= self.max_attempts:
+            self._lost(f, r.iface, "retry_limit")
+            self._frame_done(r, f, False)
+        else:
+            self._retry(r)
+        r.iface._state()
 
     def _receive_unicast(self, r: RadioStation, tx: Transmission, ack: bool) -> None:
         """*r* decoded the data frame *tx* addressed to it: draw the link loss (a frame lost

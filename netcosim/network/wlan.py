@@ -201,9 +201,11 @@ class WLAN80211b(RadioNetwork):
                                          f"({self.sifs * 1e-12} s)")
         self.data_mod = modulation_for(self.data_rate, modulation)
         self.ack_mod = self._ack_mod = modulation_for(self.ack_rate, "auto")
+        self.use_ack = True
+        self.max_attempts = self.retry_limit
+        self._ack_timeout_ticks = self.ack_timeout
         self._ack_plcp = self.plcp
         self._ack_delay = self.sifs
-        self.collisions = 0
         # Access instants of all stations in one heap, one SimPy timer at the earliest:
         # entries (tick, station index, generation, station); stale entries are skipped.
         self._acc: list = []
@@ -332,48 +334,14 @@ class WLAN80211b(RadioNetwork):
         r.mac_busy = True
         super()._start_tx(r, tx)
 
-    def _tx_end(self, tx) -> None:
-        r = tx.src
-        self.medium.end(tx)
-        r.tx = None
-        r.iface.sending = 0
-        if tx.kind == "data":
-            f = tx.frame
-            if f.dst is BROADCAST:
-                self._attempt_end(r.iface, f)
-                self._dcf_done(r, f, True)
-            else:
-                self._await_ack(r, tx, self.ack_timeout)
-        else:
-            r.responding -= 1
-        r.iface._state()
-        self._reeval(r)
-
-    def _dcf_done(self, r, f, ok: bool) -> None:
+    def _frame_done(self, r, f, ok: bool) -> None:
         r.cw = self.cw_min
         self._draw(r)                 # post-backoff, drawn before the sender hears it is free
         self._done(r.iface, f, ok, restart=False)
 
-    def _ack_ok(self, r) -> None:
-        f = self._stop_waiting(r).frame
-        self._attempt_end(r.iface, f)
-        self._dcf_done(r, f, True)
-        r.iface._state()
-
-    def _ack_fail(self, r) -> None:
-        tx = self._stop_waiting(r)
-        f = tx.frame
-        reason = tx.dst_reason or ("ack_lost" if tx.acked else "no_ack")
-        if reason == "collision":
-            self.collisions += 1
-        self._attempt_end(r.iface, f, reason)
-        if f.attempts >= self.retry_limit:
-            self._lost(f, r.iface, "retry_limit")
-            self._dcf_done(r, f, False)
-        else:
-            r.cw = min(2 * (r.cw + 1) - 1, self.cw_max)
-            self._draw(r)
-        r.iface._state()
+    def _retry(self, r) -> None:
+        r.cw = min(2 * (r.cw + 1) - 1, self.cw_max)
+        self._draw(r)
 
     def _rx_end(self, r, tx, ok, reason, locked) -> None:
         """MAC processing of the end of *tx* at listener *r* (called by the medium)."""
