@@ -59,6 +59,15 @@ class IdealLink(Network):
         self._done(iface, f, True)
 
 
+class FdmaStation:
+    """An FDMA station's state: its ``share`` of the bandwidth (fraction in (0, 1])."""
+
+    __slots__ = ("share",)
+
+    def __init__(self, share: float):
+        self.share = float(share)
+
+
 class FDMA(IdealLink):
     """Frequency division: node *i* owns ``share`` of the bandwidth (``attach(node, share=0.3)``).
 
@@ -66,7 +75,6 @@ class FDMA(IdealLink):
     """
 
     def _station(self, iface, options):
-        """The node's bandwidth share (``iface.mac``), a fraction in (0, 1]."""
         share = options.pop("share", None)
         name = iface.name
         if share is None:
@@ -74,14 +82,10 @@ class FDMA(IdealLink):
                                      f"share, got share=None")
         share = check_real(share, f"network {self.name!r} (FDMA): share of {name!r}", low=0.0, high=1.0,
                            low_open=True, kind="a fraction of the bandwidth in (0, 1]")
-        total = sum(i.mac for i in self._ifaces) + share
+        total = sum(i.mac.share for i in self._ifaces) + share
         if total > 1 + 1e-12:
             raise ConfigurationError(f"network {self.name!r} (FDMA): shares would sum to {total:g} > 1 with {name!r}")
-        return float(share)
+        return FdmaStation(share)
 
     def rate_of(self, iface):
-        return self.data_rate * iface.mac
-
-    def share(self, node) -> float:
-        """The bandwidth share of *node* (fraction of ``data_rate``)."""
-        return self.interface(node).mac
+        return self.data_rate * iface.mac.share
