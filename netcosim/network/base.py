@@ -24,6 +24,14 @@ Traces (tables of ``sim.trace``, times in seconds):
 
 Durations are integer ticks computed once per (bits, rate): two frames of equal
 length take exactly equal time, and instants that coincide on paper coincide here.
+
+The MAC seam: a MAC subclasses :class:`Network` and implements ``_kick`` (medium
+access for a queued frame) and usually ``_station`` (its per-station state, kept as
+``iface.mac``); everything else -- validation, queues, counters, interface states,
+trace rows, loss draw, delivery, ``stats``, ``on_done`` and the restart of the queue --
+is done by the life-cycle steps below (``_next_frame``, ``_attempt_start``,
+``_carrier_on``/``_carrier_off``, ``_attempt_end``, ``_deliver_all``, ``_done``,
+``_drop``).  See "Writing a MAC" in ``docs/networks.md``.
 """
 
 from __future__ import annotations
