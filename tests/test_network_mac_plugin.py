@@ -104,3 +104,21 @@ def test_a_mac_written_from_the_hooks_gets_the_whole_pipeline():
     assert list(zip(sch["time"].round(9), sch["node"], sch["state"])) == [
         (0.0, "a", "idle"), (0.0, "b", "idle"), (0.0001, "a", "sending"), (0.0001, "b", "receiving"),
         (0.0031, "b", "idle"), (0.0031, "a", "idle")]
+
+
+class Twice(Instant):
+    """A broken MAC: it reports the same frame done twice."""
+
+    def _end(self, f):
+        super()._end(f)
+        self._done(f.src, f, True)
+
+
+def test_the_base_checks_that_a_mac_works_on_the_frame_in_service():
+    sim = Simulation(seed=5)
+    net = Twice(sim, "n", data_rate=1e6)
+    a, _ = net.attach("a"), net.attach("b")
+    a.send("b", None, 1000)
+    with pytest.raises(RuntimeError, match=r"'a' is done with <Frame #1 a->b 1000 bit>, but the frame in service "
+                                           r"there is None"):
+        sim.run(1.0)

@@ -333,6 +333,8 @@ class Network:
     def _attempt_start(self, iface: Interface, frame: Frame, bits=None, backoff=_NAN) -> None:
         """Count a new attempt of *frame* starting now and trace it (``bits`` on the air,
         default the frame's; ``backoff`` slots drawn before it)."""
+        if iface.current is not frame:
+            self._not_in_service(iface, frame, "starts an attempt of")
         frame.attempts += 1
         frame.sent = self._env._now
         if self._trace_on:
@@ -372,11 +374,18 @@ class Network:
         """The sender is done with *frame* (sent/acknowledged, or dropped): free the interface,
         count and notify (:meth:`_finish`), then serve the queue (:meth:`_restart`) unless
         ``restart=False`` (the MAC restarts it itself later)."""
+        if iface.current is not frame:
+            self._not_in_service(iface, frame, "is done with")
         iface.current = None
         iface._state()
         self._finish(frame, ok)
         if restart:
             self._restart(iface)
+
+    def _not_in_service(self, iface: Interface, frame: Frame, what: str):
+        # the invariant of the life cycle: a MAC works on the frame in service at the interface
+        raise RuntimeError(f"network {self.name!r} ({type(self).__name__}): {iface.name!r} {what} {frame!r}, "
+                           f"but the frame in service there is {iface.current!r}")
 
     def _drop(self, iface: Interface, frame: Frame, reason: str, restart: bool = True) -> None:
         """The sender gives *frame* up (``lost`` with *reason* at the sender) and is done with it."""
