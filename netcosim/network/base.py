@@ -255,6 +255,9 @@ class Network:
         return size_bits if size_bits >= self.min_frame_bits else self.min_frame_bits
 
     def _check_priority(self, priority, iface) -> None:
+        t = type(priority)
+        if t is int or (t is float and math.isfinite(priority)):
+            return                  # the common case, without the (slow) numbers.Real check
         if priority is not None and (isinstance(priority, bool) or not isinstance(priority, numbers.Real)
                                      or not math.isfinite(priority)):
             raise ConfigurationError(f"network {self.name!r}: priority of a message from {iface.name!r} must "
@@ -266,6 +269,8 @@ class Network:
             if self.min_frame_bits == 0:
                 raise ValueError(f"network {self.name!r}: send from {iface.name!r} needs size_bits")
             size = self.min_frame_bits
+        elif type(size_bits) is int and (size_bits > 0 or (size_bits == 0 and self.allow_empty)):
+            size = size_bits        # the common case, without building the error text
         else:
             size = check_bits(size_bits, f"network {self.name!r}: size_bits of a message from {iface.name!r}",
                               allow_zero=self.allow_empty)
@@ -427,7 +432,11 @@ class Network:
         if self.loss is not None and self._link(frame.src, rx).lost():
             self._lost(frame, rx, "random_loss")
             return False
-        self._accept(frame, rx)
+        delay = self._post + self._prop       # as _accept (inlined: once per frame and receiver)
+        if delay:
+            self.sim.call_in(delay, self._hand_over, arg=(frame, rx))
+        else:
+            self._hand_over((frame, rx))
         return True
 
     def _accept(self, frame: Frame, rx: Interface) -> None:
