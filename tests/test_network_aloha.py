@@ -19,7 +19,12 @@ def aloha(**kw):
 def test_a_lone_frame_waits_for_the_next_slot_and_takes_one_slot():
     sim, net = aloha()
     a, b = net.attach("a"), net.attach("b")
-    sim.call_in(300_000_000, lambda: a.send("b", "x", 800))      # at 0.3 ms
+
+    def later():
+        yield sim.timeout(0.3e-3)
+        a.send("b", "x", 800)
+
+    sim.process(later())
     sim.run(0.01)
     msg = b.receive()
     assert msg.payload == "x" and msg.attempts == 1
