@@ -148,7 +148,7 @@ class Node:
         return ch
 
     # ---------------------------------------------------------------- networks
-    def send(self, dst, payload=None, size_bits=None, *, priority=None, network=None, sender=None):
+    def send(self, dst, payload=None, size_bits=None, *, priority=None, network=None):
         """Send a message through a network interface of this node."""
         if not self.interfaces:
             raise RuntimeError(f"node {self.name!r} has no network interface; attach it to a network first")
@@ -164,7 +164,7 @@ class Node:
             except KeyError:
                 raise ValueError(f"node {self.name!r} is not on network {key!r}; "
                                  f"it is on {sorted(self.interfaces)}") from None
-        return iface.send(dst, payload, size_bits, priority=priority, sender=sender)
+        return iface.send(dst, payload, size_bits, priority=priority)
 
     # ------------------------------------------------------------------ kernel
     def _wake(self, callback, job, delay: int) -> Timer:

@@ -351,7 +351,7 @@ class TaskContext:
 
     def send(self, dst, payload: Any = None, size_bits: int | None = None, *, priority=None, network=None):
         """Send a message over one of this node's network interfaces (see netcosim.network)."""
-        return self.node.send(dst, payload, size_bits, priority=priority, network=network, sender=self)
+        return self.node.send(dst, payload, size_bits, priority=priority, network=network)
 
     def kill(self) -> None:
         """Abort the current job."""

@@ -9,11 +9,12 @@ Create a network with its simulation and a name, attach nodes, send from tasks::
 
 Models: :class:`IdealLink`, :class:`FDMA`, :class:`CSMACD`, :class:`CAN`,
 :class:`RoundRobin`, :class:`TDMA`, :class:`SwitchedEthernet`, :class:`WLAN80211b`,
-:class:`IEEE802154`.
+:class:`IEEE802154`, :class:`SlottedAloha` (the minimal example MAC).
 Loss models: :class:`Bernoulli`, :class:`GilbertElliott`, :class:`TraceLoss`.
 See ``docs/networks.md`` for the semantics of each model.
 """
 
+from .aloha import SlottedAloha
 from .base import ARBITRATE, NETWORK_STATES, Network
 from .bus import RoundRobin, SharedBus
 from .can import CAN, can_frame_bits
@@ -28,10 +29,11 @@ from .radio import (LogDistance, TrueTimePathLoss, ber_cck, ber_dbpsk, ber_dqpsk
 from .switched import SwitchedEthernet
 from .tdma import TDMA
 from .traffic import SaturatedSource
+from .wireless import RadioNetwork, RadioStation
 from .wlan import RATES, WLAN80211b
 
 __all__ = ["ARBITRATE", "AnyLoss", "BROADCAST", "Bernoulli", "CAN", "CSMACD", "FDMA", "GilbertElliott",
-           "IEEE802154", "IdealLink", "Interface", "LOSS_REASONS", "LogDistance", "LossModel", "Message", "NETWORK_STATES",
-           "Network", "RATES", "RoundRobin", "SaturatedSource", "SharedBus", "SwitchedEthernet", "TDMA",
-           "TraceLoss", "TrueTimePathLoss", "WLAN80211b", "ber_cck", "ber_dbpsk", "ber_dqpsk", "can_frame_bits",
-           "dbm_to_watt", "thermal_noise_dbm", "watt_to_dbm"]
+           "IEEE802154", "IdealLink", "Interface", "LOSS_REASONS", "LogDistance", "LossModel", "Message",
+           "NETWORK_STATES", "Network", "RATES", "RadioNetwork", "RadioStation", "RoundRobin", "SaturatedSource",
+           "SharedBus", "SlottedAloha", "SwitchedEthernet", "TDMA", "TraceLoss", "TrueTimePathLoss", "WLAN80211b",
+           "ber_cck", "ber_dbpsk", "ber_dqpsk", "can_frame_bits", "dbm_to_watt", "thermal_noise_dbm", "watt_to_dbm"]

@@ -24,6 +24,14 @@ Traces (tables of ``sim.trace``, times in seconds):
 
 Durations are integer ticks computed once per (bits, rate): two frames of equal
 length take exactly equal time, and instants that coincide on paper coincide here.
+
+The MAC seam: a MAC subclasses :class:`Network` and implements ``_kick`` (medium
+access for a queued frame) and usually ``_station`` (its per-station state, kept as
+``iface.mac``); everything else -- validation, queues, counters, interface states,
+trace rows, loss draw, delivery, ``stats``, ``on_done`` and the restart of the queue --
+is done by the life-cycle steps below (``_next_frame``, ``_attempt_start``,
+``_carrier_on``/``_carrier_off``, ``_attempt_end``, ``_deliver_all``, ``_done``,
+``_drop``).  See "Writing a MAC" in ``docs/networks.md``.
 """
 
 from __future__ import annotations
@@ -37,12 +45,13 @@ from typing import Any
 
 from ..kernel.task import Task
 from ..clock import ARBITRATE  # noqa: F401 (re-exported: MAC arbitration priority)
-from ..errors import ConfigurationError
+from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND
 from .checks import check_bits, check_count, check_duration, check_positive, check_real
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
 from .loss import as_loss_model
+
 
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
                  "bits", "backoff")
@@ -177,11 +186,15 @@ class Network:
         if priority is not None:
             check_real(priority, f"network {self.name!r}: default priority of node {name!r}",
                        kind="a finite number (small = high) or None")
-        iface = self._make_interface(
-            name, knode, len(self._ifaces), options, priority=priority, mailbox=mailbox,
-            mailbox_capacity=self.mailbox_capacity if mailbox_capacity is None else mailbox_capacity,
-            queue=queue or self.queue,
-            queue_capacity=self.queue_capacity if queue_capacity is None else queue_capacity)
+        iface = Interface(self, name, knode, len(self._ifaces), priority=priority, mailbox=mailbox,
+                          mailbox_capacity=self.mailbox_capacity if mailbox_capacity is None else mailbox_capacity,
+                          queue=queue or self.queue,
+                          queue_capacity=self.queue_capacity if queue_capacity is None else queue_capacity)
+        options = dict(options)
+        iface.mac = self._station(iface, options)
+        if options:
+            raise ConfigurationTypeError(f"network {self.name!r} ({type(self).__name__}): unknown attach "
+                                         f"option(s) {sorted(options)}")
         self.interfaces[name] = iface
         self._ifaces.append(iface)
         if knode is not None:
@@ -191,17 +204,7 @@ class Network:
         if self._trace_on:
             iface._row_t, iface._row = self._env._now, (self._env._now, self.name, name, "idle")
             self._sched_rows.append(iface._row)
-        self._attached(iface)
         return iface
-
-    def _make_interface(self, name, node, index, options, **common) -> Interface:
-        if options:
-            raise TypeError(f"network {self.name!r} ({type(self).__name__}): unknown attach option(s) "
-                            f"{sorted(options)}")
-        return Interface(self, name, node, index, **common)
-
-    def _attached(self, iface: Interface) -> None:
-        """Hook: a new interface joined."""
 
     def interface(self, node) -> Interface:
         """The interface of *node* (name, kernel node or interface)."""
@@ -249,17 +252,22 @@ class Network:
         return size_bits if size_bits >= self.min_frame_bits else self.min_frame_bits
 
     def _check_priority(self, priority, iface) -> None:
+        t = type(priority)
+        if t is int or (t is float and math.isfinite(priority)):
+            return                  # the common case, without the (slow) numbers.Real check
         if priority is not None and (isinstance(priority, bool) or not isinstance(priority, numbers.Real)
                                      or not math.isfinite(priority)):
             raise ConfigurationError(f"network {self.name!r}: priority of a message from {iface.name!r} must "
                                      f"be a finite number, got {priority!r}")
 
     # ------------------------------------------------------------------ pipeline
-    def _send(self, iface: Interface, dst, payload, size_bits, priority, sender) -> Message:
+    def _send(self, iface: Interface, dst, payload, size_bits, priority) -> Message:
         if size_bits is None:
             if self.min_frame_bits == 0:
                 raise ValueError(f"network {self.name!r}: send from {iface.name!r} needs size_bits")
             size = self.min_frame_bits
+        elif type(size_bits) is int and (size_bits > 0 or (size_bits == 0 and self.allow_empty)):
+            size = size_bits        # the common case, without building the error text
         else:
             size = check_bits(size_bits, f"network {self.name!r}: size_bits of a message from {iface.name!r}",
                               allow_zero=self.allow_empty)
@@ -298,9 +306,93 @@ class Network:
         self._kick(iface)
         iface._state()
 
+    # ------------------------------------------------------------------ MAC hooks
+    # A MAC implements _kick (and usually _station); the life-cycle steps below are shared.
+    def _station(self, iface: Interface, options: dict) -> Any:
+        """Hook: the MAC's per-station state for a newly attached *iface* (kept as ``iface.mac``).
+
+        Pop the MAC-specific ``attach`` keyword options from *options* (any left over is
+        an error).  Default: no state.
+        """
+        return None
+
     def _kick(self, iface: Interface) -> None:
-        """MAC hook: a frame was queued at *iface*."""
+        """Hook: *iface* may have a frame to send (one was queued, or the MAC looks again)."""
         raise NotImplementedError
+
+    def _restart(self, iface: Interface) -> None:
+        """Hook: *iface* is free again after a frame; by default serve its queue (:meth:`_kick`)."""
+        self._kick(iface)
+
+    # ------------------------------------------------------------------ attempt life cycle
+    def _next_frame(self, iface: Interface) -> Frame | None:
+        """Take the head of *iface*'s queue into service (``iface.current``); None if busy or empty."""
+        if iface.current is None and iface.queue._q:
+            f = iface.current = iface.queue.pop()
+            return f
+        return None
+
+    def _attempt_start(self, iface: Interface, frame: Frame, bits=None, backoff=_NAN) -> None:
+        """Count a new attempt of *frame* starting now and trace it (``bits`` on the air,
+        default the frame's; ``backoff`` slots drawn before it)."""
+        if iface.current is not frame:
+            self._not_in_service(iface, frame, "starts an attempt of")
+        frame.attempts += 1
+        frame.sent = self._env._now
+        if self._trace_on:
+            self._rows.append((frame.sent, self.name, frame.id, "attempt_start", iface.name, frame.dname,
+                               iface.name, frame.attempts, "", frame.bits if bits is None else bits, backoff))
+
+    def _carrier_on(self, iface: Interface, frame: Frame) -> None:
+        """*iface* puts *frame* on the medium: it is sending, its receivers are receiving."""
+        iface.sending = 1
+        iface._state()
+        for r in self.receivers(frame):
+            r.receiving += 1
+            r._state()
+
+    def _carrier_off(self, iface: Interface, frame: Frame) -> None:
+        """*iface* stops sending *frame* (ended, cut or aborted)."""
+        iface.sending = 0
+        for r in self.receivers(frame):
+            r.receiving -= 1
+            r._state()
+
+    def _attempt_end(self, iface: Interface, frame: Frame, outcome: str | None = None) -> None:
+        """Trace the end of the current attempt: ``ok``/``sent`` (broadcast) by default, or the
+        failure *outcome*."""
+        if self._trace_on:
+            if outcome is None:
+                outcome = "sent" if frame.dst is BROADCAST else "ok"
+            self._rows.append((self._env._now, self.name, frame.id, "attempt_end", frame.src.name, frame.dname,
+                               iface.name, frame.attempts, outcome, _NAN, _NAN))
+
+    def _deliver_all(self, frame: Frame) -> None:
+        """Every receiver of *frame* got it now (loss drawn per receiver)."""
+        for r in self.receivers(frame):
+            self._deliver(frame, r)
+
+    def _done(self, iface: Interface, frame: Frame, ok: bool, restart: bool = True) -> None:
+        """The sender is done with *frame* (sent/acknowledged, or dropped): free the interface,
+        count and notify (:meth:`_finish`), then serve the queue (:meth:`_restart`) unless
+        ``restart=False`` (the MAC restarts it itself later)."""
+        if iface.current is not frame:
+            self._not_in_service(iface, frame, "is done with")
+        iface.current = None
+        iface._state()
+        self._finish(frame, ok)
+        if restart:
+            self._restart(iface)
+
+    def _not_in_service(self, iface: Interface, frame: Frame, what: str):
+        # the invariant of the life cycle: a MAC works on the frame in service at the interface
+        raise RuntimeError(f"network {self.name!r} ({type(self).__name__}): {iface.name!r} {what} {frame!r}, "
+                           f"but the frame in service there is {iface.current!r}")
+
+    def _drop(self, iface: Interface, frame: Frame, reason: str, restart: bool = True) -> None:
+        """The sender gives *frame* up (``lost`` with *reason* at the sender) and is done with it."""
+        self._lost(frame, iface, reason)
+        self._done(iface, frame, False, restart)
 
     # helpers for MACs ---------------------------------------------------------
     def _trace(self, event: str, frame: Frame, node: str, outcome: str = "", bits=_NAN, backoff=_NAN) -> None:
@@ -308,13 +400,14 @@ class Network:
             self._rows.append((self._env._now, self.name, frame.id, event, frame.src.name, frame.dname, node,
                                frame.attempts, outcome, bits, backoff))
 
-    def _lost(self, frame: Frame, where: Interface, reason: str) -> None:
+    def _lost(self, frame: Frame, where: Interface | str, reason: str) -> None:
+        """Trace *frame* lost for *reason* at *where* (an interface or a node name such as ``"switch"``)."""
         if self._trace_on:
             self._rows.append((self._env._now, self.name, frame.id, "lost", frame.src.name, frame.dname,
-                               where.name, frame.attempts, reason, _NAN, _NAN))
+                               where if isinstance(where, str) else where.name, frame.attempts, reason, _NAN, _NAN))
 
     def _finish(self, frame: Frame, ok: bool) -> None:
-        """The sender is done with *frame* (acknowledged/sent, or dropped)."""
+        """Count *frame* as sent or dropped at its sender and call the ``on_done`` callbacks."""
         src = frame.src
         src.stats["sent" if ok else "dropped"] += 1
         for cb in src.on_done:
@@ -327,17 +420,30 @@ class Network:
             lk = self._links[key] = self.loss.link(self.sim.rng(f"{self.name}/loss/{src.name}->{dst.name}"))
         return lk
 
-    def _deliver(self, frame: Frame, rx: Interface, apply_loss: bool = True) -> bool:
+    def _lost_on_link(self, frame: Frame, rx: Interface) -> bool:
+        """Draw the loss model for *frame* on the link to *rx* (False without a loss model)."""
+        return self.loss is not None and self._link(frame.src, rx).lost()
+
+    def _deliver(self, frame: Frame, rx: Interface) -> bool:
         """The frame was received by *rx* now; draw the loss, then hand it over after the delays."""
-        if apply_loss and self.loss is not None and self._link(frame.src, rx).lost():
+        if self.loss is not None and self._link(frame.src, rx).lost():
             self._lost(frame, rx, "random_loss")
             return False
-        delay = self._post + self._prop
+        delay = self._post + self._prop       # as _accept (inlined: once per frame and receiver)
         if delay:
             self.sim.call_in_ticks(delay, self._hand_over, arg=(frame, rx))
         else:
             self._hand_over((frame, rx))
         return True
+
+    def _accept(self, frame: Frame, rx: Interface) -> None:
+        """Hand *frame* to *rx* after the post-processing and propagation delays (no loss draw:
+        MACs that draw the loss themselves, before an ACK, call this)."""
+        delay = self._post + self._prop
+        if delay:
+            self.sim.call_in_ticks(delay, self._hand_over, arg=(frame, rx))
+        else:
+            self._hand_over((frame, rx))
 
     def _hand_over(self, item) -> None:
         frame, rx = item

@@ -37,17 +37,10 @@ class SharedBus(Network):
         iface = self._choose()
         if iface is None:
             return
-        f = iface.queue.pop()
-        iface.current = f
-        f.attempts += 1
-        f.sent = self._env._now
+        f = self._next_frame(iface)
         self._busy = True
-        iface.sending = 1
-        iface._state()
-        for r in self.receivers(f):
-            r.receiving += 1
-            r._state()
-        self._trace("attempt_start", f, iface.name, bits=f.bits)
+        self._attempt_start(iface, f)
+        self._carrier_on(iface, f)
         d = self.duration(f.bits)
         self.busy_ticks += d
         self.sim.call_in_ticks(d, self._end, arg=f)
@@ -55,15 +48,13 @@ class SharedBus(Network):
     def _end(self, f) -> None:
         iface = f.src
         self._busy = False
-        iface.sending = 0
-        iface.current = None
-        self._trace("attempt_end", f, iface.name, "sent" if f.broadcast else "ok")
-        for r in self.receivers(f):
-            r.receiving -= 1
-            r._state()
-            self._deliver(f, r)
-        iface._state()
-        self._finish(f, True)
+        self._carrier_off(iface, f)
+        self._attempt_end(iface, f)
+        self._deliver_all(f)
+        self._done(iface, f, True)
+
+    def _restart(self, iface: Interface) -> None:
+        # the bus is free: arbitrate if anybody waits
         for i in self._ifaces:
             if i.queue._q:
                 self._kick(i)

@@ -23,6 +23,17 @@ from .base import ARBITRATE, Network
 from .checks import check_bits, check_count, check_duration
 
 
+class EthernetStation:
+    """A CSMA/CD station's state: its pending timer (end of transmission or of backoff) and
+    its backoff stream ``<net>/<node>/backoff``."""
+
+    __slots__ = ("timer", "rng")
+
+    def __init__(self, rng):
+        self.timer = None
+        self.rng = rng
+
+
 class CSMACD(Network):
     """Shared Ethernet with CSMA/CD.  See the module docstring for the semantics."""
 
@@ -54,14 +65,12 @@ class CSMACD(Network):
         self._release_pending = False
         self.collisions = 0
 
-    def _attached(self, iface):
-        iface.timer = None
-        iface.rng = self.sim.rng(f"{self.name}/{iface.name}/backoff")
+    def _station(self, iface, options):
+        return EthernetStation(self.sim.rng(f"{self.name}/{iface.name}/backoff"))
 
     # ------------------------------------------------------------------ MAC
     def _kick(self, iface):
-        if iface.current is None and iface.queue._q:
-            iface.current = iface.queue.pop()
+        if self._next_frame(iface) is not None:
             self._try(iface)
 
     def _sensed_busy(self, now):
@@ -74,7 +83,7 @@ class CSMACD(Network):
         return False
 
     def _try(self, iface):
-        iface.timer = None
+        iface.mac.timer = None
         now = self._env._now
         if self._sensed_busy(now):
             self._waiting.append(iface)
@@ -85,20 +94,14 @@ class CSMACD(Network):
 
     def _start(self, iface, now):
         f = iface.current
-        f.attempts += 1
-        f.sent = now
-        iface.sending = 1
-        iface._state()
-        for r in self.receivers(f):
-            r.receiving += 1
-            r._state()
-        self._trace("attempt_start", f, iface.name, bits=f.bits)
+        self._attempt_start(iface, f)
+        self._carrier_on(iface, f)
         if self._active:
             # everyone active started less than a window ago: nobody sensed anybody
             if not self._colliders:
                 self.collisions += 1
                 for other in self._active:
-                    other.timer.cancel()
+                    other.mac.timer.cancel()
                     self._colliders.append(other)
             self._colliders.append(iface)
             self._active[iface] = now
@@ -107,26 +110,18 @@ class CSMACD(Network):
             self._abort_timer = self.sim.call_in_ticks(self._window + self._jam, self._abort)
         else:
             self._active[iface] = now
-            iface.timer = self.sim.call_in_ticks(self.duration(f.bits), self._end, arg=iface)
-
-    def _stop(self, iface):
-        del self._active[iface]
-        iface.sending = 0
-        f = iface.current
-        for r in self.receivers(f):
-            r.receiving -= 1
-            r._state()
+            iface.mac.timer = self.sim.call_in_ticks(self.duration(f.bits), self._end, arg=iface)
 
     def _end(self, iface):
-        iface.timer = None
+        iface.mac.timer = None
         f = iface.current
-        self._stop(iface)
-        self._trace("attempt_end", f, iface.name, "sent" if f.broadcast else "ok")
-        for r in self.receivers(f):
-            self._deliver(f, r)
-        iface.current = None
-        iface._state()
-        self._finish(f, True)
+        del self._active[iface]
+        self._carrier_off(iface, f)
+        self._attempt_end(iface, f)
+        self._deliver_all(f)
+        # the sender may queue its next frame from on_done and seize the medium before the
+        # waiters are released
+        self._done(iface, f, True, restart=False)
         self._medium_idle()
         self._kick(iface)
 
@@ -136,16 +131,14 @@ class CSMACD(Network):
         now = self._env._now
         for iface in colliders:
             f = iface.current
-            self._stop(iface)
-            self._trace("attempt_end", f, iface.name, "collision")
+            del self._active[iface]
+            self._carrier_off(iface, f)
+            self._attempt_end(iface, f, "collision")
             if self.max_attempts is not None and f.attempts >= self.max_attempts:
-                self._lost(f, iface, "retry_limit")
-                iface.current = None
-                iface._state()
-                self._finish(f, False)
+                self._drop(iface, f, "retry_limit", restart=False)
                 continue
-            k = int(iface.rng.integers(0, 2 ** min(f.attempts, self.backoff_limit)))
-            iface.timer = self.sim.call_at_ticks(now + k * self._slot, self._try, arg=iface)
+            k = int(iface.mac.rng.integers(0, 2 ** min(f.attempts, self.backoff_limit)))
+            iface.mac.timer = self.sim.call_at_ticks(now + k * self._slot, self._try, arg=iface)
             iface._state()
         self._medium_idle()
         for iface in colliders:

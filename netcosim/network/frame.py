@@ -97,7 +97,7 @@ class Frame:
     """A message in transit (internal).  Times in ticks."""
 
     __slots__ = ("msg", "id", "src", "dst", "dname", "bits", "priority", "seq", "attempts", "created",
-                 "queued", "sent", "remaining", "fail_reason", "info")
+                 "queued", "sent", "remaining")
 
     def __init__(self, msg: Message, src, dst, bits: int, priority, seq: int, created: int):
         self.msg = msg
@@ -113,8 +113,6 @@ class Frame:
         self.queued = None
         self.sent = None
         self.remaining = None     # ticks of transmission left (TDMA suspension)
-        self.fail_reason = None   # why the last attempt failed at the destination
-        self.info = None          # MAC-specific scratch
 
     @property
     def broadcast(self) -> bool:

@@ -37,34 +37,35 @@ class IdealLink(Network):
         return self.data_rate
 
     def _kick(self, iface: Interface) -> None:
-        if iface.current is None and iface.queue._q:
-            self._start(iface)
+        f = self._next_frame(iface)
+        if f is not None:
+            self._attempt_start(iface, f)
+            self._carrier_on(iface, f)
+            self.sim.call_in_ticks(self.duration(f.bits, self.rate_of(iface)), self._end, arg=f)
 
-    def _start(self, iface: Interface) -> None:
-        f = iface.queue.pop()
-        iface.current = f
-        f.attempts += 1
-        f.sent = self._env._now
+    def _carrier_on(self, iface: Interface, frame) -> None:
+        # the ideal link's network_schedule lists the receivers' rows before the sender's
         iface.sending = 1
-        for r in self.receivers(f):
+        for r in self.receivers(frame):
             r.receiving += 1
             r._state()
         iface._state()
-        self._trace("attempt_start", f, iface.name, bits=f.bits)
-        self.sim.call_in_ticks(self.duration(f.bits, self.rate_of(iface)), self._end, arg=f)
 
     def _end(self, f) -> None:
         iface = f.src
-        iface.sending = 0
-        iface.current = None
-        self._trace("attempt_end", f, iface.name, "ok" if not f.broadcast else "sent")
-        for r in self.receivers(f):
-            r.receiving -= 1
-            r._state()
-            self._deliver(f, r)
-        iface._state()
-        self._finish(f, True)
-        self._kick(iface)
+        self._carrier_off(iface, f)
+        self._attempt_end(iface, f)
+        self._deliver_all(f)
+        self._done(iface, f, True)
+
+
+class FdmaStation:
+    """An FDMA station's state: its ``share`` of the bandwidth (fraction in (0, 1])."""
+
+    __slots__ = ("share",)
+
+    def __init__(self, share: float):
+        self.share = float(share)
 
 
 class FDMA(IdealLink):
@@ -73,19 +74,18 @@ class FDMA(IdealLink):
     Shares are fractions in (0, 1] whose sum may not exceed 1.
     """
 
-    def _make_interface(self, name, node, index, options, **common):
+    def _station(self, iface, options):
         share = options.pop("share", None)
-        iface = super()._make_interface(name, node, index, options, **common)
+        name = iface.name
         if share is None:
             raise ConfigurationError(f"network {self.name!r} (FDMA): attach({name!r}, share=...) needs a bandwidth "
                                      f"share, got share=None")
         share = check_real(share, f"network {self.name!r} (FDMA): share of {name!r}", low=0.0, high=1.0,
                            low_open=True, kind="a fraction of the bandwidth in (0, 1]")
-        total = sum(i.share for i in self._ifaces) + share
+        total = sum(i.mac.share for i in self._ifaces) + share
         if total > 1 + 1e-12:
             raise ConfigurationError(f"network {self.name!r} (FDMA): shares would sum to {total:g} > 1 with {name!r}")
-        iface.share = float(share)
-        return iface
+        return FdmaStation(share)
 
     def rate_of(self, iface):
-        return self.data_rate * iface.share
+        return self.data_rate * iface.mac.share

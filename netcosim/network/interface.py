@@ -80,7 +80,8 @@ class Interface:
     Attributes: ``name`` (the node's name), ``node`` (the kernel node, or None for a
     bare station driven from Python), ``network``, ``mailbox`` (received messages),
     ``queue`` (frames waiting to be sent), ``priority`` (default MAC priority of this
-    node's messages), ``state`` (``idle``/``waiting``/``sending``/``receiving``).
+    node's messages), ``state`` (``idle``/``waiting``/``sending``/``receiving``), ``mac``
+    (the MAC's per-station state object, e.g. a WLAN station's contention window).
     ``on_done`` is a list of callables ``fn(frame, ok)`` called when the sender is done
     with a frame (sent / acknowledged: ``ok=True``; dropped: ``ok=False``).
     """
@@ -104,10 +105,12 @@ class Interface:
         self._row_t = -1        # tick of this interface's last network-schedule row, and the row
         self._row = None
         self._seq = 0
-        self.stats = {"sent": 0, "delivered": 0, "dropped": 0, "received": 0}
+        self.mac = None         # the MAC's per-station state (see Network._station)
+        #: frames ``sent`` (or acknowledged) and ``dropped`` by this sender, messages ``received``
+        self.stats = {"sent": 0, "dropped": 0, "received": 0}
 
     # ------------------------------------------------------------------ user API
-    def send(self, dst, payload: Any = None, size_bits: int | None = None, *, priority=None, sender=None):
+    def send(self, dst, payload: Any = None, size_bits: int | None = None, *, priority=None):
         """Queue a message to *dst* (node name, node, interface or ``BROADCAST``).
 
         ``size_bits``: message length in bits (the wire carries ``max(size_bits,
@@ -115,7 +118,7 @@ class Interface:
         (small = high; CAN identifier order), default ``self.priority``.
         Returns the :class:`~netcosim.network.frame.Message`.
         """
-        return self.network._send(self, dst, payload, size_bits, priority, sender)
+        return self.network._send(self, dst, payload, size_bits, priority)
 
     def on_receive(self, target=None):
         """Release *target* (a task or handler) or call ``target(msg)`` for every delivered message.

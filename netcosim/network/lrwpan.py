@@ -40,13 +40,13 @@ import math
 
 import numpy as np
 
-from ..errors import ConfigurationError, ConfigurationTypeError
+from ..errors import ConfigurationError
 from ..timebase import to_ticks
-from .checks import check_bits, check_count, check_finite, check_non_negative
+from .checks import check_bits, check_count
 from .frame import BROADCAST
-from .interface import Interface
-from .medium import RadioNetwork, Transmission, WirelessMedium
-from .radio import LogDistance, Modulation, PathLoss, as_position, db_to_ratio, dbm_to_watt, thermal_noise_dbm
+from .medium import Transmission
+from .radio import Modulation, PathLoss, thermal_noise_dbm
+from .wireless import RadioNetwork, RadioStation
 
 SYMBOL = 16e-6
 _K = np.arange(2, 17)
@@ -59,6 +59,21 @@ def ber_oqpsk(sinr):
     ber = np.clip(8.0 / 15.0 / 16.0 * terms.sum(axis=1), 0.0, 0.5)
     return float(ber[0]) if np.ndim(sinr) == 0 else ber
 
+class CsmaCaStation(RadioStation):
+    """An 802.15.4 station: radio and ACK state plus unslotted CSMA/CA: ``nb`` (backoffs
+    so far), ``be`` (backoff exponent), ``in_cca``/``cca_busy`` (a CCA is running / saw
+    the channel busy), ``ifs_until`` (tick before which the next frame may not start)."""
+
+    __slots__ = ("nb", "be", "in_cca", "cca_busy", "ifs_until")
+
+    def __init__(self, net, iface, *radio):
+        super().__init__(net, iface, *radio)
+        self.nb = self.be = 0
+        self.in_cca = False
+        self.cca_busy = False
+        self.ifs_until = 0
+
+
 class IEEE802154(RadioNetwork):
     """IEEE 802.15.4 network, unslotted CSMA/CA.  See the module docstring.
 
@@ -70,13 +85,17 @@ class IEEE802154(RadioNetwork):
     per node in ``attach``) finite dBm, ``capture_db`` finite and >= 0.
     """
 
+    station_class = CsmaCaStation
+
     def __init__(self, sim, name, *, data_rate: float = 250e3, min_be: int = 3, max_be: int = 5,
                  max_csma_backoffs: int = 4, max_frame_retries: int = 3, ack: bool = True,
                  mac_overhead_bits: int = 88, max_frame_bits: int | None = 116 * 8,
                  path_loss: PathLoss | None = None, tx_power_dbm: float = 0.0, threshold_dbm: float = -85.0,
                  cs_threshold_dbm: float | None = None, capture_db: float = 10.0, noise_dbm: float | None = None,
                  **kw):
-        super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, **kw)
+        super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, path_loss=path_loss,
+                         tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm, cs_threshold_dbm=cs_threshold_dbm,
+                         capture_db=capture_db, noise_dbm=noise_dbm, **kw)
         w = f"network {name!r}"
         # macMinBE/macMaxBE: 2**BE - 1 unit periods must stay a sane integer (the standard allows 0..8)
         self.min_be = check_count(min_be, f"{w}: min_be", minimum=0, maximum=30)
@@ -95,68 +114,26 @@ class IEEE802154(RadioNetwork):
         self.ack_time = self.shr + self.duration(40)
         self.ack_wait = 54 * sym
         self.sifs, self.lifs = 12 * sym, 40 * sym
-        self.tx_power_dbm = check_finite(tx_power_dbm, f"{w}: tx_power_dbm", "dBm")
-        self.threshold_dbm = check_finite(threshold_dbm, f"{w}: threshold_dbm", "dBm")
-        self.cs_threshold_dbm = (self.threshold_dbm if cs_threshold_dbm is None
-                                 else check_finite(cs_threshold_dbm, f"{w}: cs_threshold_dbm", "dBm"))
-        self.capture_db = check_non_negative(capture_db, f"{w}: capture_db (dB)")
-        self.noise_dbm = (thermal_noise_dbm(2e6) if noise_dbm is None
-                          else check_finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
-        if path_loss is None:
-            path_loss = LogDistance(3.0)
-        if not isinstance(path_loss, PathLoss):
-            raise ConfigurationTypeError(f"{w}: path_loss must be a PathLoss model, got {path_loss!r}")
-        self.path_loss = path_loss
         self.mod = Modulation("oqpsk", self.data_rate, ber_oqpsk, bandwidth=self.data_rate)
-        self.medium = WirelessMedium(self, path_loss=self.path_loss, noise_w=dbm_to_watt(self.noise_dbm),
-                                     capture_ratio=db_to_ratio(self.capture_db))
+        self._ack_mod = self.mod
+        self._ack_plcp = 0
+        self._ack_delay = self.turnaround
+        self.ack_bits = 40
+        self.max_attempts = self.max_frame_retries + 1
+        self._ack_timeout_ticks = self.ack_wait
 
-    # ------------------------------------------------------------------ attach
-    def attach(self, node, *, position=(0.0, 0.0), tx_power_dbm: float | None = None,
-               threshold_dbm: float | None = None, cs_threshold_dbm: float | None = None, **kw) -> Interface:
-        """Attach *node* at *position* (point in m or callable ``p(t)``)."""
-        return super().attach(node, position=position, tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm,
-                              cs_threshold_dbm=cs_threshold_dbm, **kw)
-
-    def _make_interface(self, name, node, index, options, **common):
-        opts = dict(options)
-        pos, txp = opts.pop("position"), opts.pop("tx_power_dbm")
-        thr, cst = opts.pop("threshold_dbm"), opts.pop("cs_threshold_dbm")
-        if opts:
-            raise ConfigurationTypeError(f"network {self.name!r}: unknown attach option(s) {sorted(opts)}")
-        w = f"network {self.name!r} node {name!r}"
-        txp = self.tx_power_dbm if txp is None else check_finite(txp, f"{w}: tx_power_dbm", "dBm")
-        thr = self.threshold_dbm if thr is None else check_finite(thr, f"{w}: threshold_dbm", "dBm")
-        cst = self.cs_threshold_dbm if cst is None else check_finite(cst, f"{w}: cs_threshold_dbm", "dBm")
-        r = Interface(self, name, node, index, **common)
-        r.pos = as_position(pos, w)
-        r.tx_power_dbm = txp
-        r.tx_w = dbm_to_watt(txp)
-        r.sens_w = dbm_to_watt(thr)
-        r.cs_w = dbm_to_watt(cst)
-        r.nb = r.be = 0
-        r.in_cca = False
-        r.cca_busy = False
-        r.awaiting = None
-        r.ack_timer = None
-        r.ack_wait = False
-        r.responding = 0
-        r.ifs_until = 0
-        r.last_seq = {}
-        r.bo_drawn = math.nan
-        r.rng = self.sim.rng(f"{self.name}/{name}/backoff")
-        self.medium.init_listener(r)
-        return r
+    def default_noise_dbm(self) -> float:
+        """Thermal noise in the 2 MHz channel at 290 K (dBm)."""
+        return thermal_noise_dbm(2e6)
 
     def frame_time(self, size_bits: int) -> int:
         """Ticks on air of a data frame with *size_bits* of payload."""
         return self.shr + self.duration(self.mac_overhead_bits + self.wire_bits(size_bits))
 
-    # ------------------------------------------------------------------ CSMA/CA
-    def _kick(self, r) -> None:
-        if r.current is None and r.queue._q:
-            r.current = r.queue.pop()
-            self._csma_start(r)
+    # ------------------------------------------------------------------ CSMA/CA (r: the CsmaCaStation)
+    def _kick(self, iface) -> None:
+        if self._next_frame(iface) is not None:
+            self._csma_start(iface.mac)
 
     def _csma_start(self, r) -> None:
         now = self._env._now
@@ -182,10 +159,10 @@ class IEEE802154(RadioNetwork):
             r.nb += 1
             r.be = min(r.be + 1, self.max_be)
             if r.nb > self.max_csma_backoffs:
-                f = r.current
-                self._trace("attempt_end", f, r.name, "channel_access")
-                self._lost(f, r, "channel_access")
-                self._done(r, f, False)
+                f = r.iface.current
+                self._attempt_end(r.iface, f, "channel_access")
+                self._lost(f, r.iface, "channel_access")
+                self._frame_done(r, f, False)
                 return
             self._backoff(r)
             return
@@ -195,78 +172,24 @@ class IEEE802154(RadioNetwork):
         if r.tx is not None:            # busy sending an ACK: start over
             self._backoff(r)
             return
-        f = r.current
-        f.attempts += 1
+        f = r.iface.current
+        bits = self.mac_overhead_bits + f.bits
+        self._attempt_start(r.iface, f, bits, r.bo_drawn)
         now = self._env._now
-        f.sent = now
-        air = self.shr + self.duration(self.mac_overhead_bits + f.bits)
-        tx = Transmission(r, "data", f, f.dst, now, now + air, now, self.mod)
-        self._trace("attempt_start", f, r.name, bits=self.mac_overhead_bits + f.bits, backoff=r.bo_drawn)
+        tx = Transmission(r, "data", f, f.dst if f.dst is BROADCAST else f.dst.mac, now,
+                          now + self.shr + self.duration(bits), now, self.mod)
         self._start_tx(r, tx)
-
-    def _start_tx(self, r, tx) -> None:
-        r.tx = tx
-        r.sending = 1
-        r._state()
-        self.medium.start(tx)
-        self.sim.call_at_ticks(tx.end, self._tx_end, arg=tx)
 
     def _ifs(self, bits) -> int:
         return self.sifs if bits <= 18 * 8 else self.lifs
 
-    def _tx_end(self, tx) -> None:
-        r = tx.src
-        self.medium.end(tx)
-        r.tx = None
-        r.sending = 0
-        if tx.kind == "data":
-            f = tx.frame
-            if f.dst is BROADCAST or not self.use_ack:
-                self._trace("attempt_end", f, r.name, "sent")
-                r.ifs_until = self._env._now + self._ifs(self.mac_overhead_bits + f.bits)
-                self._done(r, f, True)
-            else:
-                r.awaiting = tx
-                r.ack_wait = False
-                r.ack_timer = self.sim.call_in_ticks(self.ack_wait, self._ack_timeout, arg=r)
-        else:
-            r.responding -= 1
-        r._state()
+    def _frame_done(self, r, f, ok: bool) -> None:
+        if ok:
+            r.ifs_until = self._env._now + self._ifs(self.mac_overhead_bits + f.bits)
+        self._done(r.iface, f, ok)
 
-    def _done(self, r, f, ok) -> None:
-        r.current = None
-        self._finish(f, ok)
-        r._state()
-        self._kick(r)
-
-    def _ack_timeout(self, r) -> None:
-        r.ack_timer = None
-        if r.awaiting is None:
-            return
-        if r.rx is not None:
-            r.ack_wait = True
-            return
-        self._ack_fail(r)
-
-    def _ack_fail(self, r) -> None:
-        tx, r.awaiting, r.ack_wait = r.awaiting, None, False
-        f = tx.frame
-        self._trace("attempt_end", f, r.name, tx.dst_reason or ("ack_lost" if tx.acked else "no_ack"))
-        if f.attempts > self.max_frame_retries:
-            self._lost(f, r, "retry_limit")
-            self._done(r, f, False)
-        else:
-            self._csma_start(r)
-
-    def _ack_ok(self, r) -> None:
-        tx, r.awaiting, r.ack_wait = r.awaiting, None, False
-        if r.ack_timer is not None:
-            r.ack_timer.cancel()
-            r.ack_timer = None
-        f = tx.frame
-        self._trace("attempt_end", f, r.name, "ok")
-        r.ifs_until = self._env._now + self._ifs(self.mac_overhead_bits + f.bits)
-        self._done(r, f, True)
+    def _retry(self, r) -> None:
+        self._csma_start(r)
 
     # ------------------------------------------------------------------ medium callbacks
     def _reeval(self, r) -> None:
@@ -276,40 +199,20 @@ class IEEE802154(RadioNetwork):
     def _rx_end(self, r, tx, ok, reason, locked) -> None:
         f = tx.frame
         if tx.kind == "data":
-            if f.dst is r:
+            if tx.dst is r:
                 if not ok:
                     tx.dst_reason = reason
-                elif self.loss is not None and self._link(f.src, r).lost():
-                    tx.dst_reason = "random_loss"
                     if not self.use_ack:
-                        self._lost(f, r, "random_loss")
+                        self._lost(f, r.iface, reason)
                 else:
-                    tx.acked = self.use_ack
-                    if r.last_seq.get(f.src.index) != f.seq:
-                        r.last_seq[f.src.index] = f.seq
-                        self._deliver(f, r, apply_loss=False)
-                    if self.use_ack and r.tx is None:
-                        r.responding += 1
-                        self.sim.call_in_ticks(self.turnaround, self._send_ack, arg=tx)
-                if not ok and not self.use_ack:
-                    self._lost(f, r, reason)
-            elif f.dst is BROADCAST:
+                    self._receive_unicast(r, tx, self.use_ack)
+            elif tx.dst is BROADCAST:
                 if ok:
-                    self._deliver(f, r, apply_loss=True)
+                    self._deliver(f, r.iface)
                 else:
-                    self._lost(f, r, reason)
+                    self._lost(f, r.iface, reason)
         elif ok and tx.dst is r and r.awaiting is not None and r.awaiting.frame is f:
             self._ack_ok(r)
             return
         if r.ack_wait and r.awaiting is not None and r.rx is None:
             self._ack_fail(r)
-
-    def _send_ack(self, data_tx) -> None:
-        r = data_tx.dst
-        if r.tx is not None:
-            r.responding -= 1
-            return
-        now = self._env._now
-        ack = Transmission(r, "ack", data_tx.frame, data_tx.src, now, now + self.ack_time, now, self.mod)
-        self._trace("ack", data_tx.frame, r.name, bits=40)
-        self._start_tx(r, ack)

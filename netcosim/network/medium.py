@@ -27,15 +27,15 @@ from __future__ import annotations
 import math
 
 from ..timebase import TICKS_PER_SECOND
-from .base import Network
 from .frame import BROADCAST
-from .radio import distance, modulation_for, watt_to_dbm
+from .radio import distance, modulation_for
 
 _TOL = 1.0 - 1e-9    # power ratios within 1e-9 of the capture ratio count as meeting it
 
 
 class Transmission:
-    """One frame (data or ACK) on the air.  Times in ticks, powers in watts."""
+    """One frame (data or ACK) on the air.  Times in ticks, powers in watts; ``src`` and
+    ``dst`` are radio stations (``dst`` may be :data:`BROADCAST`)."""
 
     __slots__ = ("src", "kind", "frame", "dst", "start", "end", "plcp_end", "mod", "powers", "fail",
                  "dst_reason", "acked")
@@ -56,9 +56,9 @@ class WirelessMedium:
     """Reception physics shared by the wireless MACs (see the module docstring).
 
     ``mac`` provides ``_rx_end(r, tx, ok, reason, locked)`` and ``_reeval(r)`` and the
-    list of interfaces ``mac._ifaces``; each interface carries its radio attributes
-    (``pos``, ``tx_w``, ``cs_w``, ``sens_w``) and the per-listener state initialised by
-    :meth:`init_listener`.
+    list ``mac._stations`` of :class:`~netcosim.network.wireless.RadioStation` (by
+    interface index), each with its radio attributes (``pos``, ``tx_w``, ``cs_w``,
+    ``sens_w``) and its listener state.
     """
 
     def __init__(self, mac, *, path_loss, noise_w: float, capture_ratio: float, plcp_rate: float = 1e6):
@@ -76,20 +76,11 @@ class WirelessMedium:
         self.transmissions = 0
 
     def init_listener(self, r) -> None:
+        """A station joins: check that nothing is on the air, note whether it moves."""
         if self.active:
             raise RuntimeError(f"network {self.mac.name!r}: cannot attach {r.name!r} while "
                                f"{len(self.active)} transmission(s) are on the air; attach nodes before or "
                                f"between transmissions")
-        r.power = 0.0
-        r.n_active = 0
-        r.audible = 0
-        r.rx = None
-        r.rx_ok = False
-        r.rx_reason = None
-        r.seg_t = 0
-        r.logp = 0.0
-        r.tx = None
-        r.phy_rng = self.sim.rng(f"{self.mac.name}/phy/{r.name}")
         if callable(r.pos):
             self._static = False
         self._rows.clear()
@@ -124,7 +115,7 @@ class WirelessMedium:
         g = self.path_loss.gain
         ptx = src.tx_w
         out = []
-        for r in self.mac._ifaces:
+        for r in self.mac._stations:
             if r is src:
                 out.append(0.0)
             else:
@@ -163,15 +154,15 @@ class WirelessMedium:
         r.seg_t = now
         r.logp = 0.0
         if tx.addressed_to(r):
-            r.receiving = 1
-            r._state()
+            r.iface.receiving = 1
+            r.iface._state()
 
     def _unlock(self, r) -> None:
         tx = r.rx
         r.rx = None
         if tx is not None and tx.addressed_to(r):
-            r.receiving = 0
-            r._state()
+            r.iface.receiving = 0
+            r.iface._state()
 
     # ------------------------------------------------------------------ events
     def start(self, tx: Transmission) -> None:
@@ -189,7 +180,7 @@ class WirelessMedium:
         self.active.append(tx)
         cap = self.capture_ratio * _TOL
         mac = self.mac
-        for r in mac._ifaces:
+        for r in mac._stations:
             if r is src:
                 continue
             p = powers[r.index]
@@ -236,7 +227,7 @@ class WirelessMedium:
         src = tx.src
         powers = tx.powers
         mac = self.mac
-        for r in mac._ifaces:
+        for r in mac._stations:
             if r is src:
                 continue
             p = powers[r.index]
@@ -260,17 +251,3 @@ class WirelessMedium:
                 r.audible -= 1
             mac._rx_end(r, tx, ok, reason, locked)
             mac._reeval(r)
-
-
-class RadioNetwork(Network):
-    """A network whose stations share a :class:`WirelessMedium` (``self.medium``)."""
-
-    def position(self, node, t: float | None = None):
-        """Position of *node* at time *t* (s; default now)."""
-        r = self.interface(node)
-        return self.medium._position(r, self.sim.now if t is None else t)
-
-    def rx_power_dbm(self, src, dst) -> float:
-        """Power (dBm) at *dst* of a transmission by *src* starting now."""
-        s, d = self.interface(src), self.interface(dst)
-        return watt_to_dbm(self.medium.powers_from(s)[d.index])

@@ -23,8 +23,16 @@ from .checks import check_bits, check_duration
 from .interface import TxQueue
 
 
-class _Switch:
-    name = "switch"
+class SwitchPort:
+    """The switch's output port towards one node: its queue, the frame it sends, and the
+    bits of switch memory its frames hold."""
+
+    __slots__ = ("queue", "current", "used")
+
+    def __init__(self, discipline: str):
+        self.queue = TxQueue(discipline)
+        self.current = None
+        self.used = 0
 
 
 class SwitchedEthernet(Network):
@@ -48,23 +56,17 @@ class SwitchedEthernet(Network):
         self.port_queue = port_queue
         self.memory_used = 0
         self.memory_peak = 0
-        self._switch = _Switch()
 
-    def _attached(self, iface):
-        iface.port = TxQueue(self.port_queue)
-        iface.port_current = None
-        iface.port_used = 0
+    def _station(self, iface, options):
+        return SwitchPort(self.port_queue)
 
     # uplink ---------------------------------------------------------------------
     def _kick(self, iface):
-        if iface.current is None and iface.queue._q:
-            f = iface.queue.pop()
-            iface.current = f
-            f.attempts += 1
-            f.sent = self._env._now
+        f = self._next_frame(iface)
+        if f is not None:
+            self._attempt_start(iface, f)
             iface.sending = 1
             iface._state()
-            self._trace("attempt_start", f, iface.name, bits=f.bits)
             self.sim.call_in_ticks(self.duration(f.bits), self._at_switch, arg=f)
 
     def _fits(self, f, outs) -> bool:
@@ -74,33 +76,30 @@ class SwitchedEthernet(Network):
         if self.buffer == "shared":
             return self.memory_used + f.bits * len(outs) <= mem
         per_port = mem // len(self._ifaces)
-        return all(o.port_used + f.bits <= per_port for o in outs)
+        return all(o.mac.used + f.bits <= per_port for o in outs)
 
     def _at_switch(self, f):
         src = f.src
         src.sending = 0
-        src.current = None
         outs = self.receivers(f)
         if not self._fits(f, outs):
             if self.overflow == "retransmit":
-                self._trace("attempt_end", f, src.name, "switch_full")
+                self._attempt_end(src, f, "switch_full")
+                src.current = None
                 src.queue.push_front(f)
                 src._state()
                 self._kick(src)
                 return
-            self._trace("attempt_end", f, src.name, "sent" if f.broadcast else "ok")
-            self._lost(f, self._switch, "queue_overflow")
-            src._state()
-            self._finish(f, False)
-            self._kick(src)
+            self._attempt_end(src, f)
+            self._lost(f, "switch", "queue_overflow")
+            self._done(src, f, False)
             return
-        self._trace("attempt_end", f, src.name, "sent" if f.broadcast else "ok")
+        self._attempt_end(src, f)
         for o in outs:
-            o.port_used += f.bits
+            o.mac.used += f.bits
         self.memory_used += f.bits * len(outs)
         self.memory_peak = max(self.memory_peak, self.memory_used)
-        src._state()
-        self._finish(f, True)
+        self._done(src, f, True, restart=False)
         if self._switch_delay:
             self.sim.call_in_ticks(self._switch_delay, self._forward, arg=(f, outs))
         else:
@@ -111,24 +110,24 @@ class SwitchedEthernet(Network):
     def _forward(self, item):
         f, outs = item
         for o in outs:
-            o.port.push(f)
-            if o.port_current is None:
+            o.mac.queue.push(f)
+            if o.mac.current is None:
                 self._port_start(o)
 
     def _port_start(self, o):
-        f = o.port.pop()
-        o.port_current = f
+        f = o.mac.current = o.mac.queue.pop()
         o.receiving += 1
         o._state()
         self.sim.call_in_ticks(self.duration(f.bits), self._port_end, arg=o)
 
     def _port_end(self, o):
-        f = o.port_current
-        o.port_current = None
+        port = o.mac
+        f = port.current
+        port.current = None
         o.receiving -= 1
-        o.port_used -= f.bits
+        port.used -= f.bits
         self.memory_used -= f.bits
         o._state()
         self._deliver(f, o)
-        if o.port._q:
+        if port.queue._q:
             self._port_start(o)

@@ -21,6 +21,16 @@ from .base import Network
 from .checks import check_duration
 
 
+class TdmaStation:
+    """A TDMA station's state: the pending slot/segment timer and the segment length (ticks)."""
+
+    __slots__ = ("timer", "seg")
+
+    def __init__(self):
+        self.timer = None
+        self.seg = 0
+
+
 class TDMA(Network):
     """Time-division bus.  See the module docstring."""
 
@@ -53,9 +63,8 @@ class TDMA(Network):
             else:
                 wins.append((a, b))
 
-    def _attached(self, iface):
-        iface.timer = None
-        iface.seg = None
+    def _station(self, iface, options):
+        return TdmaStation()
 
     def window(self, iface, t: int) -> tuple[int, int]:
         """The owned transmission window (start, end) in ticks containing *t* or the first after it."""
@@ -74,52 +83,39 @@ class TDMA(Network):
         return base + a, base + b
 
     def _kick(self, iface):
-        if iface.current is None and iface.queue._q:
-            f = iface.queue.pop()
-            iface.current = f
+        f = self._next_frame(iface)
+        if f is not None:
             f.remaining = self.duration(f.bits)
             self._resume(iface)
 
     def _resume(self, iface):
-        iface.timer = None
+        st = iface.mac
+        st.timer = None
         now = self._env._now
         start, end = self.window(iface, now)
         if start > now:
-            iface.timer = self.sim.call_at_ticks(start, self._resume, arg=iface)
+            st.timer = self.sim.call_at_ticks(start, self._resume, arg=iface)
             iface._state()
             return
         f = iface.current
         if f.attempts == 0:
-            f.attempts = 1
-            f.sent = now
-            self._trace("attempt_start", f, iface.name, bits=f.bits)
+            self._attempt_start(iface, f)
         else:
             self._trace("resumed", f, iface.name)
-        run = min(f.remaining, end - now)
-        iface.seg = run
-        iface.sending = 1
-        iface._state()
-        for r in self.receivers(f):
-            r.receiving += 1
-            r._state()
-        iface.timer = self.sim.call_in_ticks(run, self._segment_end, arg=iface)
+        st.seg = min(f.remaining, end - now)
+        self._carrier_on(iface, f)
+        st.timer = self.sim.call_in_ticks(st.seg, self._segment_end, arg=iface)
 
     def _segment_end(self, iface):
-        iface.timer = None
+        st = iface.mac
+        st.timer = None
         f = iface.current
-        f.remaining -= iface.seg
-        iface.sending = 0
-        for r in self.receivers(f):
-            r.receiving -= 1
-            r._state()
+        f.remaining -= st.seg
+        self._carrier_off(iface, f)
         if f.remaining > 0:
             self._trace("suspended", f, iface.name)
             self._resume(iface)
             return
-        self._trace("attempt_end", f, iface.name, "sent" if f.broadcast else "ok")
-        for r in self.receivers(f):
-            self._deliver(f, r)
-        iface.current = None
-        iface._state()
-        self._finish(f, True)
-        self._kick(iface)
+        self._attempt_end(iface, f)
+        self._deliver_all(f)
+        self._done(iface, f, True)

@@ -65,12 +65,12 @@ import math
 
 from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import TICKS_PER_SECOND, to_ticks
-from .checks import check_bits, check_count, check_duration, check_finite, check_non_negative, check_positive
+from .checks import check_bits, check_count, check_duration, check_positive
 from .frame import BROADCAST
 from .interface import Interface
-from .medium import RadioNetwork, Transmission, WirelessMedium
-from .radio import (DSSS_BANDWIDTH, LogDistance, PathLoss, as_position, db_to_ratio, dbm_to_watt,
-                    modulation_for, thermal_noise_dbm)
+from .medium import Transmission
+from .radio import DSSS_BANDWIDTH, PathLoss, modulation_for, thermal_noise_dbm
+from .wireless import RadioNetwork, RadioStation
 
 #: 802.11b data rates (bit/s).
 RATES = (1e6, 2e6, 5.5e6, 11e6)
@@ -78,8 +78,38 @@ RATES = (1e6, 2e6, 5.5e6, 11e6)
 BASIC_RATES = (1e6, 2e6)
 
 
-class WlanInterface(Interface):
-    """Interface on a WLAN: radio parameters plus the DCF state of the station."""
+class DcfStation(RadioStation):
+    """A WLAN station: radio and ACK state (:class:`RadioStation`) plus the DCF state.
+
+    Ticks: ``idle_start`` (medium idle since), ``count_start`` (backoff countdown
+    starts), ``nav_end``, ``anchor`` (earliest immediate access: arrival + DIFS),
+    ``access_at`` (pending channel access, -1 if none; ``acc_gen`` invalidates stale
+    entries of the network's access heap).  ``mac_busy`` (medium busy as the DCF sees
+    it), ``eifs`` (EIFS instead of DIFS), ``backoff`` (slots left, None: no backoff),
+    ``immediate`` (access after DIFS without backoff), ``cw`` (contention window, slots).
+    """
+
+    __slots__ = ("mac_busy", "idle_start", "count_start", "nav_end", "eifs", "backoff", "immediate", "anchor",
+                 "cw", "access_at", "acc_gen")
+
+    def __init__(self, net, iface, *radio):
+        super().__init__(net, iface, *radio)
+        self.mac_busy = False
+        self.idle_start = net._env._now
+        self.count_start = 0
+        self.nav_end = 0
+        self.eifs = False
+        self.backoff = None
+        self.immediate = False
+        self.anchor = 0
+        self.cw = net.cw_min
+        self.access_at = -1
+        self.acc_gen = 0
+
+
+#: Former name of the WLAN interface class: interfaces are plain ``Interface`` objects,
+#: the DCF state is the station in ``iface.mac``.
+WlanInterface = Interface
 
 
 class WLAN80211b(RadioNetwork):
@@ -124,7 +154,7 @@ class WLAN80211b(RadioNetwork):
         ``"auto"`` (by rate), ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
     """
 
-    default_queue = "fifo"
+    station_class = DcfStation
 
     def __init__(self, sim, name, *, data_rate: float = 11e6, preamble: str = "long", retry_limit: int = 7,
                  eifs: bool = True, ack_timeout: float | None = None, basic_rates=BASIC_RATES,
@@ -133,7 +163,9 @@ class WLAN80211b(RadioNetwork):
                  path_loss: PathLoss | None = None, tx_power_dbm: float = 15.0, threshold_dbm: float = -85.0,
                  cs_threshold_dbm: float | None = None, capture_db: float = 10.0, noise_dbm: float | None = None,
                  modulation: str = "auto", **kw):
-        super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, **kw)
+        super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, path_loss=path_loss,
+                         tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm, cs_threshold_dbm=cs_threshold_dbm,
+                         capture_db=capture_db, noise_dbm=noise_dbm, **kw)
         w = f"network {name!r}"
         if preamble not in ("long", "short"):
             raise ConfigurationError(f"{w}: preamble must be 'long' or 'short', got {preamble!r}")
@@ -167,24 +199,13 @@ class WLAN80211b(RadioNetwork):
             if self.ack_timeout <= self.sifs:
                 raise ConfigurationError(f"{w}: ack_timeout={ack_timeout!r} s must exceed SIFS "
                                          f"({self.sifs * 1e-12} s)")
-        # radio
-        if path_loss is None:
-            path_loss = LogDistance(3.0)
-        if not isinstance(path_loss, PathLoss):
-            raise ConfigurationTypeError(f"{w}: path_loss must be a PathLoss model, got {path_loss!r}")
-        self.path_loss = path_loss
-        self.tx_power_dbm = check_finite(tx_power_dbm, f"{w}: tx_power_dbm", "dBm")
-        self.threshold_dbm = check_finite(threshold_dbm, f"{w}: threshold_dbm", "dBm")
-        self.cs_threshold_dbm = (self.threshold_dbm if cs_threshold_dbm is None
-                                 else check_finite(cs_threshold_dbm, f"{w}: cs_threshold_dbm", "dBm"))
-        self.capture_db = check_non_negative(capture_db, f"{w}: capture_db (dB)")
-        self.noise_dbm = (thermal_noise_dbm(DSSS_BANDWIDTH) if noise_dbm is None
-                          else check_finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
         self.data_mod = modulation_for(self.data_rate, modulation)
-        self.ack_mod = modulation_for(self.ack_rate, "auto")
-        self.medium = WirelessMedium(self, path_loss=path_loss, noise_w=dbm_to_watt(self.noise_dbm),
-                                     capture_ratio=db_to_ratio(self.capture_db))
-        self.collisions = 0
+        self.ack_mod = self._ack_mod = modulation_for(self.ack_rate, "auto")
+        self.use_ack = True
+        self.max_attempts = self.retry_limit
+        self._ack_timeout_ticks = self.ack_timeout
+        self._ack_plcp = self.plcp
+        self._ack_delay = self.sifs
         # Access instants of all stations in one heap, one SimPy timer at the earliest:
         # entries (tick, station index, generation, station); stale entries are skipped.
         self._acc: list = []
@@ -193,59 +214,16 @@ class WLAN80211b(RadioNetwork):
         # NAV expiries: tick -> stations to re-evaluate then (one timer per instant)
         self._nav: dict = {}
 
-    # ------------------------------------------------------------------ attach
-    def attach(self, node, *, position=(0.0, 0.0), tx_power_dbm: float | None = None,
-               threshold_dbm: float | None = None, cs_threshold_dbm: float | None = None, **kw) -> WlanInterface:
-        """Attach *node* at *position* (2-D/3-D point in m, or a callable ``p(t)`` of seconds,
-        evaluated at the start of every transmission).  Radio parameters default to the
-        network's."""
-        return super().attach(node, position=position, tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm,
-                              cs_threshold_dbm=cs_threshold_dbm, **kw)
-
-    def _make_interface(self, name, node, index, options, **common):
-        opts = dict(options)
-        pos = opts.pop("position")
-        txp = opts.pop("tx_power_dbm")
-        thr = opts.pop("threshold_dbm")
-        cst = opts.pop("cs_threshold_dbm")
-        if opts:
-            raise ConfigurationTypeError(f"network {self.name!r}: unknown attach option(s) {sorted(opts)}")
-        r = WlanInterface(self, name, node, index, **common)
-        w = f"network {self.name!r} node {name!r}"
-        r.pos = as_position(pos, w)
-        r.tx_power_dbm = self.tx_power_dbm if txp is None else check_finite(txp, f"{w}: tx_power_dbm", "dBm")
-        r.tx_w = dbm_to_watt(r.tx_power_dbm)
-        r.sens_w = dbm_to_watt(self.threshold_dbm if thr is None else check_finite(thr, f"{w}: threshold_dbm", "dBm"))
-        r.cs_w = dbm_to_watt(self.cs_threshold_dbm if cst is None
-                             else check_finite(cst, f"{w}: cs_threshold_dbm", "dBm"))
-        # DCF state
-        r.mac_busy = False
-        r.idle_start = self._env._now
-        r.count_start = 0
-        r.nav_end = 0
-        r.eifs = False
-        r.backoff = None
-        r.bo_drawn = math.nan
-        r.immediate = False
-        r.anchor = 0
-        r.cw = self.cw_min
-        r.access_at = -1          # tick of the pending channel access, -1 if none
-        r.acc_gen = 0
-        r.awaiting = None
-        r.ack_timer = None
-        r.ack_wait = False
-        r.responding = 0
-        r.last_seq = {}
-        r.rng = self.sim.rng(f"{self.name}/{name}/backoff")
-        self.medium.init_listener(r)
-        return r
+    def default_noise_dbm(self) -> float:
+        """Thermal noise in the 22 MHz DSSS channel at 290 K (dBm)."""
+        return thermal_noise_dbm(DSSS_BANDWIDTH)
 
     # ------------------------------------------------------------------ timing helpers
     def data_time(self, size_bits: int) -> int:
         """Ticks on air of a data frame carrying *size_bits* (PLCP + MAC header/FCS + payload)."""
         return self.plcp + self.duration(self.mac_overhead_bits + self.wire_bits(size_bits))
 
-    # ------------------------------------------------------------------ DCF
+    # ------------------------------------------------------------------ DCF (r: the DcfStation)
     def _busy_now(self, r) -> bool:
         return bool(r.audible or r.tx is not None or r.awaiting is not None or r.responding
                     or r.nav_end > self._env._now)
@@ -320,8 +298,9 @@ class WLAN80211b(RadioNetwork):
         r.backoff = b
         r.bo_drawn = b
 
-    def _kick(self, r) -> None:
-        if r.current is not None or r.backoff is not None:
+    def _kick(self, iface) -> None:
+        r = iface.mac
+        if iface.current is not None or r.backoff is not None:
             return
         if r.mac_busy:
             self._draw(r)
@@ -337,116 +316,44 @@ class WLAN80211b(RadioNetwork):
         r.backoff = None
         r.immediate = False
         r.eifs = False
-        if r.current is None:
-            if not r.queue._q:
+        iface = r.iface
+        f = iface.current
+        if f is None:
+            f = self._next_frame(iface)
+            if f is None:
                 return              # post-backoff finished, nothing to send
-            r.current = r.queue.pop()
-        f = r.current
-        f.attempts += 1
-        now = self._env._now
-        f.sent = now
-        f.fail_reason = None
-        air = self.plcp + self.duration(self.mac_overhead_bits + f.bits)
-        tx = Transmission(r, "data", f, f.dst, now, now + air, now + self.plcp, self.data_mod)
-        self._trace("attempt_start", f, r.name, bits=self.mac_overhead_bits + f.bits, backoff=r.bo_drawn)
+        bits = self.mac_overhead_bits + f.bits
+        self._attempt_start(iface, f, bits, r.bo_drawn)
         r.bo_drawn = math.nan
+        now = self._env._now
+        tx = Transmission(r, "data", f, f.dst if f.dst is BROADCAST else f.dst.mac, now,
+                          now + self.plcp + self.duration(bits), now + self.plcp, self.data_mod)
         self._start_tx(r, tx)
 
     def _start_tx(self, r, tx) -> None:
-        r.tx = tx
-        r.sending = 1
         r.mac_busy = True
-        r._state()
-        self.medium.start(tx)
-        self.sim.call_at_ticks(tx.end, self._tx_end, arg=tx)
+        super()._start_tx(r, tx)
 
-    def _tx_end(self, tx) -> None:
-        r = tx.src
-        self.medium.end(tx)
-        r.tx = None
-        r.sending = 0
-        if tx.kind == "data":
-            f = tx.frame
-            if f.dst is BROADCAST:
-                self._trace("attempt_end", f, r.name, "sent")
-                self._done(r, f, True)
-            else:
-                r.awaiting = tx
-                r.ack_wait = False
-                r.ack_timer = self.sim.call_at_ticks(tx.end + self.ack_timeout, self._ack_timeout, arg=r)
-        else:
-            r.responding -= 1
-        r._state()
-        self._reeval(r)
-
-    def _done(self, r, f, ok: bool) -> None:
-        r.current = None
+    def _frame_done(self, r, f, ok: bool) -> None:
         r.cw = self.cw_min
-        self._draw(r)                 # post-backoff
-        self._finish(f, ok)
+        self._draw(r)                 # post-backoff, drawn before the sender hears it is free
+        self._done(r.iface, f, ok, restart=False)
 
-    def _ack_timeout(self, r) -> None:
-        r.ack_timer = None
-        if r.awaiting is None:
-            return
-        if r.rx is not None:          # a reception began within the timeout: wait for its end
-            r.ack_wait = True
-            return
-        self._ack_fail(r)
-        self._reeval(r)
-
-    def _ack_ok(self, r) -> None:
-        tx = r.awaiting
-        r.awaiting = None
-        r.ack_wait = False
-        if r.ack_timer is not None:
-            r.ack_timer.cancel()
-            r.ack_timer = None
-        f = tx.frame
-        self._trace("attempt_end", f, r.name, "ok")
-        self._done(r, f, True)
-        r._state()
-
-    def _ack_fail(self, r) -> None:
-        tx = r.awaiting
-        r.awaiting = None
-        r.ack_wait = False
-        if r.ack_timer is not None:
-            r.ack_timer.cancel()
-            r.ack_timer = None
-        f = tx.frame
-        reason = tx.dst_reason or ("ack_lost" if tx.acked else "no_ack")
-        if reason == "collision":
-            self.collisions += 1
-        self._trace("attempt_end", f, r.name, reason)
-        if f.attempts >= self.retry_limit:
-            self._lost(f, r, "retry_limit")
-            self._done(r, f, False)
-        else:
-            r.cw = min(2 * (r.cw + 1) - 1, self.cw_max)
-            self._draw(r)
-        r._state()
+    def _retry(self, r) -> None:
+        r.cw = min(2 * (r.cw + 1) - 1, self.cw_max)
+        self._draw(r)
 
     def _rx_end(self, r, tx, ok, reason, locked) -> None:
         """MAC processing of the end of *tx* at listener *r* (called by the medium)."""
         f = tx.frame
         if tx.kind == "data":
-            dst = f.dst
+            dst = tx.dst
             if ok:
                 r.eifs = False
                 if dst is r:
-                    if self.loss is not None and self._link(f.src, r).lost():
-                        tx.dst_reason = "random_loss"
-                    else:
-                        tx.acked = True
-                        if r.last_seq.get(f.src.index) != f.seq:
-                            r.last_seq[f.src.index] = f.seq
-                            self._deliver(f, r, apply_loss=False)
-                        if r.tx is None:
-                            r.responding += 1
-                            self.sim.call_in_ticks(self.sifs, self._send_ack, arg=tx)
+                    self._receive_unicast(r, tx, True)
                 elif dst is BROADCAST:
-                    self._deliver(f, r, apply_loss=True)
+                    self._deliver(f, r.iface)
                 else:
                     nav = self._env._now + self.sifs + self.ack_time
                     if nav > r.nav_end:
@@ -462,7 +369,7 @@ class WLAN80211b(RadioNetwork):
                 if dst is r:
                     tx.dst_reason = reason
                 elif dst is BROADCAST:
-                    self._lost(f, r, reason)
+                    self._lost(f, r.iface, reason)
         else:  # ACK
             mine = tx.dst is r and r.awaiting is not None and r.awaiting.frame is f
             if ok:
@@ -478,18 +385,6 @@ class WLAN80211b(RadioNetwork):
     def _nav_due(self, nav) -> None:
         for r in self._nav.pop(nav):
             self._reeval(r)
-
-    def _send_ack(self, data_tx) -> None:
-        r = data_tx.dst
-        if r.tx is not None:          # cannot happen with DCF timing; be safe
-            r.responding -= 1
-            self._reeval(r)
-            return
-        now = self._env._now
-        f = data_tx.frame
-        ack = Transmission(r, "ack", f, data_tx.src, now, now + self.ack_time, now + self.plcp, self.ack_mod)
-        self._trace("ack", f, r.name, bits=self.ack_bits)
-        self._start_tx(r, ack)
 
     # ------------------------------------------------------------------ analysis helpers
     def timing(self) -> dict:

@@ -1,0 +1,283 @@
+"""Radio networks: what 802.11b and 802.15.4 share above the medium.
+
+:class:`RadioNetwork` holds the radio parameters (path loss, transmit power, receiver and
+carrier-sense thresholds, capture ratio, noise floor: powers in dBm, validated once),
+attaches stations at a ``position`` (a 2-D/3-D point in m, or a callable ``p(t)`` of
+seconds), keeps one :class:`RadioStation` per interface (``iface.mac``, also in
+``self._stations`` by interface index) and runs the unicast ACK/retry exchange.
+
+A wireless MAC subclasses it and provides:
+
+* ``station_class`` -- a :class:`RadioStation` subclass declaring the MAC's own
+  per-station state;
+* ``_kick(iface)`` (base :class:`~netcosim.network.base.Network`) -- start medium access;
+* ``_reeval(r)`` -- the medium's view of station *r* changed (carrier sense);
+* ``_rx_end(r, tx, ok, reason, locked)`` -- *tx* ended at listener *r*;
+* ``_retry(r)`` -- the ACK did not come and attempts remain;
+* optionally ``_frame_done(r, f, ok)`` -- the station is done with a frame (default
+  :meth:`~netcosim.network.base.Network._done`);
+* attributes ``use_ack``, ``max_attempts`` (transmissions of a unicast frame),
+  ``_ack_timeout_ticks`` (from the end of a data frame), ``_ack_delay`` (ticks from
+  the end of a data frame to its ACK), ``ack_time``, ``ack_bits``, ``_ack_plcp`` and
+  ``_ack_mod`` for :meth:`RadioNetwork._send_ack`.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..errors import ConfigurationTypeError
+from .base import Network
+from .checks import check_finite, check_non_negative
+from .frame import BROADCAST
+from .interface import Interface
+from .medium import Transmission, WirelessMedium
+from .radio import LogDistance, PathLoss, as_position, db_to_ratio, dbm_to_watt, watt_to_dbm
+
+
+class RadioStation:
+    """One interface on a radio network: radio parameters, listener state, ACK state.
+
+    Radio (fixed at attach): ``pos`` (point in m or callable), ``tx_power_dbm``, and in
+    watts ``tx_w`` (transmit power), ``sens_w`` (receiver threshold), ``cs_w``
+    (carrier-sense threshold).  Listener state (kept by the
+    :class:`~netcosim.network.medium.WirelessMedium`): ``power`` (W on the air here),
+    ``n_active``, ``audible`` (transmissions above ``cs_w``), ``rx`` (locked frame),
+    ``rx_ok``/``rx_reason``, ``seg_t``/``logp`` (bit-error accounting), ``tx`` (own
+    transmission), ``phy_rng`` (stream ``<net>/phy/<node>``).  ACK state: ``awaiting``
+    (own data frame waiting for its ACK), ``ack_timer``, ``ack_wait`` (timeout passed
+    during a reception), ``responding`` (ACKs scheduled), ``last_seq`` (duplicate
+    detection per sender index), ``rng`` (backoff stream ``<net>/<node>/backoff``),
+    ``bo_drawn`` (backoff slots drawn before the next attempt, for the trace).
+    """
+
+    __slots__ = ("iface", "name", "index", "pos", "tx_power_dbm", "tx_w", "sens_w", "cs_w", "power", "n_active",
+                 "audible", "rx", "rx_ok", "rx_reason", "seg_t", "logp", "tx", "phy_rng", "awaiting", "ack_timer",
+                 "ack_wait", "responding", "last_seq", "rng", "bo_drawn")
+
+    def __init__(self, net: "RadioNetwork", iface: Interface, pos, tx_power_dbm: float, sens_w: float,
+                 cs_w: float):
+        self.iface = iface
+        self.name = iface.name
+        self.index = iface.index
+        self.pos = pos
+        self.tx_power_dbm = tx_power_dbm
+        self.tx_w = dbm_to_watt(tx_power_dbm)
+        self.sens_w = sens_w
+        self.cs_w = cs_w
+        self.power = 0.0
+        self.n_active = 0
+        self.audible = 0
+        self.rx = None
+        self.rx_ok = False
+        self.rx_reason = None
+        self.seg_t = 0
+        self.logp = 0.0
+        self.tx = None
+        self.phy_rng = net.sim.rng(f"{net.name}/phy/{iface.name}")
+        self.awaiting = None
+        self.ack_timer = None
+        self.ack_wait = False
+        self.responding = 0
+        self.last_seq: dict = {}
+        self.rng = net.sim.rng(f"{net.name}/{iface.name}/backoff")
+        self.bo_drawn = math.nan
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.iface.network.name}/{self.name}>"
+
+
+class RadioNetwork(Network):
+    """Base class of the wireless MACs (see the module docstring).
+
+    Radio parameters (validated here; also per node in :meth:`attach`): ``path_loss`` (a
+    :class:`~netcosim.network.radio.PathLoss`, default log-distance with exponent 3),
+    ``tx_power_dbm``, ``threshold_dbm`` (receiver sensitivity, and carrier sense unless
+    ``cs_threshold_dbm`` is given), ``capture_db`` (finite, >= 0), ``noise_dbm`` (default
+    the thermal noise of the subclass's channel, :meth:`default_noise_dbm`).
+    """
+
+    station_class = RadioStation
+
+    def __init__(self, sim, name, *, path_loss: PathLoss | None = None, tx_power_dbm: float,
+                 threshold_dbm: float, cs_threshold_dbm: float | None = None, capture_db: float = 10.0,
+                 noise_dbm: float | None = None, **kw):
+        super().__init__(sim, name, **kw)
+        w = f"network {name!r}"
+        self._stations: list[RadioStation] = []
+        if path_loss is None:
+            path_loss = LogDistance(3.0)
+        if not isinstance(path_loss, PathLoss):
+            raise ConfigurationTypeError(f"{w}: path_loss must be a PathLoss model, got {path_loss!r}")
+        self.path_loss = path_loss
+        self.tx_power_dbm = check_finite(tx_power_dbm, f"{w}: tx_power_dbm", "dBm")
+        self.threshold_dbm = check_finite(threshold_dbm, f"{w}: threshold_dbm", "dBm")
+        self.cs_threshold_dbm = (self.threshold_dbm if cs_threshold_dbm is None
+                                 else check_finite(cs_threshold_dbm, f"{w}: cs_threshold_dbm", "dBm"))
+        self.capture_db = check_non_negative(capture_db, f"{w}: capture_db (dB)")
+        self.noise_dbm = (self.default_noise_dbm() if noise_dbm is None
+                          else check_finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
+        self.medium = WirelessMedium(self, path_loss=path_loss, noise_w=dbm_to_watt(self.noise_dbm),
+                                     capture_ratio=db_to_ratio(self.capture_db))
+        #: unicast attempts that failed by a collision at the destination
+        self.collisions = 0
+
+    def default_noise_dbm(self) -> float:
+        """Noise floor (dBm) when ``noise_dbm`` is not given."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ stations
+    def attach(self, node, *, position=(0.0, 0.0), tx_power_dbm: float | None = None,
+               threshold_dbm: float | None = None, cs_threshold_dbm: float | None = None, **kw) -> Interface:
+        """Attach *node* at *position* (2-D/3-D point in m, or a callable ``p(t)`` of seconds,
+        evaluated at the start of every transmission).  Radio parameters (dBm) default to
+        the network's."""
+        return super().attach(node, position=position, tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm,
+                              cs_threshold_dbm=cs_threshold_dbm, **kw)
+
+    def _station(self, iface, options) -> RadioStation:
+        pos = options.pop("position")
+        txp = options.pop("tx_power_dbm")
+        thr = options.pop("threshold_dbm")
+        cst = options.pop("cs_threshold_dbm")
+        if options:
+            raise ConfigurationTypeError(f"network {self.name!r}: unknown attach option(s) {sorted(options)}")
+        w = f"network {self.name!r} node {iface.name!r}"
+        pos = as_position(pos, w)
+        txp = self.tx_power_dbm if txp is None else check_finite(txp, f"{w}: tx_power_dbm", "dBm")
+        sens = dbm_to_watt(self.threshold_dbm if thr is None else check_finite(thr, f"{w}: threshold_dbm", "dBm"))
+        cs = dbm_to_watt(self.cs_threshold_dbm if cst is None
+                         else check_finite(cst, f"{w}: cs_threshold_dbm", "dBm"))
+        r = self.station_class(self, iface, pos, txp, sens, cs)
+        self.medium.init_listener(r)
+        self._stations.append(r)
+        return r
+
+    def station(self, node) -> RadioStation:
+        """The radio station (MAC state) of *node* (name, kernel node or interface)."""
+        return self.interface(node).mac
+
+    def position(self, node, t: float | None = None):
+        """Position of *node* at time *t* (s; default now)."""
+        return self.medium._position(self.station(node), self.sim.now if t is None else t)
+
+    def rx_power_dbm(self, src, dst) -> float:
+        """Power (dBm) at *dst* of a transmission by *src* starting now."""
+        s, d = self.station(src), self.station(dst)
+        return watt_to_dbm(self.medium.powers_from(s)[d.index])
+
+    # ------------------------------------------------------------------ transmissions and ACKs
+    def _start_tx(self, r: RadioStation, tx: Transmission) -> None:
+        """Station *r* puts *tx* on the air until ``tx.end``."""
+        r.tx = tx
+        r.iface.sending = 1
+        r.iface._state()
+        self.medium.start(tx)
+        self.sim.call_at_ticks(tx.end, self._tx_end, arg=tx)
+
+    def _tx_end(self, tx: Transmission) -> None:
+        """*tx* left the air: an ACK is done, a broadcast (or unacknowledged) data frame is
+        sent, a unicast data frame waits for its ACK."""
+        r = tx.src
+        self.medium.end(tx)
+        r.tx = None
+        r.iface.sending = 0
+        if tx.kind != "data":
+            r.responding -= 1
+        elif tx.dst is BROADCAST or not self.use_ack:
+            self._attempt_end(r.iface, tx.frame, "sent")
+            self._frame_done(r, tx.frame, True)
+        else:
+            self._await_ack(r, tx, self._ack_timeout_ticks)
+        r.iface._state()
+        self._reeval(r)
+
+    def _frame_done(self, r: RadioStation, f, ok: bool) -> None:
+        """Hook: station *r* is done with *f* (sent/acknowledged, or dropped)."""
+        self._done(r.iface, f, ok)
+
+    def _retry(self, r: RadioStation) -> None:
+        """Hook: the ACK for *r*'s current frame did not come; try again."""
+        raise NotImplementedError
+
+    def _await_ack(self, r: RadioStation, tx: Transmission, timeout: int) -> None:
+        """*r* sent the unicast data frame *tx*: wait *timeout* ticks for its ACK to begin."""
+        r.awaiting = tx
+        r.ack_wait = False
+        r.ack_timer = self.sim.call_in_ticks(timeout, self._ack_timeout, arg=r)
+
+    def _ack_timeout(self, r: RadioStation) -> None:
+        r.ack_timer = None
+        if r.awaiting is None:
+            return
+        if r.rx is not None:          # a reception began within the timeout: wait for its end
+            r.ack_wait = True
+            return
+        self._ack_fail(r)
+        self._reeval(r)
+
+    def _stop_waiting(self, r: RadioStation) -> Transmission:
+        """End the ACK wait of *r*; returns the data transmission it was for."""
+        tx = r.awaiting
+        r.awaiting = None
+        r.ack_wait = False
+        if r.ack_timer is not None:
+            r.ack_timer.cancel()
+            r.ack_timer = None
+        return tx
+
+    def _ack_ok(self, r: RadioStation) -> None:
+        f = self._stop_waiting(r).frame
+        self._attempt_end(r.iface, f, "ok")
+        self._frame_done(r, f, True)
+        r.iface._state()
+
+    def _ack_fail(self, r: RadioStation) -> None:
+        """No (intact) ACK: the attempt failed for the reason the destination missed the frame
+        (``ack_lost`` if it did receive it); retry, or drop after ``max_attempts``."""
+        tx = self._stop_waiting(r)
+        f = tx.frame
+        reason = tx.dst_reason or ("ack_lost" if tx.acked else "no_ack")
+        if reason == "collision":
+            self.collisions += 1
+        self._attempt_end(r.iface, f, reason)
+        if f.attempts >= self.max_attempts:
+            self._lost(f, r.iface, "retry_limit")
+            self._frame_done(r, f, False)
+        else:
+            self._retry(r)
+        r.iface._state()
+
+    def _receive_unicast(self, r: RadioStation, tx: Transmission, ack: bool) -> None:
+        """*r* decoded the data frame *tx* addressed to it: draw the link loss (a frame lost
+        so is not acknowledged), deliver it once (duplicates are acknowledged but not
+        delivered again), and answer with an ACK after ``_ack_delay`` if *ack*."""
+        f = tx.frame
+        if self._lost_on_link(f, r.iface):
+            tx.dst_reason = "random_loss"
+            if not ack:
+                self._lost(f, r.iface, "random_loss")
+            return
+        tx.acked = ack
+        if r.last_seq.get(f.src.index) != f.seq:
+            r.last_seq[f.src.index] = f.seq
+            self._accept(f, r.iface)
+        if ack and r.tx is None:
+            r.responding += 1
+            self.sim.call_in_ticks(self._ack_delay, self._send_ack, arg=tx)
+
+    def _send_ack(self, data_tx: Transmission) -> None:
+        r = data_tx.dst
+        if r.tx is not None:
+            r.responding -= 1
+            self._reeval(r)
+            return
+        now = self._env._now
+        f = data_tx.frame
+        ack = Transmission(r, "ack", f, data_tx.src, now, now + self.ack_time, now + self._ack_plcp,
+                           self._ack_mod)
+        self._trace("ack", f, r.name, bits=self.ack_bits)
+        self._start_tx(r, ack)
+
+    def _reeval(self, r: RadioStation) -> None:
+        """Hook of the medium: station *r*'s view of the medium changed."""
