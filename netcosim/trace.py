@@ -178,8 +178,8 @@ class Recorder:
         self.key_index = tuple(self.columns.index(k) for k in key) if key else ()
         self._clock = clock
         self._buf: list | deque = []
-        self._window = None      # stored-unit width of the window
-        self._stream = None      # _Stream in stream mode
+        self._window: int | float | None = None      # stored-unit width of the window
+        self._stream: _Stream | None = None      # _Stream in stream mode
         self._counts: dict = {}  # decimation counters per key
         self._latest = None      # latest stored time seen (window mode, no clock)
         self.mode = "keep"
@@ -277,6 +277,7 @@ class Recorder:
                         buf.popleft()
             return window_append
         stream = self._stream
+        assert stream is not None
         limit = stream.row_group
 
         def stream_append(row, buf=buf):
@@ -531,6 +532,7 @@ class Trace:
             self._apply_default(rec)
 
     def _apply_default(self, rec: Recorder) -> None:
+        assert self._default is not None
         d = dict(self._default)
         mode = d.pop("mode")
         if mode == "stream":

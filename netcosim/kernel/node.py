@@ -46,7 +46,7 @@ class Node:
         self._tick_scale = TICKS_PER_SECOND / self.speed
         cs = to_ticks(context_switch, f"node {name!r} context_switch")
         self.context_switch = context_switch
-        self._cs_ticks = int(round(cs / self.speed))
+        self._cs_ticks: int = int(round(cs / self.speed))
         if cs and not self._cs_ticks:
             raise ConfigurationError(
                 f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} is "
@@ -55,20 +55,20 @@ class Node:
         self.ready: list[Job] = []
         self.running: Job | None = None
         self._loaded: Job | None = None
-        self._in_cs = False
+        self._in_cs: bool = False
         self._np_job: Job | None = None  # non-preemptible job interrupted by a handler
-        self._dispatch_pending = False
-        self._seq = 0
+        self._dispatch_pending: bool = False
+        self._seq: int = 0
         self._ain: dict[int, AnalogIn] = {}
         self._aout: dict[int, AnalogOut] = {}
         self.interfaces: dict[str, Any] = {}
-        self._env = sim.env
+        self._env: Any = sim.env  # SimPy types `now` as int | float; here it is always integer ticks
         # one event object, re-armed for every dispatch request (at most one pending)
-        self._dispatch_event = simpy.events.Event(sim.env)
+        self._dispatch_event: simpy.Event = simpy.events.Event(sim.env)
         self._dispatch_event._ok, self._dispatch_event._value = True, None
-        self._dispatch_callbacks = [self._dispatch]
-        self._sched = sim.trace.schedule_rec.rows
-        self._jobrec = sim.trace.job_rec.rows
+        self._dispatch_callbacks: list[Callable] = [self._dispatch]
+        self._sched: list[tuple] = sim.trace.schedule_rec.rows
+        self._jobrec: list[tuple] = sim.trace.job_rec.rows
         sim.trace.job_rec.providers.append(self._unfinished_rows)
 
     # ------------------------------------------------------------------ tasks

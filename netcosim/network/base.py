@@ -417,6 +417,7 @@ class Network:
         key = (src.index, dst.index)
         lk = self._links.get(key)
         if lk is None:
+            assert self.loss is not None  # links are drawn only on a lossy network
             lk = self._links[key] = self.loss.link(self.sim.rng(f"{self.name}/loss/{src.name}->{dst.name}"))
         return lk
 

@@ -38,6 +38,7 @@ class SharedBus(Network):
         if iface is None:
             return
         f = self._next_frame(iface)
+        assert f is not None  # _choose picked a station with a frame waiting
         self._busy = True
         self._attempt_start(iface, f)
         self._carrier_on(iface, f)
