@@ -49,6 +49,8 @@ class Transmission:
         self.acked = False        # the destination decoded it and answers with an ACK
 
     def addressed_to(self, r) -> bool:
+        """True if station *r* is this transmission's destination (a broadcast data frame is addressed
+        to every station; an ACK only to its data frame's sender)."""
         return self.dst is r or (self.dst is BROADCAST and self.kind == "data")
 
 
