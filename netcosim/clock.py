@@ -71,7 +71,7 @@ class Timer(simpy.events.Event):
     @classmethod
     def call(cls, env: simpy.Environment, delay: int, fn: Callable, arg: Any = _NOARG,
              priority: int = NORMAL) -> "Timer":
-        """A timer whose firing calls ``fn()`` (or ``fn(arg)``)."""
+        """A timer, *delay* ticks from now, whose firing calls ``fn()`` (or ``fn(arg)``)."""
         t = cls(env, delay, _call, arg, priority)
         t.fn = fn
         return t

@@ -112,6 +112,7 @@ class Simulation:
 
     @property
     def now_ticks(self) -> int:
+        """Current simulated time in integer ticks (1 tick = :data:`~netcosim.timebase.RESOLUTION` s)."""
         return cast(int, self.env._now)
 
     @property
@@ -150,6 +151,10 @@ class Simulation:
         return self.env.timeout(to_ticks(seconds, "timeout"))
 
     def process(self, generator) -> simpy.Process:
+        """Start *generator* as a SimPy process on this simulation's environment; returns the process.
+
+        Inside it, time is SimPy's: integer ticks (use :meth:`timeout` for a delay in seconds).
+        """
         return self.env.process(generator)
 
     # Randomness ------------------------------------------------------------

@@ -187,6 +187,8 @@ class Recorder:
         self.rows = Sink(self)
 
     def append(self, row: tuple) -> None:
+        """Add one *row* (a tuple in the table's column order; times in the table's stored unit) under
+        the table's storage mode."""
         self.rows.append(row)
 
     def __len__(self) -> int:
@@ -199,7 +201,8 @@ class Recorder:
     # -- configuration --------------------------------------------------------------
     def configure(self, mode: str = "keep", *, rows=None, seconds=None, every=1, path=None,
                   row_group=DEFAULT_ROW_GROUP, overwrite: bool = False) -> None:
-        """Set how this table stores rows; see :meth:`Trace.configure`."""
+        """Set how this table stores rows (``seconds``: the window width in s); see
+        :meth:`Trace.configure`."""
         w = f"trace table {self.name!r}"
         if not isinstance(mode, str) or mode not in MODES:
             raise ConfigurationError(f"{w}: unknown mode {mode!r}; choose one of {MODES}")
@@ -460,6 +463,7 @@ class Trace:
 
     @property
     def tables(self) -> list[str]:
+        """Names of the tables recorded so far, in creation order."""
         return list(self._tables)
 
     def _rec(self, name) -> Recorder:
@@ -502,7 +506,8 @@ class Trace:
     def configure_all(self, mode: str = "keep", *, rows: int | None = None, seconds: float | None = None,
                       path: str | os.PathLike | None = None, row_group: int = DEFAULT_ROW_GROUP,
                       overwrite: bool = False) -> None:
-        """Configure every table, and every table created later, like :meth:`configure`.
+        """Configure every table, and every table created later, like :meth:`configure`
+        (``seconds``: the window width in s).
 
         In ``stream`` mode each table streams into its own directory ``path/<table>``.
         Tables that cannot honour the mode (``window`` on a table without a time
@@ -568,6 +573,7 @@ class Trace:
 
     # Reading -----------------------------------------------------------------------
     def frame(self, name: str) -> pd.DataFrame:
+        """Table *name* as a DataFrame (times in seconds); :class:`KeyError` naming the tables when there is none."""
         try:
             rec = self._tables[name]
         except (KeyError, TypeError):
@@ -593,9 +599,13 @@ class Trace:
         return pd.Series(sel["value"].to_numpy(), index=sel["time"].to_numpy(), name=f"{source}.{signal}")
 
     def schedule(self) -> pd.DataFrame:
+        """The ``schedule`` table: one row per state change of a kernel task (``time`` in s,
+        ``node``, ``task``, ``state``)."""
         return self.frame("schedule")
 
     def jobs(self) -> pd.DataFrame:
+        """The ``jobs`` table: one row per job, with ``release``, ``deadline``, ``start``,
+        ``finish``, ``execution_time`` and the derived latencies in s, and its outcome flags."""
         return self.frame("jobs")
 
     def to_parquet(self, directory: str | os.PathLike, prefix: str = "") -> list[Path]:

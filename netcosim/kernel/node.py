@@ -110,7 +110,10 @@ class Node:
     def aperiodic(self, body: Callable | None = None, *, priority=None, deadline: float | None = None,
                   wcet: float | None = None, name: str | None = None, preemptible: bool = True,
                   on_busy: str = "queue", on_deadline_miss=None, on_budget_overrun=None):
-        """Add a task whose jobs are released by ``task.release()``, triggers, timers or messages."""
+        """Add a task whose jobs are released by ``task.release()``, triggers, timers or messages.
+
+        ``deadline``: relative deadline (s) of each job; ``wcet``: execution budget (s).
+        """
         def make(fn):
             return self._add_task(fn, "aperiodic", name, priority=priority, deadline=deadline, wcet=wcet,
                                   preemptible=preemptible, on_busy=on_busy, on_deadline_miss=on_deadline_miss,
@@ -119,7 +122,10 @@ class Node:
 
     def handler(self, body: Callable | None = None, *, priority: float = 0, name: str | None = None,
                 deadline: float | None = None):
-        """Add an interrupt handler: it beats every task; handlers are ordered by priority."""
+        """Add an interrupt handler: it beats every task; handlers are ordered by priority.
+
+        ``deadline``: relative deadline (s) of each activation.
+        """
         def make(fn):
             return self._add_task(fn, "handler", name, priority=priority, deadline=deadline)
         return make if body is None else make(body)
@@ -149,7 +155,11 @@ class Node:
 
     # ---------------------------------------------------------------- networks
     def send(self, dst, payload=None, size_bits=None, *, priority=None, network=None):
-        """Send a message through a network interface of this node."""
+        """Send a message through a network interface of this node.
+
+        ``size_bits``: the message size in bits (the network's default when None);
+        ``network`` names the interface when the node has several.
+        """
         if not self.interfaces:
             raise RuntimeError(f"node {self.name!r} has no network interface; attach it to a network first")
         if network is None:

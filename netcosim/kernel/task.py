@@ -360,7 +360,8 @@ class TaskContext:
         return task.release()
 
     def send(self, dst, payload: Any = None, size_bits: int | None = None, *, priority=None, network=None):
-        """Send a message over one of this node's network interfaces (see netcosim.network)."""
+        """Send a message over one of this node's network interfaces (see netcosim.network);
+        ``size_bits`` in bits."""
         return self.node.send(dst, payload, size_bits, priority=priority, network=network)
 
     def kill(self) -> None:

@@ -20,7 +20,8 @@ if TYPE_CHECKING:
 
 
 class KernelTimer:
-    """Releases a task at an absolute time, optionally periodically (TrueTime's timers)."""
+    """Releases a task at an absolute time ``at`` (s; now when None), then every ``period`` s if
+    given (TrueTime's timers)."""
 
     def __init__(self, node: Node, target: Task, at: float | None, period: float | None):
         self.node, self.target = node, target

@@ -248,7 +248,8 @@ class Network:
         return d
 
     def wire_bits(self, size_bits: int) -> int:
-        """Bits on the medium for a message of *size_bits* (default: padded to the minimum)."""
+        """Number of bits on the medium for a message of *size_bits* bits (default: padded to the
+        minimum frame size)."""
         return size_bits if size_bits >= self.min_frame_bits else self.min_frame_bits
 
     def _check_priority(self, priority, iface) -> None:

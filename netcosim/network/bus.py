@@ -66,6 +66,7 @@ class RoundRobin(SharedBus):
     """Token passing: the token visits the nodes cyclically in attach order and a node
     holding it sends at most one frame.  Passing the token takes no time, so at an idle
     instant the next node (after the last sender) with a queued frame transmits.
+    ``data_rate`` in bit/s.
     """
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, **kw):
