@@ -41,12 +41,43 @@ Errors
 
 from .continuous import RK4, ContinuousSystem, HybridEvent, PlantInstance, SolveIVP
 from .cputime import CPUTimeModel, FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime
-from .errors import (ConfigurationError, ConfigurationTypeError, IntegrationError, NetcosimError, NotConnectedError,
-                     SimulationFailedError, SingularConfigurationError, UnyieldedExecuteError)
-from .network import (BROADCAST, CAN, CSMACD, FDMA, TDMA, Bernoulli, GilbertElliott, IdealLink,
-                      IEEE802154, RoundRobin, SwitchedEthernet, TraceLoss, WLAN80211b)
-from .kernel import (EDF, ConditionVariable, DeadlineMonotonic, Event, FixedPriority, Mailbox, Monitor, RateMonotonic,
-                     SchedulingPolicy, Semaphore)
+from .errors import (
+    ConfigurationError,
+    ConfigurationTypeError,
+    IntegrationError,
+    NetcosimError,
+    NotConnectedError,
+    SimulationFailedError,
+    SingularConfigurationError,
+    UnyieldedExecuteError,
+)
+from .kernel import (
+    EDF,
+    ConditionVariable,
+    DeadlineMonotonic,
+    Event,
+    FixedPriority,
+    Mailbox,
+    Monitor,
+    RateMonotonic,
+    SchedulingPolicy,
+    Semaphore,
+)
+from .network import (
+    BROADCAST,
+    CAN,
+    CSMACD,
+    FDMA,
+    IEEE802154,
+    TDMA,
+    Bernoulli,
+    GilbertElliott,
+    IdealLink,
+    RoundRobin,
+    SwitchedEthernet,
+    TraceLoss,
+    WLAN80211b,
+)
 from .sim import Simulation
 from .timebase import RESOLUTION
 

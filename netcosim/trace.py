@@ -39,9 +39,7 @@ import numbers
 import os
 from collections import deque
 from pathlib import Path
-from typing import Callable, Iterable, Sequence
-
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable, Iterable, Sequence
 
 from .errors import ConfigurationError, ConfigurationTypeError
 from .timebase import TICKS_PER_SECOND, to_ticks

@@ -19,8 +19,8 @@ from typing import Any, Callable
 
 import simpy
 
-from ..errors import ConfigurationError, ConfigurationTypeError
 from ..clock import DISPATCH, Timer
+from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy

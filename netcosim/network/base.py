@@ -36,22 +36,18 @@ is done by the life-cycle steps below (``_next_frame``, ``_attempt_start``,
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import math
 import numbers
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-
-from ..kernel.task import Task
 from ..clock import ARBITRATE  # noqa: F401 (re-exported: MAC arbitration priority)
 from ..errors import ConfigurationError, ConfigurationTypeError
+from ..kernel.task import Task
 from ..timebase import RESOLUTION, TICKS_PER_SECOND
 from .checks import check_bits, check_count, check_duration, check_positive, check_real
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
 from .loss import as_loss_model
-
 
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
                  "bits", "backoff")
