@@ -23,7 +23,7 @@ run: $(STAMP)
 
 # Style and types of the library (configured in pyproject.toml); a finding fails `make test`.
 lint: $(STAMP)
-	$(BIN)/ruff check --quiet netcosim
+	$(BIN)/ruff check --quiet --output-format concise netcosim
 	$(BIN)/mypy --no-error-summary
 
 test: lint
