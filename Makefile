@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-all bench clean
+.PHONY: run lint test test-all bench clean
 
 $(BIN)/python:
 	@echo "== creating the virtual environment $(VENV)"
@@ -21,7 +21,12 @@ $(STAMP): pyproject.toml | $(BIN)/python
 run: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m experiments.main --outdir results
 
-test: $(STAMP)
+# Style and types of the library (configured in pyproject.toml); a finding fails `make test`.
+lint: $(STAMP)
+	$(BIN)/ruff check --quiet --output-format concise netcosim
+	$(BIN)/mypy --no-error-summary
+
+test: lint
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q -n 2
 
 test-all: $(STAMP)

@@ -45,6 +45,7 @@ def _load_module_from_file(given: str):
     if directory not in sys.path:
         sys.path.insert(0, directory)      # as `python path/to/file.py` does: siblings are importable
     spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None  # a .py path that exists always has one
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)

@@ -55,6 +55,8 @@ class Timer(simpy.events.Event):
     """
 
     __slots__ = ("arg", "fn")
+    arg: Any
+    fn: Callable[..., Any]
     NOARG = _NOARG
 
     def __init__(self, env: simpy.Environment, delay: int, callback: Callable[["Timer"], None],
@@ -64,12 +66,12 @@ class Timer(simpy.events.Event):
         self._ok = True
         self._value = None
         self.callbacks = [callback]
-        env.schedule(self, priority, delay)
+        env.schedule(self, priority, delay)  # type: ignore[arg-type]  # SimPy's EventPriority is a NewType of int
 
     @classmethod
     def call(cls, env: simpy.Environment, delay: int, fn: Callable, arg: Any = _NOARG,
              priority: int = NORMAL) -> "Timer":
-        """A timer whose firing calls ``fn()`` (or ``fn(arg)``)."""
+        """A timer, *delay* ticks from now, whose firing calls ``fn()`` (or ``fn(arg)``)."""
         t = cls(env, delay, _call, arg, priority)
         t.fn = fn
         return t

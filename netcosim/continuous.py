@@ -125,27 +125,37 @@ class ContinuousSystem:
 
     @property
     def nx(self) -> int:
+        """Number of states."""
         return len(self.state_names)
 
     @property
     def nu(self) -> int:
+        """Number of control inputs."""
         return len(self.input_names)
 
     @property
     def nd(self) -> int:
+        """Number of disturbance inputs."""
         return len(self.disturbance_names)
 
     @property
     def ny(self) -> int:
+        """Number of outputs."""
         return len(self.output_names)
 
     def f(self, t: float, x: np.ndarray, u: np.ndarray, params: Any) -> np.ndarray:
+        """State derivative ``dx/dt`` at time *t* (s), state *x*, input *u* (controls then disturbances).
+
+        Uses the ``f`` given to the constructor (or a subclass override); raises
+        :class:`NotImplementedError` when there is none.
+        """
         fn = getattr(self, "_f", None)
         if fn is None:
             raise NotImplementedError(f"{type(self).__name__} defines no dynamics f(t, x, u, params)")
         return fn(t, x, u, params)
 
     def h(self, t: float, x: np.ndarray, u: np.ndarray, params: Any) -> np.ndarray:
+        """Output ``y`` at time *t* (s), state *x*, input *u*; the state itself when no ``h`` was given."""
         fn = getattr(self, "_h", None)
         if fn is None:
             return x
@@ -206,6 +216,7 @@ class RK4:
 
     @staticmethod
     def step(rhs, t, x, h):
+        """One classical Runge-Kutta step of length *h* (s) from ``(t, x)`` (t in s); returns the new state."""
         k1 = rhs(t, x)
         k2 = rhs(t + 0.5 * h, x + (0.5 * h) * k1)
         k3 = rhs(t + 0.5 * h, x + (0.5 * h) * k2)
@@ -213,6 +224,12 @@ class RK4:
         return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
     def integrate(self, rhs, t0, x0, t1, gs):
+        """Integrate ``dx/dt = rhs(t, x)`` from ``(t0, x0)`` to *t1* (s) in steps of at most ``dt``.
+
+        Stops at the first zero crossing of a guard ``g(t, x)`` of *gs* (pairs ``(g,
+        direction)``), located within ``xtol`` s.  Returns ``(t_end, x_end, index of the
+        fired guard or None)``.
+        """
         t, x = t0, x0
         dt = self.dt
         gvals = [g(t, x) for g, _ in gs] if gs else None
@@ -332,9 +349,16 @@ class SolveIVP:
         return self.method in IMPLICIT_METHODS
 
     def integrate(self, rhs, t0, x0, t1, gs, jac=None):
+        """Integrate ``dx/dt = rhs(t, x)`` from ``(t0, x0)`` to *t1* (s) with :func:`scipy.integrate.solve_ivp`.
+
+        The guards *gs* (pairs ``(g, direction)``) are terminal events; *jac* is the
+        Jacobian of *rhs* for the implicit methods.  Returns ``(t_end, x_end, index of the
+        fired guard or None)``.
+        """
         events = []
         for g, d in gs:
-            ev = (lambda t, x, g=g: g(t, x))
+            def ev(t, x, g=g):
+                return g(t, x)
             ev.terminal = True
             ev.direction = d
             events.append(ev)
@@ -385,6 +409,8 @@ class OutputPort:
         self.plant, self.index, self.label = plant, index, label
 
     def read(self):
+        """The selected outputs at the current simulated time: a float for one output, else a copy of
+        the array (the plant's units)."""
         y = self.plant.output_now()
         v = y[self.index]
         return float(v) if np.ndim(v) == 0 else v.copy()
@@ -400,6 +426,7 @@ class InputPort:
         self.plant, self.index, self.label = plant, index, label
 
     def write(self, value) -> None:
+        """Hold *value* on the selected inputs from now until the next write (zero-order hold; the plant's units)."""
         self.plant.set_input(self.index, value, self.label)
 
     def __repr__(self):
@@ -423,7 +450,7 @@ def _select(names: Sequence[str], key, kind: str, plant: str):
     if isinstance(key, (int, np.integer)) and not isinstance(key, bool):
         if not -len(names) <= key < len(names):
             raise IndexError(f"plant {plant!r} has {len(names)} {kind}s, index {key} is out of range")
-        return int(key), names[key]
+        return int(key), names[int(key)]
     raise ConfigurationTypeError(f"{kind} selector must be a name, index, slice or list, got {key!r}")
 
 

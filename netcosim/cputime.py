@@ -70,8 +70,8 @@ class Measurement:
 
     def __init__(self, model: "CPUTimeModel", phase: str):
         self.model, self.phase = model, phase
-        self._t0 = None
-        self._seconds = None
+        self._t0 = math.nan  # clock reading at __enter__ (only when the model reads the clock)
+        self._seconds: float | None = None
 
     def __enter__(self) -> "Measurement":
         if self.model.reads_clock:
@@ -165,7 +165,8 @@ class FixedCPUTime(CPUTimeModel):
     def __init__(self, seconds: float | Mapping[str, float]):
         super().__init__()
         if isinstance(seconds, Mapping):
-            self.seconds = {str(k): _seconds(v, f"CPU time of phase {k!r}") for k, v in seconds.items()}
+            self.seconds: float | dict[str, float] = {
+                str(k): _seconds(v, f"CPU time of phase {k!r}") for k, v in seconds.items()}
         else:
             self.seconds = _seconds(seconds, "CPU time")
 

@@ -13,9 +13,7 @@ from __future__ import annotations
 import math
 import numbers
 from pathlib import Path
-from typing import Sequence
-
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 

@@ -58,6 +58,7 @@ class LinearPlant(ContinuousSystem):
         return self.C @ x + self.D @ u
 
     def jac(self, t, x, u, params):
+        """The Jacobian ``df/dx = A`` (constant: *t* in s, *x*, *u* and *params* are not used)."""
         return self.A
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from time import monotonic
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, cast
 
 import numpy as np
 import simpy
@@ -37,7 +37,7 @@ class _Realtime(simpy.rt.RealtimeEnvironment):
         self.lags: list[tuple[float, float]] = []  # (sim time s, lag s) when lagging
 
     def step(self) -> None:
-        evt_time = self.peek()
+        evt_time = cast(int, self.peek())  # SimPy types time as int | float; here it is integer ticks
         if evt_time == math.inf:
             raise simpy.core.EmptySchedule
         real_time = self.real_start + (evt_time - self.env_start) * self.factor
@@ -93,7 +93,7 @@ class Simulation:
         else:
             self.env = simpy.Environment(initial_time=0)
         self.realtime = realtime
-        self.trace = Trace(clock=lambda: self.env._now)
+        self.trace = Trace(clock=lambda: cast(int, self.env._now))
         self._rngs: dict[str, np.random.Generator] = {}
         self._names: dict[str, Any] = {}
         self.nodes: dict[str, Any] = {}
@@ -112,7 +112,8 @@ class Simulation:
 
     @property
     def now_ticks(self) -> int:
-        return self.env._now
+        """Current simulated time in integer ticks (1 tick = :data:`~netcosim.timebase.RESOLUTION` s)."""
+        return cast(int, self.env._now)
 
     @property
     def lags(self) -> list[tuple[float, float]]:
@@ -135,9 +136,10 @@ class Simulation:
     def call_at_ticks(self, ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
         """:meth:`call_at` with the instant in integer ticks (for components that compute in ticks)."""
         env = self.env
-        if ticks < env._now:
+        now = cast(int, env._now)
+        if ticks < now:
             raise ValueError(f"cannot schedule in the past: {to_seconds(ticks)} s < now {self.now} s")
-        return Timer.call(env, ticks - env._now, fn, arg, priority)
+        return Timer.call(env, ticks - now, fn, arg, priority)
 
     def call_in_ticks(self, delay_ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG
                       ) -> Timer:
@@ -149,6 +151,10 @@ class Simulation:
         return self.env.timeout(to_ticks(seconds, "timeout"))
 
     def process(self, generator) -> simpy.Process:
+        """Start *generator* as a SimPy process on this simulation's environment; returns the process.
+
+        Inside it, time is SimPy's: integer ticks (use :meth:`timeout` for a delay in seconds).
+        """
         return self.env.process(generator)
 
     # Randomness ------------------------------------------------------------

@@ -39,9 +39,7 @@ import numbers
 import os
 from collections import deque
 from pathlib import Path
-from typing import Callable, Iterable, Sequence
-
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable, Iterable, Sequence
 
 from .errors import ConfigurationError, ConfigurationTypeError
 from .timebase import TICKS_PER_SECOND, to_ticks
@@ -178,8 +176,8 @@ class Recorder:
         self.key_index = tuple(self.columns.index(k) for k in key) if key else ()
         self._clock = clock
         self._buf: list | deque = []
-        self._window = None      # stored-unit width of the window
-        self._stream = None      # _Stream in stream mode
+        self._window: int | float | None = None      # stored-unit width of the window
+        self._stream: _Stream | None = None      # _Stream in stream mode
         self._counts: dict = {}  # decimation counters per key
         self._latest = None      # latest stored time seen (window mode, no clock)
         self.mode = "keep"
@@ -187,6 +185,8 @@ class Recorder:
         self.rows = Sink(self)
 
     def append(self, row: tuple) -> None:
+        """Add one *row* (a tuple in the table's column order; times in the table's stored unit) under
+        the table's storage mode."""
         self.rows.append(row)
 
     def __len__(self) -> int:
@@ -199,7 +199,8 @@ class Recorder:
     # -- configuration --------------------------------------------------------------
     def configure(self, mode: str = "keep", *, rows=None, seconds=None, every=1, path=None,
                   row_group=DEFAULT_ROW_GROUP, overwrite: bool = False) -> None:
-        """Set how this table stores rows; see :meth:`Trace.configure`."""
+        """Set how this table stores rows (``seconds``: the window width in s); see
+        :meth:`Trace.configure`."""
         w = f"trace table {self.name!r}"
         if not isinstance(mode, str) or mode not in MODES:
             raise ConfigurationError(f"{w}: unknown mode {mode!r}; choose one of {MODES}")
@@ -277,6 +278,7 @@ class Recorder:
                         buf.popleft()
             return window_append
         stream = self._stream
+        assert stream is not None
         limit = stream.row_group
 
         def stream_append(row, buf=buf):
@@ -459,6 +461,7 @@ class Trace:
 
     @property
     def tables(self) -> list[str]:
+        """Names of the tables recorded so far, in creation order."""
         return list(self._tables)
 
     def _rec(self, name) -> Recorder:
@@ -501,7 +504,8 @@ class Trace:
     def configure_all(self, mode: str = "keep", *, rows: int | None = None, seconds: float | None = None,
                       path: str | os.PathLike | None = None, row_group: int = DEFAULT_ROW_GROUP,
                       overwrite: bool = False) -> None:
-        """Configure every table, and every table created later, like :meth:`configure`.
+        """Configure every table, and every table created later, like :meth:`configure`
+        (``seconds``: the window width in s).
 
         In ``stream`` mode each table streams into its own directory ``path/<table>``.
         Tables that cannot honour the mode (``window`` on a table without a time
@@ -531,6 +535,7 @@ class Trace:
             self._apply_default(rec)
 
     def _apply_default(self, rec: Recorder) -> None:
+        assert self._default is not None
         d = dict(self._default)
         mode = d.pop("mode")
         if mode == "stream":
@@ -566,6 +571,7 @@ class Trace:
 
     # Reading -----------------------------------------------------------------------
     def frame(self, name: str) -> pd.DataFrame:
+        """Table *name* as a DataFrame (times in seconds); :class:`KeyError` naming the tables when there is none."""
         try:
             rec = self._tables[name]
         except (KeyError, TypeError):
@@ -591,9 +597,13 @@ class Trace:
         return pd.Series(sel["value"].to_numpy(), index=sel["time"].to_numpy(), name=f"{source}.{signal}")
 
     def schedule(self) -> pd.DataFrame:
+        """The ``schedule`` table: one row per state change of a kernel task (``time`` in s,
+        ``node``, ``task``, ``state``)."""
         return self.frame("schedule")
 
     def jobs(self) -> pd.DataFrame:
+        """The ``jobs`` table: one row per job, with ``release``, ``deadline``, ``start``,
+        ``finish``, ``execution_time`` and the derived latencies in s, and its outcome flags."""
         return self.frame("jobs")
 
     def to_parquet(self, directory: str | os.PathLike, prefix: str = "") -> list[Path]:

@@ -35,14 +35,24 @@ class _Channel:
 
 
 class AnalogIn(_Channel):
+    """An analog input channel of a node, connected to a plant output port (see :meth:`Node.analog_in
+    <netcosim.kernel.node.Node.analog_in>`)."""
+
     kind = "analog input"
 
     def read(self):
+        """The connected plant output at the current time (units of the plant's output); raises
+        :class:`~netcosim.errors.NotConnectedError` when unconnected."""
         return self._port().read()
 
 
 class AnalogOut(_Channel):
+    """An analog output channel of a node, connected to a plant input port (see :meth:`Node.analog_out
+    <netcosim.kernel.node.Node.analog_out>`)."""
+
     kind = "analog output"
 
     def write(self, value) -> None:
+        """Set the connected plant input to *value* from now on (zero-order hold; units of the plant's
+        input); raises :class:`~netcosim.errors.NotConnectedError` when unconnected."""
         self._port().write(value)

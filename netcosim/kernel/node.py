@@ -19,8 +19,8 @@ from typing import Any, Callable
 
 import simpy
 
-from ..errors import ConfigurationError, ConfigurationTypeError
 from ..clock import DISPATCH, Timer
+from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
@@ -46,7 +46,7 @@ class Node:
         self._tick_scale = TICKS_PER_SECOND / self.speed
         cs = to_ticks(context_switch, f"node {name!r} context_switch")
         self.context_switch = context_switch
-        self._cs_ticks = int(round(cs / self.speed))
+        self._cs_ticks: int = int(round(cs / self.speed))
         if cs and not self._cs_ticks:
             raise ConfigurationError(
                 f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} is "
@@ -55,20 +55,20 @@ class Node:
         self.ready: list[Job] = []
         self.running: Job | None = None
         self._loaded: Job | None = None
-        self._in_cs = False
+        self._in_cs: bool = False
         self._np_job: Job | None = None  # non-preemptible job interrupted by a handler
-        self._dispatch_pending = False
-        self._seq = 0
+        self._dispatch_pending: bool = False
+        self._seq: int = 0
         self._ain: dict[int, AnalogIn] = {}
         self._aout: dict[int, AnalogOut] = {}
         self.interfaces: dict[str, Any] = {}
-        self._env = sim.env
+        self._env: Any = sim.env  # SimPy types `now` as int | float; here it is always integer ticks
         # one event object, re-armed for every dispatch request (at most one pending)
-        self._dispatch_event = simpy.events.Event(sim.env)
+        self._dispatch_event: simpy.Event = simpy.events.Event(sim.env)
         self._dispatch_event._ok, self._dispatch_event._value = True, None
-        self._dispatch_callbacks = [self._dispatch]
-        self._sched = sim.trace.schedule_rec.rows
-        self._jobrec = sim.trace.job_rec.rows
+        self._dispatch_callbacks: list[Callable] = [self._dispatch]
+        self._sched: list[tuple] = sim.trace.schedule_rec.rows
+        self._jobrec: list[tuple] = sim.trace.job_rec.rows
         sim.trace.job_rec.providers.append(self._unfinished_rows)
 
     # ------------------------------------------------------------------ tasks
@@ -110,7 +110,10 @@ class Node:
     def aperiodic(self, body: Callable | None = None, *, priority=None, deadline: float | None = None,
                   wcet: float | None = None, name: str | None = None, preemptible: bool = True,
                   on_busy: str = "queue", on_deadline_miss=None, on_budget_overrun=None):
-        """Add a task whose jobs are released by ``task.release()``, triggers, timers or messages."""
+        """Add a task whose jobs are released by ``task.release()``, triggers, timers or messages.
+
+        ``deadline``: relative deadline (s) of each job; ``wcet``: execution budget (s).
+        """
         def make(fn):
             return self._add_task(fn, "aperiodic", name, priority=priority, deadline=deadline, wcet=wcet,
                                   preemptible=preemptible, on_busy=on_busy, on_deadline_miss=on_deadline_miss,
@@ -119,7 +122,10 @@ class Node:
 
     def handler(self, body: Callable | None = None, *, priority: float = 0, name: str | None = None,
                 deadline: float | None = None):
-        """Add an interrupt handler: it beats every task; handlers are ordered by priority."""
+        """Add an interrupt handler: it beats every task; handlers are ordered by priority.
+
+        ``deadline``: relative deadline (s) of each activation.
+        """
         def make(fn):
             return self._add_task(fn, "handler", name, priority=priority, deadline=deadline)
         return make if body is None else make(body)
@@ -149,7 +155,11 @@ class Node:
 
     # ---------------------------------------------------------------- networks
     def send(self, dst, payload=None, size_bits=None, *, priority=None, network=None):
-        """Send a message through a network interface of this node."""
+        """Send a message through a network interface of this node.
+
+        ``size_bits``: the message size in bits (the network's default when None);
+        ``network`` names the interface when the node has several.
+        """
         if not self.interfaces:
             raise RuntimeError(f"node {self.name!r} has no network interface; attach it to a network first")
         if network is None:

@@ -23,6 +23,11 @@ class SchedulingPolicy:
     static = False
 
     def key(self, job) -> float:
+        """The priority key of *job*: the ready job with the smallest key runs.
+
+        A number (or anything ordered), compared only with keys of the same policy; times
+        are integer ticks.  Called when the job is released (once per task when ``static``).
+        """
         raise NotImplementedError
 
     def validate(self, task) -> None:
@@ -42,6 +47,7 @@ class FixedPriority(SchedulingPolicy):
     static = True
 
     def key(self, job):
+        """The task's user-given ``priority`` (small = high)."""
         return job.task.priority
 
     def validate(self, task):
@@ -58,6 +64,7 @@ class RateMonotonic(SchedulingPolicy):
     static = True
 
     def key(self, job):
+        """The task's period in ticks; an aperiodic task's relative deadline in ticks, else infinity."""
         t = job.task
         return t.period_ticks if t.period_ticks is not None else (t.deadline_ticks or math.inf)
 
@@ -69,6 +76,7 @@ class DeadlineMonotonic(SchedulingPolicy):
     static = True
 
     def key(self, job):
+        """The task's relative deadline in ticks (infinity without a deadline)."""
         d = job.task.deadline_ticks
         return math.inf if d is None else d
 
@@ -79,6 +87,7 @@ class EDF(SchedulingPolicy):
     name = "edf"
 
     def key(self, job):
+        """The job's absolute deadline in ticks (infinity without a deadline)."""
         d = job.abs_deadline
         return math.inf if d is None else d
 

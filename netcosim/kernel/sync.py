@@ -67,13 +67,24 @@ class Mailbox:
         return len(self.items)
 
     def full(self) -> bool:
+        """True when a bounded mailbox holds ``capacity`` messages (never for ``capacity=None``)."""
         return self.capacity is not None and len(self.items) >= self.capacity
 
     # blocking ---------------------------------------------------------------
     def fetch(self) -> Blocking:
+        """Command to ``yield`` from a task body: take the oldest message, blocking while the mailbox is empty.
+
+        ``msg = yield box.fetch()``; the yield returns the message.  Blocked fetchers are
+        served FIFO.
+        """
         return _Op(self, "fetch")
 
     def post(self, item: Any) -> Blocking:
+        """Command to ``yield`` from a task body: append *item*, blocking while a bounded mailbox is full.
+
+        ``yield box.post(msg)``; a fetcher already waiting receives *item* at once.  Blocked
+        posters are served FIFO.  Use :meth:`try_post` outside a task body.
+        """
         return _Op(self, "post", item)
 
     def _try_fetch(self, job, op):
@@ -133,6 +144,10 @@ class Semaphore:
         self._waiters: deque = deque()
 
     def wait(self) -> Blocking:
+        """Command to ``yield`` from a task body: take one unit, blocking while the value is 0.
+
+        Waiters are served FIFO, without priority inheritance.
+        """
         return _Op(self, "wait")
 
     def _try_wait(self, job, op):
@@ -147,6 +162,10 @@ class Semaphore:
             self._waiters.remove(job)
 
     def signal(self) -> None:
+        """Give one unit back: wake the oldest waiter, or increment the value if nobody waits.
+
+        Non-blocking; callable from anywhere (a task body, a handler, a network callback).
+        """
         if self._waiters:
             job = self._waiters.popleft()
             job.node._unblock(job, None)
@@ -167,6 +186,12 @@ class Monitor:
         self.waiters: list = []
 
     def enter(self) -> Blocking:
+        """Command to ``yield`` from a task body: acquire the monitor, blocking while another job holds it.
+
+        Waiters are served by priority (FIFO among equals); with ``inheritance=True`` the
+        holder runs at least at the priority of its most urgent waiter.  Entering a monitor
+        the job already holds raises :class:`RuntimeError`.
+        """
         return _Op(self, "enter")
 
     def _try_enter(self, job, op):
@@ -231,6 +256,11 @@ class ConditionVariable:
         self._waiters: list = []
 
     def wait(self) -> Blocking:
+        """Command to ``yield`` from a task body: wait until :meth:`notify` or :meth:`notify_all`.
+
+        With a monitor the caller must hold it: it is released during the wait and
+        re-acquired before the waiter continues (otherwise :class:`RuntimeError`).
+        """
         return _Op(self, "wait")
 
     def _try_wait(self, job, op):
@@ -269,6 +299,7 @@ class ConditionVariable:
         return True
 
     def notify_all(self) -> int:
+        """Wake every waiter, highest priority first; returns how many were waiting."""
         waiters = sorted(self._waiters, key=_prio)
         self._waiters.clear()
         for job in waiters:

@@ -19,6 +19,7 @@ import numbers
 from collections import deque
 from typing import Any, Callable
 
+from ..clock import Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, UnyieldedExecuteError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 
@@ -36,9 +37,12 @@ class Blocking:
     __slots__ = ()
 
     def attempt(self, job) -> bool:
+        """Try the operation for *job*: True if satisfied now (a result in ``job.resume_value``), else
+        register *job* and return False."""
         raise NotImplementedError
 
     def cancel(self, job) -> None:
+        """Withdraw *job* from the wait it registered (the job was killed or timed out); default: nothing to undo."""
         pass
 
 
@@ -52,6 +56,7 @@ class Sleep(Blocking):
         self.timer = None
 
     def attempt(self, job):
+        """True if ``until`` (ticks) is not in the future; otherwise schedule the wake-up and return False."""
         node = job.node
         if self.until <= node.sim.env._now:
             return True
@@ -59,6 +64,7 @@ class Sleep(Blocking):
         return False
 
     def cancel(self, job):
+        """Cancel the pending wake-up, if any."""
         if self.timer is not None:
             self.timer.cancel()
 
@@ -67,25 +73,25 @@ class Job:
     """One activation of a task."""
 
     # Class-level defaults keep job creation cheap: an instance stores only what differs.
-    gen = None
+    gen: Any = None  # the body's generator once started
     state = "queued"
     remaining = 0
     seg_start = 0
     exec_done = 0
-    start = None
-    finish = None
+    start: int | None = None
+    finish: int | None = None
     seq = 0
-    base_key = 0
-    key = 0
-    resume_value = None
-    seg_timer = None
-    deadline_timer = None
-    budget_timer = None
-    blocked_on = None
+    base_key: Any = 0  # the policy's ordering key (a number or a tuple)
+    key: Any = 0
+    resume_value: Any = None
+    seg_timer: Timer | None = None
+    deadline_timer: Timer | None = None
+    budget_timer: Timer | None = None
+    blocked_on: Blocking | None = None
     killed = False
     missed = False
     budget_overrun = False
-    held = ()  # monitors held (a list once the job enters one)
+    held: tuple | list = ()  # monitors held (a list once the job enters one)
 
     def __init__(self, task: "Task", index: int, release: int):
         self.task = task
@@ -98,10 +104,12 @@ class Job:
 
     @property
     def release_time(self) -> float:
+        """Release time of this job (s)."""
         return self.release / TICKS_PER_SECOND
 
     @property
     def deadline(self) -> float | None:
+        """Absolute deadline of this job (s), or None for a task without a deadline."""
         return None if self.abs_deadline is None else self.abs_deadline / TICKS_PER_SECOND
 
     @property
@@ -127,7 +135,7 @@ def _as_generator_function(body: Callable) -> Callable:
     def gen(ctx):
         body(ctx)
         return
-        yield  # noqa: unreachable, makes this a generator
+        yield  # unreachable: makes this a generator
 
     gen.__name__ = getattr(body, "__name__", "body")
     return gen
@@ -168,7 +176,7 @@ class Task:
         if not callable(body):
             raise ConfigurationTypeError(f"task body must be a callable body(ctx), got {body!r}")
         self.node = node
-        self.name = name or getattr(body, "__name__", "task")
+        self.name: str = name if name else getattr(body, "__name__", "task")
         self.kind = kind
         self.cls = HANDLER if kind == "handler" else TASK
         self.body = _as_generator_function(body)
@@ -201,9 +209,9 @@ class Task:
         self.misses = 0
         self.finished = 0
         self.state = "idle"
-        self.static_key = None  # set by the node when the policy key depends on the task only
+        self.static_key: Any = None  # set by the node when the policy key depends on the task only
         self.ctx = TaskContext(self)
-        self._release_timer = None
+        self._release_timer: Timer | None = None
         self._k = 0
 
     # Release ---------------------------------------------------------------
@@ -227,10 +235,12 @@ class Task:
 
     @property
     def period(self) -> float | None:
+        """Period (s), or None for an aperiodic task or a handler."""
         return None if self.period_ticks is None else self.period_ticks / TICKS_PER_SECOND
 
     @property
     def deadline(self) -> float | None:
+        """Relative deadline (s), or None when the task has none."""
         return None if self.deadline_ticks is None else self.deadline_ticks / TICKS_PER_SECOND
 
     def __repr__(self):
@@ -250,7 +260,7 @@ class TaskContext:
         self._exec_rng = None
         #: the *c* of an ``execute(c)`` not yet yielded (the node clears it when the
         #: request comes back through the generator, and raises if something else does)
-        self._unyielded = None
+        self._unyielded: Any = None
 
     @property
     def now(self) -> float:
@@ -350,9 +360,12 @@ class TaskContext:
         return task.release()
 
     def send(self, dst, payload: Any = None, size_bits: int | None = None, *, priority=None, network=None):
-        """Send a message over one of this node's network interfaces (see netcosim.network)."""
+        """Send a message over one of this node's network interfaces (see netcosim.network);
+        ``size_bits`` in bits."""
         return self.node.send(dst, payload, size_bits, priority=priority, network=network)
 
     def kill(self) -> None:
         """Abort the current job."""
-        self.job.kill()
+        job = self.job
+        assert job is not None, "kill() is called from a running task body"
+        job.kill()

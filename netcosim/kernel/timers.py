@@ -20,7 +20,8 @@ if TYPE_CHECKING:
 
 
 class KernelTimer:
-    """Releases a task at an absolute time, optionally periodically (TrueTime's timers)."""
+    """Releases a task at an absolute time ``at`` (s; now when None), then every ``period`` s if
+    given (TrueTime's timers)."""
 
     def __init__(self, node: Node, target: Task, at: float | None, period: float | None):
         self.node, self.target = node, target
@@ -44,6 +45,7 @@ class KernelTimer:
         self.target.release()
 
     def cancel(self) -> None:
+        """Stop the timer: no further releases (idempotent; harmless after a one-shot fired)."""
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
@@ -59,6 +61,8 @@ class Trigger:
         self.ignored = 0
 
     def fire(self) -> bool:
+        """An edge now: release the target and return True, or ignore it (counted in ``ignored``) and
+        return False when it comes less than ``min_interval`` s after the last accepted edge."""
         now = self.node.sim.env._now
         if self._last is not None and now - self._last < self._min:
             self.ignored += 1

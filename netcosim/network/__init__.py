@@ -22,10 +22,18 @@ from .ethernet import CSMACD
 from .frame import BROADCAST, LOSS_REASONS, Message
 from .ideal import FDMA, IdealLink
 from .interface import Interface
-from .lrwpan import IEEE802154
 from .loss import AnyLoss, Bernoulli, GilbertElliott, LossModel, TraceLoss
-from .radio import (LogDistance, TrueTimePathLoss, ber_cck, ber_dbpsk, ber_dqpsk, dbm_to_watt,
-                    thermal_noise_dbm, watt_to_dbm)
+from .lrwpan import IEEE802154
+from .radio import (
+    LogDistance,
+    TrueTimePathLoss,
+    ber_cck,
+    ber_dbpsk,
+    ber_dqpsk,
+    dbm_to_watt,
+    thermal_noise_dbm,
+    watt_to_dbm,
+)
 from .switched import SwitchedEthernet
 from .tdma import TDMA
 from .traffic import SaturatedSource

@@ -18,7 +18,11 @@ from .checks import check_count, check_duration, check_real
 
 
 class SlottedAloha(Network):
-    """Slotted ALOHA.  See the module docstring."""
+    """Slotted ALOHA.  See the module docstring.
+
+    ``data_rate`` in bit/s, ``slot_time`` in s; ``retry_probability`` in (0, 1];
+    ``max_attempts`` per frame (None: unlimited).
+    """
 
     def __init__(self, sim, name, *, data_rate: float = 1e6, slot_time: float, retry_probability: float = 0.1,
                  max_attempts: int | None = None, **kw):

@@ -36,22 +36,18 @@ is done by the life-cycle steps below (``_next_frame``, ``_attempt_start``,
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import math
 import numbers
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-
-from ..kernel.task import Task
 from ..clock import ARBITRATE  # noqa: F401 (re-exported: MAC arbitration priority)
 from ..errors import ConfigurationError, ConfigurationTypeError
+from ..kernel.task import Task
 from ..timebase import RESOLUTION, TICKS_PER_SECOND
 from .checks import check_bits, check_count, check_duration, check_positive, check_real
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
 from .loss import as_loss_model
-
 
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
                  "bits", "backoff")
@@ -248,7 +244,8 @@ class Network:
         return d
 
     def wire_bits(self, size_bits: int) -> int:
-        """Bits on the medium for a message of *size_bits* (default: padded to the minimum)."""
+        """Number of bits on the medium for a message of *size_bits* bits (default: padded to the
+        minimum frame size)."""
         return size_bits if size_bits >= self.min_frame_bits else self.min_frame_bits
 
     def _check_priority(self, priority, iface) -> None:
@@ -417,6 +414,7 @@ class Network:
         key = (src.index, dst.index)
         lk = self._links.get(key)
         if lk is None:
+            assert self.loss is not None  # links are drawn only on a lossy network
             lk = self._links[key] = self.loss.link(self.sim.rng(f"{self.name}/loss/{src.name}->{dst.name}"))
         return lk
 

@@ -38,6 +38,7 @@ class SharedBus(Network):
         if iface is None:
             return
         f = self._next_frame(iface)
+        assert f is not None  # _choose picked a station with a frame waiting
         self._busy = True
         self._attempt_start(iface, f)
         self._carrier_on(iface, f)
@@ -65,6 +66,7 @@ class RoundRobin(SharedBus):
     """Token passing: the token visits the nodes cyclically in attach order and a node
     holding it sends at most one frame.  Passing the token takes no time, so at an idle
     instant the next node (after the last sender) with a queued frame transmits.
+    ``data_rate`` in bit/s.
     """
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, **kw):

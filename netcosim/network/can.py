@@ -75,6 +75,8 @@ class CAN(SharedBus):
         super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, **kw)
 
     def wire_bits(self, size_bits: int) -> int:
+        """Number of bits on the bus for a message of *size_bits* bits: a standard-format CAN frame
+        (with stuffing if configured), else the padded payload."""
         if self.frame_format == "standard":
             return can_frame_bits(math.ceil(size_bits / 8), extended=self.extended, stuffing=self.stuffing)
         return super().wire_bits(size_bits)

@@ -83,7 +83,7 @@ def check_bits(value, what: str, *, allow_zero: bool = True) -> int:
         raise ConfigurationTypeError(f"{what} must be {kind}, got {value!r}")
     if not _integral(value) or value < 0 or (not allow_zero and value == 0):
         raise ConfigurationError(f"{what} must be {kind}, got {value!r}")
-    return int(value)
+    return int(value)  # type: ignore[call-overload]  # the numbers ABCs are untyped (mypy #3186)
 
 
 def check_count(value, what: str, *, minimum: int = 0, maximum: int | None = None) -> int:
@@ -95,7 +95,7 @@ def check_count(value, what: str, *, minimum: int = 0, maximum: int | None = Non
         if isinstance(value, numbers.Real) and not isinstance(value, bool):
             raise ConfigurationError(f"{what} must be {kind}, got {value!r}")
         raise ConfigurationTypeError(f"{what} must be {kind}, got {value!r}")
-    if value < minimum or (maximum is not None and value > maximum):
+    if value < minimum or (maximum is not None and value > maximum):  # type: ignore[operator]  # mypy #3186
         raise ConfigurationError(f"{what} must be {kind}, got {value!r}")
     return int(value)
 

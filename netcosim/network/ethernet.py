@@ -35,7 +35,11 @@ class EthernetStation:
 
 
 class CSMACD(Network):
-    """Shared Ethernet with CSMA/CD.  See the module docstring for the semantics."""
+    """Shared Ethernet with CSMA/CD.  See the module docstring for the semantics.
+
+    ``data_rate`` in bit/s; ``min_frame_bits`` and ``jam_bits`` in bits; ``collision_window``,
+    ``interframe_gap`` and ``slot_time`` in s (``slot_time`` None: ``min_frame_bits / data_rate``).
+    """
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, min_frame_bits: int = 512,
                  collision_window: float = 1e-6, jam_bits: int = 0, interframe_gap: float = 0.0,

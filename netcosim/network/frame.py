@@ -78,6 +78,7 @@ class Message:
         self.attempts = 0
 
     def copy(self) -> "Message":
+        """An independent copy (same id and times): what each receiver of a broadcast gets."""
         m = Message(self.id, self.network, self.src, self.dst, self.payload, self.size_bits,
                     self.priority, self.created)
         m.sent, m.delivered, m.attempts = self.sent, self.delivered, self.attempts
@@ -116,6 +117,7 @@ class Frame:
 
     @property
     def broadcast(self) -> bool:
+        """True for a frame addressed to every node (``dst`` is :data:`BROADCAST`)."""
         return self.dst is BROADCAST
 
     def __repr__(self) -> str:
@@ -124,4 +126,5 @@ class Frame:
 
 
 def seconds(ticks: int) -> float:
+    """Integer *ticks* as seconds (float)."""
     return ticks * RESOLUTION

@@ -40,9 +40,12 @@ class TxQueue:
         return len(self._q)
 
     def full(self) -> bool:
+        """True when a bounded queue holds ``capacity`` frames (never for ``capacity=None``)."""
         return self.capacity is not None and len(self._q) >= self.capacity
 
     def push(self, frame) -> None:
+        """Append *frame*: at the tail (``fifo``), or by its ``priority``, small first, FIFO among
+        equals (``priority``).  The caller checks :meth:`full` first."""
         if self.discipline == "fifo":
             self._q.append(frame)
         else:
@@ -59,11 +62,13 @@ class TxQueue:
             heapq.heappush(self._q, (0 if p is None else p, -10**18 + frame.id, frame))
 
     def peek(self):
+        """The frame that :meth:`pop` would return, without removing it; None when empty."""
         if not self._q:
             return None
         return self._q[0] if self.discipline == "fifo" else self._q[0][2]
 
     def pop(self):
+        """Remove and return the head frame (raises :class:`IndexError` when empty)."""
         if self.discipline == "fifo":
             return self._q.popleft()
         return heapq.heappop(self._q)[2]
@@ -103,7 +108,7 @@ class Interface:
         self.receiving = 0      # frames addressed to this interface being received
         self.state = "idle"
         self._row_t = -1        # tick of this interface's last network-schedule row, and the row
-        self._row = None
+        self._row: tuple | None = None
         self._seq = 0
         self.mac = None         # the MAC's per-station state (see Network._station)
         #: frames ``sent`` (or acknowledged) and ``dropped`` by this sender, messages ``received``

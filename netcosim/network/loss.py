@@ -32,6 +32,7 @@ class LossModel:
     """Base class.  :meth:`link` returns the per-link state object with ``lost() -> bool``."""
 
     def link(self, rng: np.random.Generator) -> "LinkLoss":
+        """A fresh per-link state object (a :class:`LinkLoss`) for one directed link, drawing from *rng*."""
         raise NotImplementedError
 
 
@@ -41,6 +42,7 @@ class LinkLoss:
     __slots__ = ()
 
     def lost(self) -> bool:
+        """Decide the fate of the next frame on this link: True if it is lost (advances the link's state)."""
         raise NotImplementedError
 
 
@@ -61,6 +63,7 @@ class Bernoulli(LossModel):
         self.p = check_probability(p, "Bernoulli loss probability p")
 
     def link(self, rng):
+        """An independent Bernoulli(``p``) loss state for one link, drawing from *rng*."""
         return _BernoulliLink(self.p, rng)
 
     def __repr__(self):
@@ -131,6 +134,7 @@ class GilbertElliott(LossModel):
         return math.inf if self.p_bg == 0 else 1.0 / self.p_bg
 
     def link(self, rng):
+        """A two-state Markov loss state for one link (initial state by ``start``), drawing from *rng*."""
         return _GELink(self, rng)
 
     def __repr__(self):
@@ -165,7 +169,8 @@ class TraceLoss(LossModel):
     def __init__(self, sequence: Sequence, repeat: bool = True):
         seq = np.asarray(sequence)
         if seq.ndim != 1 or seq.size == 0:
-            raise ConfigurationError(f"TraceLoss sequence must be a non-empty 1-D sequence of 0/1, got shape {seq.shape}")
+            raise ConfigurationError(
+                f"TraceLoss sequence must be a non-empty 1-D sequence of 0/1, got shape {seq.shape}")
         if not np.all((seq == 0) | (seq == 1)):
             bad = seq[~((seq == 0) | (seq == 1))][0]
             raise ConfigurationError(f"TraceLoss sequence must contain only 0/1 or booleans, got {bad!r}")
@@ -173,6 +178,7 @@ class TraceLoss(LossModel):
         self.repeat = bool(repeat)
 
     def link(self, rng):
+        """A replay of ``sequence`` for one link, from its start (*rng* is not used)."""
         return _TraceLink(self.sequence, self.repeat)
 
     def __repr__(self):
@@ -210,6 +216,7 @@ class AnyLoss(LossModel):
 
     def link(self, rng):
         # independent child streams, derived deterministically from the link stream
+        """One link state per combined model, each drawing from its own child stream of *rng*."""
         seeds = rng.integers(0, 2**63, size=len(self.models))
         return _AnyLink([m.link(np.random.Generator(np.random.PCG64(int(s))))
                          for m, s in zip(self.models, seeds)])

@@ -127,7 +127,7 @@ class IEEE802154(RadioNetwork):
         return thermal_noise_dbm(2e6)
 
     def frame_time(self, size_bits: int) -> int:
-        """Ticks on air of a data frame with *size_bits* of payload."""
+        """Time on air (ticks) of a data frame with *size_bits* bits of payload."""
         return self.shr + self.duration(self.mac_overhead_bits + self.wire_bits(size_bits))
 
     # ------------------------------------------------------------------ CSMA/CA (r: the CsmaCaStation)

@@ -49,6 +49,8 @@ class Transmission:
         self.acked = False        # the destination decoded it and answers with an ACK
 
     def addressed_to(self, r) -> bool:
+        """True if station *r* is this transmission's destination (a broadcast data frame is addressed
+        to every station; an ACK only to its data frame's sender)."""
         return self.dst is r or (self.dst is BROADCAST and self.kind == "data")
 
 
@@ -58,7 +60,8 @@ class WirelessMedium:
     ``mac`` provides ``_rx_end(r, tx, ok, reason, locked)`` and ``_reeval(r)`` and the
     list ``mac._stations`` of :class:`~netcosim.network.wireless.RadioStation` (by
     interface index), each with its radio attributes (``pos``, ``tx_w``, ``cs_w``,
-    ``sens_w``) and its listener state.
+    ``sens_w``) and its listener state.  ``noise_w``: noise power (W); ``capture_ratio``:
+    linear power ratio (not dB); ``plcp_rate``: bit rate of the PLCP header (bit/s).
     """
 
     def __init__(self, mac, *, path_loss, noise_w: float, capture_ratio: float, plcp_rate: float = 1e6):

@@ -9,9 +9,7 @@ One row per node; the staircase sits at ``row + 0.5`` while the node sends,
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
-
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 

@@ -45,14 +45,17 @@ SPEED_OF_LIGHT = 299792458.0
 
 
 def dbm_to_watt(dbm: float) -> float:
+    """Power *dbm* (dBm) in watts."""
     return 10.0 ** ((dbm - 30.0) / 10.0)
 
 
 def watt_to_dbm(w: float) -> float:
+    """Power *w* (W) in dBm; ``-inf`` for zero power."""
     return -math.inf if w <= 0 else 10.0 * math.log10(w) + 30.0
 
 
 def db_to_ratio(db: float) -> float:
+    """A gain or ratio in dB (*db*) as a linear power ratio."""
     return 10.0 ** (db / 10.0)
 
 
@@ -75,9 +78,11 @@ class PathLoss:
     """Base class: ``gain(d)`` is the linear power gain at distance *d* metres."""
 
     def gain(self, d: float) -> float:
+        """Linear power gain (``P_rx / P_tx``, in (0, 1]) at distance *d* (m)."""
         raise NotImplementedError
 
     def loss_db(self, d: float) -> float:
+        """Path loss (dB, positive) at distance *d* (m): ``-10 log10(gain(d))``."""
         return -10.0 * math.log10(self.gain(d))
 
     def rx_dbm(self, tx_dbm: float, d: float) -> float:
@@ -105,10 +110,12 @@ class LogDistance(PathLoss):
         self.pl0 = check_non_negative(reference_loss_db, "LogDistance reference_loss_db (dB)")
 
     def loss_db(self, d: float) -> float:
+        """Path loss (dB) at distance *d* (m), with *d* clamped to at least ``d0``."""
         d = d if d > self.d0 else self.d0
         return self.pl0 + 10.0 * self.exponent * math.log10(d / self.d0)
 
     def gain(self, d: float) -> float:
+        """Linear power gain at distance *d* (m): ``10^(-loss_db(d)/10)``."""
         return 10.0 ** (-self.loss_db(d) / 10.0)
 
     def __repr__(self):
@@ -123,6 +130,7 @@ class TrueTimePathLoss(PathLoss):
         self.exponent = check_positive(exponent, "TrueTimePathLoss exponent")
 
     def gain(self, d: float) -> float:
+        """Linear power gain ``(d + 1)^-a`` at distance *d* (m)."""
         return (d + 1.0) ** (-self.exponent)
 
     def __repr__(self):
@@ -146,6 +154,7 @@ def as_position(p, what: str) -> tuple[float, ...] | Callable:
 
 
 def distance(a: Sequence[float], b: Sequence[float]) -> float:
+    """Euclidean distance (m) between points *a* and *b* (m); a 2-D point lies in the plane z = 0."""
     if len(a) == len(b):
         return math.dist(a, b)
     a3 = tuple(a) + (0.0,) * (3 - len(a))
@@ -198,6 +207,8 @@ class Modulation:
         self._cache: dict = {}
 
     def ber(self, sinr: float) -> float:
+        """Bit error rate at signal-to-interference-plus-noise ratio *sinr* (linear, not dB):
+        ``ber_of_ebn0(sinr * B / R)``."""
         ebn0 = sinr * self.gain
         if ebn0 >= self._cut:
             return 0.0

@@ -36,7 +36,11 @@ class SwitchPort:
 
 
 class SwitchedEthernet(Network):
-    """Star topology around a store-and-forward switch.  See the module docstring."""
+    """Star topology around a store-and-forward switch.  See the module docstring.
+
+    ``data_rate`` (each link) in bit/s; ``min_frame_bits`` and ``switch_memory_bits`` (None:
+    unbounded) in bits; ``switch_delay`` in s.
+    """
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, min_frame_bits: int = 512,
                  switch_memory_bits: int | None = None, buffer: str = "shared", overflow: str = "drop",

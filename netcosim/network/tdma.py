@@ -32,7 +32,14 @@ class TdmaStation:
 
 
 class TDMA(Network):
-    """Time-division bus.  See the module docstring."""
+    """Time-division bus.  See the module docstring.
+
+    ``data_rate`` in bit/s, ``slot_time`` in s; ``schedule`` lists the slot owners (node names,
+    None for an idle slot).
+    """
+
+    # the slot owners (node names, None for an idle slot); it shadows Network.schedule()
+    schedule: list[str | None]  # type: ignore[assignment]
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, slot_time: float, schedule: Sequence, **kw):
         super().__init__(sim, name, data_rate=data_rate, **kw)

@@ -12,7 +12,7 @@ class SaturatedSource:
     each time the interface is done with a frame (sent, acknowledged or dropped).
 
     This is the saturation assumption of Bianchi's analysis: a station always has a
-    frame ready when its backoff expires.
+    frame ready when its backoff expires.  ``size_bits``: message size in bits.
     """
 
     def __init__(self, iface, dst: Any, size_bits: int, backlog: int = 2):

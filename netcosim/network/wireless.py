@@ -25,7 +25,9 @@ A wireless MAC subclasses it and provides:
 from __future__ import annotations
 
 import math
+from typing import Any
 
+from ..clock import Timer
 from ..errors import ConfigurationTypeError
 from .base import Network
 from .checks import check_finite, check_non_negative
@@ -73,10 +75,10 @@ class RadioStation:
         self.rx_reason = None
         self.seg_t = 0
         self.logp = 0.0
-        self.tx = None
+        self.tx: Transmission | None = None
         self.phy_rng = net.sim.rng(f"{net.name}/phy/{iface.name}")
-        self.awaiting = None
-        self.ack_timer = None
+        self.awaiting: Transmission | None = None
+        self.ack_timer: Timer | None = None
         self.ack_wait = False
         self.responding = 0
         self.last_seq: dict = {}
@@ -95,7 +97,21 @@ class RadioNetwork(Network):
     ``tx_power_dbm``, ``threshold_dbm`` (receiver sensitivity, and carrier sense unless
     ``cs_threshold_dbm`` is given), ``capture_db`` (finite, >= 0), ``noise_dbm`` (default
     the thermal noise of the subclass's channel, :meth:`default_noise_dbm`).
+
+    Each subclass sets the ACK/retry parameters the shared code reads: ``use_ack``,
+    ``max_attempts`` (attempts per frame), ``ack_bits``, and in ticks ``ack_time`` (ACK on
+    the air), ``_ack_plcp`` (its preamble), ``_ack_delay`` (reception end to ACK start),
+    ``_ack_timeout_ticks``; ``_ack_mod`` is the ACK's modulation.
     """
+
+    use_ack: bool
+    max_attempts: int
+    ack_bits: int
+    ack_time: int
+    _ack_plcp: int
+    _ack_delay: int
+    _ack_timeout_ticks: int
+    _ack_mod: Any
 
     station_class = RadioStation
 
@@ -155,7 +171,7 @@ class RadioNetwork(Network):
 
     def station(self, node) -> RadioStation:
         """The radio station (MAC state) of *node* (name, kernel node or interface)."""
-        return self.interface(node).mac
+        return self.interface(node).mac  # type: ignore[return-value]  # set by _station at attach
 
     def position(self, node, t: float | None = None):
         """Position of *node* at time *t* (s; default now)."""
@@ -219,6 +235,7 @@ class RadioNetwork(Network):
     def _stop_waiting(self, r: RadioStation) -> Transmission:
         """End the ACK wait of *r*; returns the data transmission it was for."""
         tx = r.awaiting
+        assert tx is not None  # called only while r waits for an ACK
         r.awaiting = None
         r.ack_wait = False
         if r.ack_timer is not None:

@@ -220,7 +220,8 @@ class WLAN80211b(RadioNetwork):
 
     # ------------------------------------------------------------------ timing helpers
     def data_time(self, size_bits: int) -> int:
-        """Ticks on air of a data frame carrying *size_bits* (PLCP + MAC header/FCS + payload)."""
+        """Time on air (ticks) of a data frame carrying *size_bits* bits (PLCP + MAC header/FCS +
+        payload)."""
         return self.plcp + self.duration(self.mac_overhead_bits + self.wire_bits(size_bits))
 
     # ------------------------------------------------------------------ DCF (r: the DcfStation)
