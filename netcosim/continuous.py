@@ -33,6 +33,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NotConnectedError
 from .timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 
@@ -186,16 +187,11 @@ class RK4:
     """
 
     def __init__(self, dt: float = 1e-3, xtol: float = 1e-12, max_steps: int = 10**6):
-        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
-            raise ConfigurationTypeError(f"RK4 step dt must be a positive number of seconds, got {dt!r}")
-        if not (math.isfinite(dt) and dt > 0):
-            raise ConfigurationError(f"RK4 step dt must be a positive number of seconds, got {dt!r}")
+        validate.positive(dt, "RK4 step dt", kind="a positive number of seconds")
         if dt < RESOLUTION:
             raise ConfigurationError(f"RK4 step dt={dt!r} s is below the time resolution {RESOLUTION} s "
                                      f"(netcosim.RESOLUTION)")
-        if isinstance(xtol, bool) or not isinstance(xtol, (int, float, np.integer, np.floating)) \
-                or not (math.isfinite(xtol) and xtol > 0):
-            raise ConfigurationError(f"RK4 xtol must be a positive number of seconds, got {xtol!r}")
+        validate.positive(xtol, "RK4 xtol", kind="a positive number of seconds", type_error=ConfigurationError)
         _check_count(max_steps, "RK4 max_steps")
         self.dt = float(dt)
         self.xtol = float(xtol)
@@ -267,10 +263,7 @@ IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
 
 
 def _check_count(v, what: str) -> None:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-        raise ConfigurationTypeError(f"{what} must be a positive integer, got {v!r}")
-    if v < 1:
-        raise ConfigurationError(f"{what} must be a positive integer, got {v!r}")
+    validate.integer(v, what, lo=1, kind="a positive integer", fraction_error=ConfigurationTypeError)
 
 
 class _BudgetExceeded(Exception):
@@ -315,9 +308,8 @@ class SolveIVP:
             raise ConfigurationError(f"SolveIVP method must be one of {list(SOLVE_IVP_METHODS)} "
                                      f"(or an OdeSolver subclass), got {method!r}")
         for nm, v in (("rtol", rtol), ("atol", atol), ("max_step", max_step)):
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
-                    or math.isnan(v) or v <= 0 or (nm != "max_step" and math.isinf(v)):
-                raise ConfigurationError(f"SolveIVP {nm} must be a positive number, got {v!r}")
+            validate.positive(v, f"SolveIVP {nm}", kind="a positive number", type_error=ConfigurationError,
+                              allow_inf=nm == "max_step")
         _check_count(max_evaluations, "SolveIVP max_evaluations")
         self.method, self.rtol, self.atol, self.max_step = method, rtol, atol, max_step
         self.max_evaluations = int(max_evaluations)

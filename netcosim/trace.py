@@ -35,7 +35,6 @@ applies.  See ``docs/architecture.md``, section "Traces and memory".
 
 from __future__ import annotations
 
-import numbers
 import os
 from collections import deque
 from pathlib import Path
@@ -43,6 +42,7 @@ from typing import Callable, Iterable, Sequence
 
 from typing import TYPE_CHECKING
 
+from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError
 from .timebase import TICKS_PER_SECOND, to_ticks
 
@@ -98,11 +98,7 @@ _discard = ().count
 
 
 def _positive_int(value, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ConfigurationTypeError(f"{what} must be a positive integer, got {value!r}")
-    if not isinstance(value, numbers.Integral) or value < 1:
-        raise ConfigurationError(f"{what} must be a positive integer, got {value!r}")
-    return int(value)
+    return validate.integer(value, what, lo=1, kind="a positive integer")
 
 
 class Sink:
@@ -360,8 +356,7 @@ class _Stream:
             raise ConfigurationError(f"{w}: mode='stream' needs pyarrow ({exc})") from None
         if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)) or not os.fspath(path):
             raise ConfigurationTypeError(f"{w}: path must be a directory path (str or os.PathLike), got {path!r}")
-        if not isinstance(overwrite, bool):
-            raise ConfigurationTypeError(f"{w}: overwrite must be True or False, got {overwrite!r}")
+        validate.boolean(overwrite, f"{w}: overwrite")
         p = Path(path)
         if p.exists() and not p.is_dir():
             raise ConfigurationError(f"{w}: stream path {str(p)!r} exists and is not a directory")

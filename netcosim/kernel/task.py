@@ -19,6 +19,7 @@ import numbers
 from collections import deque
 from typing import Any, Callable
 
+from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError, UnyieldedExecuteError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 
@@ -143,12 +144,7 @@ def _check_time(value, what, task_name, *, positive=False, allow_none=True):
     if value is None and allow_none:
         return None
     what = f"task {task_name!r}: {what}"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ConfigurationTypeError(f"{what} must be a finite number of seconds, got {value!r}")
-    ticks = to_ticks(value, what)
-    if positive and ticks == 0:
-        raise ConfigurationError(f"{what} must be positive, got {value!r}")
-    return ticks
+    return validate.duration(value, what, positive=positive, kind="positive")
 
 
 class Task:
@@ -181,9 +177,7 @@ class Task:
         else:
             self.deadline_ticks = _check_time(deadline, "deadline", self.name, positive=True)
         self.wcet_ticks = _check_time(wcet, "wcet", self.name, positive=True)
-        if not isinstance(preemptible, bool):
-            raise ConfigurationTypeError(f"task {self.name!r}: preemptible must be True or False, "
-                                         f"got {preemptible!r}")
+        validate.boolean(preemptible, f"task {self.name!r}: preemptible")
         self.preemptible = preemptible
         if on_busy not in ("queue", "skip"):
             raise ConfigurationError(f"task {self.name!r}: on_busy must be 'queue' or 'skip', got {on_busy!r}")

@@ -14,7 +14,7 @@ is ``S = G exp(-G)`` frames per slot.  Random streams: ``<net>/<node>/backoff``.
 from __future__ import annotations
 
 from .base import ARBITRATE, Network
-from .checks import check_count, check_duration, check_real
+from .. import validate
 
 
 class SlottedAloha(Network):
@@ -24,9 +24,9 @@ class SlottedAloha(Network):
                  max_attempts: int | None = None, **kw):
         super().__init__(sim, name, data_rate=data_rate, **kw)
         w = f"network {name!r}"
-        self._slot = check_duration(slot_time, f"{w}: slot_time (s)", positive=True)
-        self.p = check_real(retry_probability, f"{w}: retry_probability", low=0.0, high=1.0, low_open=True)
-        self.max_attempts = None if max_attempts is None else check_count(max_attempts, f"{w}: max_attempts", minimum=1)
+        self._slot = validate.duration(slot_time, f"{w}: slot_time (s)", positive=True)
+        self.p = validate.real(retry_probability, f"{w}: retry_probability", lo=0.0, hi=1.0, lo_open=True)
+        self.max_attempts = None if max_attempts is None else validate.count(max_attempts, f"{w}: max_attempts", minimum=1)
         self._slots: dict[int, list] = {}          # slot start tick -> stations transmitting then
 
     def _station(self, iface, options):

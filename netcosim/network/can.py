@@ -26,7 +26,7 @@ import math
 
 from ..errors import ConfigurationError
 from .bus import SharedBus
-from .checks import check_bits
+from .. import validate
 
 
 def can_frame_bits(data_bytes: int, *, extended: bool = False, stuffing: bool = True) -> int:
@@ -65,7 +65,7 @@ class CAN(SharedBus):
                                          f"format, got min_frame_bits={kw['min_frame_bits']!r}")
             if max_frame_bits is None:
                 max_frame_bits = 64
-            elif check_bits(max_frame_bits, f"network {name!r}: max_frame_bits", allow_zero=False) > 64:
+            elif validate.bits(max_frame_bits, f"network {name!r}: max_frame_bits", allow_zero=False) > 64:
                 raise ConfigurationError(f"network {name!r}: standard CAN frames carry at most 64 data bits, "
                                  f"got max_frame_bits={max_frame_bits!r}")
         self.frame_format = frame_format
