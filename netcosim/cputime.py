@@ -32,7 +32,6 @@ seconds charged).  All times are in seconds of CPU at node speed 1.
 from __future__ import annotations
 
 import math
-import numbers
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -40,6 +39,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any
 
+from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError
 
 __all__ = ["CPUTimeModel", "FixedCPUTime", "RecordedCPUTime", "WallClockCPUTime", "NonReproducibleWarning",
@@ -54,12 +54,9 @@ class NonReproducibleWarning(UserWarning):
 
 
 def _seconds(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if not validate.is_real(value):
         raise ConfigurationTypeError(f"{what} must be a number of seconds, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or v < 0:
-        raise ConfigurationError(f"{what} must be a finite, non-negative number of seconds, got {value!r}")
-    return v
+    return validate.non_negative(value, what, kind="a finite, non-negative number of seconds")
 
 
 class Measurement:
@@ -124,8 +121,7 @@ class CPUTimeModel:
 
     def measure(self, phase: str) -> Measurement:
         """Time the ``with`` block as one execution of *phase* (a name such as ``"feedback"``)."""
-        if not isinstance(phase, str) or not phase:
-            raise ConfigurationTypeError(f"phase must be a non-empty string, got {phase!r}")
+        validate.name(phase, "phase")
         return Measurement(self, phase)
 
     def charge(self, phase: str) -> float:

@@ -158,8 +158,7 @@ class Simulation:
 
     # Components ------------------------------------------------------------
     def _check_new_name(self, name: str) -> None:
-        if not isinstance(name, str) or not name:
-            raise ConfigurationError(f"component name must be a non-empty string, got {name!r}")
+        validate.name(name, "component name", type_error=ConfigurationError)
         if name in self._names:
             raise ConfigurationError(f"a component called {name!r} already exists")
 

@@ -30,8 +30,8 @@ from typing import Any, Callable, Iterable
 from .errors import ConfigurationError, ConfigurationTypeError
 from .timebase import to_ticks
 
-__all__ = ["real", "finite", "positive", "non_negative", "probability", "integer", "count", "bits",
-           "duration", "boolean", "choice", "callable_", "numeric_fields", "check_numeric_fields"]
+__all__ = ["is_real", "real", "finite", "positive", "non_negative", "probability", "integer", "count", "bits",
+           "duration", "name", "boolean", "choice", "callable_", "numeric_fields", "check_numeric_fields"]
 
 
 def _fail(cls: type[Exception], what: str, kind: str, value: Any) -> Exception:
@@ -46,24 +46,24 @@ def is_real(value: Any) -> bool:
 def real(value: Any, what: str, *, lo: float | None = None, hi: float | None = None,
          lo_open: bool = False, hi_open: bool = False, allow_none: bool = False,
          allow_inf: bool = False, kind: str = "a finite number",
-         type_error: type[Exception] = ConfigurationTypeError) -> float | None:
+         type_error: type[Exception] = ConfigurationTypeError,
+         value_error: type[Exception] = ConfigurationError) -> float | None:
     """*value* as a float, if it is a real number in ``[lo, hi]``.
 
     ``lo``/``hi``: bounds (None = unbounded), exclusive when ``lo_open``/``hi_open``.
     NaN is always rejected, infinities unless ``allow_inf`` (then only the bounds limit
-    them).  ``allow_none``: None passes through unchanged.
+    them).  ``allow_none``: None passes through unchanged.  ``value_error``: the class
+    raised for a number that fails these rules.
     """
     if value is None and allow_none:
         return None
     if not is_real(value):
         raise _fail(type_error, what, kind, value)
     v = float(value)
-    if math.isnan(v) or (math.isinf(v) and not allow_inf):
-        raise _fail(ConfigurationError, what, kind, value)
-    if lo is not None and (v < lo or (lo_open and v == lo)):
-        raise _fail(ConfigurationError, what, kind, value)
-    if hi is not None and (v > hi or (hi_open and v == hi)):
-        raise _fail(ConfigurationError, what, kind, value)
+    if math.isnan(v) or (math.isinf(v) and not allow_inf) \
+            or (lo is not None and (v < lo or (lo_open and v == lo))) \
+            or (hi is not None and (v > hi or (hi_open and v == hi))):
+        raise _fail(value_error, what, kind, value)
     return v
 
 
@@ -142,6 +142,13 @@ def duration(value: Any, what: str, *, positive: bool = False, allow_none: bool 
     if positive and ticks <= 0:
         raise _fail(ConfigurationError, what, kind, value)
     return ticks
+
+
+def name(value: Any, what: str, *, type_error: type[Exception] = ConfigurationTypeError) -> str:
+    """A non-empty string (a component, table or phase name)."""
+    if not isinstance(value, str) or not value:
+        raise _fail(type_error, what, "a non-empty string", value)
+    return value
 
 
 def boolean(value: Any, what: str) -> bool:

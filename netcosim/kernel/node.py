@@ -73,9 +73,7 @@ class Node:
         if task.name in self.tasks:
             raise ConfigurationError(f"node {self.name!r} already has a task called {task.name!r}")
         if kind == "handler":
-            p = task.priority
-            if isinstance(p, bool) or not isinstance(p, (int, float)) or not math.isfinite(p):
-                raise ConfigurationTypeError(f"handler {task.name!r}: priority must be a finite number, got {p!r}")
+            validate.finite(task.priority, f"handler {task.name!r}: priority", value_error=ConfigurationTypeError)
         else:
             self.policy.validate(task)
         if kind != "handler" and self.policy.static:

@@ -25,9 +25,7 @@ from .task import Blocking
 
 
 def _check_name(kind: str, name) -> str:
-    if not isinstance(name, str) or not name:
-        raise ConfigurationTypeError(f"{kind} name must be a non-empty string, got {name!r}")
-    return name
+    return validate.name(name, f"{kind} name")
 
 
 def _prio(job):

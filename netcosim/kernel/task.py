@@ -144,6 +144,8 @@ def _check_time(value, what, task_name, *, positive=False, allow_none=True):
     if value is None and allow_none:
         return None
     what = f"task {task_name!r}: {what}"
+    if not validate.is_real(value):
+        raise ConfigurationTypeError(f"{what} must be a finite number of seconds, got {value!r}")
     return validate.duration(value, what, positive=positive, kind="positive")
 
 

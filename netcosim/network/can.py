@@ -34,8 +34,7 @@ def can_frame_bits(data_bytes: int, *, extended: bool = False, stuffing: bool = 
 
     Worst-case bit stuffing (Davis et al. 2007) unless ``stuffing=False``.
     """
-    if isinstance(data_bytes, bool) or not isinstance(data_bytes, int) or not 0 <= data_bytes <= 8:
-        raise ConfigurationError(f"a CAN frame carries 0..8 data bytes, got {data_bytes!r}")
+    data_bytes = validate.integer(data_bytes, "a CAN frame's data_bytes", lo=0, hi=8, type_error=ConfigurationError)
     g = 54 if extended else 34
     n = g + 8 * data_bytes + 13
     if stuffing:

@@ -19,7 +19,6 @@ Several models can be combined by passing a list; the frame is lost if any says 
 from __future__ import annotations
 
 import math
-import numbers
 from typing import Sequence
 
 import numpy as np
@@ -221,7 +220,7 @@ def as_loss_model(loss) -> LossModel | None:
         return None
     if isinstance(loss, LossModel):
         return loss
-    if isinstance(loss, numbers.Real) and not isinstance(loss, bool):
+    if validate.is_real(loss):
         p = validate.probability(loss, "loss probability")
         return None if p == 0.0 else Bernoulli(p)
     if isinstance(loss, (list, tuple)):
