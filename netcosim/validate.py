@@ -171,13 +171,13 @@ def choice(value: Any, what: str, options: Iterable[Any], *, kind: str | None = 
     return value
 
 
-def callable_(value: Any, what: str, *, allow_none: bool = False,
-              kind: str = "callable") -> Callable | None:
+def callable_(value: Any, what: str, *, allow_none: bool = False, kind: str = "callable",
+              type_error: type[Exception] = ConfigurationTypeError) -> Callable | None:
     """*value* if it is callable (or None with ``allow_none``)."""
     if value is None and allow_none:
         return None
     if not callable(value):
-        raise _fail(ConfigurationTypeError, what, kind, value)
+        raise _fail(type_error, what, kind, value)
     return value
 
 

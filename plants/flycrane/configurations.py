@@ -12,6 +12,9 @@ import math
 
 import numpy as np
 
+from netcosim import validate
+from netcosim.errors import ConfigurationError
+
 from .attachments import OneCable, PlanarAgent, TwoCable
 from .kinematics import MassProperties, MultiRobotSystem, plate_inertia
 
@@ -52,8 +55,7 @@ def _plate_mass(vertices) -> float:
 
 def _mass(vertices, n_robots, platform_mass=None, robot_mass=ROBOT_MASS, g=9.81):
     pm = _plate_mass(vertices) if platform_mass is None else platform_mass
-    if not (isinstance(pm, (int, float)) and math.isfinite(pm) and pm > 0):
-        raise ValueError(f"platform_mass must be positive, got {pm!r}")
+    validate.positive(pm, "platform_mass", kind="positive", type_error=ConfigurationError)
     return MassProperties(pm, plate_inertia(vertices[:, :2], pm), (robot_mass,) * n_robots, g)
 
 
