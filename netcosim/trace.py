@@ -354,8 +354,7 @@ class _Stream:
             import pyarrow.parquet  # noqa: F401
         except ImportError as exc:  # pragma: no cover - pyarrow is a dependency
             raise ConfigurationError(f"{w}: mode='stream' needs pyarrow ({exc})") from None
-        if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)) or not os.fspath(path):
-            raise ConfigurationTypeError(f"{w}: path must be a directory path (str or os.PathLike), got {path!r}")
+        validate.path(path, f"{w}: path", kind="a directory path (str or os.PathLike)")
         validate.boolean(overwrite, f"{w}: overwrite")
         p = Path(path)
         if p.exists() and not p.is_dir():
@@ -507,8 +506,7 @@ class Trace:
         if mode == "stream":
             if path is None:
                 raise ConfigurationError("configure_all: mode='stream' needs path=..., got None")
-            if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)) or not os.fspath(path):
-                raise ConfigurationTypeError(f"configure_all: path must be a directory path, got {path!r}")
+            validate.path(path, "configure_all: path", kind="a directory path")
             if Path(path).exists() and not Path(path).is_dir():
                 raise ConfigurationError(f"configure_all: stream path {os.fspath(path)!r} exists and is not "
                                          f"a directory")

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from dataclasses import fields
 from typing import Any, Callable, Iterable
 
@@ -31,7 +32,7 @@ from .errors import ConfigurationError, ConfigurationTypeError
 from .timebase import to_ticks
 
 __all__ = ["is_real", "real", "finite", "positive", "non_negative", "probability", "integer", "count", "bits",
-           "duration", "name", "boolean", "choice", "callable_", "numeric_fields", "check_numeric_fields"]
+           "duration", "name", "path", "boolean", "choice", "callable_", "numeric_fields", "check_numeric_fields"]
 
 
 def _fail(cls: type[Exception], what: str, kind: str, value: Any) -> Exception:
@@ -148,6 +149,13 @@ def name(value: Any, what: str, *, type_error: type[Exception] = ConfigurationTy
     """A non-empty string (a component, table or phase name)."""
     if not isinstance(value, str) or not value:
         raise _fail(type_error, what, "a non-empty string", value)
+    return value
+
+
+def path(value: Any, what: str, *, kind: str = "a path (str or os.PathLike)") -> str | os.PathLike:
+    """A non-empty file-system path (``str`` or ``os.PathLike``), returned unchanged."""
+    if isinstance(value, bool) or not isinstance(value, (str, os.PathLike)) or not os.fspath(value):
+        raise _fail(ConfigurationTypeError, what, kind, value)
     return value
 
 

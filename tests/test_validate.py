@@ -108,3 +108,16 @@ def test_former_network_check_names_still_work():
     with pytest.raises(ConfigurationError, match=r"^s must be a finite number, got 0.0$"):
         checks.check_real(0.0, "s", low=0.0, low_open=True)
     assert checks.check_bits is validate.bits and checks.check_duration is validate.duration
+
+
+def test_name_and_path():
+    assert validate.name("ctrl", "task name") == "ctrl"
+    with pytest.raises(ConfigurationTypeError, match="^phase must be a non-empty string, got ''$"):
+        validate.name("", "phase")
+    with pytest.raises(ConfigurationError, match="^component name must be a non-empty string, got 3$"):
+        validate.name(3, "component name", type_error=ConfigurationError)
+    assert validate.path("out", "dir") == "out"
+    with pytest.raises(ConfigurationTypeError, match=r"^dir must be a path \(str or os.PathLike\), got ''$"):
+        validate.path("", "dir")
+    with pytest.raises(ConfigurationTypeError, match="got True"):
+        validate.path(True, "dir")

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import inspect
 import math
-import numbers
 from collections import deque
 from typing import Any, Callable
 
@@ -288,7 +287,7 @@ class TaskContext:
                 c = float(c.rvs(random_state=self._exec_rng))
             elif callable(c):
                 c = c(self._exec_rng)
-            if isinstance(c, bool) or not isinstance(c, numbers.Real):
+            if not validate.is_real(c):
                 raise ConfigurationTypeError(f"{who}: execution time must be a number of seconds, got {c!r}")
         if not (c >= 0) or c == math.inf:
             raise ConfigurationError(f"{who}: execution time must be finite and >= 0, got {c!r}")
