@@ -61,8 +61,7 @@ class HybridEvent:
     reset: Callable[..., Any] | None = None
 
     def __post_init__(self):
-        if self.direction not in (-1, 0, 1):
-            raise ConfigurationError(f"event {self.name!r}: direction must be -1, 0 or +1, got {self.direction!r}")
+        validate.choice(self.direction, f"event {self.name!r}: direction", (-1, 0, 1), kind="-1, 0 or +1")
 
 
 class ContinuousSystem:
@@ -471,9 +470,7 @@ class PlantInstance:
         self._jac = None
         if callable(jac) and isinstance(self.integrator, SolveIVP):
             self._jac = lambda t, x: jac(t, x, self._u_full(t), self.params)  # noqa: E731
-        if disturbance is not None and not callable(disturbance):
-            raise ConfigurationTypeError(f"plant {name!r}: disturbance must be a callable d(t), "
-                                         f"got {disturbance!r}")
+        validate.callable_(disturbance, f"plant {name!r}: disturbance", allow_none=True, kind="a callable d(t)")
         if disturbance is None and system.nd:
             zeros = np.zeros(system.nd)
             disturbance = lambda t: zeros  # noqa: E731
@@ -486,8 +483,7 @@ class PlantInstance:
         self._subscribers: dict[str, list[Callable[[float], None]]] = {}
         self._predict_timer = None
         self.prediction_horizon = 0.05
-        if log not in ("io", "none"):
-            raise ConfigurationError(f"plant {name!r}: log must be 'io' or 'none', got {log!r}")
+        validate.choice(log, f"plant {name!r}: log", ("io", "none"))
         self._log_io = log_interval is None and log == "io"
         self._rec = sim.trace.signal_rec
         self._log_names = ([f"x.{s}" for s in system.state_names] + [f"u.{s}" for s in system.input_names]

@@ -166,8 +166,7 @@ class Recorder:
         self.providers: list = []
         #: optional function turning the stored frame into the reported one
         self.transform = transform
-        if time_unit not in ("ticks", "s"):
-            raise ConfigurationError(f"table {name!r}: time_unit must be 'ticks' or 's', got {time_unit!r}")
+        validate.choice(time_unit, f"table {name!r}: time_unit", ("ticks", "s"))
         self.time_index = self.columns.index(time) if time is not None and time in self.columns else None
         #: stored time units per second
         self.time_scale = TICKS_PER_SECOND if time_unit == "ticks" else 1.0

@@ -168,14 +168,18 @@ def boolean(value: Any, what: str) -> bool:
 
 def choice(value: Any, what: str, options: Iterable[Any], *, kind: str | None = None,
            error: type[Exception] = ConfigurationError) -> Any:
-    """*value* if it is one of *options* (the message lists them)."""
+    """*value* if it is one of *options*; the message lists them (``'a', 'b' or 'c'``)
+    unless ``kind`` says it otherwise."""
     options = tuple(options)
+    if kind is None:
+        names = [repr(o) for o in options]
+        kind = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]
     try:
         ok = value in options
     except TypeError:               # unhashable value against a set-like container
         ok = False
     if not ok:
-        raise _fail(error, what, kind or f"one of {list(options)}", value)
+        raise _fail(error, what, kind, value)
     return value
 
 

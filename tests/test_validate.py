@@ -76,8 +76,12 @@ def test_boolean_choice_callable():
     with pytest.raises(ConfigurationTypeError, match="^b must be True or False, got 1$"):
         validate.boolean(1, "b")
     assert validate.choice("fifo", "q", ("fifo", "priority")) == "fifo"
-    with pytest.raises(ConfigurationError, match=r"^q must be one of \['fifo', 'priority'\], got 'lifo'$"):
+    with pytest.raises(ConfigurationError, match=r"^q must be 'fifo' or 'priority', got 'lifo'$"):
         validate.choice("lifo", "q", ("fifo", "priority"))
+    with pytest.raises(ConfigurationError, match=r"^s must be 'a', 'b' or 'c', got None$"):
+        validate.choice(None, "s", "abc")
+    with pytest.raises(ConfigurationError, match=r"^d must be -1, 0 or \+1, got 2$"):
+        validate.choice(2, "d", (-1, 0, 1), kind="-1, 0 or +1")
     with pytest.raises(ConfigurationError, match="got \\[1\\]"):
         validate.choice([1], "q", {"a"})
     assert validate.callable_(len, "f") is len

@@ -55,9 +55,7 @@ class CAN(SharedBus):
 
     def __init__(self, sim, name, *, data_rate: float = 500e3, frame_format: str = "truetime",
                  extended: bool = False, stuffing: bool = True, max_frame_bits: int | None = None, **kw):
-        if frame_format not in ("truetime", "standard"):
-            raise ConfigurationError(f"network {name!r}: CAN frame_format must be 'truetime' or 'standard', "
-                                     f"got {frame_format!r}")
+        validate.choice(frame_format, f"network {name!r}: CAN frame_format", ("truetime", "standard"))
         if frame_format == "standard":
             if kw.get("min_frame_bits"):
                 raise ConfigurationError(f"network {name!r}: min_frame_bits does not apply to the standard CAN "

@@ -29,7 +29,7 @@ class TxQueue:
     __slots__ = ("discipline", "capacity", "_q", "_n")
 
     def __init__(self, discipline: str = "fifo", capacity: int | None = None, what: str = "queue"):
-        validate.choice(discipline, f"{what}: queue discipline", ("fifo", "priority"), kind="'fifo' or 'priority'")
+        validate.choice(discipline, f"{what}: queue discipline", ("fifo", "priority"))
         capacity = validate.integer(capacity, f"{what}: queue capacity", lo=1, allow_none=True,
                                     kind="a positive integer or None", type_error=ConfigurationError)
         self.discipline = discipline

@@ -106,8 +106,7 @@ class GilbertElliott(LossModel):
         self.p_bg = validate.probability(p_bg, "Gilbert-Elliott p_bg (bad->good)")
         self.loss_good = validate.probability(loss_good, "Gilbert-Elliott loss_good")
         self.loss_bad = validate.probability(loss_bad, "Gilbert-Elliott loss_bad")
-        if start not in ("stationary", "good", "bad"):
-            raise ConfigurationError(f"Gilbert-Elliott start must be 'stationary', 'good' or 'bad', got {start!r}")
+        validate.choice(start, "Gilbert-Elliott start", ("stationary", "good", "bad"))
         if self.p_gb + self.p_bg == 0.0 and start == "stationary":
             raise ConfigurationError("Gilbert-Elliott with p_gb = p_bg = 0 has no stationary distribution; "
                              "pass start='good' or 'bad'")

@@ -167,8 +167,7 @@ class WLAN80211b(RadioNetwork):
                          tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm, cs_threshold_dbm=cs_threshold_dbm,
                          capture_db=capture_db, noise_dbm=noise_dbm, **kw)
         w = f"network {name!r}"
-        if preamble not in ("long", "short"):
-            raise ConfigurationError(f"{w}: preamble must be 'long' or 'short', got {preamble!r}")
+        validate.choice(preamble, f"{w}: preamble", ("long", "short"))
         self.preamble = preamble
         self.retry_limit = validate.count(retry_limit, f"{w}: retry_limit (attempts)", minimum=1)
         self.cw_min = validate.count(cw_min, f"{w}: cw_min (slots)", minimum=0)
