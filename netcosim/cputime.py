@@ -100,8 +100,7 @@ class CPUTimeModel:
     reads_clock = False
 
     def __init__(self, clock: Callable[[], float] = time.perf_counter):
-        if not callable(clock):
-            raise ConfigurationTypeError(f"clock must be a callable returning seconds, got {clock!r}")
+        validate.callable_(clock, "clock", kind="a callable returning seconds")
         self.clock = clock
         self._log: list[tuple[str, int, float, float]] = []
         self._counts: dict[str, int] = {}
@@ -189,8 +188,7 @@ class RecordedCPUTime(CPUTimeModel):
     def __init__(self, table: Any, *, scale: float = 1.0, beyond: str = "cycle"):
         super().__init__()
         self.scale = _seconds(scale, "scale")
-        if beyond not in ("cycle", "last", "error"):
-            raise ConfigurationError(f"beyond must be 'cycle', 'last' or 'error', got {beyond!r}")
+        validate.choice(beyond, "beyond", ("cycle", "last", "error"))
         self.beyond = beyond
         if isinstance(table, Mapping):
             values = {str(k): list(v) for k, v in table.items()}

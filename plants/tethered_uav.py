@@ -35,6 +35,7 @@ import casadi as ca
 import numpy as np
 
 from netcosim.continuous import ContinuousSystem, HybridEvent
+from netcosim import validate
 from netcosim.validate import numeric_fields
 
 __all__ = [
@@ -382,8 +383,7 @@ class TetheredUAV(ContinuousSystem):
         params = TetheredUAVParams() if params is None else params
         if not isinstance(params, TetheredUAVParams):
             raise TypeError(f"params must be TetheredUAVParams, got {params!r}")
-        if inputs not in ("rates", "forces"):
-            raise ValueError(f"inputs must be 'rates' or 'forces', got {inputs!r}")
+        validate.choice(inputs, "inputs", ("rates", "forces"))
         self.mode, self.landers = inputs, bool(landers)
         q = ("phi", "dphi", "theta", "dtheta")
         if inputs == "rates":

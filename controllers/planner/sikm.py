@@ -316,8 +316,7 @@ class Strategy:
     label: str = ""
 
     def __post_init__(self):
-        if self.gain not in ("online", "offline"):
-            raise ValueError(f"strategy gain must be 'online' or 'offline', got {self.gain!r}")
+        validate.choice(self.gain, "strategy gain", ("online", "offline"))
         if self.feedforward not in FEEDFORWARDS:
             raise ValueError(f"feedforward must be one of {FEEDFORWARDS}, got {self.feedforward!r}")
 

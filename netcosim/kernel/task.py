@@ -162,8 +162,7 @@ class Task:
     def __init__(self, node, body: Callable, *, name: str | None, kind: str, priority=None,
                  period=None, offset=0.0, deadline=None, wcet=None, preemptible=True,
                  on_busy="queue", on_deadline_miss=None, on_budget_overrun=None):
-        if not callable(body):
-            raise ConfigurationTypeError(f"task body must be a callable body(ctx), got {body!r}")
+        validate.callable_(body, "task body", kind="a callable body(ctx)")
         self.node = node
         self.name = name or getattr(body, "__name__", "task")
         self.kind = kind
@@ -180,8 +179,7 @@ class Task:
         self.wcet_ticks = _check_time(wcet, "wcet", self.name, positive=True)
         validate.boolean(preemptible, f"task {self.name!r}: preemptible")
         self.preemptible = preemptible
-        if on_busy not in ("queue", "skip"):
-            raise ConfigurationError(f"task {self.name!r}: on_busy must be 'queue' or 'skip', got {on_busy!r}")
+        validate.choice(on_busy, f"task {self.name!r}: on_busy", ("queue", "skip"))
         self.on_busy = on_busy
         for nm, h in (("on_deadline_miss", on_deadline_miss), ("on_budget_overrun", on_budget_overrun)):
             if h is not None and h != "kill" and not callable(h):

@@ -178,8 +178,7 @@ class Network:
             name, knode = node.name, node
         else:
             raise TypeError(f"network {self.name!r}: attach a kernel node or a station name, got {node!r}")
-        if not name:
-            raise ValueError(f"network {self.name!r}: station name must be a non-empty string")
+        validate.name(name, f"network {self.name!r}: station name", type_error=ConfigurationError)
         if name in self.interfaces:
             raise ValueError(f"network {self.name!r}: node {name!r} is already attached")
         if priority is not None:

@@ -119,8 +119,7 @@ class MultiRobotSystem:
 
     def __init__(self, attachments: Sequence, *, pivot: str = "spatial", mass: MassProperties | None = None,
                  q_nominal=None, name: str = "multi_robot", singular_tol: float = SINGULAR_RTOL):
-        if pivot not in ("spatial", "planar"):
-            raise ValueError(f"pivot must be 'spatial' or 'planar', got {pivot!r}")
+        validate.choice(pivot, "pivot", ("spatial", "planar"))
         atts = tuple(attachments)
         if not atts:
             raise ValueError("a multi-robot system needs at least one agent")
