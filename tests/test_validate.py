@@ -125,3 +125,21 @@ def test_name_and_path():
         validate.path("", "dir")
     with pytest.raises(ConfigurationTypeError, match="got True"):
         validate.path(True, "dir")
+
+
+def test_number_checks_are_not_retyped_inline():
+    """New parameter checks use netcosim.validate instead of re-typing the bool/number test.
+
+    Allowed: timebase (validate is built on it), and two checks whose messages state a
+    domain rule rather than a parameter range."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    allowed = {"netcosim/validate.py", "netcosim/timebase.py", "controllers/nmpc.py",
+               "controllers/planner/gain_design.py"}
+    pattern = re.compile(r"isinstance\(\w+, bool\) or not isinstance\(")
+    offenders = [f"{p.relative_to(root)}:{i}"
+                 for top in ("netcosim", "plants", "controllers") for p in sorted((root / top).rglob("*.py"))
+                 if p.relative_to(root).as_posix() not in allowed
+                 for i, line in enumerate(p.read_text().splitlines(), start=1) if pattern.search(line)]
+    assert offenders == []
