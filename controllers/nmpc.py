@@ -568,8 +568,9 @@ def _check_rti_arguments(ocp, qp_solver, hessian_reg, history_length) -> None:
 
 def _check_history_length(history_length) -> None:
     """``None`` or a non-negative integer."""
-    validate.integer(history_length, "history_length", lo=0, allow_none=True,
-                     kind="a non-negative integer or None", type_error=ConfigurationError)
+    if history_length is not None:
+        validate.integer(history_length, "history_length", lo=0, kind="a non-negative integer or None",
+                         type_error=ConfigurationError)
 
 
 def _linearization(tr: _Transcription, hessian_reg: float, jit: bool):

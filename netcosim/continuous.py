@@ -470,7 +470,8 @@ class PlantInstance:
         self._jac = None
         if callable(jac) and isinstance(self.integrator, SolveIVP):
             self._jac = lambda t, x: jac(t, x, self._u_full(t), self.params)  # noqa: E731
-        validate.callable_(disturbance, f"plant {name!r}: disturbance", allow_none=True, kind="a callable d(t)")
+        if disturbance is not None:
+            validate.callable_(disturbance, f"plant {name!r}: disturbance", kind="a callable d(t)")
         if disturbance is None and system.nd:
             zeros = np.zeros(system.nd)
             disturbance = lambda t: zeros  # noqa: E731

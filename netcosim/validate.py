@@ -14,7 +14,9 @@ The message is ``"<what> must be <kind>, got <value!r>"``; ``kind`` is a keyword
 every function so a caller can describe the expected value in its own words
 (``"a positive number of seconds"``).  ``type_error`` selects the class raised for a
 value of the wrong kind; a few older parameters raise ``ConfigurationError`` there and
-keep doing so.  Bools are never numbers here (``True`` is not a period).
+keep doing so, and ``value_error`` (where offered) the class raised for a value out of
+range.  Bools are never numbers here (``True`` is not a period).  An optional parameter
+is checked only when given: ``None if x is None else validate.real(x, ...)``.
 
 Durations are checked by :func:`duration`, which delegates to
 :func:`netcosim.timebase.to_ticks` (finite, >= 0, and 0 or at least the 1 ps resolution).
@@ -45,19 +47,16 @@ def is_real(value: Any) -> bool:
 
 
 def real(value: Any, what: str, *, lo: float | None = None, hi: float | None = None,
-         lo_open: bool = False, hi_open: bool = False, allow_none: bool = False,
-         allow_inf: bool = False, kind: str = "a finite number",
+         lo_open: bool = False, hi_open: bool = False, allow_inf: bool = False,
+         kind: str = "a finite number",
          type_error: type[Exception] = ConfigurationTypeError,
-         value_error: type[Exception] = ConfigurationError) -> float | None:
+         value_error: type[Exception] = ConfigurationError) -> float:
     """*value* as a float, if it is a real number in ``[lo, hi]``.
 
     ``lo``/``hi``: bounds (None = unbounded), exclusive when ``lo_open``/``hi_open``.
     NaN is always rejected, infinities unless ``allow_inf`` (then only the bounds limit
-    them).  ``allow_none``: None passes through unchanged.  ``value_error``: the class
-    raised for a number that fails these rules.
+    them).  ``value_error``: the class raised for a number that fails these rules.
     """
-    if value is None and allow_none:
-        return None
     if not is_real(value):
         raise _fail(type_error, what, kind, value)
     v = float(value)
@@ -93,9 +92,9 @@ def probability(value: Any, what: str, **kw) -> float:
 
 
 def integer(value: Any, what: str, *, lo: int | None = None, hi: int | None = None,
-            allow_none: bool = False, integral_floats: bool = False, kind: str | None = None,
+            integral_floats: bool = False, kind: str | None = None,
             type_error: type[Exception] = ConfigurationTypeError,
-            fraction_error: type[Exception] = ConfigurationError) -> int | None:
+            fraction_error: type[Exception] = ConfigurationError) -> int:
     """*value* as an int, if it is an integer (Python or NumPy; bools excluded) in
     ``[lo, hi]``.
 
@@ -104,8 +103,6 @@ def integer(value: Any, what: str, *, lo: int | None = None, hi: int | None = No
     is not an integer raises ``type_error``.  ``kind`` defaults to "an integer"
     plus the range.
     """
-    if value is None and allow_none:
-        return None
     if kind is None:
         kind = "an integer" + ("" if lo is None and hi is None else
                                f" >= {lo}" if hi is None else f" <= {hi}" if lo is None else f" in {lo}..{hi}")
@@ -132,13 +129,11 @@ def bits(value: Any, what: str, *, allow_zero: bool = True) -> int:
     return integer(value, what, lo=0 if allow_zero else 1, integral_floats=True, kind=kind)
 
 
-def duration(value: Any, what: str, *, positive: bool = False, allow_none: bool = False,
-             kind: str = "a positive number of seconds") -> int | None:
+def duration(value: Any, what: str, *, positive: bool = False,
+             kind: str = "a positive number of seconds") -> int:
     """A duration in seconds as integer ticks (:func:`~netcosim.timebase.to_ticks`:
     finite, >= 0, and 0 or at least 1 ps); ``positive`` also rejects 0 (the message
     then uses ``kind``)."""
-    if value is None and allow_none:
-        return None
     ticks = to_ticks(value, what)
     if positive and ticks <= 0:
         raise _fail(ConfigurationError, what, kind, value)
@@ -183,11 +178,9 @@ def choice(value: Any, what: str, options: Iterable[Any], *, kind: str | None = 
     return value
 
 
-def callable_(value: Any, what: str, *, allow_none: bool = False, kind: str = "callable",
-              type_error: type[Exception] = ConfigurationTypeError) -> Callable | None:
-    """*value* if it is callable (or None with ``allow_none``)."""
-    if value is None and allow_none:
-        return None
+def callable_(value: Any, what: str, *, kind: str = "callable",
+              type_error: type[Exception] = ConfigurationTypeError) -> Callable:
+    """*value* if it is callable."""
     if not callable(value):
         raise _fail(type_error, what, kind, value)
     return value

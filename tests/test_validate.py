@@ -16,7 +16,6 @@ from netcosim.network import checks
 
 def test_real_returns_float_and_checks_bounds():
     assert validate.real(np.int64(3), "x") == 3.0 and type(validate.real(2, "x")) is float
-    assert validate.real(None, "x", allow_none=True) is None
     assert validate.real(math.inf, "x", lo=0, allow_inf=True) == math.inf
     with pytest.raises(ConfigurationError, match=r"^x must be a finite number, got nan$"):
         validate.real(math.nan, "x", allow_inf=True)
@@ -44,7 +43,6 @@ def test_positive_and_non_negative():
 
 def test_integer_ranges_fractions_and_integral_floats():
     assert validate.integer(np.int32(4), "n", lo=1) == 4 and type(validate.integer(np.int32(4), "n")) is int
-    assert validate.integer(None, "n", allow_none=True) is None
     assert validate.integer(64.0, "n", integral_floats=True) == 64
     with pytest.raises(ConfigurationError, match=r"^n must be an integer in 1\.\.3, got 4$"):
         validate.integer(4, "n", lo=1, hi=3)
@@ -62,7 +60,6 @@ def test_integer_ranges_fractions_and_integral_floats():
 
 def test_duration_is_integer_ticks_via_timebase():
     assert validate.duration(1e-3, "d") == 10**9
-    assert validate.duration(None, "d", allow_none=True) is None
     with pytest.raises(ConfigurationError, match="^d must be a positive number of seconds, got 0$"):
         validate.duration(0, "d", positive=True)
     with pytest.raises(ConfigurationError, match="below the time resolution"):

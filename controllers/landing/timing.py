@@ -68,7 +68,8 @@ class LandingTiming:
             raise ValueError(f"feedback_share must lie in [0, 1], got {self.feedback_share!r}")
         for name in ("fl_exec", "context_switch"):
             validate.non_negative(getattr(self, name), name, kind="a non-negative number of seconds", type_error=ConfigurationError)
-        validate.callable_(self.clock, "clock", allow_none=True, kind="a callable returning seconds", type_error=ConfigurationError)
+        if self.clock is not None:
+            validate.callable_(self.clock, "clock", kind="a callable returning seconds", type_error=ConfigurationError)
 
     def nmpc_model(self) -> CPUTimeModel:
         """A fresh CPU-time model for one run (phases ``"feedback"`` and ``"prepare"``, seconds)."""

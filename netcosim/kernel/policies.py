@@ -27,8 +27,8 @@ class SchedulingPolicy:
 
     def validate(self, task) -> None:
         """Check that *task* carries what this policy needs (raise naming the value)."""
-        validate.finite(task.priority, f"task {task.name!r}: priority", allow_none=True,
-                        value_error=ConfigurationTypeError)
+        if task.priority is not None:
+            validate.finite(task.priority, f"task {task.name!r}: priority", value_error=ConfigurationTypeError)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"

@@ -54,8 +54,9 @@ class Mailbox:
 
     def __init__(self, name: str = "mailbox", capacity: int | None = None):
         _check_name("mailbox", name)
-        capacity = validate.integer(capacity, f"mailbox {name!r}: capacity", lo=1, allow_none=True,
-                                    kind="a positive integer or None", type_error=ConfigurationError)
+        if capacity is not None:
+            capacity = validate.integer(capacity, f"mailbox {name!r}: capacity", lo=1, kind="a positive integer or None",
+                                        type_error=ConfigurationError)
         self.name, self.capacity = name, capacity
         self.items: deque = deque()
         self._getters: deque = deque()

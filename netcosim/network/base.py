@@ -253,8 +253,9 @@ class Network:
         t = type(priority)
         if t is int or (t is float and math.isfinite(priority)):
             return                  # the common case, without the (slow) numbers.Real check
-        validate.finite(priority, f"network {self.name!r}: priority of a message from {iface.name!r}",
-                        allow_none=True, type_error=ConfigurationError)
+        if priority is not None:
+            validate.finite(priority, f"network {self.name!r}: priority of a message from {iface.name!r}",
+                            type_error=ConfigurationError)
 
     # ------------------------------------------------------------------ pipeline
     def _send(self, iface: Interface, dst, payload, size_bits, priority) -> Message:

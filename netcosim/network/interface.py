@@ -30,8 +30,9 @@ class TxQueue:
 
     def __init__(self, discipline: str = "fifo", capacity: int | None = None, what: str = "queue"):
         validate.choice(discipline, f"{what}: queue discipline", ("fifo", "priority"))
-        capacity = validate.integer(capacity, f"{what}: queue capacity", lo=1, allow_none=True,
-                                    kind="a positive integer or None", type_error=ConfigurationError)
+        if capacity is not None:
+            capacity = validate.integer(capacity, f"{what}: queue capacity", lo=1, kind="a positive integer or None",
+                                        type_error=ConfigurationError)
         self.discipline = discipline
         self.capacity = capacity
         self._q: Any = deque() if discipline == "fifo" else []
