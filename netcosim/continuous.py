@@ -35,7 +35,7 @@ import numpy as np
 
 from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NotConnectedError
-from .timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+from .timebase import RESOLUTION, TICKS_PER_SECOND
 
 __all__ = ["EVENT_REARM", "HybridEvent", "ContinuousSystem", "RK4", "SolveIVP", "SOLVE_IVP_METHODS",
            "OutputPort", "InputPort", "PlantInstance", "NotConnectedError", "IntegrationError"]
@@ -492,9 +492,8 @@ class PlantInstance:
         self.outputs = OutputPort(self, slice(None), "outputs")
         self.inputs = InputPort(self, slice(None), "inputs")
         if log_interval is not None:
-            self._log_every = to_ticks(log_interval, f"plant {name!r} log_interval")
-            if self._log_every <= 0:
-                raise ConfigurationError(f"plant {name!r}: log_interval must be positive, got {log_interval!r}")
+            self._log_every = validate.duration(log_interval, f"plant {name!r}: log_interval", positive=True,
+                                                kind="positive")
             self._log_k = 0
             sim.call_at_ticks(sim.now_ticks, self._log_tick)
         sim.add_finalizer(self._finish)

@@ -247,10 +247,9 @@ class WallClockCPUTime(CPUTimeModel):
 
     def __init__(self, factor: float = 1.0, *, clock: Callable[[], float] = time.perf_counter, warn: bool = True):
         super().__init__(clock)
-        f = _seconds(factor, "factor")
-        if f == 0:
-            raise ConfigurationError(f"factor must be positive, got {factor!r}")
-        self.factor = f
+        if not validate.is_real(factor):
+            raise ConfigurationTypeError(f"factor must be a number of seconds, got {factor!r}")
+        self.factor = validate.positive(factor, "factor", kind="positive")
         if warn:
             warnings.warn("CPU times are the measured wall-clock times of this host: the schedule and the "
                           "results depend on the host's speed and load and are not reproducible "

@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 
 from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError
-from .timebase import TICKS_PER_SECOND, to_ticks
+from .timebase import TICKS_PER_SECOND
 
 if TYPE_CHECKING:  # pandas is imported on first use: a simulation does not need it
     import pandas as pd
@@ -219,9 +219,7 @@ class Recorder:
         if mode == "window":
             if self.time_index is None:
                 raise ConfigurationError(f"{w}: has no time column, so mode='window' cannot apply")
-            ticks = to_ticks(seconds, f"{w}: seconds")
-            if ticks <= 0:
-                raise ConfigurationError(f"{w}: seconds must be positive, got {seconds!r}")
+            ticks = validate.duration(seconds, f"{w}: seconds", positive=True, kind="positive")
             window = ticks if self.time_scale == TICKS_PER_SECOND else ticks / TICKS_PER_SECOND
         stream = None
         if mode == "stream":

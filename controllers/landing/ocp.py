@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from netcosim import validate
 from netcosim.validate import numeric_fields
 
 from plants.tethered_uav import TetheredUAVParams, casadi_model, hover_thrust
@@ -74,8 +75,7 @@ class LandingConfig:
                                                   "k_dphi_target", "k_dtheta_target", "terminal_factor"))
         if not 0 < self.input_range <= 1:
             raise ValueError(f"LandingConfig.input_range must lie in (0, 1], got {self.input_range!r}")
-        if self.k_s <= 0:
-            raise ValueError(f"LandingConfig.k_s must be positive, got {self.k_s!r}")
+        validate.positive(self.k_s, "LandingConfig.k_s", kind="positive")
 
     @property
     def stage_weights(self) -> np.ndarray:

@@ -38,8 +38,7 @@ def regular_polygon(k: int, edge: float, first_midpoint_deg: float = 90.0) -> np
     vertices 0 and 1) in the direction *first_midpoint_deg* from x."""
     if k < 3:
         raise ValueError(f"a polygon needs k >= 3 vertices, got {k}")
-    if not edge > 0:
-        raise ValueError(f"polygon edge must be positive, got {edge!r} m")
+    validate.positive(edge, "polygon edge (m)", kind="positive")
     R = edge / (2 * math.sin(math.pi / k))
     half = math.pi / k
     mid = math.radians(first_midpoint_deg)
