@@ -49,8 +49,6 @@ uses (radians for the models of this project).
 
 from __future__ import annotations
 
-import math
-import numbers
 import time
 from collections import deque
 from dataclasses import dataclass, replace
@@ -59,6 +57,7 @@ from typing import Any, Sequence
 import casadi as ca
 import numpy as np
 
+from netcosim import validate
 from netcosim.errors import ConfigurationError
 
 __all__ = ["OCP", "RTINMPC", "RTIStep", "FullSolution", "QP_SOLVERS", "rk4_discretize"]
@@ -155,19 +154,11 @@ def _matrix_weight_sqrt(a: np.ndarray, n: int, what: str) -> np.ndarray:
     return (V * np.sqrt(np.clip(lam, 0.0, None))) @ V.T  # symmetric square root
 
 
-def _is_positive_int(v) -> bool:
-    """True for an int (NumPy's included, bools excluded) greater than zero."""
-    return not isinstance(v, bool) and isinstance(v, (int, np.integer)) and v > 0
-
-
 def _check_discretization(N, Ts, rk4_steps) -> None:
     """Horizon *N* (intervals), interval *Ts* [s] and *rk4_steps* per interval."""
-    if not _is_positive_int(N):
-        raise ValueError(f"horizon N must be a positive integer number of intervals, got {N!r}")
-    if not (isinstance(Ts, (int, float, np.floating)) and math.isfinite(Ts) and Ts > 0):
-        raise ValueError(f"shooting interval Ts must be a positive number of seconds, got {Ts!r}")
-    if not _is_positive_int(rk4_steps):
-        raise ValueError(f"rk4_steps must be a positive integer, got {rk4_steps!r}")
+    validate.integer(N, "horizon N", lo=1, kind="a positive integer number of intervals", type_error=ConfigurationError)
+    validate.positive(Ts, "shooting interval Ts", kind="a positive number of seconds", type_error=ConfigurationError)
+    validate.integer(rk4_steps, "rk4_steps", lo=1, kind="a positive integer", type_error=ConfigurationError)
 
 
 def rk4_discretize(x: ca.SX, u: ca.SX, p: ca.SX, xdot: ca.SX, Ts: float, steps: int = 1,
@@ -571,18 +562,15 @@ def _check_rti_arguments(ocp, qp_solver, hessian_reg, history_length) -> None:
         raise ValueError(f"unknown qp_solver {qp_solver!r}; choose one of {QP_SOLVERS}")
     if not ca.has_conic(qp_solver):
         raise ValueError(f"qp_solver {qp_solver!r} is not available in this CasADi build")
-    if not (isinstance(hessian_reg, (int, float)) and hessian_reg >= 0 and math.isfinite(hessian_reg)):
-        raise ValueError(f"hessian_reg must be a non-negative number, got {hessian_reg!r}")
+    validate.non_negative(hessian_reg, "hessian_reg", kind="a non-negative number", type_error=ConfigurationError)
     _check_history_length(history_length)
 
 
 def _check_history_length(history_length) -> None:
     """``None`` or a non-negative integer."""
-    if history_length is not None and (isinstance(history_length, bool)
-                                       or not isinstance(history_length, numbers.Integral)
-                                       or history_length < 0):
-        raise ConfigurationError(f"history_length must be a non-negative integer or None, "
-                                 f"got {history_length!r}")
+    if history_length is not None:
+        validate.integer(history_length, "history_length", lo=0, kind="a non-negative integer or None",
+                         type_error=ConfigurationError)
 
 
 def _linearization(tr: _Transcription, hessian_reg: float, jit: bool):

@@ -12,8 +12,10 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
+
+from netcosim import validate
+from netcosim.errors import ConfigurationError
 
 
 @dataclass
@@ -32,11 +34,8 @@ class PID:
 
     def __post_init__(self):
         for name in ("h", "K", "Ti", "N"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"PID {name} must be a positive finite number, got {v!r}")
-        if not (self.Td >= 0 and math.isfinite(self.Td)):
-            raise ValueError(f"PID Td must be a non-negative finite number, got {self.Td!r}")
+            validate.positive(getattr(self, name), f"PID {name}", type_error=ConfigurationError)
+        validate.non_negative(self.Td, "PID Td")
         self._ad = self.Td / (self.N * self.h + self.Td)
         self._bd = self.N * self.K * self.Td / (self.N * self.h + self.Td)
 

@@ -33,8 +33,9 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NotConnectedError
-from .timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+from .timebase import RESOLUTION, TICKS_PER_SECOND
 
 __all__ = ["EVENT_REARM", "HybridEvent", "ContinuousSystem", "RK4", "SolveIVP", "SOLVE_IVP_METHODS",
            "OutputPort", "InputPort", "PlantInstance", "NotConnectedError", "IntegrationError"]
@@ -60,8 +61,7 @@ class HybridEvent:
     reset: Callable[..., Any] | None = None
 
     def __post_init__(self):
-        if self.direction not in (-1, 0, 1):
-            raise ConfigurationError(f"event {self.name!r}: direction must be -1, 0 or +1, got {self.direction!r}")
+        validate.choice(self.direction, f"event {self.name!r}: direction", (-1, 0, 1), kind="-1, 0 or +1")
 
 
 class ContinuousSystem:
@@ -196,16 +196,11 @@ class RK4:
     """
 
     def __init__(self, dt: float = 1e-3, xtol: float = 1e-12, max_steps: int = 10**6):
-        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
-            raise ConfigurationTypeError(f"RK4 step dt must be a positive number of seconds, got {dt!r}")
-        if not (math.isfinite(dt) and dt > 0):
-            raise ConfigurationError(f"RK4 step dt must be a positive number of seconds, got {dt!r}")
+        validate.positive(dt, "RK4 step dt", kind="a positive number of seconds")
         if dt < RESOLUTION:
             raise ConfigurationError(f"RK4 step dt={dt!r} s is below the time resolution {RESOLUTION} s "
                                      f"(netcosim.RESOLUTION)")
-        if isinstance(xtol, bool) or not isinstance(xtol, (int, float, np.integer, np.floating)) \
-                or not (math.isfinite(xtol) and xtol > 0):
-            raise ConfigurationError(f"RK4 xtol must be a positive number of seconds, got {xtol!r}")
+        validate.positive(xtol, "RK4 xtol", kind="a positive number of seconds", type_error=ConfigurationError)
         _check_count(max_steps, "RK4 max_steps")
         self.dt = float(dt)
         self.xtol = float(xtol)
@@ -284,10 +279,7 @@ IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
 
 
 def _check_count(v, what: str) -> None:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-        raise ConfigurationTypeError(f"{what} must be a positive integer, got {v!r}")
-    if v < 1:
-        raise ConfigurationError(f"{what} must be a positive integer, got {v!r}")
+    validate.integer(v, what, lo=1, kind="a positive integer", fraction_error=ConfigurationTypeError)
 
 
 class _BudgetExceeded(Exception):
@@ -332,9 +324,8 @@ class SolveIVP:
             raise ConfigurationError(f"SolveIVP method must be one of {list(SOLVE_IVP_METHODS)} "
                                      f"(or an OdeSolver subclass), got {method!r}")
         for nm, v in (("rtol", rtol), ("atol", atol), ("max_step", max_step)):
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
-                    or math.isnan(v) or v <= 0 or (nm != "max_step" and math.isinf(v)):
-                raise ConfigurationError(f"SolveIVP {nm} must be a positive number, got {v!r}")
+            validate.positive(v, f"SolveIVP {nm}", kind="a positive number", type_error=ConfigurationError,
+                              allow_inf=nm == "max_step")
         _check_count(max_evaluations, "SolveIVP max_evaluations")
         self.method, self.rtol, self.atol, self.max_step = method, rtol, atol, max_step
         self.max_evaluations = int(max_evaluations)
@@ -506,9 +497,8 @@ class PlantInstance:
         self._jac = None
         if callable(jac) and isinstance(self.integrator, SolveIVP):
             self._jac = lambda t, x: jac(t, x, self._u_full(t), self.params)  # noqa: E731
-        if disturbance is not None and not callable(disturbance):
-            raise ConfigurationTypeError(f"plant {name!r}: disturbance must be a callable d(t), "
-                                         f"got {disturbance!r}")
+        if disturbance is not None:
+            validate.callable_(disturbance, f"plant {name!r}: disturbance", kind="a callable d(t)")
         if disturbance is None and system.nd:
             zeros = np.zeros(system.nd)
             disturbance = lambda t: zeros  # noqa: E731
@@ -521,8 +511,7 @@ class PlantInstance:
         self._subscribers: dict[str, list[Callable[[float], None]]] = {}
         self._predict_timer = None
         self.prediction_horizon = 0.05
-        if log not in ("io", "none"):
-            raise ConfigurationError(f"plant {name!r}: log must be 'io' or 'none', got {log!r}")
+        validate.choice(log, f"plant {name!r}: log", ("io", "none"))
         self._log_io = log_interval is None and log == "io"
         self._rec = sim.trace.signal_rec
         self._log_names = ([f"x.{s}" for s in system.state_names] + [f"u.{s}" for s in system.input_names]
@@ -530,9 +519,8 @@ class PlantInstance:
         self.outputs = OutputPort(self, slice(None), "outputs")
         self.inputs = InputPort(self, slice(None), "inputs")
         if log_interval is not None:
-            self._log_every = to_ticks(log_interval, f"plant {name!r} log_interval")
-            if self._log_every <= 0:
-                raise ConfigurationError(f"plant {name!r}: log_interval must be positive, got {log_interval!r}")
+            self._log_every = validate.duration(log_interval, f"plant {name!r}: log_interval", positive=True,
+                                                kind="positive")
             self._log_k = 0
             sim.call_at_ticks(sim.now_ticks, self._log_tick)
         sim.add_finalizer(self._finish)

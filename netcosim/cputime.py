@@ -32,7 +32,6 @@ seconds charged).  All times are in seconds of CPU at node speed 1.
 from __future__ import annotations
 
 import math
-import numbers
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -40,6 +39,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any
 
+from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError
 
 __all__ = ["CPUTimeModel", "FixedCPUTime", "RecordedCPUTime", "WallClockCPUTime", "NonReproducibleWarning",
@@ -54,12 +54,9 @@ class NonReproducibleWarning(UserWarning):
 
 
 def _seconds(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if not validate.is_real(value):
         raise ConfigurationTypeError(f"{what} must be a number of seconds, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or v < 0:
-        raise ConfigurationError(f"{what} must be a finite, non-negative number of seconds, got {value!r}")
-    return v
+    return validate.non_negative(value, what, kind="a finite, non-negative number of seconds")
 
 
 class Measurement:
@@ -103,8 +100,7 @@ class CPUTimeModel:
     reads_clock = False
 
     def __init__(self, clock: Callable[[], float] = time.perf_counter):
-        if not callable(clock):
-            raise ConfigurationTypeError(f"clock must be a callable returning seconds, got {clock!r}")
+        validate.callable_(clock, "clock", kind="a callable returning seconds")
         self.clock = clock
         self._log: list[tuple[str, int, float, float]] = []
         self._counts: dict[str, int] = {}
@@ -124,8 +120,7 @@ class CPUTimeModel:
 
     def measure(self, phase: str) -> Measurement:
         """Time the ``with`` block as one execution of *phase* (a name such as ``"feedback"``)."""
-        if not isinstance(phase, str) or not phase:
-            raise ConfigurationTypeError(f"phase must be a non-empty string, got {phase!r}")
+        validate.name(phase, "phase")
         return Measurement(self, phase)
 
     def charge(self, phase: str) -> float:
@@ -194,8 +189,7 @@ class RecordedCPUTime(CPUTimeModel):
     def __init__(self, table: Any, *, scale: float = 1.0, beyond: str = "cycle"):
         super().__init__()
         self.scale = _seconds(scale, "scale")
-        if beyond not in ("cycle", "last", "error"):
-            raise ConfigurationError(f"beyond must be 'cycle', 'last' or 'error', got {beyond!r}")
+        validate.choice(beyond, "beyond", ("cycle", "last", "error"))
         self.beyond = beyond
         if isinstance(table, Mapping):
             values = {str(k): list(v) for k, v in table.items()}
@@ -254,10 +248,9 @@ class WallClockCPUTime(CPUTimeModel):
 
     def __init__(self, factor: float = 1.0, *, clock: Callable[[], float] = time.perf_counter, warn: bool = True):
         super().__init__(clock)
-        f = _seconds(factor, "factor")
-        if f == 0:
-            raise ConfigurationError(f"factor must be positive, got {factor!r}")
-        self.factor = f
+        if not validate.is_real(factor):
+            raise ConfigurationTypeError(f"factor must be a number of seconds, got {factor!r}")
+        self.factor = validate.positive(factor, "factor", kind="positive")
         if warn:
             warnings.warn("CPU times are the measured wall-clock times of this host: the schedule and the "
                           "results depend on the host's speed and load and are not reproducible "

@@ -11,12 +11,12 @@ display matplotlib itself falls back to Agg, so saving PNGs works headless.
 from __future__ import annotations
 
 import math
-import numbers
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
+from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError
 from .trace import TASK_STATES
 
@@ -41,7 +41,7 @@ def time_window(times, t_range) -> tuple[float, float]:
     except (TypeError, ValueError):
         raise ConfigurationTypeError(f"t_range must be a pair (t0, t1) of seconds, got {t_range!r}") from None
     for v in (t0, t1):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, numbers.Real)):
+        if v is not None and not validate.is_real(v):
             raise ConfigurationTypeError(f"t_range must be a pair (t0, t1) of seconds, got {t_range!r}")
     start = lo if t0 is None else float(t0)
     end = hi if t1 is None else float(t1)

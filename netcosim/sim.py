@@ -14,8 +14,9 @@ import numpy as np
 import simpy
 import simpy.rt
 
+from . import validate
 from .clock import DISPATCH, NORMAL, URGENT, Timer, stable_hash  # noqa: F401 (re-exported)
-from .errors import ConfigurationError, ConfigurationTypeError, SimulationFailedError
+from .errors import ConfigurationError, SimulationFailedError
 from .timebase import RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
 from .trace import Trace
 
@@ -77,18 +78,13 @@ class Simulation:
 
     def __init__(self, seed: int = 0, *, realtime: bool = False, factor: float = 1.0,
                  strict: bool = True, max_lag: float = 0.01):
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise ConfigurationError(f"seed must be a non-negative integer, got {seed!r}")
+        validate.integer(seed, "seed", lo=0, kind="a non-negative integer", type_error=ConfigurationError)
         self.seed = int(seed)
         if realtime:
-            if isinstance(factor, bool) or not (isinstance(factor, (int, float)) and factor > 0
-                                                and math.isfinite(factor)):
-                raise ConfigurationError(f"real-time factor must be a positive number, got {factor!r}")
-            if isinstance(max_lag, bool) or not (isinstance(max_lag, (int, float)) and max_lag >= 0
-                                                 and math.isfinite(max_lag)):
-                raise ConfigurationError(f"max_lag must be a non-negative number of seconds, got {max_lag!r}")
-            if not isinstance(strict, bool):
-                raise ConfigurationTypeError(f"strict must be True or False, got {strict!r}")
+            validate.positive(factor, "real-time factor", kind="a positive number", type_error=ConfigurationError)
+            validate.non_negative(max_lag, "max_lag", kind="a non-negative number of seconds",
+                                  type_error=ConfigurationError)
+            validate.boolean(strict, "strict")
             self.env: simpy.Environment = _Realtime(factor, strict, max_lag)
         else:
             self.env = simpy.Environment(initial_time=0)
@@ -168,8 +164,7 @@ class Simulation:
 
     # Components ------------------------------------------------------------
     def _check_new_name(self, name: str) -> None:
-        if not isinstance(name, str) or not name:
-            raise ConfigurationError(f"component name must be a non-empty string, got {name!r}")
+        validate.name(name, "component name", type_error=ConfigurationError)
         if name in self._names:
             raise ConfigurationError(f"a component called {name!r} already exists")
 

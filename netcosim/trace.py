@@ -35,14 +35,14 @@ applies.  See ``docs/architecture.md``, section "Traces and memory".
 
 from __future__ import annotations
 
-import numbers
 import os
 from collections import deque
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterable, Sequence
 
+from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError
-from .timebase import TICKS_PER_SECOND, to_ticks
+from .timebase import TICKS_PER_SECOND
 
 if TYPE_CHECKING:  # pandas is imported on first use: a simulation does not need it
     import pandas as pd
@@ -96,11 +96,7 @@ _discard = ().count
 
 
 def _positive_int(value, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ConfigurationTypeError(f"{what} must be a positive integer, got {value!r}")
-    if not isinstance(value, numbers.Integral) or value < 1:
-        raise ConfigurationError(f"{what} must be a positive integer, got {value!r}")
-    return int(value)
+    return validate.integer(value, what, lo=1, kind="a positive integer")
 
 
 class Sink:
@@ -168,8 +164,7 @@ class Recorder:
         self.providers: list = []
         #: optional function turning the stored frame into the reported one
         self.transform = transform
-        if time_unit not in ("ticks", "s"):
-            raise ConfigurationError(f"table {name!r}: time_unit must be 'ticks' or 's', got {time_unit!r}")
+        validate.choice(time_unit, f"table {name!r}: time_unit", ("ticks", "s"))
         self.time_index = self.columns.index(time) if time is not None and time in self.columns else None
         #: stored time units per second
         self.time_scale = TICKS_PER_SECOND if time_unit == "ticks" else 1.0
@@ -225,9 +220,7 @@ class Recorder:
         if mode == "window":
             if self.time_index is None:
                 raise ConfigurationError(f"{w}: has no time column, so mode='window' cannot apply")
-            ticks = to_ticks(seconds, f"{w}: seconds")
-            if ticks <= 0:
-                raise ConfigurationError(f"{w}: seconds must be positive, got {seconds!r}")
+            ticks = validate.duration(seconds, f"{w}: seconds", positive=True, kind="positive")
             window = ticks if self.time_scale == TICKS_PER_SECOND else ticks / TICKS_PER_SECOND
         stream = None
         if mode == "stream":
@@ -360,10 +353,8 @@ class _Stream:
             import pyarrow.parquet  # noqa: F401
         except ImportError as exc:  # pragma: no cover - pyarrow is a dependency
             raise ConfigurationError(f"{w}: mode='stream' needs pyarrow ({exc})") from None
-        if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)) or not os.fspath(path):
-            raise ConfigurationTypeError(f"{w}: path must be a directory path (str or os.PathLike), got {path!r}")
-        if not isinstance(overwrite, bool):
-            raise ConfigurationTypeError(f"{w}: overwrite must be True or False, got {overwrite!r}")
+        validate.path(path, f"{w}: path", kind="a directory path (str or os.PathLike)")
+        validate.boolean(overwrite, f"{w}: overwrite")
         p = Path(path)
         if p.exists() and not p.is_dir():
             raise ConfigurationError(f"{w}: stream path {str(p)!r} exists and is not a directory")
@@ -516,8 +507,7 @@ class Trace:
         if mode == "stream":
             if path is None:
                 raise ConfigurationError("configure_all: mode='stream' needs path=..., got None")
-            if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)) or not os.fspath(path):
-                raise ConfigurationTypeError(f"configure_all: path must be a directory path, got {path!r}")
+            validate.path(path, "configure_all: path", kind="a directory path")
             if Path(path).exists() and not Path(path).is_dir():
                 raise ConfigurationError(f"configure_all: stream path {os.fspath(path)!r} exists and is not "
                                          f"a directory")

@@ -6,16 +6,16 @@ State x = (angle, angular velocity), input u (V), output y = angle (rad).
 
 from __future__ import annotations
 
-import numbers
 
 import numpy as np
 
+from netcosim import validate
 from netcosim.continuous import ContinuousSystem
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
 
 
 def _real(v, what: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+    if not validate.is_real(v):
         raise ConfigurationTypeError(f"{what} must be a real number, got {v!r}")
     return float(v)
 

@@ -35,7 +35,8 @@ import casadi as ca
 import numpy as np
 
 from netcosim.continuous import ContinuousSystem, HybridEvent
-from netcosim.validate import check_numeric_fields
+from netcosim import validate
+from netcosim.validate import numeric_fields
 
 __all__ = [
     "TetheredUAVParams", "TetheredUAVModel", "TetheredUAV", "casadi_model", "wind",
@@ -104,7 +105,7 @@ class TetheredUAVParams:
     wind_sine_start: float = 0.1
 
     def __post_init__(self):
-        check_numeric_fields(
+        numeric_fields(
             self, positive=("m_B", "J_B", "l", "d", "g", "f_R_max", "tau_R_max", "f_L_max", "lander_height"),
             non_negative=("k_el", "xi", "wind_pulse_duration", "wind_sine_frequency", "wind_sine_start"))
         if not -math.pi / 2 < self.alpha < math.pi / 2:
@@ -382,8 +383,7 @@ class TetheredUAV(ContinuousSystem):
         params = TetheredUAVParams() if params is None else params
         if not isinstance(params, TetheredUAVParams):
             raise TypeError(f"params must be TetheredUAVParams, got {params!r}")
-        if inputs not in ("rates", "forces"):
-            raise ValueError(f"inputs must be 'rates' or 'forces', got {inputs!r}")
+        validate.choice(inputs, "inputs", ("rates", "forces"))
         self.mode, self.landers = inputs, bool(landers)
         q = ("phi", "dphi", "theta", "dtheta")
         if inputs == "rates":

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from conftest import periodic_task
 from netcosim import RK4, ContinuousSystem, Simulation
 from netcosim.errors import (ConfigurationError, IntegrationError, SimulationFailedError,
                              UnyieldedExecuteError)
@@ -170,19 +171,11 @@ def test_plant_failure_is_raised_once_with_time_and_other_plants_reach_the_failu
 # 4. An execute request that was never yielded -------------------------------------
 
 
-def _run_body(body, name="ctl"):
-    sim = Simulation()
-    cpu = sim.node("cpu")
-    cpu.periodic(body, period=0.1, priority=1, name=name)
-    sim.run(until=0.05)
-    return sim
-
-
 def test_unyielded_execute_in_a_plain_function_body_raises_naming_task_and_node():
     def ctl(ctx):
         ctx.execute(0.001)  # forgot yield; a plain function cannot even yield
     with pytest.raises(UnyieldedExecuteError) as info:
-        _run_body(ctl)
+        periodic_task(ctl, period=0.1, name="ctl", until=0.05)
     msg = str(info.value)
     assert "'ctl'" in msg and "'cpu'" in msg and "execute(0.001)" in msg and "finished" in msg
 
@@ -211,4 +204,4 @@ def test_second_execute_before_the_first_was_yielded_raises_at_once():
         ctx.execute(0.001)
         yield ctx.execute(0.002)
     with pytest.raises(UnyieldedExecuteError, match=r"'ctl'.*execute\(0\.001\).*execute\(0\.002\)"):
-        _run_body(ctl)
+        periodic_task(ctl, period=0.1, name="ctl", until=0.05)

@@ -6,6 +6,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
+from conftest import executes
 from netcosim import Simulation
 
 
@@ -15,12 +16,8 @@ def two_tasks(cs=0.0, speed=1.0):
     sim = Simulation()
     cpu = sim.node("cpu", context_switch=cs, speed=speed)
 
-    def mk(C):
-        def body(ctx):
-            yield ctx.execute(C)
-        return body
-    H = cpu.aperiodic(mk(1.0), priority=1, name="H")
-    L = cpu.aperiodic(mk(3.0), priority=2, name="L")
+    H = cpu.aperiodic(executes(1.0), priority=1, name="H")
+    L = cpu.aperiodic(executes(3.0), priority=2, name="L")
     sim.call_at(0, L.release)
     sim.call_at(1.0, H.release)
     sim.run(until=20)

@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from conftest import executes
 from netcosim import Simulation
 from netcosim.testing import assert_schedule, running_intervals
 
@@ -16,10 +17,7 @@ def run_taskset(tasks, policy, until, **node_kw):
     for i, spec in enumerate(tasks, start=1):
         C, T = spec[0], spec[1]
         D = spec[2] if len(spec) > 2 else None
-
-        def body(ctx, C=C):
-            yield ctx.execute(C)
-        cpu.periodic(body, period=T, deadline=D, priority=i, name=f"t{i}")
+        cpu.periodic(executes(C), period=T, deadline=D, priority=i, name=f"t{i}")
     sim.run(until=until)
     return sim, sim.trace.jobs()
 

@@ -2,20 +2,13 @@
 
 import pytest
 
+from conftest import frame_rows
 from netcosim import Simulation
 from netcosim.network import BROADCAST, CSMACD, SwitchedEthernet
 
 US = 1e-6
 SLOT = 51.2 * US           # 512 bits at 10 Mbit/s: frame time of a minimum frame, the backoff unit
 WINDOW = 1 * US
-
-
-def ev(net, event, src=None):
-    df = net.frames()
-    df = df[df["event"] == event]
-    if src is not None:
-        df = df[df["src"] == src]
-    return df.reset_index(drop=True)
 
 
 def at(sim, t, fn):
@@ -35,10 +28,10 @@ def test_a_node_sensing_the_medium_busy_waits_and_sends_when_it_goes_idle():
     a.send("sink", None, 512)
     at(sim, 10 * US, lambda: b.send("sink", None, 512))
     sim.run(1e-3)
-    st = ev(net, "attempt_start")
+    st = frame_rows(net, "attempt_start")
     assert st["src"].tolist() == ["a", "b"]
     assert st["time"].tolist() == pytest.approx([0.0, SLOT], abs=1e-12)
-    assert set(ev(net, "attempt_end")["outcome"]) == {"ok"}
+    assert set(frame_rows(net, "attempt_end")["outcome"]) == {"ok"}
     assert net.collisions == 0
 
 
@@ -54,7 +47,7 @@ def test_starts_within_the_collision_window_collide_and_abort_a_window_after_the
     a.send("sink", None, 1000)
     at(sim, 0.5 * US, lambda: b.send("sink", None, 1000))
     sim.run(1e-3)
-    end = ev(net, "attempt_end")
+    end = frame_rows(net, "attempt_end")
     first = end[end["outcome"] == "collision"]
     assert sorted(first["src"]) == ["a", "b"]
     assert first["time"].tolist() == pytest.approx([0.5 * US + WINDOW + 3.2 * US] * 2, abs=1e-12)
@@ -65,9 +58,9 @@ def test_all_nodes_waiting_for_the_idle_instant_transmit_together_and_collide():
     a.send("sink", None, 512)
     at(sim, 10 * US, lambda: (b.send("sink", None, 512), c.send("sink", None, 512)))
     sim.run(1e-3)
-    st = ev(net, "attempt_start")
+    st = frame_rows(net, "attempt_start")
     assert st[st["src"] != "a"]["time"].tolist()[:2] == pytest.approx([SLOT, SLOT], abs=1e-12)
-    coll = ev(net, "attempt_end")
+    coll = frame_rows(net, "attempt_end")
     coll = coll[coll["outcome"] == "collision"]
     assert coll["time"].tolist()[:2] == pytest.approx([SLOT + WINDOW] * 2, abs=1e-12)
 
@@ -87,22 +80,22 @@ def test_binary_exponential_backoff_after_a_collision():
     b.send("sink", None, 512)
     sim.run(1e-3)
     ka, kb = _first_backoffs(differ)
-    st = ev(net, "attempt_start")
+    st = frame_rows(net, "attempt_start")
     winner = "a" if ka == 0 else "b"
     # the node that drew 0 retries at once; the other wakes one slot later, just as the
     # medium goes idle, and follows
     assert st["src"].tolist() == ["a", "b", winner, "b" if winner == "a" else "a"]
     assert st["time"].tolist() == pytest.approx([0, 0, WINDOW, WINDOW + SLOT], abs=1e-12)
-    assert ev(net, "attempt_end")["outcome"].tolist() == ["collision", "collision", "ok", "ok"]
+    assert frame_rows(net, "attempt_end")["outcome"].tolist() == ["collision", "collision", "ok", "ok"]
 
     sim, net, (a, b, c) = csma(seed=equal)
     a.send("sink", None, 512)
     b.send("sink", None, 512)
     sim.run(1e-3)
     k = _first_backoffs(equal)[0]
-    st = ev(net, "attempt_start")
+    st = frame_rows(net, "attempt_start")
     assert st["time"].tolist()[2:4] == pytest.approx([WINDOW + k * SLOT] * 2, abs=1e-12)
-    assert ev(net, "attempt_end")["outcome"].tolist()[2:4] == ["collision", "collision"]
+    assert frame_rows(net, "attempt_end")["outcome"].tolist()[2:4] == ["collision", "collision"]
     assert net.collisions >= 2
 
 
@@ -111,9 +104,9 @@ def test_max_attempts_drops_frames_after_the_last_collision():
     a.send("sink", None, 512)
     b.send("sink", None, 512)
     sim.run(1e-3)
-    lost = ev(net, "lost")
+    lost = frame_rows(net, "lost")
     assert lost["outcome"].tolist() == ["retry_limit", "retry_limit"]
-    assert ev(net, "delivered").empty
+    assert frame_rows(net, "delivered").empty
 
 
 def test_csma_cd_bad_input():
@@ -153,7 +146,7 @@ def test_broadcast_is_copied_to_every_other_port():
     sim, net, (a, b, c) = switched()
     a.send(BROADCAST, None, 1000)
     sim.run(1e-3)
-    d = ev(net, "delivered")
+    d = frame_rows(net, "delivered")
     assert sorted(d["node"]) == ["b", "c"] and d["time"].tolist() == pytest.approx([200 * US] * 2, abs=1e-12)
 
 
@@ -162,9 +155,9 @@ def test_full_switch_memory_drops_frames():
     a.send("c", None, 1000)
     b.send("c", None, 1000)
     sim.run(1e-3)
-    lost = ev(net, "lost")
+    lost = frame_rows(net, "lost")
     assert lost["outcome"].tolist() == ["queue_overflow"] and lost["node"].tolist() == ["switch"]
-    assert len(ev(net, "delivered")) == 1
+    assert len(frame_rows(net, "delivered")) == 1
     assert net.memory_peak == 1000 and net.memory_used == 0
 
 
@@ -175,7 +168,7 @@ def test_full_switch_memory_makes_the_sender_retransmit():
     sim.run(1e-3)
     # a's frame holds the memory from 100 us to 205 us; b's copies arrive at 100 and
     # 200 us (refused) and at 300 us (accepted), then 5 us + 100 us to c
-    ends = ev(net, "attempt_end", "b")
+    ends = frame_rows(net, "attempt_end", src="b")
     assert ends["outcome"].tolist() == ["switch_full", "switch_full", "ok"]
     assert ends["time"].tolist() == pytest.approx([100 * US, 200 * US, 300 * US], abs=1e-12)
     assert mb.delivered == pytest.approx(405 * US, abs=1e-12) and mb.attempts == 3
@@ -187,7 +180,7 @@ def test_symmetric_buffer_gives_each_output_port_its_share():
     b.send("c", None, 1000)                 # c's share (1000 bits) is full: dropped
     c.send("a", None, 1000)                 # a's share is free
     sim.run(1e-3)
-    assert ev(net, "lost")["src"].tolist() == ["b"]
-    assert sorted(ev(net, "delivered")["node"]) == ["a", "c"]
+    assert frame_rows(net, "lost")["src"].tolist() == ["b"]
+    assert sorted(frame_rows(net, "delivered")["node"]) == ["a", "c"]
     with pytest.raises(ValueError, match="overflow"):
         SwitchedEthernet(Simulation(), "x", overflow="panic")

@@ -5,6 +5,7 @@ import math
 import pytest
 from scipy.stats import binomtest
 
+from conftest import frame_rows
 from netcosim import Simulation
 from netcosim.network import BROADCAST, IEEE802154
 from netcosim.network.lrwpan import ber_oqpsk
@@ -19,14 +20,6 @@ def stream(seed, name):
     return Simulation(seed=seed).rng(name)
 
 
-def frames(net, event, node=None):
-    df = net.frames()
-    df = df[df["event"] == event]
-    if node is not None:
-        df = df[df["node"] == node]
-    return df.reset_index(drop=True)
-
-
 def test_unicast_on_an_idle_channel():
     sim = Simulation(seed=4)
     net = IEEE802154(sim, "z")
@@ -37,10 +30,10 @@ def test_unicast_on_an_idle_channel():
     k = int(stream(4, "z/a/backoff").integers(0, 8))
     start = k * UNIT + CCA + TURN
     air = SHR + (MAC_BITS + 400) / RATE
-    assert frames(net, "attempt_start")["time"][0] == pytest.approx(start, abs=1e-12)
+    assert frame_rows(net, "attempt_start")["time"][0] == pytest.approx(start, abs=1e-12)
     assert m.delivered == pytest.approx(start + air, abs=1e-12)
-    assert frames(net, "attempt_end")["time"][0] == pytest.approx(start + air + TURN + ACK, abs=1e-12)
-    assert frames(net, "attempt_end")["outcome"].tolist() == ["ok"]
+    assert frame_rows(net, "attempt_end")["time"][0] == pytest.approx(start + air + TURN + ACK, abs=1e-12)
+    assert frame_rows(net, "attempt_end")["outcome"].tolist() == ["ok"]
 
 
 def _csma_prediction(seed, t_send, busy, max_backoffs=4):
@@ -70,12 +63,12 @@ def test_busy_cca_raises_the_backoff_exponent_until_the_channel_is_clear(seed):
     a.send(BROADCAST, None, 928)                                   # 4.256 ms on the air
     sim.call_at(0.5e-3, lambda: b.send("c", None, 80))
     sim.run(0.2)
-    st = frames(net, "attempt_start")
+    st = frame_rows(net, "attempt_start")
     a0 = st[st["node"] == "a"]["time"].iloc[0]
     a_busy = [(a0, a0 + SHR + (MAC_BITS + 928) / RATE)]
     t_b, nb = _csma_prediction(seed, 0.5e-3, a_busy)
     assert st[st["node"] == "b"]["time"].iloc[0] == pytest.approx(t_b, abs=1e-12)
-    assert set(frames(net, "attempt_end")["outcome"]) <= {"sent", "ok"}
+    assert set(frame_rows(net, "attempt_end")["outcome"]) <= {"sent", "ok"}
 
 
 def test_channel_access_failure_after_max_csma_backoffs():
@@ -87,10 +80,10 @@ def test_channel_access_failure_after_max_csma_backoffs():
         a.send(BROADCAST, None, 928)
         sim.call_at(0.5e-3, lambda: b.send("a", None, 80))
         sim.run(0.2)
-        st = frames(net, "attempt_start")
+        st = frame_rows(net, "attempt_start")
         a0 = st[st["node"] == "a"]["time"].iloc[0]
         t_b, nb = _csma_prediction(seed, 0.5e-3, [(a0, a0 + SHR + (MAC_BITS + 928) / RATE)], max_backoffs=0)
-        lost = frames(net, "lost")
+        lost = frame_rows(net, "lost")
         if t_b is None:
             assert lost["outcome"].tolist() == ["channel_access"] and lost["node"].tolist() == ["b"]
             return
@@ -105,9 +98,9 @@ def test_unacknowledged_frames_are_retried_max_frame_retries_times():
     net.attach("far", position=(5000.0, 0.0))
     a.send("far", None, 80)
     sim.run(1.0)
-    assert len(frames(net, "attempt_start")) == 4
-    assert set(frames(net, "attempt_end")["outcome"]) == {"below_threshold"}
-    assert frames(net, "lost")["outcome"].tolist() == ["retry_limit"]
+    assert len(frame_rows(net, "attempt_start")) == 4
+    assert set(frame_rows(net, "attempt_end")["outcome"]) == {"below_threshold"}
+    assert frame_rows(net, "lost")["outcome"].tolist() == ["retry_limit"]
 
 
 def test_oqpsk_ber_and_frame_success_rate():
@@ -133,6 +126,6 @@ def test_oqpsk_ber_and_frame_success_rate():
     sim.run(n * 10e-3 + 0.1)
     p = (1 - ber_oqpsk(10 ** (snr_db / 10))) ** (48 + MAC_BITS + L)
     assert 0.3 < p < 0.95
-    ok = len(frames(net, "delivered", "b"))
+    ok = len(frame_rows(net, "delivered", "b"))
     ci = binomtest(ok, n).proportion_ci(confidence_level=0.99)
     assert ci.low <= p <= ci.high, (ok / n, p)

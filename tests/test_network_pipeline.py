@@ -4,19 +4,12 @@ contention-free / scheduled MACs: ideal link, FDMA, round robin, TDMA."""
 
 import pytest
 
+from conftest import frame_rows
 from netcosim import Simulation
 from netcosim.network import BROADCAST, FDMA, TDMA, IdealLink, RoundRobin
 from netcosim.network.plot import plot_network_schedule
 
 US = 1e-6
-
-
-def ev(net, event, node=None):
-    df = net.frames()
-    df = df[df["event"] == event]
-    if node is not None:
-        df = df[df["node"] == node]
-    return df.reset_index(drop=True)
 
 
 def test_ideal_link_timing_is_pre_delay_plus_transmission_plus_delay_plus_post_delay():
@@ -32,7 +25,7 @@ def test_ideal_link_timing_is_pre_delay_plus_transmission_plus_delay_plus_post_d
     assert m2.delivered == pytest.approx(20e-6 + 1000e-6 + 512e-6 + 150e-6 + 30e-6, abs=1e-12)
     assert m1.sent == pytest.approx(20e-6, abs=1e-12) and m2.latency == pytest.approx(m2.delivered)
     assert [b.receive().payload, b.receive().payload, b.receive()] == ["x", "y", None]
-    starts = ev(net, "attempt_start")
+    starts = frame_rows(net, "attempt_start")
     assert starts["bits"].tolist() == [1000.0, 512.0]
 
 
@@ -56,10 +49,10 @@ def test_queue_overflow_and_full_mailbox_lose_frames_with_their_reasons():
     for _ in range(5):
         a.send("b", None, 100)             # 1 in service + 2 queued, 2 overflow
     sim.run(0.01)
-    lost = ev(net, "lost")
+    lost = frame_rows(net, "lost")
     assert lost["outcome"].tolist() == ["queue_overflow"] * 2 + ["mailbox_full"]
     assert lost["node"].tolist() == ["a", "a", "b"]
-    assert len(ev(net, "delivered")) == 2
+    assert len(frame_rows(net, "delivered")) == 2
 
 
 def test_delivery_releases_a_handler_task_that_fetches_from_the_mailbox():
@@ -145,7 +138,7 @@ def test_round_robin_gives_each_node_one_frame_per_turn():
     # a and b queue during c's frame; the token continues after c: a, b, c, a, b
     sim.call_at(50e-6, lambda: [nodes[i].send("sink", None, 100) for i in (1, 0, 1, 0)])
     sim.run(0.01)
-    st = ev(net, "attempt_start")
+    st = frame_rows(net, "attempt_start")
     assert st["src"].tolist() == ["c", "a", "b", "c", "a", "b"]
     assert st["time"].tolist() == pytest.approx([k * 100e-6 for k in range(6)], abs=1e-12)
 
@@ -161,10 +154,10 @@ def test_tdma_suspends_frames_at_slot_end_and_resumes_in_the_next_own_slot():
     sim.call_at(3.9e-3, lambda: a.send("b", None, 200))   # does not fit: 0.1 ms now, 0.1 ms in slot 6
     sim.run(0.02)
     assert ma.delivered == pytest.approx(3.5e-3, abs=1e-12)
-    d = ev(net, "delivered")
+    d = frame_rows(net, "delivered")
     assert d["time"].tolist() == pytest.approx([1.3e-3, 3.5e-3, 3.9e-3, 6.1e-3], abs=1e-12)
-    assert ev(net, "suspended")["time"].tolist() == pytest.approx([1e-3, 4e-3], abs=1e-12)
-    assert ev(net, "resumed")["time"].tolist() == pytest.approx([3e-3, 6e-3], abs=1e-12)
+    assert frame_rows(net, "suspended")["time"].tolist() == pytest.approx([1e-3, 4e-3], abs=1e-12)
+    assert frame_rows(net, "resumed")["time"].tolist() == pytest.approx([3e-3, 6e-3], abs=1e-12)
     c = net.attach("c")
     with pytest.raises(ValueError, match="owns no slot"):
         c.send("a", None, 10)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from conftest import frame_rows
 from netcosim import Simulation
 from netcosim.network import BROADCAST, WLAN80211b, SaturatedSource
 
@@ -14,14 +15,6 @@ US = 1e-6
 SLOT, SIFS, DIFS = 20 * US, 10 * US, 50 * US
 PLCP_LONG, PLCP_SHORT = 192 * US, 96 * US
 MAC_BITS, ACK_BITS = 224, 112   # 24-byte header + 4-byte FCS; 14-byte ACK
-
-
-def rows(net, event, node=None):
-    df = net.frames()
-    df = df[df["event"] == event]
-    if node is not None:
-        df = df[df["node"] == node]
-    return df.reset_index(drop=True)
 
 
 def same_stream(seed, name):
@@ -45,13 +38,13 @@ def test_unicast_on_idle_channel_takes_difs_plcp_data_sifs_ack(rate, preamble, s
     plcp = PLCP_LONG if preamble == "long" else PLCP_SHORT
     data_air = plcp + (MAC_BITS + size) / rate
     ack_air = plcp + ACK_BITS / ack_rate
-    start = rows(net, "attempt_start")
+    start = frame_rows(net, "attempt_start")
     assert len(start) == 1 and math.isnan(start["backoff"][0])      # no backoff on an idle channel
     assert start["time"][0] == pytest.approx(t_send + DIFS, abs=1e-12)
-    delivered = rows(net, "delivered", "b")["time"][0]
+    delivered = frame_rows(net, "delivered", "b")["time"][0]
     assert delivered == pytest.approx(t_send + DIFS + data_air, abs=1e-11)
-    assert rows(net, "ack", "b")["time"][0] == pytest.approx(t_send + DIFS + data_air + SIFS, abs=1e-11)
-    end = rows(net, "attempt_end")
+    assert frame_rows(net, "ack", "b")["time"][0] == pytest.approx(t_send + DIFS + data_air + SIFS, abs=1e-11)
+    end = frame_rows(net, "attempt_end")
     assert list(end["outcome"]) == ["ok"]
     total = end["time"][0] - t_send
     assert total == pytest.approx(DIFS + data_air + SIFS + ack_air, abs=1e-11)
@@ -70,7 +63,7 @@ def test_second_frame_waits_for_the_post_backoff_the_standard_requires():
     a.send("b", None, 4000)
     a.send("b", None, 4000)
     sim.run(0.1)
-    starts, ends = rows(net, "attempt_start"), rows(net, "attempt_end")
+    starts, ends = frame_rows(net, "attempt_start"), frame_rows(net, "attempt_end")
     assert list(ends["outcome"]) == ["ok", "ok"]
     # after the first exchange the station draws its post-backoff from CW = 31
     b = int(same_stream(11, "wlan/a/backoff").integers(0, 32))
@@ -87,8 +80,8 @@ def test_frame_queued_while_medium_busy_defers_past_nav_and_backs_off():
     a.send("b", None, 8000)
     sim.call_at(1e-3, lambda: c.send("b", None, 800))    # a is on the air at 1 ms
     sim.run(0.1)
-    st = rows(net, "attempt_start")
-    end_a = rows(net, "attempt_end", "a")["time"][0]
+    st = frame_rows(net, "attempt_start")
+    end_a = frame_rows(net, "attempt_end", "a")["time"][0]
     b = int(same_stream(5, "wlan/c/backoff").integers(0, 32))
     c_start = st[st["node"] == "c"].reset_index()
     assert c_start["backoff"][0] == b
@@ -105,12 +98,12 @@ def test_broadcast_is_neither_acknowledged_nor_retried():
     net.attach("far", position=(5000.0, 0.0))      # far below the receiver threshold
     a.send(BROADCAST, "all", 1000)
     sim.run(0.05)
-    assert rows(net, "ack").empty
-    end = rows(net, "attempt_end")
+    assert frame_rows(net, "ack").empty
+    end = frame_rows(net, "attempt_end")
     assert list(end["outcome"]) == ["sent"]
     assert end["time"][0] == pytest.approx(DIFS + PLCP_LONG + (MAC_BITS + 1000) / 1e6, abs=1e-12)
-    assert sorted(rows(net, "delivered")["node"]) == ["b", "c"]
-    lost = rows(net, "lost")
+    assert sorted(frame_rows(net, "delivered")["node"]) == ["b", "c"]
+    lost = frame_rows(net, "lost")
     assert list(lost["node"]) == ["far"] and list(lost["outcome"]) == ["below_threshold"]
 
 
@@ -121,9 +114,9 @@ def test_unreachable_destination_is_retried_with_doubling_window_until_the_retry
     net.attach("b", position=(2000.0, 0.0))
     msg = a.send("b", None, 1000)
     sim.run(1.0)
-    st, en = rows(net, "attempt_start"), rows(net, "attempt_end")
+    st, en = frame_rows(net, "attempt_start"), frame_rows(net, "attempt_end")
     assert len(st) == 7 and set(en["outcome"]) == {"below_threshold"}
-    lost = rows(net, "lost")
+    lost = frame_rows(net, "lost")
     assert list(lost["outcome"]) == ["retry_limit"] and lost["attempt"][0] == 7
     assert math.isnan(msg.delivered)
     # failure is detected an ACK timeout after the data frame; the next attempt follows
@@ -149,10 +142,10 @@ def test_lost_ack_causes_a_retry_and_the_duplicate_is_delivered_once():
     net.attach("b", position=(50.0, 0.0), tx_power_dbm=-20.0)
     a.send("b", None, 1000)
     sim.run(0.5)
-    assert set(rows(net, "attempt_end")["outcome"]) == {"ack_lost"}
-    assert len(rows(net, "ack")) == 7
-    assert len(rows(net, "delivered")) == 1
-    assert list(rows(net, "lost")["outcome"]) == ["retry_limit"]
+    assert set(frame_rows(net, "attempt_end")["outcome"]) == {"ack_lost"}
+    assert len(frame_rows(net, "ack")) == 7
+    assert len(frame_rows(net, "delivered")) == 1
+    assert list(frame_rows(net, "lost")["outcome"]) == ["retry_limit"]
 
 
 def _hidden_pair(seed, c_position, cs_range_note=""):
@@ -180,21 +173,21 @@ def test_hidden_terminals_collide_at_the_receiver_as_predicted_by_interval_overl
     air = PLCP_LONG + (MAC_BITS + 1600) / 1e6
     sa = np.array([k * 10e-3 for k in range(100)]) + DIFS
     sc = np.array([0.4e-3 + k * 7.3e-3 for k in range(137)]) + DIFS
-    st = rows(net, "attempt_start")
+    st = frame_rows(net, "attempt_start")
     assert np.allclose(np.sort(st[st["node"] == "a"]["time"]), sa, atol=1e-12)
     assert np.allclose(np.sort(st[st["node"] == "c"]["time"]), sc, atol=1e-12)
     overlap = np.abs(sa[:, None] - sc[None, :]) < air          # equal powers at b: both destroyed
     expected = int(overlap.any(axis=1).sum() + overlap.any(axis=0).sum())
-    lost_b = rows(net, "lost", "b")
+    lost_b = frame_rows(net, "lost", "b")
     assert expected > 10
     assert len(lost_b) == expected and set(lost_b["outcome"]) == {"collision"}
-    assert len(rows(net, "delivered", "b")) == 237 - expected
+    assert len(frame_rows(net, "delivered", "b")) == 237 - expected
 
 
 def test_the_same_senders_within_carrier_sense_range_do_not_collide():
     net = _hidden_pair(0, (-30.0, 40.0))     # 50 m from b and from a: everybody hears everybody
-    lost_b = rows(net, "lost", "b")
-    st = rows(net, "attempt_start")
+    lost_b = frame_rows(net, "lost", "b")
+    st = frame_rows(net, "attempt_start")
     # With carrier sense a deferring station waits for the other's frame to end; the only
     # collisions left are two backoffs expiring at the same slot boundary.
     t_of = dict(zip(st["frame"], st["time"]))
@@ -202,7 +195,7 @@ def test_the_same_senders_within_carrier_sense_range_do_not_collide():
         same_instant = st[(st["time"] == t_of[fid]) & (st["frame"] != fid)]
         assert len(same_instant) == 1
     assert len(lost_b) <= 4
-    assert len(rows(net, "delivered", "b")) == 237 - len(lost_b)
+    assert len(frame_rows(net, "delivered", "b")) == 237 - len(lost_b)
 
 
 # ---------------------------------------------------------------------------- Bianchi

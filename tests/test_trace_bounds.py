@@ -12,6 +12,7 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
+from conftest import periodic_task
 from netcosim import Simulation
 from netcosim.network import SaturatedSource, WLAN80211b
 from netcosim.trace import Trace
@@ -21,16 +22,12 @@ PERIOD, C = 1e-3, 1e-4
 
 def servo_sim(n_signals=1):
     """A node with the 1 ms task; each job logs its index under ``k`` (and ``k2`` = -index)."""
-    sim = Simulation(seed=0)
-    cpu = sim.node("cpu")
-
     def body(ctx):
         ctx.log("k", ctx.job.index)
         if n_signals > 1:
             ctx.log("k2", -ctx.job.index)
         yield ctx.execute(C)
-    cpu.periodic(body, period=PERIOD, priority=1, name="t")
-    return sim
+    return periodic_task(body, period=PERIOD)
 
 
 def keep_frames(until=1.0):

@@ -33,6 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from netcosim import validate
+from netcosim.errors import ConfigurationError
 from plants.tethered_uav import TetheredUAVParams
 
 __all__ = ["FeedbackLinearization", "PIDGains", "SingularityError"]
@@ -52,28 +54,24 @@ class PIDGains:
 
     def __post_init__(self):
         for name in ("kp", "kd", "ki"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ValueError(f"PIDGains.{name} must be a finite non-negative number, got {v!r}")
+            validate.non_negative(getattr(self, name), f"PIDGains.{name}", kind="a finite non-negative number",
+                                  type_error=ConfigurationError)
 
     @classmethod
     def triple_pole(cls, omega: float) -> "PIDGains":
         """Gains placing the three closed-loop poles of ``q̈ = ū`` at ``-omega`` [rad/s]:
         ``(s + ω)³ = s³ + 3ω s² + 3ω² s + ω³``."""
-        if not (isinstance(omega, (int, float)) and math.isfinite(omega) and omega > 0):
-            raise ValueError(f"omega must be a positive number of rad/s, got {omega!r}")
+        validate.positive(omega, "omega", kind="a positive number of rad/s", type_error=ConfigurationError)
         return cls(kp=3.0 * omega ** 2, kd=3.0 * omega, ki=omega ** 3)
 
 
 def _check_sampling(dt, cos_min, on_singular) -> None:
     """Sampling period *dt* > 0 [s], singularity threshold *cos_min* in (0, 1) and
     *on_singular* ``"raise"`` or ``"saturate"``."""
-    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
-        raise ValueError(f"sampling period dt must be a positive number of seconds, got {dt!r}")
+    validate.positive(dt, "sampling period dt", kind="a positive number of seconds", type_error=ConfigurationError)
     if not (isinstance(cos_min, (int, float)) and 0 < cos_min < 1):
         raise ValueError(f"cos_min must lie in (0, 1), got {cos_min!r}")
-    if on_singular not in ("raise", "saturate"):
-        raise ValueError(f"on_singular must be 'raise' or 'saturate', got {on_singular!r}")
+    validate.choice(on_singular, "on_singular", ("raise", "saturate"), kind="'raise' or 'saturate'")
 
 
 class FeedbackLinearization:

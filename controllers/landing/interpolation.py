@@ -16,9 +16,11 @@ that unit per second, accelerations per second squared, times in seconds.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
+
+from netcosim import validate
+from netcosim.errors import ConfigurationError
 
 __all__ = ["C2Interpolator", "quintic_coefficients"]
 
@@ -26,8 +28,7 @@ __all__ = ["C2Interpolator", "quintic_coefficients"]
 def quintic_coefficients(T: float, p0, v0, a0, p1, v1, a1) -> np.ndarray:
     """Coefficients ``c[0..5]`` (rows) of ``q(s) = Σ c_i s^i`` on ``s ∈ [0, T]`` matching
     position, velocity and acceleration at both ends (element-wise for arrays)."""
-    if not (T > 0 and math.isfinite(T)):
-        raise ValueError(f"segment duration must be positive, got {T!r}")
+    validate.positive(T, "segment duration", kind="positive")
     p0, v0, a0, p1, v1, a1 = (np.asarray(a, dtype=float) for a in (p0, v0, a0, p1, v1, a1))
     c0, c1, c2 = p0, v0, 0.5 * a0
     dp = p1 - (p0 + v0 * T + 0.5 * a0 * T ** 2)
@@ -54,9 +55,7 @@ class C2Interpolator:
     """
 
     def __init__(self, n: int = 2):
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n <= 0:
-            raise ValueError(f"number of channels must be a positive integer, got {n!r}")
-        self.n = int(n)
+        self.n = validate.integer(n, "number of channels", lo=1, kind="a positive integer", type_error=ConfigurationError)
         self._starts: np.ndarray | None = None   # segment start times (s)
         self._durations: np.ndarray | None = None
         self._coefs: list[np.ndarray] = []        # (6, n) per segment

@@ -25,7 +25,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from netcosim.validate import check_numeric_fields
+from netcosim import validate
+from netcosim.validate import numeric_fields
 
 from plants.tethered_uav import TetheredUAVParams, casadi_model, hover_thrust
 
@@ -70,12 +71,11 @@ class LandingConfig:
     rk4_steps: int = 1
 
     def __post_init__(self):
-        check_numeric_fields(self, non_negative=("k_fR", "k_tauR", "k_theta", "k_dphi", "k_dtheta",
+        numeric_fields(self, non_negative=("k_fR", "k_tauR", "k_theta", "k_dphi", "k_dtheta",
                                                   "k_dphi_target", "k_dtheta_target", "terminal_factor"))
         if not 0 < self.input_range <= 1:
             raise ValueError(f"LandingConfig.input_range must lie in (0, 1], got {self.input_range!r}")
-        if self.k_s <= 0:
-            raise ValueError(f"LandingConfig.k_s must be positive, got {self.k_s!r}")
+        validate.positive(self.k_s, "LandingConfig.k_s", kind="positive")
 
     @property
     def stage_weights(self) -> np.ndarray:

@@ -15,6 +15,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from netcosim import validate
+from netcosim.errors import ConfigurationError
 from plants.tethered_uav import TetheredUAVParams
 
 from .feedback_linearization import PIDGains
@@ -91,8 +93,7 @@ class LandingScenario:
         self._check_choice("actuator_state")
         self._check_choice("controller")
         d = self.duration
-        if not (isinstance(d, (int, float)) and math.isfinite(d) and d > 0):
-            raise ValueError(f"duration must be a positive number of seconds, got {d!r}")
+        validate.positive(d, "duration", kind="a positive number of seconds", type_error=ConfigurationError)
         self._fill_defaults()
         if abs(self.nmpc_period - self.config.Ts) > 1e-12:
             raise ValueError(f"nmpc_period={self.nmpc_period!r} s must equal the shooting interval "
@@ -103,18 +104,16 @@ class LandingScenario:
     def _check_ref_knots(self) -> None:
         k = self.ref_knots
         n = self.config.N if self.config is not None else LandingConfig().N
-        if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= n:
-            raise ValueError(f"ref_knots must be an integer between 1 and N, got {k!r}")
+        validate.integer(k, "ref_knots", lo=1, hi=n, kind="an integer between 1 and N", type_error=ConfigurationError)
 
     def _check_choice(self, name: str) -> None:
         v, (a, b) = getattr(self, name), _CHOICES[name]
-        if v not in (a, b):
-            raise ValueError(f"{name} must be {a!r} or {b!r}, got {v!r}")
+        validate.choice(v, name, (a, b), kind=f"{a!r} or {b!r}")
 
     def _check_ff_lead(self) -> None:
         v = self.feedforward_lead
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= self.nmpc_period):
-            raise ValueError(f"ff_lead must be a number of seconds in [0, nmpc_period], got {v!r}")
+        validate.real(v, "ff_lead", lo=0.0, hi=self.nmpc_period, kind="a number of seconds in [0, nmpc_period]",
+                      type_error=ConfigurationError)
 
     def _fill_defaults(self) -> None:
         defaults = dict(params=SIM_PARAMS, config=LandingConfig(), timing=LandingTiming(),

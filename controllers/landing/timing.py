@@ -9,14 +9,16 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from netcosim import validate
 from netcosim.cputime import CPUTimeModel, FixedCPUTime, WallClockCPUTime
+from netcosim.errors import ConfigurationError
 
 __all__ = ["LandingTiming"]
 
 
 def _is_finite_number(v) -> bool:
-    """True for a finite int or float (bools excluded)."""
-    return not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+    """True for a finite real number (bools excluded)."""
+    return validate.is_real(v) and math.isfinite(v)
 
 
 def _check_nmpc_exec(e) -> None:
@@ -61,16 +63,13 @@ class LandingTiming:
 
     def __post_init__(self):
         _check_nmpc_exec(self.nmpc_exec)
-        if not _is_finite_number(self.cpu_factor) or self.cpu_factor <= 0:
-            raise ValueError(f"cpu_factor must be a positive number, got {self.cpu_factor!r}")
+        validate.positive(self.cpu_factor, "cpu_factor", kind="a positive number", type_error=ConfigurationError)
         if not (0.0 <= self.feedback_share <= 1.0):
             raise ValueError(f"feedback_share must lie in [0, 1], got {self.feedback_share!r}")
         for name in ("fl_exec", "context_switch"):
-            v = getattr(self, name)
-            if not _is_finite_number(v) or v < 0:
-                raise ValueError(f"{name} must be a non-negative number of seconds, got {v!r}")
-        if self.clock is not None and not callable(self.clock):
-            raise ValueError(f"clock must be a callable returning seconds, got {self.clock!r}")
+            validate.non_negative(getattr(self, name), name, kind="a non-negative number of seconds", type_error=ConfigurationError)
+        if self.clock is not None:
+            validate.callable_(self.clock, "clock", kind="a callable returning seconds", type_error=ConfigurationError)
 
     def nmpc_model(self) -> CPUTimeModel:
         """A fresh CPU-time model for one run (phases ``"feedback"`` and ``"prepare"``, seconds)."""

@@ -26,6 +26,9 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
+from netcosim import validate
+from netcosim.errors import ConfigurationError
+
 from .flow import solve_auxiliary_flow
 from .kinematics import as_vector, check_period, check_system, diag_gain
 from .norms import WeightedNorm
@@ -37,10 +40,7 @@ __all__ = [
 
 
 def _check_mu(mu: float) -> float:
-    if isinstance(mu, bool) or not isinstance(mu, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(float(mu)) or float(mu) < 0:
-        raise ValueError(f"mu must be a finite non-negative number, got {mu!r}")
-    return float(mu)
+    return validate.non_negative(mu, "mu", kind="a finite non-negative number", type_error=ConfigurationError)
 
 
 # ---------------------------------------------------------------------------

@@ -7,13 +7,13 @@ Units: q in rad and m, robot velocities u in m/s, times and periods in s, gains 
 
 from __future__ import annotations
 
-import math
 from typing import Any, Callable
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from netcosim.errors import SingularConfigurationError
+from netcosim import validate
+from netcosim.errors import ConfigurationError, SingularConfigurationError
 from plants.kinematic import (SINGULAR_RTOL, KinematicSystem, as_vector, check_system, configuration_rate,
                               jacobian, pinv_solve, project, rank_rtol)
 
@@ -29,10 +29,7 @@ RANK_RTOL = SINGULAR_RTOL
 
 def check_period(T: float, what: str = "sampling period T") -> float:
     """Return ``float(T)`` or raise ``ValueError`` if T is not a finite positive number (s)."""
-    if isinstance(T, bool) or not isinstance(T, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(float(T)) or float(T) <= 0.0:
-        raise ValueError(f"{what} must be a finite positive number of seconds, got {T!r}")
-    return float(T)
+    return validate.positive(T, what, kind="a finite positive number of seconds", type_error=ConfigurationError)
 
 
 def check_gain_matrix(K: Any, m: int | None = None) -> np.ndarray:

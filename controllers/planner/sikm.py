@@ -30,6 +30,9 @@ from typing import Any, Callable
 
 import numpy as np
 
+from netcosim import validate
+from netcosim.errors import ConfigurationError
+
 from .flow import online_gain
 from .kinematics import as_vector, check_period, check_system, integrate_kinematics, jacobian
 from .norms import WeightedNorm
@@ -57,11 +60,8 @@ class SIKMParams:
 
     def __post_init__(self):
         for nm in ("mu", "alpha", "gamma1", "gamma2"):
-            v = getattr(self, nm)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
-                    or not math.isfinite(float(v)) or float(v) < 0:
-                raise ValueError(f"SIKM parameter {nm} must be finite and >= 0, got {v!r}")
-            object.__setattr__(self, nm, float(v))
+            v = validate.non_negative(getattr(self, nm), f"SIKM parameter {nm}", kind="finite and >= 0", type_error=ConfigurationError)
+            object.__setattr__(self, nm, v)
 
     def Q(self, k):
         """``k^2 mu + k gamma1 + gamma2`` (the tau^2 coefficient of z)."""
@@ -316,8 +316,7 @@ class Strategy:
     label: str = ""
 
     def __post_init__(self):
-        if self.gain not in ("online", "offline"):
-            raise ValueError(f"strategy gain must be 'online' or 'offline', got {self.gain!r}")
+        validate.choice(self.gain, "strategy gain", ("online", "offline"))
         if self.feedforward not in FEEDFORWARDS:
             raise ValueError(f"feedforward must be one of {FEEDFORWARDS}, got {self.feedforward!r}")
 

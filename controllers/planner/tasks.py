@@ -45,7 +45,9 @@ from typing import Any
 
 import numpy as np
 
+from netcosim import validate
 from netcosim.continuous import SolveIVP
+from netcosim.errors import ConfigurationError
 
 from plants.kinematic import KinematicPlant
 
@@ -179,8 +181,7 @@ class DeploymentConfig:
 
 
 def _check_size_bits(b) -> None:
-    if isinstance(b, bool) or not isinstance(b, (int, np.integer)) or b < 1:
-        raise ValueError(f"size_bits must be a positive integer, got {b!r}")
+    validate.integer(b, "size_bits", lo=1, kind="a positive integer", type_error=ConfigurationError)
 
 
 def _check_guarantee(gain, T: float, guarantee) -> None:

@@ -8,16 +8,16 @@ connected raises :class:`~netcosim.errors.NotConnectedError`.
 
 from __future__ import annotations
 
-from ..errors import NotConnectedError
+from .. import validate
+from ..errors import ConfigurationError, NotConnectedError
 
 
 class _Channel:
     kind = "channel"
 
     def __init__(self, node, channel: int):
-        if isinstance(channel, bool) or not isinstance(channel, int) or channel < 0:
-            raise ValueError(f"node {node.name!r}: {self.kind} channel must be a non-negative integer, "
-                             f"got {channel!r}")
+        channel = validate.integer(channel, f"node {node.name!r}: {self.kind} channel", lo=0,
+                                   kind="a non-negative integer", type_error=ConfigurationError)
         self.node, self.channel = node, channel
         self.port = None
 

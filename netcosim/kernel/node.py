@@ -14,11 +14,11 @@ with its next segment, or resumes when nothing else ran since it stopped, pays n
 from __future__ import annotations
 
 import math
-import numbers
 from typing import Any, Callable
 
 import simpy
 
+from .. import validate
 from ..clock import DISPATCH, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
@@ -38,11 +38,7 @@ class Node:
         self.sim = sim
         self.name = name
         self.policy = make_policy(scheduler)
-        if isinstance(speed, bool) or not isinstance(speed, numbers.Real):
-            raise ConfigurationTypeError(f"node {name!r}: speed must be a positive finite number, got {speed!r}")
-        if not (speed > 0) or speed == _INF:
-            raise ConfigurationError(f"node {name!r}: speed must be a positive finite number, got {speed!r}")
-        self.speed = float(speed)
+        self.speed = validate.positive(speed, f"node {name!r}: speed")
         self._tick_scale = TICKS_PER_SECOND / self.speed
         cs = to_ticks(context_switch, f"node {name!r} context_switch")
         self.context_switch = context_switch
@@ -77,9 +73,7 @@ class Node:
         if task.name in self.tasks:
             raise ConfigurationError(f"node {self.name!r} already has a task called {task.name!r}")
         if kind == "handler":
-            p = task.priority
-            if isinstance(p, bool) or not isinstance(p, (int, float)) or not math.isfinite(p):
-                raise ConfigurationTypeError(f"handler {task.name!r}: priority must be a finite number, got {p!r}")
+            validate.finite(task.priority, f"handler {task.name!r}: priority", value_error=ConfigurationTypeError)
         else:
             self.policy.validate(task)
         if kind != "handler" and self.policy.static:

@@ -10,8 +10,8 @@ Under EDF, equal absolute deadlines are therefore served in release order.
 from __future__ import annotations
 
 import math
-import numbers
 
+from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
 
 
@@ -32,9 +32,8 @@ class SchedulingPolicy:
 
     def validate(self, task) -> None:
         """Check that *task* carries what this policy needs (raise naming the value)."""
-        p = task.priority
-        if p is not None and (isinstance(p, bool) or not isinstance(p, numbers.Real) or not math.isfinite(p)):
-            raise ConfigurationTypeError(f"task {task.name!r}: priority must be a finite number, got {p!r}")
+        if task.priority is not None:
+            validate.finite(task.priority, f"task {task.name!r}: priority", value_error=ConfigurationTypeError)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"

@@ -19,14 +19,13 @@ from __future__ import annotations
 from collections import deque
 from typing import Any
 
+from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
 from .task import Blocking
 
 
 def _check_name(kind: str, name) -> str:
-    if not isinstance(name, str) or not name:
-        raise ConfigurationTypeError(f"{kind} name must be a non-empty string, got {name!r}")
-    return name
+    return validate.name(name, f"{kind} name")
 
 
 def _prio(job):
@@ -55,8 +54,9 @@ class Mailbox:
 
     def __init__(self, name: str = "mailbox", capacity: int | None = None):
         _check_name("mailbox", name)
-        if capacity is not None and (isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1):
-            raise ConfigurationError(f"mailbox {name!r}: capacity must be a positive integer or None, got {capacity!r}")
+        if capacity is not None:
+            capacity = validate.integer(capacity, f"mailbox {name!r}: capacity", lo=1,
+                                        kind="a positive integer or None", type_error=ConfigurationError)
         self.name, self.capacity = name, capacity
         self.items: deque = deque()
         self._getters: deque = deque()
@@ -138,8 +138,8 @@ class Semaphore:
 
     def __init__(self, name: str = "semaphore", value: int = 1):
         _check_name("semaphore", name)
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise ConfigurationError(f"semaphore {name!r}: initial value must be a non-negative integer, got {value!r}")
+        value = validate.integer(value, f"semaphore {name!r}: initial value", lo=0, kind="a non-negative integer",
+                                 type_error=ConfigurationError)
         self.name, self.value = name, value
         self._waiters: deque = deque()
 
@@ -178,9 +178,7 @@ class Monitor:
 
     def __init__(self, name: str = "monitor", inheritance: bool = True):
         _check_name("monitor", name)
-        if not isinstance(inheritance, bool):
-            raise ConfigurationTypeError(f"monitor {name!r}: inheritance must be True or False, "
-                                         f"got {inheritance!r}")
+        validate.boolean(inheritance, f"monitor {name!r}: inheritance")
         self.name, self.inheritance = name, inheritance
         self.holder = None
         self.waiters: list = []

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import inspect
 import math
-import numbers
 from collections import deque
 from typing import Any, Callable
 
+from .. import validate
 from ..clock import Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, UnyieldedExecuteError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
@@ -151,12 +151,9 @@ def _check_time(value, what, task_name, *, positive=False, allow_none=True):
     if value is None and allow_none:
         return None
     what = f"task {task_name!r}: {what}"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if not validate.is_real(value):
         raise ConfigurationTypeError(f"{what} must be a finite number of seconds, got {value!r}")
-    ticks = to_ticks(value, what)
-    if positive and ticks == 0:
-        raise ConfigurationError(f"{what} must be positive, got {value!r}")
-    return ticks
+    return validate.duration(value, what, positive=positive, kind="positive")
 
 
 class Task:
@@ -173,8 +170,7 @@ class Task:
     def __init__(self, node, body: Callable, *, name: str | None, kind: str, priority=None,
                  period=None, offset=0.0, deadline=None, wcet=None, preemptible=True,
                  on_busy="queue", on_deadline_miss=None, on_budget_overrun=None):
-        if not callable(body):
-            raise ConfigurationTypeError(f"task body must be a callable body(ctx), got {body!r}")
+        validate.callable_(body, "task body", kind="a callable body(ctx)")
         self.node = node
         self.name: str = name if name else getattr(body, "__name__", "task")
         self.kind = kind
@@ -189,12 +185,9 @@ class Task:
         else:
             self.deadline_ticks = _check_time(deadline, "deadline", self.name, positive=True)
         self.wcet_ticks = _check_time(wcet, "wcet", self.name, positive=True)
-        if not isinstance(preemptible, bool):
-            raise ConfigurationTypeError(f"task {self.name!r}: preemptible must be True or False, "
-                                         f"got {preemptible!r}")
+        validate.boolean(preemptible, f"task {self.name!r}: preemptible")
         self.preemptible = preemptible
-        if on_busy not in ("queue", "skip"):
-            raise ConfigurationError(f"task {self.name!r}: on_busy must be 'queue' or 'skip', got {on_busy!r}")
+        validate.choice(on_busy, f"task {self.name!r}: on_busy", ("queue", "skip"))
         self.on_busy = on_busy
         for nm, h in (("on_deadline_miss", on_deadline_miss), ("on_budget_overrun", on_budget_overrun)):
             if h is not None and h != "kill" and not callable(h):
@@ -302,7 +295,7 @@ class TaskContext:
                 c = float(c.rvs(random_state=self._exec_rng))
             elif callable(c):
                 c = c(self._exec_rng)
-            if isinstance(c, bool) or not isinstance(c, numbers.Real):
+            if not validate.is_real(c):
                 raise ConfigurationTypeError(f"{who}: execution time must be a number of seconds, got {c!r}")
         if not (c >= 0) or c == math.inf:
             raise ConfigurationError(f"{who}: execution time must be finite and >= 0, got {c!r}")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from .. import validate
 from ..errors import ConfigurationError
 from ..timebase import to_ticks
 
@@ -30,9 +31,8 @@ class KernelTimer:
         if self._start < now:
             raise ConfigurationError(f"timer for {target.name!r}: at={at!r} s lies in the past "
                                      f"(now {node.sim.now} s)")
-        self._period = None if period is None else to_ticks(period, f"timer for {target.name!r} period")
-        if self._period is not None and self._period <= 0:
-            raise ConfigurationError(f"timer for {target.name!r}: period must be positive, got {period!r}")
+        self._period = None if period is None else validate.duration(period, f"timer for {target.name!r}: period",
+                                                                     positive=True, kind="positive")
         self._k = 0
         self._timer = node.sim.call_at_ticks(self._start, self._fire)
 

@@ -13,24 +13,22 @@ is ``S = G exp(-G)`` frames per slot.  Random streams: ``<net>/<node>/backoff``.
 
 from __future__ import annotations
 
+from .. import validate
 from .base import ARBITRATE, Network
-from .checks import check_count, check_duration, check_real
 
 
 class SlottedAloha(Network):
-    """Slotted ALOHA.  See the module docstring.
-
-    ``data_rate`` in bit/s, ``slot_time`` in s; ``retry_probability`` in (0, 1];
-    ``max_attempts`` per frame (None: unlimited).
-    """
+    """Slotted ALOHA (see the module docstring): ``data_rate`` in bit/s, ``slot_time`` in s,
+    ``retry_probability`` in (0, 1], ``max_attempts`` per frame (None: unlimited)."""
 
     def __init__(self, sim, name, *, data_rate: float = 1e6, slot_time: float, retry_probability: float = 0.1,
                  max_attempts: int | None = None, **kw):
         super().__init__(sim, name, data_rate=data_rate, **kw)
         w = f"network {name!r}"
-        self._slot = check_duration(slot_time, f"{w}: slot_time (s)", positive=True)
-        self.p = check_real(retry_probability, f"{w}: retry_probability", low=0.0, high=1.0, low_open=True)
-        self.max_attempts = None if max_attempts is None else check_count(max_attempts, f"{w}: max_attempts", minimum=1)
+        self._slot = validate.duration(slot_time, f"{w}: slot_time (s)", positive=True)
+        self.p = validate.real(retry_probability, f"{w}: retry_probability", lo=0.0, hi=1.0, lo_open=True)
+        self.max_attempts = (None if max_attempts is None
+                             else validate.count(max_attempts, f"{w}: max_attempts", minimum=1))
         self._slots: dict[int, list] = {}          # slot start tick -> stations transmitting then
 
     def _station(self, iface, options):

@@ -37,14 +37,13 @@ is done by the life-cycle steps below (``_next_frame``, ``_attempt_start``,
 from __future__ import annotations
 
 import math
-import numbers
 from typing import TYPE_CHECKING, Any
 
+from .. import validate
 from ..clock import ARBITRATE  # noqa: F401 (re-exported: MAC arbitration priority)
 from ..errors import ConfigurationError, ConfigurationTypeError
 from ..kernel.task import Task
 from ..timebase import RESOLUTION, TICKS_PER_SECOND
-from .checks import check_bits, check_count, check_duration, check_positive, check_real
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
 from .loss import as_loss_model
@@ -124,24 +123,24 @@ class Network:
         self._env = sim.env
         self.name = name
         w = f"network {name!r}"
-        self.data_rate = check_positive(data_rate, f"{w}: data_rate (bit/s)")
-        self.min_frame_bits = check_bits(min_frame_bits, f"{w}: min_frame_bits")
+        self.data_rate = validate.positive(data_rate, f"{w}: data_rate (bit/s)")
+        self.min_frame_bits = validate.bits(min_frame_bits, f"{w}: min_frame_bits")
         if max_frame_bits is not None:
-            max_frame_bits = check_bits(max_frame_bits, f"{w}: max_frame_bits", allow_zero=False)
+            max_frame_bits = validate.bits(max_frame_bits, f"{w}: max_frame_bits", allow_zero=False)
             if max_frame_bits < self.min_frame_bits:
                 raise ConfigurationError(f"{w}: max_frame_bits={max_frame_bits} is below min_frame_bits="
                                  f"{self.min_frame_bits}")
         self.max_frame_bits = max_frame_bits
-        self._pre = check_duration(pre_delay, f"{w}: pre_delay (s)")
-        self._post = check_duration(post_delay, f"{w}: post_delay (s)")
-        self._prop = check_duration(propagation_delay, f"{w}: propagation_delay (s)")
+        self._pre = validate.duration(pre_delay, f"{w}: pre_delay (s)")
+        self._post = validate.duration(post_delay, f"{w}: post_delay (s)")
+        self._prop = validate.duration(propagation_delay, f"{w}: propagation_delay (s)")
         self.pre_delay, self.post_delay, self.propagation_delay = pre_delay, post_delay, propagation_delay
         self.loss = as_loss_model(loss)
         self.queue = queue or self.default_queue
         TxQueue(self.queue, queue_capacity, what=w)  # validate now, not at attach
         self.queue_capacity = queue_capacity
         if mailbox_capacity is not None:
-            mailbox_capacity = check_count(mailbox_capacity, f"{w}: mailbox_capacity (messages)", minimum=1)
+            mailbox_capacity = validate.count(mailbox_capacity, f"{w}: mailbox_capacity (messages)", minimum=1)
         self.mailbox_capacity = mailbox_capacity
         self._trace_on = bool(trace)
         self.interfaces: dict[str, Interface] = {}
@@ -175,13 +174,12 @@ class Network:
             name, knode = node.name, node
         else:
             raise TypeError(f"network {self.name!r}: attach a kernel node or a station name, got {node!r}")
-        if not name:
-            raise ValueError(f"network {self.name!r}: station name must be a non-empty string")
+        validate.name(name, f"network {self.name!r}: station name", type_error=ConfigurationError)
         if name in self.interfaces:
             raise ValueError(f"network {self.name!r}: node {name!r} is already attached")
         if priority is not None:
-            check_real(priority, f"network {self.name!r}: default priority of node {name!r}",
-                       kind="a finite number (small = high) or None")
+            validate.real(priority, f"network {self.name!r}: default priority of node {name!r}",
+                          kind="a finite number (small = high) or None")
         iface = Interface(self, name, knode, len(self._ifaces), priority=priority, mailbox=mailbox,
                           mailbox_capacity=self.mailbox_capacity if mailbox_capacity is None else mailbox_capacity,
                           queue=queue or self.queue,
@@ -252,10 +250,9 @@ class Network:
         t = type(priority)
         if t is int or (t is float and math.isfinite(priority)):
             return                  # the common case, without the (slow) numbers.Real check
-        if priority is not None and (isinstance(priority, bool) or not isinstance(priority, numbers.Real)
-                                     or not math.isfinite(priority)):
-            raise ConfigurationError(f"network {self.name!r}: priority of a message from {iface.name!r} must "
-                                     f"be a finite number, got {priority!r}")
+        if priority is not None:
+            validate.finite(priority, f"network {self.name!r}: priority of a message from {iface.name!r}",
+                            type_error=ConfigurationError)
 
     # ------------------------------------------------------------------ pipeline
     def _send(self, iface: Interface, dst, payload, size_bits, priority) -> Message:
@@ -266,8 +263,8 @@ class Network:
         elif type(size_bits) is int and (size_bits > 0 or (size_bits == 0 and self.allow_empty)):
             size = size_bits        # the common case, without building the error text
         else:
-            size = check_bits(size_bits, f"network {self.name!r}: size_bits of a message from {iface.name!r}",
-                              allow_zero=self.allow_empty)
+            size = validate.bits(size_bits, f"network {self.name!r}: size_bits of a message from {iface.name!r}",
+                                 allow_zero=self.allow_empty)
         if self.max_frame_bits is not None and size > self.max_frame_bits:
             raise ValueError(f"network {self.name!r}: message of size_bits={size} from {iface.name!r} exceeds "
                              f"the maximum frame of {self.max_frame_bits} bits")

@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import math
 
+from .. import validate
 from ..errors import ConfigurationError
 from .bus import SharedBus
-from .checks import check_bits
 
 
 def can_frame_bits(data_bytes: int, *, extended: bool = False, stuffing: bool = True) -> int:
@@ -34,8 +34,7 @@ def can_frame_bits(data_bytes: int, *, extended: bool = False, stuffing: bool = 
 
     Worst-case bit stuffing (Davis et al. 2007) unless ``stuffing=False``.
     """
-    if isinstance(data_bytes, bool) or not isinstance(data_bytes, int) or not 0 <= data_bytes <= 8:
-        raise ConfigurationError(f"a CAN frame carries 0..8 data bytes, got {data_bytes!r}")
+    data_bytes = validate.integer(data_bytes, "a CAN frame's data_bytes", lo=0, hi=8, type_error=ConfigurationError)
     g = 54 if extended else 34
     n = g + 8 * data_bytes + 13
     if stuffing:
@@ -56,16 +55,14 @@ class CAN(SharedBus):
 
     def __init__(self, sim, name, *, data_rate: float = 500e3, frame_format: str = "truetime",
                  extended: bool = False, stuffing: bool = True, max_frame_bits: int | None = None, **kw):
-        if frame_format not in ("truetime", "standard"):
-            raise ConfigurationError(f"network {name!r}: CAN frame_format must be 'truetime' or 'standard', "
-                                     f"got {frame_format!r}")
+        validate.choice(frame_format, f"network {name!r}: CAN frame_format", ("truetime", "standard"))
         if frame_format == "standard":
             if kw.get("min_frame_bits"):
                 raise ConfigurationError(f"network {name!r}: min_frame_bits does not apply to the standard CAN "
                                          f"format, got min_frame_bits={kw['min_frame_bits']!r}")
             if max_frame_bits is None:
                 max_frame_bits = 64
-            elif check_bits(max_frame_bits, f"network {name!r}: max_frame_bits", allow_zero=False) > 64:
+            elif validate.bits(max_frame_bits, f"network {name!r}: max_frame_bits", allow_zero=False) > 64:
                 raise ConfigurationError(f"network {name!r}: standard CAN frames carry at most 64 data bits, "
                                  f"got max_frame_bits={max_frame_bits!r}")
         self.frame_format = frame_format

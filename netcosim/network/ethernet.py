@@ -18,9 +18,9 @@ Defaults: 10 Mbit/s, 512-bit minimum frame (TrueTime's defaults).
 
 from __future__ import annotations
 
+from .. import validate
 from ..errors import ConfigurationError
 from .base import ARBITRATE, Network
-from .checks import check_bits, check_count, check_duration
 
 
 class EthernetStation:
@@ -46,21 +46,21 @@ class CSMACD(Network):
                  max_attempts: int | None = None, backoff_limit: int = 10, slot_time: float | None = None, **kw):
         super().__init__(sim, name, data_rate=data_rate, min_frame_bits=min_frame_bits, **kw)
         w = f"network {name!r}"
-        self._window = check_duration(collision_window, f"{w}: collision_window (s)", positive=True)
-        self.jam_bits = check_bits(jam_bits, f"{w}: jam_bits")
+        self._window = validate.duration(collision_window, f"{w}: collision_window (s)", positive=True)
+        self.jam_bits = validate.bits(jam_bits, f"{w}: jam_bits")
         self._jam = self.duration(self.jam_bits)
-        self._gap = check_duration(interframe_gap, f"{w}: interframe_gap (s)")
+        self._gap = validate.duration(interframe_gap, f"{w}: interframe_gap (s)")
         if max_attempts is not None:
-            max_attempts = check_count(max_attempts, f"{w}: max_attempts (a positive integer or None)", minimum=1)
+            max_attempts = validate.count(max_attempts, f"{w}: max_attempts (a positive integer or None)", minimum=1)
         self.max_attempts = max_attempts
-        self.backoff_limit = check_count(backoff_limit, f"{w}: backoff_limit", minimum=1, maximum=30)
+        self.backoff_limit = validate.count(backoff_limit, f"{w}: backoff_limit", minimum=1, maximum=30)
         if slot_time is None:
             if self.min_frame_bits == 0:
                 raise ConfigurationError(f"{w}: CSMA/CD needs min_frame_bits > 0 or an explicit slot_time for "
                                          f"backoff")
             self._slot = self.duration(self.min_frame_bits)
         else:
-            self._slot = check_duration(slot_time, f"{w}: slot_time (s)", positive=True)
+            self._slot = validate.duration(slot_time, f"{w}: slot_time (s)", positive=True)
         self._active: dict = {}        # iface -> start tick
         self._waiting: list = []       # ifaces waiting for the medium to go idle
         self._colliders: list = []

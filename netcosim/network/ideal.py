@@ -12,9 +12,9 @@ transmission and delivery.  Timing of a frame: ``queue wait + bits / data_rate +
 
 from __future__ import annotations
 
+from .. import validate
 from ..errors import ConfigurationError
 from .base import Network
-from .checks import check_duration, check_real
 from .interface import Interface
 
 
@@ -28,7 +28,7 @@ class IdealLink(Network):
         if delay is not None:
             if kw.get("propagation_delay"):
                 raise ConfigurationError(f"network {name!r}: give delay or propagation_delay, not both")
-            check_duration(delay, f"network {name!r}: delay (s)")
+            validate.duration(delay, f"network {name!r}: delay (s)")
             kw["propagation_delay"] = delay
         super().__init__(sim, name, data_rate=data_rate, **kw)
 
@@ -80,8 +80,8 @@ class FDMA(IdealLink):
         if share is None:
             raise ConfigurationError(f"network {self.name!r} (FDMA): attach({name!r}, share=...) needs a bandwidth "
                                      f"share, got share=None")
-        share = check_real(share, f"network {self.name!r} (FDMA): share of {name!r}", low=0.0, high=1.0,
-                           low_open=True, kind="a fraction of the bandwidth in (0, 1]")
+        share = validate.real(share, f"network {self.name!r} (FDMA): share of {name!r}", lo=0.0, hi=1.0,
+                              lo_open=True, kind="a fraction of the bandwidth in (0, 1]")
         total = sum(i.mac.share for i in self._ifaces) + share
         if total > 1 + 1e-12:
             raise ConfigurationError(f"network {self.name!r} (FDMA): shares would sum to {total:g} > 1 with {name!r}")

@@ -14,6 +14,8 @@ import heapq
 from collections import deque
 from typing import Any, Callable
 
+from .. import validate
+from ..errors import ConfigurationError
 from ..kernel.sync import Mailbox
 from ..kernel.task import Task
 
@@ -27,10 +29,10 @@ class TxQueue:
     __slots__ = ("discipline", "capacity", "_q", "_n")
 
     def __init__(self, discipline: str = "fifo", capacity: int | None = None, what: str = "queue"):
-        if discipline not in ("fifo", "priority"):
-            raise ValueError(f"{what}: queue discipline must be 'fifo' or 'priority', got {discipline!r}")
-        if capacity is not None and (isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1):
-            raise ValueError(f"{what}: queue capacity must be a positive integer or None, got {capacity!r}")
+        validate.choice(discipline, f"{what}: queue discipline", ("fifo", "priority"))
+        if capacity is not None:
+            capacity = validate.integer(capacity, f"{what}: queue capacity", lo=1, kind="a positive integer or None",
+                                        type_error=ConfigurationError)
         self.discipline = discipline
         self.capacity = capacity
         self._q: Any = deque() if discipline == "fifo" else []

@@ -19,13 +19,12 @@ Several models can be combined by passing a list; the frame is lost if any says 
 from __future__ import annotations
 
 import math
-import numbers
 from typing import Sequence
 
 import numpy as np
 
+from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
-from .checks import check_probability
 
 
 class LossModel:
@@ -60,7 +59,7 @@ class Bernoulli(LossModel):
     """Each frame is lost independently with probability *p*."""
 
     def __init__(self, p: float):
-        self.p = check_probability(p, "Bernoulli loss probability p")
+        self.p = validate.probability(p, "Bernoulli loss probability p")
 
     def link(self, rng):
         """An independent Bernoulli(``p``) loss state for one link, drawing from *rng*."""
@@ -106,12 +105,11 @@ class GilbertElliott(LossModel):
 
     def __init__(self, p_gb: float, p_bg: float, loss_good: float = 0.0, loss_bad: float = 1.0,
                  start: str = "stationary"):
-        self.p_gb = check_probability(p_gb, "Gilbert-Elliott p_gb (good->bad)")
-        self.p_bg = check_probability(p_bg, "Gilbert-Elliott p_bg (bad->good)")
-        self.loss_good = check_probability(loss_good, "Gilbert-Elliott loss_good")
-        self.loss_bad = check_probability(loss_bad, "Gilbert-Elliott loss_bad")
-        if start not in ("stationary", "good", "bad"):
-            raise ConfigurationError(f"Gilbert-Elliott start must be 'stationary', 'good' or 'bad', got {start!r}")
+        self.p_gb = validate.probability(p_gb, "Gilbert-Elliott p_gb (good->bad)")
+        self.p_bg = validate.probability(p_bg, "Gilbert-Elliott p_bg (bad->good)")
+        self.loss_good = validate.probability(loss_good, "Gilbert-Elliott loss_good")
+        self.loss_bad = validate.probability(loss_bad, "Gilbert-Elliott loss_bad")
+        validate.choice(start, "Gilbert-Elliott start", ("stationary", "good", "bad"))
         if self.p_gb + self.p_bg == 0.0 and start == "stationary":
             raise ConfigurationError("Gilbert-Elliott with p_gb = p_bg = 0 has no stationary distribution; "
                              "pass start='good' or 'bad'")
@@ -228,8 +226,8 @@ def as_loss_model(loss) -> LossModel | None:
         return None
     if isinstance(loss, LossModel):
         return loss
-    if isinstance(loss, numbers.Real) and not isinstance(loss, bool):
-        p = check_probability(loss, "loss probability")
+    if validate.is_real(loss):
+        p = validate.probability(loss, "loss probability")
         return None if p == 0.0 else Bernoulli(p)
     if isinstance(loss, (list, tuple)):
         return AnyLoss(loss)

@@ -40,9 +40,9 @@ import math
 
 import numpy as np
 
+from .. import validate
 from ..errors import ConfigurationError
 from ..timebase import to_ticks
-from .checks import check_bits, check_count
 from .frame import BROADCAST
 from .medium import Transmission
 from .radio import Modulation, PathLoss, thermal_noise_dbm
@@ -98,14 +98,14 @@ class IEEE802154(RadioNetwork):
                          capture_db=capture_db, noise_dbm=noise_dbm, **kw)
         w = f"network {name!r}"
         # macMinBE/macMaxBE: 2**BE - 1 unit periods must stay a sane integer (the standard allows 0..8)
-        self.min_be = check_count(min_be, f"{w}: min_be", minimum=0, maximum=30)
-        self.max_be = check_count(max_be, f"{w}: max_be", minimum=0, maximum=30)
+        self.min_be = validate.count(min_be, f"{w}: min_be", minimum=0, maximum=30)
+        self.max_be = validate.count(max_be, f"{w}: max_be", minimum=0, maximum=30)
         if not self.min_be <= self.max_be:
             raise ConfigurationError(f"{w}: min_be={min_be!r} exceeds max_be={max_be!r}")
-        self.max_csma_backoffs = check_count(max_csma_backoffs, f"{w}: max_csma_backoffs", minimum=0)
-        self.max_frame_retries = check_count(max_frame_retries, f"{w}: max_frame_retries", minimum=0)
+        self.max_csma_backoffs = validate.count(max_csma_backoffs, f"{w}: max_csma_backoffs", minimum=0)
+        self.max_frame_retries = validate.count(max_frame_retries, f"{w}: max_frame_retries", minimum=0)
         self.use_ack = bool(ack)
-        self.mac_overhead_bits = check_bits(mac_overhead_bits, f"{w}: mac_overhead_bits")
+        self.mac_overhead_bits = validate.bits(mac_overhead_bits, f"{w}: mac_overhead_bits")
         sym = to_ticks(SYMBOL)
         self.unit = 20 * sym
         self.cca = 8 * sym

@@ -32,8 +32,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
-from .checks import check_non_negative, check_positive
 
 #: Channel bandwidth of 802.11b DSSS/CCK (Hz): noise bandwidth and processing-gain reference.
 DSSS_BANDWIDTH = 22e6
@@ -66,9 +66,9 @@ def thermal_noise_dbm(bandwidth: float = DSSS_BANDWIDTH, temperature: float = 29
     ``bandwidth`` [Hz] and ``temperature`` [K] must be positive and finite;
     ``noise_figure_db`` [dB] finite and >= 0 (a receiver adds noise, never removes it).
     """
-    bandwidth = check_positive(bandwidth, "thermal noise bandwidth (Hz)")
-    temperature = check_positive(temperature, "thermal noise temperature (K)")
-    noise_figure_db = check_non_negative(noise_figure_db, "receiver noise_figure_db (dB)")
+    bandwidth = validate.positive(bandwidth, "thermal noise bandwidth (Hz)")
+    temperature = validate.positive(temperature, "thermal noise temperature (K)")
+    noise_figure_db = validate.non_negative(noise_figure_db, "receiver noise_figure_db (dB)")
     return watt_to_dbm(BOLTZMANN * temperature * bandwidth) + noise_figure_db
 
 
@@ -102,12 +102,12 @@ class LogDistance(PathLoss):
 
     def __init__(self, exponent: float = 3.0, reference_distance: float = 1.0,
                  reference_loss_db: float | None = None, frequency: float = CHANNEL_1):
-        self.exponent = check_positive(exponent, "LogDistance exponent")
-        self.d0 = check_positive(reference_distance, "LogDistance reference_distance (m)")
-        self.frequency = check_positive(frequency, "LogDistance frequency (Hz)")
+        self.exponent = validate.positive(exponent, "LogDistance exponent")
+        self.d0 = validate.positive(reference_distance, "LogDistance reference_distance (m)")
+        self.frequency = validate.positive(frequency, "LogDistance frequency (Hz)")
         if reference_loss_db is None:
             reference_loss_db = 20.0 * math.log10(4.0 * math.pi * self.d0 * self.frequency / SPEED_OF_LIGHT)
-        self.pl0 = check_non_negative(reference_loss_db, "LogDistance reference_loss_db (dB)")
+        self.pl0 = validate.non_negative(reference_loss_db, "LogDistance reference_loss_db (dB)")
 
     def loss_db(self, d: float) -> float:
         """Path loss (dB) at distance *d* (m), with *d* clamped to at least ``d0``."""
@@ -127,7 +127,7 @@ class TrueTimePathLoss(PathLoss):
     positive and finite)."""
 
     def __init__(self, exponent: float = 3.5):
-        self.exponent = check_positive(exponent, "TrueTimePathLoss exponent")
+        self.exponent = validate.positive(exponent, "TrueTimePathLoss exponent")
 
     def gain(self, d: float) -> float:
         """Linear power gain ``(d + 1)^-a`` at distance *d* (m)."""
@@ -231,7 +231,7 @@ def modulation_for(rate: float, kind: str = "auto") -> Modulation:
     is evaluated at the actual rate, so 1.2 Mbit/s is "DQPSK at 1.2 Mbit/s").
     Or force ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
     """
-    rate = check_positive(rate, "modulation bit rate (bit/s)")
+    rate = validate.positive(rate, "modulation bit rate (bit/s)")
     f = {"dbpsk": ber_dbpsk, "dqpsk": ber_dqpsk, "cck": ber_cck}.get(kind) if isinstance(kind, str) else None
     if kind == "auto":
         kind = "dbpsk" if rate <= 1e6 else ("dqpsk" if rate <= 2e6 else "cck")

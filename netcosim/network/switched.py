@@ -17,9 +17,8 @@ attempt ends with outcome ``switch_full``) -- TrueTime's two options.
 
 from __future__ import annotations
 
-from ..errors import ConfigurationError
+from .. import validate
 from .base import Network
-from .checks import check_bits, check_duration
 from .interface import TxQueue
 
 
@@ -48,14 +47,12 @@ class SwitchedEthernet(Network):
         super().__init__(sim, name, data_rate=data_rate, min_frame_bits=min_frame_bits, **kw)
         w = f"network {name!r}"
         if switch_memory_bits is not None:
-            switch_memory_bits = check_bits(switch_memory_bits, f"{w}: switch_memory_bits", allow_zero=False)
+            switch_memory_bits = validate.bits(switch_memory_bits, f"{w}: switch_memory_bits", allow_zero=False)
         self.switch_memory_bits = switch_memory_bits
-        if buffer not in ("shared", "symmetric"):
-            raise ConfigurationError(f"{w}: buffer must be 'shared' or 'symmetric', got {buffer!r}")
-        if overflow not in ("drop", "retransmit"):
-            raise ConfigurationError(f"{w}: overflow must be 'drop' or 'retransmit', got {overflow!r}")
+        validate.choice(buffer, f"{w}: buffer", ("shared", "symmetric"))
+        validate.choice(overflow, f"{w}: overflow", ("drop", "retransmit"))
         self.buffer, self.overflow = buffer, overflow
-        self._switch_delay = check_duration(switch_delay, f"{w}: switch_delay (s)")
+        self._switch_delay = validate.duration(switch_delay, f"{w}: switch_delay (s)")
         TxQueue(port_queue, None, what=w)
         self.port_queue = port_queue
         self.memory_used = 0

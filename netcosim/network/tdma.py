@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from typing import Sequence
 
+from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
 from .base import Network
-from .checks import check_duration
 
 
 class TdmaStation:
@@ -44,7 +44,7 @@ class TDMA(Network):
     def __init__(self, sim, name, *, data_rate: float = 10e6, slot_time: float, schedule: Sequence, **kw):
         super().__init__(sim, name, data_rate=data_rate, **kw)
         w = f"network {name!r}"
-        self._slot = check_duration(slot_time, f"{w}: slot_time (s)", positive=True)
+        self._slot = validate.duration(slot_time, f"{w}: slot_time (s)", positive=True)
         if isinstance(schedule, (str, bytes)) or not hasattr(schedule, "__iter__"):
             raise ConfigurationTypeError(f"{w}: TDMA schedule must be a list of slot owners (node names or "
                                          f"None), got {schedule!r}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .checks import check_count
+from .. import validate
 
 
 class SaturatedSource:
@@ -16,7 +16,7 @@ class SaturatedSource:
     """
 
     def __init__(self, iface, dst: Any, size_bits: int, backlog: int = 2):
-        backlog = check_count(backlog, "SaturatedSource backlog (frames)", minimum=1)
+        backlog = validate.count(backlog, "SaturatedSource backlog (frames)", minimum=1)
         self.iface, self.dst, self.size_bits = iface, dst, size_bits
         self.generated = 0
         iface.on_done.append(self._refill)

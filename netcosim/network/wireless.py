@@ -27,10 +27,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from .. import validate
 from ..clock import Timer
 from ..errors import ConfigurationTypeError
 from .base import Network
-from .checks import check_finite, check_non_negative
 from .frame import BROADCAST
 from .interface import Interface
 from .medium import Transmission, WirelessMedium
@@ -126,13 +126,13 @@ class RadioNetwork(Network):
         if not isinstance(path_loss, PathLoss):
             raise ConfigurationTypeError(f"{w}: path_loss must be a PathLoss model, got {path_loss!r}")
         self.path_loss = path_loss
-        self.tx_power_dbm = check_finite(tx_power_dbm, f"{w}: tx_power_dbm", "dBm")
-        self.threshold_dbm = check_finite(threshold_dbm, f"{w}: threshold_dbm", "dBm")
+        self.tx_power_dbm = validate.finite(tx_power_dbm, f"{w}: tx_power_dbm", "dBm")
+        self.threshold_dbm = validate.finite(threshold_dbm, f"{w}: threshold_dbm", "dBm")
         self.cs_threshold_dbm = (self.threshold_dbm if cs_threshold_dbm is None
-                                 else check_finite(cs_threshold_dbm, f"{w}: cs_threshold_dbm", "dBm"))
-        self.capture_db = check_non_negative(capture_db, f"{w}: capture_db (dB)")
+                                 else validate.finite(cs_threshold_dbm, f"{w}: cs_threshold_dbm", "dBm"))
+        self.capture_db = validate.non_negative(capture_db, f"{w}: capture_db (dB)")
         self.noise_dbm = (self.default_noise_dbm() if noise_dbm is None
-                          else check_finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
+                          else validate.finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
         self.medium = WirelessMedium(self, path_loss=path_loss, noise_w=dbm_to_watt(self.noise_dbm),
                                      capture_ratio=db_to_ratio(self.capture_db))
         #: unicast attempts that failed by a collision at the destination
@@ -160,10 +160,10 @@ class RadioNetwork(Network):
             raise ConfigurationTypeError(f"network {self.name!r}: unknown attach option(s) {sorted(options)}")
         w = f"network {self.name!r} node {iface.name!r}"
         pos = as_position(pos, w)
-        txp = self.tx_power_dbm if txp is None else check_finite(txp, f"{w}: tx_power_dbm", "dBm")
-        sens = dbm_to_watt(self.threshold_dbm if thr is None else check_finite(thr, f"{w}: threshold_dbm", "dBm"))
+        txp = self.tx_power_dbm if txp is None else validate.finite(txp, f"{w}: tx_power_dbm", "dBm")
+        sens = dbm_to_watt(self.threshold_dbm if thr is None else validate.finite(thr, f"{w}: threshold_dbm", "dBm"))
         cs = dbm_to_watt(self.cs_threshold_dbm if cst is None
-                         else check_finite(cst, f"{w}: cs_threshold_dbm", "dBm"))
+                         else validate.finite(cst, f"{w}: cs_threshold_dbm", "dBm"))
         r = self.station_class(self, iface, pos, txp, sens, cs)
         self.medium.init_listener(r)
         self._stations.append(r)

@@ -63,9 +63,9 @@ from __future__ import annotations
 import heapq
 import math
 
+from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import TICKS_PER_SECOND, to_ticks
-from .checks import check_bits, check_count, check_duration, check_positive
 from .frame import BROADCAST
 from .interface import Interface
 from .medium import Transmission
@@ -167,23 +167,22 @@ class WLAN80211b(RadioNetwork):
                          tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm, cs_threshold_dbm=cs_threshold_dbm,
                          capture_db=capture_db, noise_dbm=noise_dbm, **kw)
         w = f"network {name!r}"
-        if preamble not in ("long", "short"):
-            raise ConfigurationError(f"{w}: preamble must be 'long' or 'short', got {preamble!r}")
+        validate.choice(preamble, f"{w}: preamble", ("long", "short"))
         self.preamble = preamble
-        self.retry_limit = check_count(retry_limit, f"{w}: retry_limit (attempts)", minimum=1)
-        self.cw_min = check_count(cw_min, f"{w}: cw_min (slots)", minimum=0)
-        self.cw_max = check_count(cw_max, f"{w}: cw_max (slots)", minimum=0)
+        self.retry_limit = validate.count(retry_limit, f"{w}: retry_limit (attempts)", minimum=1)
+        self.cw_min = validate.count(cw_min, f"{w}: cw_min (slots)", minimum=0)
+        self.cw_max = validate.count(cw_max, f"{w}: cw_max (slots)", minimum=0)
         if self.cw_max < self.cw_min:
             raise ConfigurationError(f"{w}: cw_max={cw_max!r} is below cw_min={cw_min!r}")
-        self.slot = check_duration(slot, f"{w}: slot (s)", positive=True)
-        self.sifs = check_duration(sifs, f"{w}: sifs (s)", positive=True)
+        self.slot = validate.duration(slot, f"{w}: slot (s)", positive=True)
+        self.sifs = validate.duration(sifs, f"{w}: sifs (s)", positive=True)
         self.difs = self.sifs + 2 * self.slot
         self.plcp = to_ticks(192e-6 if preamble == "long" else 96e-6)
-        self.mac_overhead_bits = check_bits(mac_overhead_bits, f"{w}: mac_overhead_bits")
-        self.ack_bits = check_bits(ack_bits, f"{w}: ack_bits", allow_zero=False)
+        self.mac_overhead_bits = validate.bits(mac_overhead_bits, f"{w}: mac_overhead_bits")
+        self.ack_bits = validate.bits(ack_bits, f"{w}: ack_bits", allow_zero=False)
         if isinstance(basic_rates, (str, bytes)) or not hasattr(basic_rates, "__iter__"):
             raise ConfigurationTypeError(f"{w}: basic_rates must be a sequence of rates (bit/s), got {basic_rates!r}")
-        rates = sorted(check_positive(r, f"{w}: basic rate (bit/s)") for r in basic_rates)
+        rates = sorted(validate.positive(r, f"{w}: basic rate (bit/s)") for r in basic_rates)
         if not rates:
             raise ConfigurationError(f"{w}: basic_rates must not be empty, got {basic_rates!r}")
         self.basic_rates = tuple(rates)
@@ -195,7 +194,7 @@ class WLAN80211b(RadioNetwork):
         if ack_timeout is None:
             self.ack_timeout = self.sifs + self.slot + self.plcp
         else:
-            self.ack_timeout = check_duration(ack_timeout, f"{w}: ack_timeout (s)", positive=True)
+            self.ack_timeout = validate.duration(ack_timeout, f"{w}: ack_timeout (s)", positive=True)
             if self.ack_timeout <= self.sifs:
                 raise ConfigurationError(f"{w}: ack_timeout={ack_timeout!r} s must exceed SIFS "
                                          f"({self.sifs * 1e-12} s)")

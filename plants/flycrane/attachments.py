@@ -28,6 +28,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from netcosim import validate
+
 __all__ = ["TwoCable", "OneCable", "PlanarAgent", "GeometryError"]
 
 
@@ -43,10 +45,8 @@ def _vec3(v, what):
 
 
 def _positive(v, what):
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(float(v)) or float(v) <= 0:
-        raise GeometryError(f"{what} must be a positive length in metres, got {v!r}")
-    return float(v)
+    return validate.positive(v, what, kind="a positive length in metres", type_error=GeometryError,
+                             value_error=GeometryError)
 
 
 def _outward_frame(point, axis_dir=None, outward=None):

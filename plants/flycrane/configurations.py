@@ -12,6 +12,9 @@ import math
 
 import numpy as np
 
+from netcosim import validate
+from netcosim.errors import ConfigurationError
+
 from .attachments import OneCable, PlanarAgent, TwoCable
 from .kinematics import MassProperties, MultiRobotSystem, plate_inertia
 
@@ -35,8 +38,7 @@ def regular_polygon(k: int, edge: float, first_midpoint_deg: float = 90.0) -> np
     vertices 0 and 1) in the direction *first_midpoint_deg* from x."""
     if k < 3:
         raise ValueError(f"a polygon needs k >= 3 vertices, got {k}")
-    if not edge > 0:
-        raise ValueError(f"polygon edge must be positive, got {edge!r} m")
+    validate.positive(edge, "polygon edge (m)", kind="positive")
     R = edge / (2 * math.sin(math.pi / k))
     half = math.pi / k
     mid = math.radians(first_midpoint_deg)
@@ -52,8 +54,7 @@ def _plate_mass(vertices) -> float:
 
 def _mass(vertices, n_robots, platform_mass=None, robot_mass=ROBOT_MASS, g=9.81):
     pm = _plate_mass(vertices) if platform_mass is None else platform_mass
-    if not (isinstance(pm, (int, float)) and math.isfinite(pm) and pm > 0):
-        raise ValueError(f"platform_mass must be positive, got {pm!r}")
+    validate.positive(pm, "platform_mass", kind="positive", type_error=ConfigurationError)
     return MassProperties(pm, plate_inertia(vertices[:, :2], pm), (robot_mass,) * n_robots, g)
 
 

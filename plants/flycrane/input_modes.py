@@ -26,7 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from netcosim import validate
 from netcosim.continuous import ContinuousSystem, HybridEvent
+from netcosim.errors import ConfigurationError
 
 from ..kinematic import KinematicPlant
 from .kinematics import MultiRobotSystem, SingularConfigurationError
@@ -131,9 +133,8 @@ class VelocityTrackingPlant(_DynamicPlant):
 
     def __init__(self, system: MultiRobotSystem, alpha: float, *, gravity_compensation: bool = True,
                  noise_std=None, rng=None, name=None):
-        if isinstance(alpha, bool) or not isinstance(alpha, (int, float)) or not np.isfinite(alpha) or alpha <= 0:
-            raise ValueError(f"velocity-tracking gain alpha must be a positive number (N·s/m), got {alpha!r}")
-        self.alpha = float(alpha)
+        self.alpha = validate.positive(alpha, "velocity-tracking gain alpha", kind="a positive number (N·s/m)",
+                                       type_error=ConfigurationError)
         self.gravity_compensation = bool(gravity_compensation)
         super().__init__(system, tuple(f"u.{c}" for c in system.position_names), noise_std=noise_std,
                          rng=rng, name=name)

@@ -27,7 +27,8 @@ from ..casadi_tools import BufferedFunction
 from .attachments import GeometryError, OneCable, PlanarAgent, TwoCable
 from .rotations import euler_zyx, rot_2d
 
-from netcosim.errors import SingularConfigurationError
+from netcosim import validate
+from netcosim.errors import ConfigurationError, SingularConfigurationError
 
 # the rank rule is the project's one rule, defined with the kinematic model
 from ..kinematic import SINGULAR_RTOL, check_singular_values, conditioning, pinv_solve
@@ -51,8 +52,7 @@ def plate_inertia(vertices, mass: float) -> np.ndarray:
     v = np.asarray(vertices, dtype=float)
     if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
         raise GeometryError(f"plate vertices must be (k >= 3, 2), got shape {v.shape}")
-    if not (isinstance(mass, (int, float)) and math.isfinite(mass) and mass > 0):
-        raise ValueError(f"plate mass must be positive, got {mass!r}")
+    validate.positive(mass, "plate mass", kind="positive", type_error=ConfigurationError)
     x, y = v[:, 0], v[:, 1]
     xn, yn = np.roll(x, -1), np.roll(y, -1)
     cr = x * yn - xn * y
@@ -89,18 +89,15 @@ class MassProperties:
     g: float = 9.81
 
     def __post_init__(self):
-        if not (math.isfinite(self.platform_mass) and self.platform_mass > 0):
-            raise ValueError(f"platform_mass must be positive, got {self.platform_mass!r}")
+        validate.positive(self.platform_mass, "platform_mass", kind="positive")
         J = np.asarray(self.platform_inertia, dtype=float)
         if J.shape != (3, 3) or not np.all(np.isfinite(J)) or not np.allclose(J, J.T, atol=1e-12):
             raise ValueError(f"platform_inertia must be a finite symmetric 3x3 matrix, got {J.tolist()}")
         if np.linalg.eigvalsh(J).min() <= 0:
             raise ValueError(f"platform_inertia must be positive definite, eigenvalues {np.linalg.eigvalsh(J)}")
         for i, mr in enumerate(self.robot_masses):
-            if not (isinstance(mr, (int, float)) and math.isfinite(mr) and mr > 0):
-                raise ValueError(f"robot_masses[{i}] must be positive, got {mr!r}")
-        if not (math.isfinite(self.g) and self.g >= 0):
-            raise ValueError(f"g must be non-negative, got {self.g!r}")
+            validate.positive(mr, f"robot_masses[{i}]", kind="positive", type_error=ConfigurationError)
+        validate.non_negative(self.g, "g", kind="non-negative")
         object.__setattr__(self, "platform_inertia", tuple(map(tuple, J)))
         object.__setattr__(self, "robot_masses", tuple(float(m) for m in self.robot_masses))
 
@@ -122,8 +119,7 @@ class MultiRobotSystem:
 
     def __init__(self, attachments: Sequence, *, pivot: str = "spatial", mass: MassProperties | None = None,
                  q_nominal=None, name: str = "multi_robot", singular_tol: float = SINGULAR_RTOL):
-        if pivot not in ("spatial", "planar"):
-            raise ValueError(f"pivot must be 'spatial' or 'planar', got {pivot!r}")
+        validate.choice(pivot, "pivot", ("spatial", "planar"))
         atts = tuple(attachments)
         if not atts:
             raise ValueError("a multi-robot system needs at least one agent")
@@ -137,9 +133,8 @@ class MultiRobotSystem:
                 raise ValueError("mass properties (dynamics) are defined for spatial cable systems only")
             if len(mass.robot_masses) != len(atts):
                 raise ValueError(f"mass.robot_masses has {len(mass.robot_masses)} entries for {len(atts)} robots")
-        if isinstance(singular_tol, bool) or not isinstance(singular_tol, (int, float, np.integer, np.floating)) \
-                or not 0.0 <= float(singular_tol) < 1.0:
-            raise ValueError(f"singular_tol must be a relative tolerance in [0, 1), got {singular_tol!r}")
+        validate.real(singular_tol, "singular_tol", lo=0.0, hi=1.0, hi_open=True,
+                      kind="a relative tolerance in [0, 1)", type_error=ConfigurationError)
         self.name, self.pivot, self.attachments, self.mass = name, pivot, atts, mass
         self.singular_tol = float(singular_tol)
         self.N = len(atts)

@@ -3,6 +3,7 @@ timers, triggers, synchronisation primitives, and what a task body asks at run t
 
 from __future__ import annotations
 
+from conftest import periodic_task
 from invalid_cases import Case
 from netcosim import Event, Mailbox, Monitor, Semaphore, Simulation
 from netcosim.errors import SimulationFailedError, UnyieldedExecuteError
@@ -30,9 +31,7 @@ def aperiodic(**kw):
 
 def run_task(make_body, until=0.05, **node_kw):
     """Run one periodic task whose body is ``make_body()`` (errors surface inside run)."""
-    sim = Simulation()
-    sim.node("cpu", **node_kw).periodic(make_body(), period=0.01, priority=1, name="t")
-    sim.run(until=until)
+    periodic_task(make_body(), period=0.01, until=until, **node_kw)
 
 
 def executes(c):
