@@ -39,3 +39,17 @@ def frame_rows(net, event, node=None, *, src=None):
     if src is not None:
         df = df[df["src"] == src]
     return df.reset_index(drop=True)
+
+
+class SteppingClock:
+    """A fake wall clock for CPU-time models: each measured block (two reads, at its
+    start and end) lasts the next of the given durations (s)."""
+
+    def __init__(self, durations):
+        self.t, self.durations, self.inside = 0.0, iter(durations), False
+
+    def __call__(self):
+        if self.inside:
+            self.t += next(self.durations)
+        self.inside = not self.inside
+        return self.t

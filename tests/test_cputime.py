@@ -7,21 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from conftest import SteppingClock
 from netcosim import Simulation
 from netcosim.cputime import (FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime)
-
-
-class StepClock:
-    """Advances by the next given duration each time a measured block ends."""
-
-    def __init__(self, durations):
-        self.t, self.d, self.inside = 0.0, iter(durations), False
-
-    def __call__(self):
-        if self.inside:
-            self.t += next(self.d)
-        self.inside = not self.inside
-        return self.t
 
 
 def test_fixed_budget_per_phase_and_the_log():
@@ -53,7 +41,7 @@ def test_recorded_times_replay_in_order_then_cycle_repeat_or_stop():
 
 def test_wall_clock_charges_factor_times_the_injected_clock_and_warns():
     with pytest.warns(NonReproducibleWarning, match="not reproducible"):
-        m = WallClockCPUTime(3.0, clock=StepClock([1e-3, 4e-3]))
+        m = WallClockCPUTime(3.0, clock=SteppingClock([1e-3, 4e-3]))
     assert not m.reproducible
     with m.measure("a") as x:
         pass
@@ -68,7 +56,7 @@ def test_wall_clock_charges_factor_times_the_injected_clock_and_warns():
 def test_a_recording_saved_and_loaded_replays_exactly(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NonReproducibleWarning)
-        m = WallClockCPUTime(1.0, clock=StepClock([1 / 3, 2 / 7, 1e-3 / 9]))
+        m = WallClockCPUTime(1.0, clock=SteppingClock([1 / 3, 2 / 7, 1e-3 / 9]))
     for _ in range(3):
         with m.measure("solve"):
             pass

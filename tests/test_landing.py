@@ -8,6 +8,7 @@ import pandas as pd
 
 from controllers.landing import (LandingConfig, LandingTiming, initial_state, landing_metrics, landing_nmpc,
                                  landing_ocp, run_landing, sigmoid)
+from conftest import SteppingClock
 from netcosim.cputime import NonReproducibleWarning, RecordedCPUTime
 
 
@@ -165,19 +166,6 @@ def test_two_node_variant_over_a_network():
     net = run.sim.networks["link"]
     assert net.interfaces["onboard"].stats["received"] == 100  # one reference per NMPC job
     assert set(run.jobs["node"].astype(str)) == {"onboard", "ground"}
-
-
-class SteppingClock:
-    """A fake wall clock: each measured block (two reads) lasts the next given duration."""
-
-    def __init__(self, durations):
-        self.t, self.durations, self.inside = 0.0, iter(durations), False
-
-    def __call__(self):
-        if self.inside:
-            self.t += next(self.durations)
-        self.inside = not self.inside
-        return self.t
 
 
 def test_measured_solve_time_sets_the_nmpc_response_time():
