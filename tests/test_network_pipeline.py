@@ -163,6 +163,21 @@ def test_tdma_suspends_frames_at_slot_end_and_resumes_in_the_next_own_slot():
         c.send("a", None, 10)
 
 
+def test_tdma_network_schedule_is_readable_and_shows_the_suspension():
+    # the slot list once hid Network.schedule() on TDMA networks
+    sim = Simulation()
+    net = TDMA(sim, "tdma", data_rate=1e6, slot_time=1e-3, schedule=["a", "b", None])
+    a = net.attach("a")
+    net.attach("b")
+    a.send("b", None, 1500)
+    sim.run(0.01)
+    assert net.slots == ["a", "b", None]
+    rows = net.schedule()
+    rows = rows[rows["node"] == "a"]
+    assert rows["state"].tolist() == ["sending", "waiting", "sending", "idle"]
+    assert rows["time"].tolist() == pytest.approx([0.0, 1e-3, 3e-3, 3.5e-3], abs=1e-12)
+
+
 def test_bad_pipeline_input_raises_naming_the_value():
     sim = Simulation()
     with pytest.raises(ValueError, match="data_rate.*0"):

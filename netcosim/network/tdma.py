@@ -38,8 +38,8 @@ class TDMA(Network):
     None for an idle slot).
     """
 
-    # the slot owners (node names, None for an idle slot); it shadows Network.schedule()
-    schedule: list[str | None]  # type: ignore[assignment]
+    #: the slot owners, one per slot of the cycle (node names, None for an idle slot)
+    slots: list[str | None]
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, slot_time: float, schedule: Sequence, **kw):
         super().__init__(sim, name, data_rate=data_rate, **kw)
@@ -56,11 +56,11 @@ class TDMA(Network):
                 s = getattr(s, "name", s)
                 if not isinstance(s, str):
                     raise ConfigurationTypeError(f"{w}: schedule entries must be node names or None, got {s!r}")
-        self.schedule = [None if s is None else getattr(s, "name", s) for s in sched]
-        self._cycle = self._slot * len(self.schedule)
+        self.slots = [None if s is None else getattr(s, "name", s) for s in sched]
+        self._cycle = self._slot * len(self.slots)
         self._t0 = sim.env._now
         self._windows: dict[str, list[tuple[int, int]]] = {}
-        for k, owner in enumerate(self.schedule):
+        for k, owner in enumerate(self.slots):
             if owner is None:
                 continue
             wins = self._windows.setdefault(owner, [])
@@ -78,7 +78,7 @@ class TDMA(Network):
         wins = self._windows.get(iface.name)
         if not wins:
             raise ValueError(f"network {self.name!r}: node {iface.name!r} owns no slot in the TDMA schedule "
-                             f"{self.schedule}")
+                             f"{self.slots}")
         rel = t - self._t0
         c, r = divmod(rel, self._cycle)
         for a, b in wins:
