@@ -45,6 +45,7 @@ CONFIGS = {
 
 def build(config: str, seed: int = 0):
     """The networked servo over lossy 802.11b with trace configuration *config*."""
+    from controllers.networked_loop import networked_loop
     from controllers.pid import PID
     from experiments.servo import square_wave
     from netcosim import RK4, Simulation
@@ -59,39 +60,10 @@ def build(config: str, seed: int = 0):
     sensor, controller = sim.node("sensor"), sim.node("controller")
     s_if = net.attach(sensor, position=(0.0, 0.0))
     c_if = net.attach(controller, position=(10.0, 0.0))
-    reference = square_wave(amplitude=1.0, period=1.0)
-    y_port, u_port = servo.output(0), servo.input(0)
-    pid = PID(h=PERIOD)
-
-    @sensor.periodic(period=PERIOD, priority=2, name="sample")
-    def sample(ctx):
-        y = ctx.read(y_port)
-        t = ctx.now
-        yield ctx.execute(EXEC_IO)
-        ctx.send("controller", (t, y), FRAME_BITS)
-
-    @sensor.aperiodic(priority=1, name="actuate")
-    def actuate(ctx):
-        msg = s_if.mailbox.try_fetch()
-        yield ctx.execute(EXEC_IO)
-        t_sample, u = msg.payload
-        ctx.write(u_port, u)
-        ctx.log("u", u)
-        ctx.log("delay", ctx.now - t_sample)
-
-    s_if.on_receive(actuate)
-
-    @controller.aperiodic(priority=1, name="pid")
-    def control(ctx):
-        msg = c_if.mailbox.try_fetch()
-        t_sample, y = msg.payload
-        # actuator saturation: at 70 % loss the unsaturated loop diverges within a minute
-        u = min(U_MAX, max(-U_MAX, pid.compute(reference(t_sample), y)))
-        ctx.log("y", y)
-        yield ctx.execute(EXEC_PID)
-        ctx.send("sensor", (t_sample, u), FRAME_BITS)
-
-    c_if.on_receive(control)
+    # actuator saturation: at 70 % loss the unsaturated loop diverges within a minute
+    networked_loop(servo, sensor, controller, s_if, c_if, law=PID(h=PERIOD).compute,
+                   reference=square_wave(amplitude=1.0, period=1.0), period=PERIOD, io_exec=EXEC_IO,
+                   control_exec=EXEC_PID, frame_bits=FRAME_BITS, u_max=U_MAX, log_reference=False)
     return sim
 
 

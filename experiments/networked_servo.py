@@ -27,6 +27,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from controllers.networked_loop import networked_loop
 from controllers.pid import PID
 from netcosim import RK4, Simulation
 from netcosim.network import CAN, CSMACD
@@ -64,39 +65,9 @@ def build(network: str = "csma_cd", share: float = 0.0, seed: int = 0, log_inter
     net.attach(interferer, priority=0)             # on CAN the interfering stream wins arbitration
     net.attach("sink", mailbox=False)
     reference = square_wave(amplitude=1.0, period=1.0)
-    y_port, u_port = servo.output(0), servo.input(0)
     pid = PID(h=PERIOD)
-
-    @sensor.periodic(period=PERIOD, priority=2, name="sample")
-    def sample(ctx):
-        y = ctx.read(y_port)
-        t = ctx.now
-        yield ctx.execute(IO_EXEC)
-        ctx.send("controller", (t, y), FRAME_BITS)
-
-    @sensor.aperiodic(priority=1, name="actuate")
-    def actuate(ctx):
-        msg = s_if.mailbox.try_fetch()
-        yield ctx.execute(IO_EXEC)
-        t_sample, u = msg.payload
-        ctx.write(u_port, u)
-        ctx.log("u", u)
-        ctx.log("delay", ctx.now - t_sample)
-
-    s_if.on_receive(actuate)
-
-    @controller.aperiodic(priority=1, name="pid")
-    def control(ctx):
-        msg = c_if.mailbox.try_fetch()
-        t_sample, y = msg.payload
-        r = reference(t_sample)
-        u = pid.compute(r, y)
-        ctx.log("r", r)
-        ctx.log("y", y)
-        yield ctx.execute(CONTROL_EXEC)
-        ctx.send("sensor", (t_sample, u), FRAME_BITS)
-
-    c_if.on_receive(control)
+    networked_loop(servo, sensor, controller, s_if, c_if, law=pid.compute, reference=reference, period=PERIOD,
+                   io_exec=IO_EXEC, control_exec=CONTROL_EXEC, frame_bits=FRAME_BITS)
 
     if share > 0.0:
         mean_gap = FRAME_BITS / (share * DATA_RATE)
