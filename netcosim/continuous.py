@@ -28,6 +28,7 @@ Systems of python-control (``StateSpace``, ``TransferFunction``,
 from __future__ import annotations
 
 import math
+import weakref
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
@@ -513,7 +514,9 @@ class _ExactZOHStepper:
                     f"plant {name!r}: ExactZOH needs f(t, x, u) = A x + B u, but at x={x.tolist()!r}, "
                     f"u={u.tolist()!r} f returned {got.tolist()!r} and A x + B u is {want.tolist()!r}; "
                     f"use RK4 or SolveIVP for a nonlinear plant")
-        self.owner, self.plant = owner, plant
+        self.owner, self.name = owner, name
+        # weak: the plant holds this stepper, and a run must leave no reference cycle behind
+        self._plant = weakref.ref(plant)
         self.nx = nx
         self.M = np.zeros((nx + nu, nx + nu))
         self.M[:nx, :nx] = A
@@ -521,7 +524,7 @@ class _ExactZOHStepper:
         self._cache: OrderedDict[int, tuple[np.ndarray, np.ndarray]] = OrderedDict()
 
     def __repr__(self):
-        return f"{self.owner!r} bound to plant {self.plant.name!r}"
+        return f"{self.owner!r} bound to plant {self.name!r}"
 
     def transition(self, ticks: int) -> tuple[np.ndarray, np.ndarray]:
         """``(Φ, Γ)`` for an interval of *ticks* ticks (cached)."""
@@ -550,7 +553,7 @@ class _ExactZOHStepper:
         if ticks <= 0:
             return t1, x0, None
         Phi, Gamma = self.transition(ticks)
-        return t1, Phi @ x0 + Gamma @ self.plant.u, None
+        return t1, Phi @ x0 + Gamma @ self._plant().u, None
 
 
 # ---------------------------------------------------------------------------

@@ -195,3 +195,14 @@ def test_bad_arguments():
         ExactZOH(cache_size=0)
     with pytest.raises(ConfigurationError, match="bind"):
         ExactZOH().integrate(lambda t, x: x, 0.0, np.zeros(1), 1.0, [])
+
+
+def test_a_plant_and_its_exact_stepper_form_no_reference_cycle():
+    import weakref
+    sim = Simulation()
+    plant = sim.plant(DCServo(), x0=[0.0, 0.0], integrator=ExactZOH(), log="none")
+    stepper = plant._stepper
+    assert "bound to plant 'servo'" in repr(stepper)
+    # the stepper reaches its plant through a weak reference only
+    assert all(v is not plant for v in vars(stepper).values())
+    assert isinstance(stepper._plant, weakref.ref) and stepper._plant() is plant
