@@ -27,7 +27,7 @@ Network loss models
 
 Plants
     :class:`ContinuousSystem`, :class:`PlantInstance`, :class:`HybridEvent`, :class:`RK4`,
-    :class:`SolveIVP`
+    :class:`SolveIVP`, :class:`ExactZOH`
 
 CPU time of controller code
     :class:`CPUTimeModel`, :class:`FixedCPUTime`, :class:`RecordedCPUTime`,
@@ -39,7 +39,7 @@ Errors
     :class:`SimulationFailedError`, :class:`UnyieldedExecuteError`, :class:`IntegrationError`
 """
 
-from .continuous import RK4, ContinuousSystem, HybridEvent, PlantInstance, SolveIVP
+from .continuous import RK4, ContinuousSystem, ExactZOH, HybridEvent, PlantInstance, SolveIVP
 from .cputime import CPUTimeModel, FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime
 from .errors import (
     ConfigurationError,
@@ -94,7 +94,7 @@ __all__ = [
     # network loss models
     "Bernoulli", "GilbertElliott", "TraceLoss",
     # plants
-    "ContinuousSystem", "PlantInstance", "HybridEvent", "RK4", "SolveIVP",
+    "ContinuousSystem", "PlantInstance", "HybridEvent", "RK4", "SolveIVP", "ExactZOH",
     # CPU time of controller code
     "CPUTimeModel", "FixedCPUTime", "RecordedCPUTime", "WallClockCPUTime", "NonReproducibleWarning",
     # errors

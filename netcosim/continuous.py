@@ -9,8 +9,8 @@ vector ``d(t)``.
 
 :class:`PlantInstance` advances the state to ``now`` only when something reads or
 writes it, when the logger samples, or when a subscribed hybrid event is due; there is
-no fixed-step loop over the horizon.  Integrators (:class:`RK4`, :class:`SolveIVP`) all
-stop exactly at I/O instants, so the choice of integrator never changes the I/O
+no fixed-step loop over the horizon.  Integrators (:class:`RK4`, :class:`SolveIVP`,
+:class:`ExactZOH` for linear time-invariant plants) all stop exactly at I/O instants, so the choice of integrator never changes the I/O
 semantics, only the numerical error between them.
 
 Every advance is bounded: :class:`RK4` refuses an advance of more than ``max_steps``
@@ -28,6 +28,8 @@ Systems of python-control (``StateSpace``, ``TransferFunction``,
 from __future__ import annotations
 
 import math
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
@@ -37,7 +39,7 @@ from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NotConnectedError
 from .timebase import RESOLUTION, TICKS_PER_SECOND
 
-__all__ = ["EVENT_REARM", "HybridEvent", "ContinuousSystem", "RK4", "SolveIVP", "SOLVE_IVP_METHODS",
+__all__ = ["EVENT_REARM", "HybridEvent", "ContinuousSystem", "RK4", "SolveIVP", "ExactZOH", "SOLVE_IVP_METHODS",
            "OutputPort", "InputPort", "PlantInstance", "NotConnectedError", "IntegrationError"]
 
 #: Events firing again within this many seconds of the previous firing of the same
@@ -389,6 +391,171 @@ class SolveIVP:
         return t1, sol.y[:, -1].copy(), None
 
 
+class ExactZOH:
+    """Exact zero-order-hold step for a linear time-invariant plant ``dx/dt = A x + B u``.
+
+    Over an interval of *h* seconds with the input held at ``u`` (the plant's inputs
+    only change at I/O instants), the state moves by the exact transition::
+
+        x(t + h) = e^{A h} x(t) + (∫_0^h e^{A s} ds) B u = Φ(h) x(t) + Γ(h) u
+
+    with ``Φ`` and ``Γ`` read off ONE matrix exponential of the augmented matrix
+    ``[[A, B], [0, 0]] · h`` (:func:`scipy.linalg.expm`, imported on first use): its
+    top rows are ``[Φ, Γ]``.  The pair is cached per interval length, keyed by the
+    length in integer ticks (:data:`netcosim.RESOLUTION` = 1 ps), in a least-recently
+    used cache of ``cache_size`` entries per plant, so a periodic loop computes a few
+    exponentials and then only two small matrix-vector products per advance, whatever
+    the interval.  The result has no discretisation error: it equals
+    ``scipy.signal.cont2discrete((A, B, C, D), h, method="zoh")`` to rounding.
+
+    A plant is accepted when its system exposes ``A`` (nx × nx) and ``B`` (nx × nu)
+    and its ``f`` is ``A x + B u`` (checked once, at two points, when the plant is
+    created): :class:`plants.dc_servo.DCServo` and the converted python-control
+    ``StateSpace`` / ``TransferFunction`` plants (:class:`netcosim.pycontrol.LinearPlant`).
+    Outputs still come from the system's ``h`` (``C x + D u`` for those).  A system
+    without ``A``/``B`` raises :class:`~netcosim.errors.ConfigurationTypeError`
+    naming the plant.
+
+    The *fallback* integrator (e.g. ``RK4(dt=1e-4)`` or ``SolveIVP()``) integrates the
+    plant instead, for the whole run, when the exact step does not apply:
+
+    * the system has hybrid events (``system.events`` non-empty): crossings must be
+      located, and resets make the dynamics piecewise;
+    * the plant has disturbance inputs (``system.nd > 0``) or a ``disturbance=``
+      function: ``d(t)`` is not held between I/O instants.
+
+    The plant then behaves exactly as with ``integrator=fallback``.  Without a
+    fallback, such a plant raises :class:`~netcosim.errors.ConfigurationError` when it
+    is created.  The choice is made once per plant; one ``ExactZOH`` may serve several
+    plants (each has its own cache).
+
+    Parameters
+    ----------
+    fallback: integrator for plants with events or disturbances (None: refuse them).
+    cache_size: most interval lengths whose ``(Φ, Γ)`` are kept per plant (>= 1,
+        default 64).
+
+    Attributes
+    ----------
+    expm_calls: matrix exponentials computed so far by the plants using this instance
+        (cache misses); ``cache_hits``: advances served from a cache.
+    """
+
+    def __init__(self, fallback=None, cache_size: int = 64):
+        if fallback is not None and not callable(getattr(fallback, "integrate", None)):
+            raise ConfigurationTypeError(f"ExactZOH fallback must be an integrator (RK4, SolveIVP or an object "
+                                         f"with an integrate method), got {fallback!r}")
+        _check_count(cache_size, "ExactZOH cache_size")
+        self.fallback = fallback
+        self.cache_size = int(cache_size)
+        self.expm_calls = 0
+        self.cache_hits = 0
+
+    def __repr__(self):
+        return f"ExactZOH(fallback={self.fallback!r})" if self.fallback is not None else "ExactZOH()"
+
+    def bind(self, plant: "PlantInstance"):
+        """The integrator that advances *plant*: an exact stepper for it, or the fallback.
+
+        Called once by :class:`PlantInstance` when the plant is created.
+        """
+        system, name = plant.system, plant.name
+        A, B = getattr(system, "A", None), getattr(system, "B", None)
+        if A is None or B is None:
+            raise ConfigurationTypeError(
+                f"plant {name!r}: ExactZOH needs a linear time-invariant system exposing A and B "
+                f"(dx/dt = A x + B u), {type(system).__name__} has no {'A' if A is None else 'B'}; "
+                f"use RK4 or SolveIVP")
+        reasons = []
+        if system.events:
+            reasons.append(f"hybrid events {[e.name for e in system.events]}")
+        if plant.disturbance is not None:
+            reasons.append("a disturbance input d(t)")
+        if reasons:
+            if self.fallback is None:
+                raise ConfigurationError(
+                    f"plant {name!r} has {' and '.join(reasons)}, which the exact ZOH step cannot hold "
+                    f"constant; give ExactZOH(fallback=...) an integrator for it (e.g. RK4 or SolveIVP)")
+            return self.fallback
+        return _ExactZOHStepper(self, plant, A, B)
+
+    def integrate(self, rhs, t0, x0, t1, gs):
+        """Not callable unbound: the exact step needs the plant's ``A``, ``B`` and held input.
+
+        :class:`PlantInstance` calls :meth:`bind` and integrates with what it returns.
+        """
+        raise ConfigurationError("ExactZOH advances a plant it is bound to (PlantInstance calls "
+                                 "ExactZOH.bind(plant)); it cannot integrate a bare right-hand side")
+
+
+class _ExactZOHStepper:
+    """:class:`ExactZOH` bound to one plant: its ``A``, ``B`` and a cache of ``(Φ, Γ)``."""
+
+    def __init__(self, owner: ExactZOH, plant: "PlantInstance", A, B):
+        system, name = plant.system, plant.name
+        nx, nu = system.nx, system.nu
+        A = np.array(A, dtype=float)
+        B = np.array(B, dtype=float)
+        if B.ndim == 1 and nu == 1:
+            B = B.reshape(nx, 1)
+        if A.shape != (nx, nx) or B.shape != (nx, nu):
+            raise ConfigurationError(
+                f"plant {name!r}: ExactZOH needs A of shape {(nx, nx)} and B of shape {(nx, nu)} "
+                f"({nx} states, {nu} inputs), got A {A.shape} and B {B.shape}")
+        if not (np.isfinite(A).all() and np.isfinite(B).all()):
+            raise ConfigurationError(f"plant {name!r}: ExactZOH needs finite A and B, got A={A.tolist()!r}, "
+                                     f"B={B.tolist()!r}")
+        # f must be the linear map A x + B u; a plant exposing a linearisation only is refused
+        for x, u in ((1.0 + np.arange(nx), 0.5 + np.arange(nu)), (np.zeros(nx), np.zeros(nu))):
+            got = np.asarray(system.f(0.0, x, u, plant.params), dtype=float).reshape(-1)
+            want = A @ x + B @ u
+            if got.shape != want.shape or not np.allclose(got, want, rtol=1e-9, atol=1e-12):
+                raise ConfigurationError(
+                    f"plant {name!r}: ExactZOH needs f(t, x, u) = A x + B u, but at x={x.tolist()!r}, "
+                    f"u={u.tolist()!r} f returned {got.tolist()!r} and A x + B u is {want.tolist()!r}; "
+                    f"use RK4 or SolveIVP for a nonlinear plant")
+        self.owner, self.name = owner, name
+        # weak: the plant holds this stepper, and a run must leave no reference cycle behind
+        self._plant = weakref.ref(plant)
+        self.nx = nx
+        self.M = np.zeros((nx + nu, nx + nu))
+        self.M[:nx, :nx] = A
+        self.M[:nx, nx:] = B
+        self._cache: OrderedDict[int, tuple[np.ndarray, np.ndarray]] = OrderedDict()
+
+    def __repr__(self):
+        return f"{self.owner!r} bound to plant {self.name!r}"
+
+    def transition(self, ticks: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(Φ, Γ)`` for an interval of *ticks* ticks (cached)."""
+        cache = self._cache
+        pair = cache.get(ticks)
+        if pair is not None:
+            cache.move_to_end(ticks)
+            self.owner.cache_hits += 1
+            return pair
+        from scipy.linalg import expm  # loaded on first use
+        E = expm(self.M * (ticks / TICKS_PER_SECOND))
+        self.owner.expm_calls += 1
+        pair = (E[:self.nx, :self.nx].copy(), E[:self.nx, self.nx:].copy())
+        cache[ticks] = pair
+        if len(cache) > self.owner.cache_size:
+            cache.popitem(last=False)
+        return pair
+
+    def integrate(self, rhs, t0, x0, t1, gs):
+        """Advance from ``(t0, x0)`` to *t1* (s) by the exact ZOH transition under the plant's held input.
+
+        *rhs* is not evaluated; *gs* is empty (a plant with events uses the fallback).
+        The interval is rounded to whole ticks (every I/O instant lies on a tick).
+        """
+        ticks = round((t1 - t0) * TICKS_PER_SECOND)
+        if ticks <= 0:
+            return t1, x0, None
+        Phi, Gamma = self.transition(ticks)
+        return t1, Phi @ x0 + Gamma @ self._plant().u, None
+
+
 # ---------------------------------------------------------------------------
 # Ports
 # ---------------------------------------------------------------------------
@@ -458,8 +625,9 @@ class PlantInstance:
         <netcosim.sim.Simulation.plant>` converts python-control systems with
         :func:`netcosim.pycontrol.from_control` before they get here).
     x0: initial state (length ``system.nx``, finite, in the states' units).
-    integrator: :class:`SolveIVP` (default) or :class:`RK4`, or anything with the
-        same ``integrate`` method.
+    integrator: :class:`SolveIVP` (default), :class:`RK4` or :class:`ExactZOH`, or
+        anything with the same ``integrate`` method (and optionally a ``bind(plant)``
+        method returning the integrator to use for this plant).
     params: passed as ``params`` to f, h and events (default ``system.params``).
     disturbance: ``d(t) -> array`` of length ``system.nd`` (default zeros); ``t`` in s.
     log_interval: log states, inputs and outputs every ``log_interval`` s; when None,
@@ -493,16 +661,19 @@ class PlantInstance:
             raise ConfigurationTypeError(f"plant {name!r}: integrator must be an RK4, a SolveIVP or an object "
                                          f"with an integrate method, got {integrator!r}")
         self.integrator = integrator if integrator is not None else SolveIVP()
-        jac = getattr(system, "jac", None)
-        self._jac = None
-        if callable(jac) and isinstance(self.integrator, SolveIVP):
-            self._jac = lambda t, x: jac(t, x, self._u_full(t), self.params)  # noqa: E731
         if disturbance is not None:
             validate.callable_(disturbance, f"plant {name!r}: disturbance", kind="a callable d(t)")
         if disturbance is None and system.nd:
             zeros = np.zeros(system.nd)
             disturbance = lambda t: zeros  # noqa: E731
         self.disturbance = disturbance
+        # an integrator may bind itself to the plant (ExactZOH needs A, B and the held input)
+        bind = getattr(self.integrator, "bind", None)
+        self._stepper = bind(self) if callable(bind) else self.integrator
+        jac = getattr(system, "jac", None)
+        self._jac = None
+        if callable(jac) and isinstance(self._stepper, SolveIVP):
+            self._jac = lambda t, x: jac(t, x, self._u_full(t), self.params)  # noqa: E731
         self.event_counts: dict[str, int] = {e.name: 0 for e in system.events}
         self.event_log: list[tuple[float, str]] = []
         #: the exception that stopped this plant's integration (None while it integrates fine)
@@ -560,8 +731,8 @@ class PlantInstance:
         """One integrator call, with the plant named in any IntegrationError."""
         try:
             if self._jac is not None:
-                return self.integrator.integrate(self._rhs, t0, x0, t1, gs, jac=self._jac)
-            return self.integrator.integrate(self._rhs, t0, x0, t1, gs)
+                return self._stepper.integrate(self._rhs, t0, x0, t1, gs, jac=self._jac)
+            return self._stepper.integrate(self._rhs, t0, x0, t1, gs)
         except IntegrationError as exc:
             if str(exc).startswith(f"plant {self.name!r}"):
                 raise
@@ -599,7 +770,7 @@ class PlantInstance:
         while t < t_target:
             try:
                 t_new, x_new, j = self._integrate(t, x, t_target, gs)
-                if not np.all(np.isfinite(x_new)):
+                if not np.isfinite(x_new).all():
                     bad = [n for n, v in zip(self.system.state_names, np.ravel(x_new)) if not math.isfinite(v)]
                     raise IntegrationError(
                         f"plant {self.name!r}: state {bad} became non-finite between t={t!r} and t={t_new!r} s: "

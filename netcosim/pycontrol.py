@@ -44,7 +44,9 @@ class LinearPlant(ContinuousSystem):
 
     ``A`` (nx×nx), ``B`` (nx×nu), ``C`` (ny×nx), ``D`` (ny×nu) are float arrays in the
     system's own units; :meth:`jac` returns ``A`` (used by the implicit methods of
-    :class:`~netcosim.continuous.SolveIVP`).
+    :class:`~netcosim.continuous.SolveIVP`).  Being linear time-invariant, it can
+    advance by the exact zero-order-hold step, ``integrator=ExactZOH()``
+    (:class:`~netcosim.continuous.ExactZOH`).
     """
 
     def __init__(self, A, B, C, D, *, states, inputs, outputs, name):

@@ -25,7 +25,8 @@ class DCServo(ContinuousSystem):
 
     ``k``: gain in rad/(V·s²), finite and non-zero; ``a``: pole in 1/s, finite and >= 0.
     :meth:`jac` returns ``A``, so the implicit ``SolveIVP`` methods need no finite
-    differences.
+    differences; ``A`` and ``B`` let ``integrator=ExactZOH()`` advance it by the exact
+    zero-order-hold transition (no step size, no discretisation error).
     """
 
     name = "servo"
