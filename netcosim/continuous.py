@@ -10,8 +10,9 @@ vector ``d(t)``.
 :class:`PlantInstance` advances the state to ``now`` only when something reads or
 writes it, when the logger samples, or when a subscribed hybrid event is due; there is
 no fixed-step loop over the horizon.  Integrators (:class:`RK4`, :class:`SolveIVP`,
-:class:`ExactZOH` for linear time-invariant plants) all stop exactly at I/O instants, so the choice of integrator never changes the I/O
-semantics, only the numerical error between them.
+:class:`ExactZOH` for linear time-invariant plants) all stop exactly at I/O instants,
+so the choice of integrator never changes the I/O semantics, only the numerical error
+between them.
 
 Every advance is bounded: :class:`RK4` refuses an advance of more than ``max_steps``
 steps and :class:`SolveIVP` one of more than ``max_evaluations`` evaluations of ``f``,
