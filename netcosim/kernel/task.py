@@ -88,6 +88,7 @@ class Job:
     deadline_timer: Timer | None = None
     budget_timer: Timer | None = None
     blocked_on: Blocking | None = None
+    ready_entry: list | None = None  # the job's live entry in its node's ready queue
     killed = False
     missed = False
     budget_overrun = False
