@@ -141,3 +141,23 @@ def test_a_job_killed_while_ready_never_runs_and_the_order_of_the_rest_holds():
     assert len(cpu.ready) == 0
     killed = sim.trace.jobs().set_index("task")["killed"]
     assert bool(killed["p2"]) and not killed.drop("p2").any()
+
+
+def test_a_job_killed_during_its_context_switch():
+    """Off the ready queue but still in state ``ready``: the kill completes the switch, then the CPU
+    is re-dispatched (the scanned list raised ValueError here)."""
+    sim = Simulation()
+    cpu = sim.node("cpu", context_switch=0.001)
+
+    def body(ctx):
+        yield ctx.execute(0.002)
+
+    a = cpu.aperiodic(body, priority=1, name="a")
+    b = cpu.aperiodic(body, priority=2, name="b")
+    jobs = []
+    sim.call_at(0.0, lambda: jobs.extend([a.release(), b.release()]))
+    sim.call_at(0.0005, lambda: jobs[0].kill())
+    sim.run(until=0.01)
+    t = sim.trace.jobs().set_index("task")
+    assert bool(t.loc["a", "killed"]) and t.loc["a", "finish"] == 0.0005
+    assert not t.loc["b", "killed"] and abs(t.loc["b", "finish"] - 0.004) < 1e-12
