@@ -172,9 +172,6 @@ class Node:
         return iface.send(dst, payload, size_bits, priority=priority)
 
     # ------------------------------------------------------------------ kernel
-    def _wake(self, callback, job, delay: int) -> Timer:
-        return Timer(self._env, delay, callback, job)
-
     def _trace(self, task: Task, state: str) -> None:
         if task.state != state:
             task.state = state
