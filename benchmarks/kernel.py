@@ -1,14 +1,18 @@
-"""Kernel throughput: simulated jobs per second for a 10-task set, against bare SimPy.
+"""Kernel throughput: simulated jobs per second for a 10-task set, against bare SimPy,
+and how the cost per job grows with the number of tasks.
 
 The baseline is ten bare SimPy processes that each yield two timeouts per job (the
 execution and the rest of the period) -- the same number of scheduled timeouts as the
 kernel needs per job (release and segment end), but with no scheduling, tracing or
 statistics.  The ratio (kernel time per job / bare time per job) is the kernel's
-overhead.  Run: ``python -m benchmarks.kernel``.
+overhead.  :func:`scaling` runs the same set scaled to 10, 300, 1000 and 3000 tasks at
+the same utilisation and reports the cost per job against the cost at 10 tasks (the
+ready queue's growth).  Run: ``python -m benchmarks.kernel``.
 """
 
 from __future__ import annotations
 
+import math
 import statistics
 import time
 
@@ -21,10 +25,23 @@ from netcosim.timebase import to_ticks
 TASKS = [(0.2, 2), (0.3, 3), (0.4, 4), (0.5, 5), (0.3, 6), (0.4, 8), (0.5, 10), (0.6, 12), (0.5, 15), (0.6, 20)]
 
 
-def kernel_run(until: float, policy: str = "fixed_priority") -> tuple[int, float]:
+#: hyperperiod of TASKS (s): a scaled run covers whole hyperperiods
+HYPERPERIOD = 0.12
+
+
+def scaled_tasks(n: int) -> list[tuple[float, float]]:
+    """*n* tasks (a multiple of 10): each of TASKS n/10 times with C scaled by 10/n (same utilisation),
+    rate-monotonic order (shortest period first)."""
+    if n % len(TASKS):
+        raise ValueError(f"n must be a multiple of {len(TASKS)}, got {n!r}")
+    k = n // len(TASKS)
+    return [(C / k, T) for C, T in sorted(TASKS, key=lambda ct: ct[1]) for _ in range(k)]
+
+
+def kernel_run(until: float, policy: str = "fixed_priority", tasks=TASKS) -> tuple[int, float]:
     sim = Simulation(seed=0)
     cpu = sim.node("cpu", scheduler=policy)
-    for i, (C, T) in enumerate(TASKS, start=1):
+    for i, (C, T) in enumerate(tasks, start=1):
         c = C * 1e-3
 
         def body(ctx, c=c):
@@ -51,7 +68,7 @@ def bare_run(n_jobs_per_task: list[int]) -> float:
     return time.perf_counter() - t0
 
 
-def main(until: float = 20.0, repeats: int = 7) -> dict:
+def overhead(until: float = 20.0, repeats: int = 7) -> dict:
     """Interleave kernel and baseline runs; compare the best (least disturbed) of each."""
     n_per_task = [int(round(until / (T * 1e-3))) for _, T in TASKS]
     n_b = sum(n_per_task)
@@ -75,6 +92,32 @@ def main(until: float = 20.0, repeats: int = 7) -> dict:
     print(f"  overhead ratio: {res['overhead_ratio_best']:.2f}x best-vs-best, "
           f"{res['overhead_ratio_median_pairwise']:.2f}x median of pairwise ratios (target <= 3x)")
     return res
+
+
+def scaling(sizes=(10, 300, 1000, 3000), jobs: int = 60_000, repeats: int = 3) -> dict:
+    """Cost per job (best of *repeats*, runs of the sizes interleaved) for each task count in
+    *sizes*, each run covering whole hyperperiods and at least *jobs* jobs."""
+    best: dict[int, float] = {n: math.inf for n in sizes}
+    n_jobs: dict[int, int] = {}
+    for _ in range(repeats):
+        for n in sizes:
+            rate = n / len(TASKS) * sum(1e3 / T for _, T in TASKS)  # jobs per simulated second
+            until = HYPERPERIOD * math.ceil(jobs / (rate * HYPERPERIOD))
+            n_jobs[n], dt = kernel_run(until, tasks=scaled_tasks(n))
+            best[n] = min(best[n], dt / n_jobs[n])
+    base = best[sizes[0]]
+    print(f"per-job cost against the number of tasks (utilisation 0.73, best of {repeats})")
+    for n in sizes:
+        print(f"  {n:5d} tasks: {best[n] * 1e6:6.2f} us/job  ({best[n] / base:.2f}x the {sizes[0]}-task cost, "
+              f"{n_jobs[n]} jobs per run)")
+    ratio = best[sizes[-1]] / base
+    print(f"  cost({sizes[-1]}) / cost({sizes[0]}) = {ratio:.2f} (target <= 1.5)")
+    return {"us_per_job": {n: best[n] * 1e6 for n in sizes}, "ratio": ratio}
+
+
+def main() -> dict:
+    """The overhead against bare SimPy at 10 tasks, then the growth with the number of tasks."""
+    return {"overhead": overhead(), "scaling": scaling()}
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
+from .ready import ReadyQueue
 from .task import HANDLER, Blocking, Job, Task
 from .timers import KernelTimer, Trigger
 
@@ -48,7 +49,7 @@ class Node:
                 f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} is "
                 f"{context_switch / speed!r} s, below the time resolution {RESOLUTION} s")
         self.tasks: dict[str, Task] = {}
-        self.ready: list[Job] = []
+        self.ready = ReadyQueue()
         self.running: Job | None = None
         self._loaded: Job | None = None
         self._in_cs: bool = False
@@ -171,9 +172,6 @@ class Node:
         return iface.send(dst, payload, size_bits, priority=priority)
 
     # ------------------------------------------------------------------ kernel
-    def _wake(self, callback, job, delay: int) -> Timer:
-        return Timer(self._env, delay, callback, job)
-
     def _trace(self, task: Task, state: str) -> None:
         if task.state != state:
             task.state = state
@@ -209,7 +207,7 @@ class Node:
         else:
             job.base_key = job.key = self.policy.key(job)
         job.state = "ready"
-        self.ready.append(job)
+        self.ready.push(job)
         if task.state != "ready":
             task.state = "ready"
             self._sched.append((self._env._now, self.name, task.name, "ready"))
@@ -232,22 +230,22 @@ class Node:
 
     def _dispatch(self, _event=None) -> None:
         self._dispatch_pending = False
-        if self._in_cs or not self.ready:
-            return
         ready = self.ready
-        best = ready[0]
-        if len(ready) > 1:
-            for j in ready:
-                if (j.cls, j.key, j.seq) < (best.cls, best.key, best.seq):
-                    best = j
-        if self._np_job is not None and best.cls != HANDLER:
-            best = self._np_job  # resumes before any task once the handlers are done
+        if self._in_cs or not ready.live:
+            return
+        best = ready.first()
+        np_job = self._np_job
+        if np_job is not None and best.cls != HANDLER:
+            best = np_job  # resumes before any task once the handlers are done
         r = self.running
         if r is not None:
             if not ((best.cls, best.key) < (r.cls, r.key) and (r.task.preemptible or best.cls < r.cls)):
                 return
             self._preempt(r)
-        ready.remove(best)
+        if best is np_job:
+            ready.discard(best)
+        else:
+            ready.pop_first()
         self._switch_in(best)
 
     def _preempt(self, job: Job) -> None:
@@ -262,7 +260,7 @@ class Node:
         if not job.task.preemptible:
             self._np_job = job
         job.state = "ready"
-        self.ready.append(job)
+        self.ready.push(job)
         self.running = None
         self._trace(job.task, "ready")
 
@@ -286,7 +284,7 @@ class Node:
             return
         self._run(job)
         # something better may have arrived during the (non-preemptible) switch
-        if self.ready:
+        if self.ready.live:
             self._request_dispatch()
 
     def _run(self, job: Job) -> None:
@@ -377,7 +375,7 @@ class Node:
         job.blocked_on = None
         job.resume_value = value
         job.state = "ready"
-        self.ready.append(job)
+        self.ready.push(job)
         self._trace(job.task, "ready")
         self._request_dispatch()
 
@@ -418,7 +416,7 @@ class Node:
                 task.state = "idle"
                 self._sched.append((now, self.name, task.name, "idle"))
             task.ctx.job = None
-        if self.ready:
+        if self.ready.live:
             self._request_dispatch()
 
     def _kill(self, job: Job) -> None:
@@ -434,7 +432,7 @@ class Node:
             self._record(job)
             return
         if job.state == "ready":
-            self.ready.remove(job)
+            self.ready.discard(job)
             if job is self._np_job:
                 self._np_job = None
         elif job.state == "blocked" and job.blocked_on is not None:
@@ -496,6 +494,8 @@ class Node:
                         best_cls, best_key = w.cls, w.key
         if (best_cls, best_key) != (job.cls, job.key):
             job.cls, job.key = best_cls, best_key
+            if job.state == "ready":
+                self.ready.requeue(job)
             if job.state == "blocked" and job.blocked_on is not None:
                 holder = getattr(job.blocked_on, "holder", None)
                 if holder is not None:

@@ -88,6 +88,7 @@ class Job:
     deadline_timer: Timer | None = None
     budget_timer: Timer | None = None
     blocked_on: Blocking | None = None
+    ready_entry: list | None = None  # the job's live entry in its node's ready queue
     killed = False
     missed = False
     budget_overrun = False
@@ -217,7 +218,7 @@ class Task:
         now = node._env._now
         self._k += 1
         nxt = self.offset_ticks + self._k * self.period_ticks
-        self._release_timer = node._wake(self._periodic_release, None, nxt - now)
+        self._release_timer = Timer(node._env, nxt - now, self._periodic_release, None)
         node._release(self, now)
 
     def stop(self) -> None:
