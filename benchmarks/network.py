@@ -9,19 +9,35 @@ Baseline, measured in the same run: bare SimPy processes doing nothing but
 ``yield env.timeout(dt)``.  The ratio (wall time per simulated frame / wall time per bare
 timeout) is the cost of one complete 802.11 frame exchange -- which needs several
 events per station (carrier-sense changes, backoff timers, data, SIFS, ACK, NAV) -- in
-units of the cheapest possible SimPy event.  Run: ``python -m benchmarks.network``.
+units of the cheapest possible SimPy event.
+
+CAN per-frame cost against the number of nodes n (10 and 100), two scenarios with 8-byte
+standard frames, identifier = node index:
+
+``periodic``   every node sends periodically with a random phase, for a bus load of 90 %
+               whatever n: the queues of a few nodes compete at each arbitration;
+``saturated``  every node keeps a frame queued (:class:`SaturatedSource`): all n queues
+               compete at every arbitration (the worst case for a scan).
+
+The measure is wall time per frame sent; the ratio of the cost at 100 nodes to the cost at
+10 nodes, measured in the same run, for the heap arbitration of :class:`~netcosim.network.CAN`
+and for the scan of every node's queue it replaced (:class:`ScanCAN`, kept here for comparison).
+
+Run: ``python -m benchmarks.network`` (``--can`` for the CAN part only).
 """
 
 from __future__ import annotations
 
+import gc
 import math
 import statistics
+import sys
 import time
 
 import simpy
 
 from netcosim import Simulation
-from netcosim.network import SaturatedSource, WLAN80211b
+from netcosim.network import CAN, SaturatedSource, WLAN80211b, can_frame_bits
 
 N_STATIONS = 10
 PAYLOAD_BITS = 1500 * 8
@@ -80,8 +96,85 @@ def main(until: float = 2.0, repeats: int = 5) -> dict:
               f"{r['ratio_median']:.0f}x median of pairwise ratios")
     print(f"  bare SimPy: {bare_us:.3f} us per timeout (best)")
     res["bare_us_per_timeout"] = bare_us
+    res["can"] = can_main()
     return res
 
 
+class ScanCAN(CAN):
+    """CAN with the arbitration it had before the heap: scan every node's queue (comparison only)."""
+
+    def _choose(self):
+        best, bkey = None, None
+        for i in self._ifaces:
+            q = i.queue
+            if q._q:
+                key = q.peek().priority
+                if bkey is None or key < bkey:
+                    best, bkey = i, key
+        return best
+
+    def _restart(self, iface):
+        for i in self._ifaces:
+            if i.queue._q:
+                self._kick(i)
+                break
+
+
+CAN_RATE = 500e3
+CAN_LOAD = 0.9
+
+
+def can_run(n: int, frames: int, cls=CAN, scenario: str = "periodic") -> tuple[int, float]:
+    """n senders (*scenario*, see the module docstring); returns (frames sent, wall seconds)."""
+    sim = Simulation(seed=0)
+    bus = cls(sim, "can", data_rate=CAN_RATE, frame_format="standard")
+    sink = bus.attach("sink", priority=10**6, mailbox=False)
+    c = can_frame_bits(8) / CAN_RATE
+    period = n * c / CAN_LOAD
+    rng = sim.rng("phases")
+    for i in range(n):
+        iface = bus.attach(f"n{i}", priority=i, mailbox=False)
+        if scenario == "saturated":
+            SaturatedSource(iface, sink, 64)
+            continue
+
+        def send(iface=iface):
+            iface.send(sink, None, 64)
+            sim.call_in(period, send)
+        sim.call_at(float(rng.uniform(0, period)), send)
+    until = frames * c / (1.0 if scenario == "saturated" else CAN_LOAD)
+    gc.collect()    # the previous runs' dead simulations, not this one's cost
+    t0 = time.perf_counter()
+    sim.run(until)
+    dt = time.perf_counter() - t0
+    return sum(i.stats["sent"] for i in bus._ifaces), dt
+
+
+def can_main(frames: int = 20_000, repeats: int = 5) -> dict:
+    """Per-frame cost at 10 and 100 nodes, heap vs scan, interleaved; the best run of each."""
+    res: dict = {}
+    scenarios = ("periodic", "saturated")
+    for _ in range(repeats):
+        for scenario in scenarios:
+            for cls in (CAN, ScanCAN):
+                for n in (10, 100):
+                    sent, dt = can_run(n, frames, cls, scenario)
+                    key = (scenario, cls.__name__, n)
+                    res[key] = min(res.get(key, math.inf), dt / sent)
+    print(f"CAN, {CAN_RATE / 1e3:.0f} kbit/s, 8-byte standard frames, ~{frames} frames per run, "
+          f"best of {repeats} interleaved runs")
+    out: dict = {}
+    for scenario in scenarios:
+        print(f"  {scenario} ({f'{CAN_LOAD:.0%} load' if scenario == 'periodic' else 'every queue non-empty'}):")
+        for name, label in (("CAN", "heap (now)"), ("ScanCAN", "scan (before)")):
+            a, b = res[(scenario, name, 10)] * 1e6, res[(scenario, name, 100)] * 1e6
+            print(f"    {label:13s}: {a:.1f} us/frame at 10 nodes, {b:.1f} us/frame at 100 nodes, "
+                  f"ratio 100/10 = {b / a:.2f}")
+            out[(scenario, name)] = {"us_per_frame_10": a, "us_per_frame_100": b, "ratio": b / a}
+    return out
+
 if __name__ == "__main__":
-    main()
+    if "--can" in sys.argv[1:]:
+        can_main()
+    else:
+        main()

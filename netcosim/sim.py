@@ -74,6 +74,12 @@ class Simulation:
     strict:
         In real-time mode, raise when an event is processed more than ``max_lag``
         seconds late; otherwise record the lag in ``Simulation.lags``.
+
+    Memory: a simulation and its components refer to each other (reference cycles), so
+    dropping the last reference to a finished simulation does not free it at once (its
+    traces included); Python's cyclic garbage collector does, eventually.  A loop that
+    runs many simulations in one process (a sweep) calls ``gc.collect()`` after each run,
+    or every few runs, to keep memory flat (``benchmarks/sweep_memory.py`` measures it).
     """
 
     def __init__(self, seed: int = 0, *, realtime: bool = False, factor: float = 1.0,

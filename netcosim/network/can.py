@@ -6,6 +6,11 @@ identifier) wins; it is sent to completion.  Each node's controller queue is ord
 priority too (``queue="priority"``, the default).  Real CAN needs unique identifiers;
 here equal priorities from different nodes are broken by attach order.
 
+Cost: the bus keeps a heap of the nodes' head-of-queue identifiers, keyed
+``(priority, attach index)``, updated when a node's head changes (a frame queued ahead
+of the head, or the head taken into service).  An arbitration is O(log n) in the number
+of nodes n instead of a scan of every queue.
+
 Frame length, two models:
 
 * ``frame_format="truetime"`` (default): ``max(size_bits, min_frame_bits)`` bits,
@@ -22,6 +27,7 @@ Frame length, two models:
 
 from __future__ import annotations
 
+import heapq
 import math
 
 from .. import validate
@@ -69,6 +75,7 @@ class CAN(SharedBus):
         self.allow_empty = frame_format == "standard"
         self.extended = bool(extended)
         self.stuffing = bool(stuffing)
+        self._reset_heap()
         super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, **kw)
 
     def wire_bits(self, size_bits: int) -> int:
@@ -84,12 +91,62 @@ class CAN(SharedBus):
                              f"(identifier): pass priority= to send() or to attach()")
         super()._check_priority(priority, iface)
 
+    # Arbitration heap.  ``_head[i]`` is the identifier at the head of interface i's queue
+    # (None: empty); ``_heap`` holds ``(identifier, index)`` entries, at least one per
+    # non-empty queue with its current head.  An entry whose identifier is no longer the
+    # head of its interface is stale and discarded when it reaches the top (lazy deletion).
+    # The key (identifier, attach index) gives the same winner as a scan in attach order.
+    def attach(self, node, **kw):
+        iface = super().attach(node, **kw)
+        self._head.append(None)
+        return iface
+    attach.__doc__ = SharedBus.attach.__doc__
+
+    def _reset_heap(self) -> None:
+        self._head: list = []
+        self._heap: list = []
+        self._waiting = 0       # interfaces with a non-empty queue
+
+    def _head_changed(self, iface) -> None:
+        q = iface.queue
+        i = iface.index
+        old = self._head[i]
+        if q._q:
+            key = q.peek().priority
+            if old is None:
+                self._waiting += 1
+            elif key == old:
+                return
+            self._head[i] = key
+            heap = self._heap
+            heapq.heappush(heap, (key, i))
+            if len(heap) > 4 * len(self._head) + 16:
+                # too many stale entries (heads that changed without reaching the top): rebuild
+                heap[:] = [(k, j) for j, k in enumerate(self._head) if k is not None]
+                heapq.heapify(heap)
+        elif old is not None:
+            self._head[i] = None
+            self._waiting -= 1
+
+    def _kick(self, iface) -> None:
+        self._head_changed(iface)     # a frame was queued at iface
+        super()._kick(iface)
+
+    def _next_frame(self, iface):
+        f = super()._next_frame(iface)
+        if f is not None:
+            self._head_changed(iface)
+        return f
+
+    def _restart(self, iface) -> None:
+        if self._waiting:
+            self._kick(iface)
+
     def _choose(self):
-        best, bkey = None, None
-        for i in self._ifaces:
-            q = i.queue
-            if q._q:
-                key = q.peek().priority
-                if bkey is None or key < bkey:
-                    best, bkey = i, key
-        return best
+        heap, head = self._heap, self._head
+        while heap:
+            key, i = heap[0]
+            if head[i] is not None and head[i] == key:
+                return self._ifaces[i]
+            heapq.heappop(heap)
+        return None
