@@ -89,7 +89,7 @@ def child(config: str, until: float) -> dict:
 
 
 def measure(config: str, until: float) -> dict:
-    """Run :func:`child` in a fresh interpreter (this worktree first on the path)."""
+    """Run :func:`child` in a fresh interpreter (this checkout first on the path)."""
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
     out = subprocess.run([sys.executable, "-m", "benchmarks.memory", "--child", config, str(until)],

@@ -24,7 +24,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def netcosim_cli(args, cwd, *, timeout=120):
-    """Run ``python -m netcosim.cli ARGS`` in *cwd* with this worktree's code first on the path."""
+    """Run ``python -m netcosim.cli ARGS`` in *cwd* with this checkout's code first on the path."""
     env = dict(os.environ, PYTHONPATH=str(REPO), MPLBACKEND="Agg")
     return subprocess.run([sys.executable, "-m", "netcosim.cli", *args], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=timeout)
