@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterable, Sequence
 
 from . import validate
+from .columns import ColumnStore
 from .errors import ConfigurationError, ConfigurationTypeError
 from .timebase import TICKS_PER_SECOND
 
@@ -123,6 +124,10 @@ class Sink:
         ring or the window, written to Parquet, cleared) *new* is appended instead.
         """
         buf = self._rec._buf
+        if type(buf) is ColumnStore:
+            if not buf.replace(old, new):
+                self.append(new)
+            return
         for i in range(len(buf) - 1, -1, -1):
             if buf[i] is old:
                 buf[i] = new
@@ -170,7 +175,7 @@ class Recorder:
         self.time_scale = TICKS_PER_SECOND if time_unit == "ticks" else 1.0
         self.key_index = tuple(self.columns.index(k) for k in key) if key else ()
         self._clock = clock
-        self._buf: list | deque = []
+        self._buf: list | deque | ColumnStore = ColumnStore(len(self.columns))
         self._window: int | float | None = None      # stored-unit width of the window
         self._stream: _Stream | None = None      # _Stream in stream mode
         self._counts: dict = {}  # decimation counters per key
@@ -240,6 +245,8 @@ class Recorder:
             self._buf = deque(maxlen=rows)
         elif mode == "window":
             self._buf = deque()
+        elif mode == "keep":
+            self._buf = ColumnStore(len(self.columns))
         else:
             self._buf = []
         store = self._make_store()
