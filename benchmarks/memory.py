@@ -15,10 +15,18 @@ Configurations, each run in a fresh Python process (its peak RSS is ``VmHWM`` fr
 ``window``   ``configure_all(mode="window", seconds=5.0)``
 ``off``      ``configure_all(mode="off")``
 
+Bytes per trace row (:func:`bytes_per_row`): the same scenario, default tracing, run for
+``ROW_SECONDS`` simulated seconds under :mod:`tracemalloc` twice in one process -- once
+with today's columnar store, once with every table's store replaced by a plain list of
+row tuples (the storage netcosim used before the columnar one; it exists only here, as
+the baseline).  The memory allocated during the run and still held at its end, divided
+by the rows kept, is the cost of a row; the ratio is what the columnar store saves.
+
 The bounded configurations run one simulated hour.  The default one grows without bound,
 so it runs two shorter horizons and the growth per simulated hour is extrapolated from
 the difference (``--default-hours`` to choose them).  No test depends on these numbers.
-Run: ``python -m benchmarks.memory`` (``--quick`` for a 60 s smoke run).
+Run: ``python -m benchmarks.memory`` (``--quick`` for a 60 s smoke run, ``--rows`` for the
+bytes per row only).
 """
 
 from __future__ import annotations
@@ -29,12 +37,14 @@ import os
 import subprocess
 import sys
 import time
+import tracemalloc
 
 PERIOD = 0.010
 EXEC_IO, EXEC_PID = 0.0002, 0.0005
 FRAME_BITS = 80
 LOSS = 0.7
 U_MAX = 10.0            # actuator saturation (V)
+ROW_SECONDS = 30.0      # simulated seconds of the bytes-per-row measurement
 CONFIGS = {
     "default": None,
     "ring": dict(mode="ring", rows=10_000),
@@ -97,6 +107,43 @@ def measure(config: str, until: float) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def _tuple_store(sim) -> None:
+    """Baseline for :func:`bytes_per_row`: every table keeps its rows as a list of tuples."""
+    for rec in sim.trace._tables.values():
+        rec._buf = list(rec._buf)  # rows recorded while building (network attach) carry over
+        rec.rows.append = rec._buf.append
+
+
+def _row_cost(tuples: bool, until: float) -> tuple[int, int]:
+    """(bytes allocated during the run and held at its end, rows kept) for one run."""
+    import gc
+    sim = build("default")
+    if tuples:
+        _tuple_store(sim)
+    gc.collect()
+    tracemalloc.start()
+    base = tracemalloc.get_traced_memory()[0]
+    sim.run(until)
+    gc.collect()
+    held = tracemalloc.get_traced_memory()[0] - base
+    tracemalloc.stop()
+    return held, sum(len(rec) for rec in sim.trace._tables.values())
+
+
+def bytes_per_row(until: float = ROW_SECONDS) -> dict:
+    """Trace memory per row, columnar store against a tuple store, measured in this process."""
+    col_bytes, col_rows = _row_cost(False, until)
+    tup_bytes, tup_rows = _row_cost(True, until)
+    if col_rows != tup_rows:
+        raise RuntimeError(f"the two runs kept {col_rows} and {tup_rows} rows; they should be identical")
+    res = {"rows": col_rows, "columnar": col_bytes / col_rows, "tuples": tup_bytes / tup_rows}
+    res["ratio"] = res["tuples"] / res["columnar"]
+    print(f"trace memory per row, networked servo, {until:g} simulated s, {col_rows} rows (tracemalloc)")
+    print(f"  tuples:   {res['tuples']:6.1f} bytes/row")
+    print(f"  columnar: {res['columnar']:6.1f} bytes/row  ({res['ratio']:.1f}x smaller)")
+    return res
+
+
 def main(hours: float = 1.0, default_hours: tuple[float, float] = (60.0, 240.0)) -> dict:
     """Measure every configuration; print a table (MB = 2**20 bytes)."""
     until = hours * 3600.0
@@ -130,10 +177,15 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--child", nargs=2, metavar=("CONFIG", "UNTIL"), help=argparse.SUPPRESS)
     ap.add_argument("--quick", action="store_true", help="60 s instead of one simulated hour")
+    ap.add_argument("--rows", action="store_true", help="only the bytes per trace row (tuples vs columnar)")
     args = ap.parse_args()
-    if args.child:
+    if args.rows:
+        bytes_per_row()
+    elif args.child:
         print(json.dumps(child(args.child[0], float(args.child[1]))))
     elif args.quick:
+        bytes_per_row(10.0)
         main(hours=60.0 / 3600.0, default_hours=(15.0, 60.0))
     else:
+        bytes_per_row()
         main()

@@ -11,9 +11,12 @@ column values        stored as
 all ``float``        ``array('d')`` (8 bytes a row; every bit kept, NaN and -0.0 too)
 all ``int``          ``array('q')`` (8 bytes a row) when they fit in 64 bits
 all ``bool``         ``bytes`` (1 byte a row)
-all ``str``          codes into the column's category table (``array`` of 1, 2 or 4
-                     bytes a row); each distinct string is stored once per table
+all ``str``          codes into the column's category table (``bytes`` or ``array`` of
+                     1, 2 or 4 bytes a row); each distinct string is stored once per table
 all ``None``         nothing but the row count
+numbers and None     a type tag per row (1 byte) and the values as ``array('d')`` (or
+                     ``array('q')`` without floats); integers beyond 2**53 among floats
+                     make the column ``anything else``
 anything else        a plain list of the objects (no tuple per row)
 ===================  ==================================================================
 
@@ -36,13 +39,17 @@ from typing import Any, Iterator
 __all__ = ["ColumnStore", "CHUNK_ROWS"]
 
 #: Rows encoded together; at most twice as many rows are held as tuples at any time.
-CHUNK_ROWS = 4096
+CHUNK_ROWS = 1024
 
 _NONE = type(None)
+#: type tags of the ``mixed`` codec (numbers and None in one column)
+_TAGS = {float: 0, int: 1, bool: 2, _NONE: 3}
+_UNTAG = (float, int, bool, lambda v: None)
+_EXACT = 2 ** 53  # integers a double holds exactly
 
 
 def _code_type(n: int) -> str:
-    return "B" if n <= 0xFF else "H" if n <= 0xFFFF else "I"
+    return "H" if n <= 0xFFFF else "I"
 
 
 class ColumnStore:
@@ -103,15 +110,37 @@ class ColumnStore:
                 cols.append(("bool", bytes(col)))
             elif t is str:
                 codes, names = self._codes[c], self._names[c]
-                for s in set(col).difference(codes):
-                    codes[s] = len(names)
-                    names.append(s)
-                cols.append(("str", array(_code_type(len(names) - 1), map(codes.__getitem__, col))))
+                try:
+                    coded = list(map(codes.__getitem__, col))
+                except KeyError:  # new strings: give them the next codes
+                    for s in dict.fromkeys(col):  # distinct values, in order of appearance
+                        if s not in codes:
+                            codes[s] = len(names)
+                            names.append(s)
+                    coded = list(map(codes.__getitem__, col))
+                cols.append(("str", bytes(coded) if len(names) <= 0x100
+                             else array(_code_type(len(names) - 1), coded)))
             elif t is _NONE:
                 cols.append(("none", None))
             else:
-                cols.append(("obj", list(col)))
+                cols.append(self._mixed(col, types) if t is None and types <= _TAGS.keys()
+                            else ("obj", list(col)))
         return ("cols", cols)
+
+    @staticmethod
+    def _mixed(col, types):
+        """Numbers of several types and None: a type tag per row and the values as doubles (or
+        64-bit integers when there is no float); ``obj`` when an integer would not be exact."""
+        tags = bytes(map(_TAGS.__getitem__, map(type, col)))
+        vals = [0 if v is None else v for v in col] if _NONE in types else col
+        try:
+            if float in types:
+                if int in types and not all(-_EXACT <= v <= _EXACT for v in col if type(v) is int):
+                    return ("obj", list(col))
+                return ("mixed", (tags, array("d", vals)))
+            return ("mixed", (tags, array("q", vals)))
+        except OverflowError:
+            return ("obj", list(col))
 
     def _decode(self, n: int, chunk) -> list[tuple]:
         kind, data = chunk
@@ -127,6 +156,9 @@ class ColumnStore:
                 cols.append([b != 0 for b in v])
             elif codec == "none":
                 cols.append([None] * n)
+            elif codec == "mixed":
+                tags, vals = v
+                cols.append([_UNTAG[t](x) for t, x in zip(tags, vals.tolist())])
             else:
                 cols.append(v)
         return list(zip(*cols))

@@ -1,0 +1,156 @@
+"""Columnar trace storage: rows come back as the very values appended (types and bits),
+whatever mix of types a column holds, and the DataFrames built from them are identical
+to those built from tuples."""
+
+import math
+import sys
+
+import pandas as pd
+import pytest
+
+from netcosim import Simulation
+from netcosim.columns import ColumnStore
+from netcosim.trace import Trace
+
+
+def same(a, b) -> bool:
+    """Same type and same value (NaN equal to NaN, -0.0 distinct from 0.0)."""
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, float):
+        return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
+    return a == b
+
+
+def assert_same_rows(got, want):
+    assert len(got) == len(want)
+    for r, w in zip(got, want):
+        assert len(r) == len(w) and all(same(x, y) for x, y in zip(r, w)), (r, w)
+
+
+ROWS = [
+    # int, float, mixed numbers/None, bool, str, big int, signed zero, NaN/int/bool, object
+    (1, 2.5, None, True, "a", 2**60, -0.0, math.nan, ("payload",)),
+    (3, 7.0, 1.5, False, "b", 2**70, 1.0, 2, None),
+    (-4, math.inf, 7, False, "a", 5, 0.0, True, 3),
+] * 7
+
+
+def test_every_codec_round_trips_exactly():
+    store = ColumnStore(len(ROWS[0]), chunk_rows=4)
+    for r in ROWS:
+        store.append(r)
+    # 21 rows: two chunks of 4 encoded, at most 2 * 4 - 1 tuples after them
+    assert len(store) == 21 and store._n == 16 and len(store._tail) == 5
+    codecs = [codec for codec, _ in store._chunks[0][1][1]]
+    assert codecs == ["q", "d", "mixed", "bool", "str", "obj", "d", "mixed", "obj"]
+    assert_same_rows(list(store), ROWS)
+    assert_same_rows([store[i] for i in range(21)], ROWS)
+    assert same(store[-1][1], math.inf)
+    assert_same_rows([store[-21]], [ROWS[0]])
+    with pytest.raises(IndexError, match="row 21 out of range"):
+        store[21]
+
+
+def test_strings_are_stored_once_as_one_byte_codes():
+    store = ColumnStore(2, chunk_rows=1000)
+    # a fresh string object per row (as ctx.log builds "node.task"), 3 distinct values
+    for i in range(2000):
+        store.append((float(i), "".join(["node", ".", "task", str(i % 3)])))
+    codec, codes = store._chunks[0][1][1][1]
+    assert codec == "str" and isinstance(codes, bytes) and len(codes) == 1000
+    assert store._names[1] == ["node.task0", "node.task1", "node.task2"]
+    assert [r[1] for r in store] == [f"node.task{i % 3}" for i in range(2000)]
+
+
+def test_more_than_256_strings_use_two_byte_codes():
+    store = ColumnStore(1, chunk_rows=300)
+    for i in range(600):
+        store.append((f"s{i}",))
+    codec, codes = store._chunks[-1][1][1][0]
+    assert codec == "str" and codes.itemsize == 2
+    assert [r[0] for r in store] == [f"s{i}" for i in range(600)]
+
+
+def test_integers_beyond_two_to_the_53_among_floats_stay_exact():
+    store = ColumnStore(1, chunk_rows=2)
+    rows = [(2**53 + 1,), (0.5,), (1,), (0.25,)]
+    for r in rows:
+        store.append(r)
+    kinds = [chunk[1][1][0][0] for chunk in store._chunks]
+    assert kinds == ["obj"]          # the first chunk could not be doubles
+    assert_same_rows(list(store), rows)
+
+
+def test_rows_of_the_wrong_length_are_kept_as_rows():
+    store = ColumnStore(2, chunk_rows=2)
+    rows = [(1, 2), (3,), (4, 5), (6, 7), (8, 9)]
+    for r in rows:
+        store.append(r)
+    assert store._chunks[0][1][0] == "rows"
+    assert list(store) == rows
+
+
+def test_replace_finds_a_row_by_identity_then_by_value_in_the_newest_chunk():
+    store = ColumnStore(2, chunk_rows=2)
+    first = (0, "idle")
+    store.append(first)
+    for i in range(1, 4):
+        store.append((i, "x"))
+    assert store._n == 2                   # `first` was encoded: matched by value now
+    assert store.replace(first, (0, "sending")) and store[0] == (0, "sending")
+    last = (9, "waiting")
+    store.append(last)
+    assert store.replace(last, (9, "idle")) and store[-1] == (9, "idle")
+    assert not store.replace((42, "never"), (0, "x"))
+
+
+def test_clear_keeps_the_codes_valid():
+    store = ColumnStore(1, chunk_rows=2)
+    for s in "abcde":
+        store.append((s,))
+    store.clear()
+    assert len(store) == 0 and list(store) == []
+    for s in "edcba":
+        store.append((s,))
+    assert [r[0] for r in store] == list("edcba")
+
+
+def test_columnar_storage_is_much_smaller_than_tuples():
+    store = ColumnStore(4, chunk_rows=1024)
+    rows = [(i * 1e-3, "servo", "y.y", i * 0.5) for i in range(1024 * 8)]
+    for r in rows:
+        store.append(r)
+    encoded = sum(c[1][1][0][1].itemsize * 1024 * 2 + 2 * 1024 for c in store._chunks)
+    per_row_encoded = encoded / store._n
+    per_row_tuple = sys.getsizeof(rows[0]) + 2 * sys.getsizeof(1.5) + 8  # tuple, two floats, list slot
+    assert per_row_encoded == 18.0 and per_row_tuple >= 3 * per_row_encoded
+
+
+def logging_sim(n_jobs: int) -> Simulation:
+    sim = Simulation()
+    cpu = sim.node("cpu")
+
+    @cpu.periodic(period=1e-3, priority=1)
+    def t(ctx):
+        ctx.log("k", ctx.job.index)
+        ctx.log("half", ctx.job.index / 2)
+        yield ctx.execute(1e-4)
+    sim.run(n_jobs * 1e-3)
+    return sim
+
+
+def test_frames_equal_those_built_from_tuples():
+    sim = logging_sim(3000)           # thousands of rows per table: several encoded chunks
+    trace = sim.trace
+    for name in ("signals", "schedule", "jobs"):
+        rec = trace._tables[name]
+        assert rec._buf._n > 0
+        got = rec.frame()
+        tuples = Trace()
+        ref = tuples.table(name, rec.columns, rec.categorical, rec.transform,
+                           time=rec.columns[rec.time_index] if rec.time_index is not None else None)
+        ref._buf = list(rec._buf)
+        ref.providers = rec.providers
+        pd.testing.assert_frame_equal(got, ref.frame(), check_exact=True)
+    assert list(trace.jobs()["job"]) == list(range(3000))
