@@ -170,6 +170,16 @@ class ContinuousSystem:
 # ``gs`` is a list of (g(t, x), direction).  Integration stops at the first crossing.
 # ---------------------------------------------------------------------------
 
+def _all_finite(a: np.ndarray) -> bool:
+    """True when every entry of the float array *a* is finite.
+
+    The sum of the entries (as Python floats) is finite whenever every entry is, and
+    costs far less than ``np.isfinite(a).all()`` for the few entries of a plant state;
+    only a non-finite (or overflowing) sum needs the exact check.
+    """
+    return math.isfinite(sum(a.tolist())) or bool(np.isfinite(a).all())
+
+
 def _crossed(g0: float, g1: float, direction: int) -> bool:
     if direction >= 0 and g0 < 0.0 <= g1:
         return True
@@ -553,7 +563,13 @@ class _ExactZOHStepper:
         ticks = round((t1 - t0) * TICKS_PER_SECOND)
         if ticks <= 0:
             return t1, x0, None
-        Phi, Gamma = self.transition(ticks)
+        pair = self._cache.get(ticks)
+        if pair is None:
+            Phi, Gamma = self.transition(ticks)
+        else:
+            self._cache.move_to_end(ticks)
+            self.owner.cache_hits += 1
+            Phi, Gamma = pair
         return t1, Phi @ x0 + Gamma @ self._plant().u, None
 
 
@@ -571,6 +587,8 @@ class OutputPort:
         """The selected outputs at the current simulated time: a float for one output, else a copy of
         the array (the plant's units)."""
         y = self.plant.output_now()
+        if type(self.index) is int:
+            return float(y[self.index])
         v = y[self.index]
         return float(v) if np.ndim(v) == 0 else v.copy()
 
@@ -746,7 +764,7 @@ class PlantInstance:
             raise ConfigurationError(
                 f"plant {self.name!r}: h returned {y.shape[0]} values {y.tolist()!r} at t={t!r} s, the system "
                 f"has {self.system.ny} outputs {list(self.system.output_names)}")
-        if not np.isfinite(y).all():
+        if not _all_finite(y):
             bad = [n for n, v in zip(self.system.output_names, y.tolist()) if not math.isfinite(v)]
             raise IntegrationError(
                 f"plant {self.name!r}: output {', '.join(bad)} is non-finite at t={t!r} s: y={y.tolist()!r} "
@@ -762,16 +780,16 @@ class PlantInstance:
     def advance(self, t_target: float | None = None) -> None:
         """Integrate the state up to *t_target* seconds (default: now)."""
         if t_target is None:
-            t_target = self.sim.now
+            t_target = self.sim.env._now / TICKS_PER_SECOND
         if t_target <= self.t:
             return
-        gs = self._gs()
+        gs = self._gs() if self.system.events else []
         t, x = self.t, self.x
         progress_guard = 0
         while t < t_target:
             try:
                 t_new, x_new, j = self._integrate(t, x, t_target, gs)
-                if not np.isfinite(x_new).all():
+                if not _all_finite(x_new):
                     bad = [n for n, v in zip(self.system.state_names, np.ravel(x_new)) if not math.isfinite(v)]
                     raise IntegrationError(
                         f"plant {self.name!r}: state {bad} became non-finite between t={t!r} and t={t_new!r} s: "
@@ -821,6 +839,17 @@ class PlantInstance:
 
     def set_input(self, index, value, label="inputs") -> None:
         """Hold *value* (in the input's units) on input(s) *index* from now on (ZOH)."""
+        if type(value) is float and type(index) is int and math.isfinite(value) and -len(self.u) <= index < len(self.u):
+            # one finite number on one input: what the generic path below would accept as is
+            self.advance()
+            if self._log_io:
+                self._log(self.t)
+            self.u[index] = value
+            if self._log_io:
+                self._log(self.t)
+            if self._subscribers:
+                self._schedule_prediction()
+            return
         if value is None or isinstance(value, (str, bytes)):
             raise ConfigurationTypeError(f"plant {self.name!r}: input {label} takes numbers, got {value!r}")
         try:
@@ -846,10 +875,9 @@ class PlantInstance:
     def _log(self, t, y=None):
         if y is None:
             y = self._outputs(t)
-        vals = np.concatenate((self.x, self.u, y))
         app = self._rec.rows.append
         name = self.name
-        for n, v in zip(self._log_names, vals.tolist()):
+        for n, v in zip(self._log_names, self.x.tolist() + self.u.tolist() + np.asarray(y).tolist()):
             app((t, name, n, v))
 
     def _log_tick(self):
