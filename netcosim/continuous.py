@@ -402,6 +402,13 @@ class SolveIVP:
         return t1, sol.y[:, -1].copy(), None
 
 
+#: most ``(Φ, Γ)`` pairs kept by the process-wide transition cache (see :class:`ExactZOH`)
+SHARED_TRANSITIONS_SIZE = 1024
+#: ``(augmented matrix, ticks) -> (Φ, Γ)``, least recently used first; the pairs are never
+#: written to, so plants and simulations share them
+_SHARED_TRANSITIONS: OrderedDict[tuple, tuple[np.ndarray, np.ndarray]] = OrderedDict()
+
+
 class ExactZOH:
     """Exact zero-order-hold step for a linear time-invariant plant ``dx/dt = A x + B u``.
 
@@ -416,7 +423,10 @@ class ExactZOH:
     length in integer ticks (:data:`netcosim.RESOLUTION` = 1 ps), in a least-recently
     used cache of ``cache_size`` entries per plant, so a periodic loop computes a few
     exponentials and then only two small matrix-vector products per advance, whatever
-    the interval.  The result has no discretisation error: it equals
+    the interval.  Behind the plants' caches, one process-wide cache of
+    :data:`SHARED_TRANSITIONS_SIZE` pairs, keyed by the augmented matrix and the
+    interval, lets every plant with the same ``A`` and ``B`` (the next run of a sweep,
+    another simulation) reuse an exponential once computed.  The result has no discretisation error: it equals
     ``scipy.signal.cont2discrete((A, B, C, D), h, method="zoh")`` to rounding.
 
     A plant is accepted when its system exposes ``A`` (nx × nx) and ``B`` (nx × nu)
@@ -448,8 +458,9 @@ class ExactZOH:
 
     Attributes
     ----------
-    expm_calls: matrix exponentials computed so far by the plants using this instance
-        (cache misses); ``cache_hits``: advances served from a cache.
+    expm_calls: matrix exponentials computed so far by the plants using this instance;
+        ``cache_hits``: advances served from a plant's cache; ``shared_hits``:
+        transitions a plant's cache missed but the process-wide cache held.
     """
 
     def __init__(self, fallback=None, cache_size: int = 64):
@@ -461,6 +472,7 @@ class ExactZOH:
         self.cache_size = int(cache_size)
         self.expm_calls = 0
         self.cache_hits = 0
+        self.shared_hits = 0
 
     def __repr__(self):
         return f"ExactZOH(fallback={self.fallback!r})" if self.fallback is not None else "ExactZOH()"
@@ -532,23 +544,33 @@ class _ExactZOHStepper:
         self.M = np.zeros((nx + nu, nx + nu))
         self.M[:nx, :nx] = A
         self.M[:nx, nx:] = B
+        self._key = (self.M.shape, self.M.tobytes())
         self._cache: OrderedDict[int, tuple[np.ndarray, np.ndarray]] = OrderedDict()
 
     def __repr__(self):
         return f"{self.owner!r} bound to plant {self.name!r}"
 
     def transition(self, ticks: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(Φ, Γ)`` for an interval of *ticks* ticks (cached)."""
+        """``(Φ, Γ)`` for an interval of *ticks* ticks (cached per plant, then per process)."""
         cache = self._cache
         pair = cache.get(ticks)
         if pair is not None:
             cache.move_to_end(ticks)
             self.owner.cache_hits += 1
             return pair
-        from scipy.linalg import expm  # loaded on first use
-        E = expm(self.M * (ticks / TICKS_PER_SECOND))
-        self.owner.expm_calls += 1
-        pair = (E[:self.nx, :self.nx].copy(), E[:self.nx, self.nx:].copy())
+        key = (self._key, ticks)
+        pair = _SHARED_TRANSITIONS.get(key)
+        if pair is not None:
+            _SHARED_TRANSITIONS.move_to_end(key)
+            self.owner.shared_hits += 1
+        else:
+            from scipy.linalg import expm  # loaded on first use
+            E = expm(self.M * (ticks / TICKS_PER_SECOND))
+            self.owner.expm_calls += 1
+            pair = (E[:self.nx, :self.nx].copy(), E[:self.nx, self.nx:].copy())
+            _SHARED_TRANSITIONS[key] = pair
+            if len(_SHARED_TRANSITIONS) > SHARED_TRANSITIONS_SIZE:
+                _SHARED_TRANSITIONS.popitem(last=False)
         cache[ticks] = pair
         if len(cache) > self.owner.cache_size:
             cache.popitem(last=False)
@@ -570,7 +592,7 @@ class _ExactZOHStepper:
             self._cache.move_to_end(ticks)
             self.owner.cache_hits += 1
             Phi, Gamma = pair
-        return t1, Phi @ x0 + Gamma @ self._plant().u, None
+        return t1, Phi.dot(x0) + Gamma.dot(self._plant().u), None
 
 
 # ---------------------------------------------------------------------------

@@ -9,6 +9,7 @@ the task wrote.
 from __future__ import annotations
 
 import numpy as np
+import netcosim.continuous
 import pytest
 from scipy.signal import cont2discrete
 
@@ -112,9 +113,10 @@ def test_transitions_are_cached_per_interval_length(monkeypatch):
     zoh = ExactZOH()
     plant, reads, writes = pid_loop(DCServo(), zoh, x0=[0.0, 0.0])
     lengths = sorted(plant._stepper._cache)
-    # a periodic loop has a handful of distinct intervals: one exponential each, ever
-    assert len(calls) == zoh.expm_calls == len(lengths) <= 6
-    advances = zoh.expm_calls + zoh.cache_hits
+    # a periodic loop has a handful of distinct intervals: one exponential each, ever (in this
+    # process: another test may already have computed some for the same servo)
+    assert len(calls) == zoh.expm_calls and zoh.expm_calls + zoh.shared_hits == len(lengths) <= 6
+    advances = zoh.expm_calls + zoh.shared_hits + zoh.cache_hits
     assert advances >= len(reads) + len(writes) and zoh.cache_hits > 0.9 * advances
     # one exponential of the augmented matrix [[A, B], [0, 0]] h
     assert all(M.shape == (3, 3) and not M[2].any() for M in calls)
@@ -127,9 +129,22 @@ def test_cache_is_bounded_least_recently_used():
     stepper = plant._stepper
     for ticks in (1, 2, 1, 3, 1, 2):
         stepper.transition(ticks * 10**9)
-    # 1 stays (recently used); 2 is evicted by 3, then recomputed
+    # 1 stays (recently used); 2 is evicted by 3, then fetched again (from the process-wide cache)
     assert list(stepper._cache) == [1 * 10**9, 2 * 10**9]
-    assert zoh.expm_calls == 4 and zoh.cache_hits == 2
+    assert zoh.expm_calls + zoh.shared_hits == 4 and zoh.cache_hits == 2
+
+
+def test_a_second_simulation_reuses_the_exponentials_of_the_first():
+    from netcosim.continuous import _SHARED_TRANSITIONS
+    servo = DCServo(k=987.5)  # parameters no other test uses: the process-wide cache is cold
+    first, second = ExactZOH(), ExactZOH()
+    plant1, reads1, _ = pid_loop(servo, first, x0=[0.0, 0.0])
+    assert first.expm_calls == len(plant1._stepper._cache) >= 2 and first.shared_hits == 0
+    plant2, reads2, _ = pid_loop(servo, second, x0=[0.0, 0.0])
+    assert second.expm_calls == 0 and second.shared_hits == len(plant2._stepper._cache)
+    assert reads2 == reads1                     # the same matrices: the same numbers, bit for bit
+    assert all(plant2._stepper._cache[k][0] is plant1._stepper._cache[k][0] for k in plant2._stepper._cache)
+    assert len(_SHARED_TRANSITIONS) <= netcosim.continuous.SHARED_TRANSITIONS_SIZE == 1024
 
 
 class DisturbedLinear(ContinuousSystem):
