@@ -56,12 +56,12 @@ class ColumnStore:
     """Rows of *ncols* columns, held as typed column chunks plus a tail of recent tuples.
 
     Behaves like the list of rows appended (``len``, iteration, indexing, ``clear``);
-    ``append`` is an attribute (a closure), so ``store.append(row)`` costs one call.
+    ``append`` and ``extend`` are attributes (closures), so ``store.append(row)`` costs one call.
     Rows must be tuples of *ncols* values; a chunk whose rows do not all have *ncols*
     values is kept as rows.
     """
 
-    __slots__ = ("append", "ncols", "chunk_rows", "_tail", "_chunks", "_n", "_codes", "_names")
+    __slots__ = ("append", "extend", "ncols", "chunk_rows", "_tail", "_chunks", "_n", "_codes", "_names")
 
     def __init__(self, ncols: int, chunk_rows: int = CHUNK_ROWS):
         self.ncols = ncols
@@ -81,7 +81,14 @@ class ColumnStore:
             tail_append(row)
             if len(tail) >= limit:
                 compact()
+
+        def extend(rows):
+            tail_extend(rows)
+            while len(tail) >= limit:
+                compact()
+        tail_extend = tail.extend
         self.append = append
+        self.extend = extend
 
     # -- encoding ------------------------------------------------------------------
     def _compact(self) -> None:

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import weakref
+from itertools import repeat
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
@@ -728,6 +729,7 @@ class PlantInstance:
         self._rec = sim.trace.signal_rec
         self._log_names = ([f"x.{s}" for s in system.state_names] + [f"u.{s}" for s in system.input_names]
                            + [f"y.{s}" for s in system.output_names])
+        self._ports: dict = {}  # output name -> port, (" in", input name) -> port
         self.outputs = OutputPort(self, slice(None), "outputs")
         self.inputs = InputPort(self, slice(None), "inputs")
         if log_interval is not None:
@@ -740,13 +742,23 @@ class PlantInstance:
     # Ports -------------------------------------------------------------------
     def output(self, key=None) -> OutputPort:
         """A read port on one output (name or index), several, or all (None)."""
+        if type(key) is str and key in self._ports:  # a task body may ask for its port every job
+            return self._ports[key]
         idx, label = _select(self.system.output_names, key, "output", self.name)
-        return OutputPort(self, idx, label)
+        port = OutputPort(self, idx, label)
+        if type(key) is str:
+            self._ports[key] = port
+        return port
 
     def input(self, key=None) -> InputPort:
         """A write port on one input (name or index), several, or all (None)."""
+        if type(key) is str and (" in", key) in self._ports:
+            return self._ports[(" in", key)]
         idx, label = _select(self.system.input_names, key, "input", self.name)
-        return InputPort(self, idx, label)
+        port = InputPort(self, idx, label)
+        if type(key) is str:
+            self._ports[(" in", key)] = port
+        return port
 
     # Core --------------------------------------------------------------------
     def _u_full(self, t):
@@ -781,7 +793,8 @@ class PlantInstance:
 
     def _outputs(self, t) -> np.ndarray:
         """``h(t, x, u, params)`` at the current state, checked (length ``ny``, finite)."""
-        y = np.asarray(self.system.h(t, self.x, self._u_full(t), self.params), dtype=float).reshape(-1)
+        u = self.u if self.disturbance is None else self._u_full(t)
+        y = np.asarray(self.system.h(t, self.x, u, self.params), dtype=float).reshape(-1)
         if y.shape[0] != self.system.ny:
             raise ConfigurationError(
                 f"plant {self.name!r}: h returned {y.shape[0]} values {y.tolist()!r} at t={t!r} s, the system "
@@ -897,10 +910,9 @@ class PlantInstance:
     def _log(self, t, y=None):
         if y is None:
             y = self._outputs(t)
-        app = self._rec.rows.append
-        name = self.name
-        for n, v in zip(self._log_names, self.x.tolist() + self.u.tolist() + np.asarray(y).tolist()):
-            app((t, name, n, v))
+        # rows (t, plant, signal, value), built by zip in C
+        self._rec.rows.extend(zip(repeat(t), repeat(self.name), self._log_names,
+                                  self.x.tolist() + self.u.tolist() + y.tolist()))
 
     def _log_tick(self):
         ticks = self._log_k * self._log_every

@@ -110,11 +110,13 @@ class Sink:
     small function in ``window``/``stream`` mode or with decimation.
     """
 
-    __slots__ = ("append", "_rec")
+    __slots__ = ("append", "extend", "_rec")
 
     def __init__(self, rec: "Recorder"):
         self._rec = rec
         self.append: Callable[[tuple], object] = rec._buf.append
+        #: ``extend(rows)``: append several rows (an iterable of tuples) at once, as ``append`` would
+        self.extend: Callable[[list], object] = rec._buf.extend
 
     def replace(self, old: tuple, new: tuple) -> None:
         """Overwrite the row *old* (the very object appended earlier) with *new*.
@@ -250,7 +252,16 @@ class Recorder:
         else:
             self._buf = []
         store = self._make_store()
-        self.rows.append = self._decimator(store, every) if every > 1 else store
+        self.rows.append = append = self._decimator(store, every) if every > 1 else store
+        if every == 1 and mode in ("keep", "ring"):
+            self.rows.extend = self._buf.extend
+        elif mode == "off":
+            self.rows.extend = _discard
+        else:
+            def extend(rows):
+                for r in rows:
+                    append(r)
+            self.rows.extend = extend
         if mode != "off":
             for r in old:
                 store(r)
