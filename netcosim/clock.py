@@ -10,6 +10,7 @@ ticks (:mod:`netcosim.timebase`); the seconds API lives on
 from __future__ import annotations
 
 import hashlib
+from heapq import heappush
 from typing import Any, Callable
 
 import simpy
@@ -66,7 +67,8 @@ class Timer(simpy.events.Event):
         self._ok = True
         self._value = None
         self.callbacks = [callback]
-        env.schedule(self, priority, delay)  # type: ignore[arg-type]  # SimPy's EventPriority is a NewType of int
+        # env.schedule(self, priority, delay), inlined: a timer is created per job segment
+        heappush(env._queue, (env._now + delay, priority, next(env._eid), self))  # type: ignore[attr-defined]
 
     @classmethod
     def call(cls, env: simpy.Environment, delay: int, fn: Callable, arg: Any = _NOARG,

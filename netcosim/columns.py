@@ -34,7 +34,7 @@ whole batches, which is what the chunks are, but would be imported by every simu
 from __future__ import annotations
 
 from array import array
-from typing import Any, Iterator
+from typing import Any, Iterable, Iterator, Sequence
 
 __all__ = ["ColumnStore", "CHUNK_ROWS"]
 
@@ -58,14 +58,30 @@ class ColumnStore:
     Behaves like the list of rows appended (``len``, iteration, indexing, ``clear``);
     ``append`` and ``extend`` are attributes (closures), so ``store.append(row)`` costs one call.
     Rows must be tuples of *ncols* values; a chunk whose rows do not all have *ncols*
-    values is kept as rows.
+    values is kept as rows.  The columns whose indices are in *categorical* are coded
+    whatever their type, without checking it (the hot path's names): values equal as
+    dictionary keys share a code and read back as the first of them seen (``1``,
+    ``1.0`` and ``True`` would; names never are).  Other columns are coded as strings
+    only when every value of the chunk is a ``str``.
+
+    *dtypes* (one per column: ``None``, ``"int"``, ``"float"`` or ``"bool"``) is the
+    producer's promise about a column's values, for the hot-path tables whose producers
+    are known: the column is stored as declared without checking every value's type (a
+    value that cannot be stored so, e.g. None, makes the chunk's column checked as
+    usual; one that can, e.g. an ``int`` in a ``"float"`` column, reads back as the
+    declared type).  ``None``: the type is found from the values.
     """
 
-    __slots__ = ("append", "extend", "ncols", "chunk_rows", "_tail", "_chunks", "_n", "_codes", "_names")
+    __slots__ = ("append", "extend", "ncols", "chunk_rows", "categorical", "dtypes", "_tail", "_chunks", "_n", "_codes", "_names")
 
-    def __init__(self, ncols: int, chunk_rows: int = CHUNK_ROWS):
+    def __init__(self, ncols: int, chunk_rows: int = CHUNK_ROWS, categorical: Iterable[int] = (),
+                 dtypes: Sequence[str | None] | None = None):
         self.ncols = ncols
         self.chunk_rows = chunk_rows
+        self.categorical = frozenset(categorical)
+        self.dtypes = tuple(dtypes) if dtypes is not None else (None,) * ncols
+        if len(self.dtypes) != ncols or not set(self.dtypes) <= {None, "int", "float", "bool"}:
+            raise ValueError(f"dtypes must be {ncols} of None, 'int', 'float', 'bool'; got {dtypes!r}")
         self._tail: list[tuple] = []
         #: encoded chunks: (number of rows, list of encoded columns) or (n, list of rows)
         self._chunks: list[tuple[int, Any]] = []
@@ -103,7 +119,26 @@ class ColumnStore:
         if set(map(len, rows)) != {self.ncols}:
             return ("rows", rows)
         cols = []
+        categorical, dtypes = self.categorical, self.dtypes
         for c, col in enumerate(zip(*rows)):
+            if c in categorical:
+                try:
+                    cols.append(("str", self._code(c, col)))
+                    continue
+                except TypeError:  # an unhashable value: stored by type below
+                    pass
+            declared = dtypes[c]
+            if declared is not None:
+                try:  # the producer's promise: no type check (a value that does not fit raises)
+                    if declared == "int":
+                        cols.append(("q", array("q", col)))
+                    elif declared == "float":
+                        cols.append(("d", array("d", col)))
+                    else:
+                        cols.append(("bool", bytes(col)))
+                    continue
+                except (TypeError, ValueError, OverflowError):  # e.g. None in an int column
+                    pass
             types = set(map(type, col))
             t = types.pop() if len(types) == 1 else None
             if t is float:
@@ -116,23 +151,27 @@ class ColumnStore:
             elif t is bool:
                 cols.append(("bool", bytes(col)))
             elif t is str:
-                codes, names = self._codes[c], self._names[c]
-                try:
-                    coded = list(map(codes.__getitem__, col))
-                except KeyError:  # new strings: give them the next codes
-                    for s in dict.fromkeys(col):  # distinct values, in order of appearance
-                        if s not in codes:
-                            codes[s] = len(names)
-                            names.append(s)
-                    coded = list(map(codes.__getitem__, col))
-                cols.append(("str", bytes(coded) if len(names) <= 0x100
-                             else array(_code_type(len(names) - 1), coded)))
+                cols.append(("str", self._code(c, col)))
             elif t is _NONE:
                 cols.append(("none", None))
             else:
                 cols.append(self._mixed(col, types) if t is None and types <= _TAGS.keys()
                             else ("obj", list(col)))
         return ("cols", cols)
+
+    def _code(self, c: int, col):
+        """Codes of the values *col* in column *c*'s category table (new values get the next
+        codes, in order of appearance)."""
+        codes, names = self._codes[c], self._names[c]
+        try:
+            coded = list(map(codes.__getitem__, col))
+        except KeyError:
+            for s in dict.fromkeys(col):
+                if s not in codes:
+                    codes[s] = len(names)
+                    names.append(s)
+            coded = list(map(codes.__getitem__, col))
+        return bytes(coded) if len(names) <= 0x100 else array(_code_type(len(names) - 1), coded)
 
     @staticmethod
     def _mixed(col, types):

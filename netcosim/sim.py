@@ -7,6 +7,7 @@ Time inside the environment is integer ticks of 1 ps (see :mod:`netcosim.timebas
 from __future__ import annotations
 
 import math
+from heapq import heappop
 from time import monotonic
 from typing import TYPE_CHECKING, Any, Callable, cast
 
@@ -57,6 +58,37 @@ class _Realtime(simpy.rt.RealtimeEnvironment):
                     break
                 simpy.rt.sleep(delta)
         simpy.Environment.step(self)
+
+
+def _run_until(env: simpy.Environment, stop: int) -> None:
+    """``env.run(until=stop)`` for ``stop > now`` with SimPy's ``Environment.step`` inlined.
+
+    The same stop event (urgent, at *stop*), the same order of events and callbacks, the
+    same handling of ``StopSimulation`` and of failed events as SimPy 4's ``run`` and
+    ``step``; only the method call per event is saved (a tenth of the kernel's cost per job).
+    """
+    until = simpy.events.Event(env)
+    until._ok = True
+    until._value = None
+    env.schedule(until, URGENT, stop - env._now)
+    queue = env._queue
+    while True:
+        env._now, _, _, event = heappop(queue)  # `until` is in the queue: it never runs empty first
+        if event is until:
+            until.callbacks = None
+            return
+        callbacks, event.callbacks = event.callbacks, None
+        try:
+            for callback in callbacks:
+                callback(event)
+        except simpy.core.StopSimulation:
+            event.callbacks = callbacks[callbacks.index(callback) + 1:]
+            env.schedule(event, simpy.core.EventPriority(-1))
+            return
+        if not event._ok and not hasattr(event, "_defused"):
+            exc = type(event._value)(*event._value.args)
+            exc.__cause__ = event._value
+            raise exc
 
 
 class Simulation:
@@ -252,7 +284,10 @@ class Simulation:
         if stop < self.env._now:
             raise ConfigurationError(f"until={until!r} s lies before now={self.now} s")
         try:
-            self.env.run(until=stop)
+            if self.realtime or stop <= self.env._now:
+                self.env.run(until=stop)
+            else:
+                _run_until(self.env, stop)
         except BaseException as exc:
             self._fail(exc)
             raise

@@ -156,15 +156,19 @@ class Recorder:
     columns that identify one signal, for decimation (``every``).
     """
 
-    __slots__ = ("name", "columns", "rows", "categorical", "providers", "transform", "time_index",
+    __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index",
                  "time_scale", "key_index", "mode", "options", "_buf", "_clock", "_window", "_stream",
                  "_counts", "_latest")
 
     def __init__(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
                  transform=None, *, time: str | None = "time", time_unit: str = "ticks",
-                 key: Sequence[str] = (), clock: Callable[[], int] | None = None):
+                 key: Sequence[str] = (), clock: Callable[[], int] | None = None,
+                 dtypes: Sequence[str | None] | None = None):
         self.name = name
         self.columns = tuple(columns)
+        #: the producers' promise of column types for the columnar store (see
+        #: :class:`~netcosim.columns.ColumnStore`); None: found from the values
+        self.dtypes = tuple(dtypes) if dtypes is not None else None
         self.categorical = tuple(c for c in categorical if c in self.columns)
         #: callables returning rows that describe the current state (e.g. unfinished
         #: jobs); evaluated each time the table is read, never stored.
@@ -177,7 +181,7 @@ class Recorder:
         self.time_scale = TICKS_PER_SECOND if time_unit == "ticks" else 1.0
         self.key_index = tuple(self.columns.index(k) for k in key) if key else ()
         self._clock = clock
-        self._buf: list | deque | ColumnStore = ColumnStore(len(self.columns))
+        self._buf: list | deque | ColumnStore = self._column_store()
         self._window: int | float | None = None      # stored-unit width of the window
         self._stream: _Stream | None = None      # _Stream in stream mode
         self._counts: dict = {}  # decimation counters per key
@@ -185,6 +189,10 @@ class Recorder:
         self.mode = "keep"
         self.options: dict = {}
         self.rows = Sink(self)
+
+    def _column_store(self) -> ColumnStore:
+        return ColumnStore(len(self.columns), categorical=[self.columns.index(c) for c in self.categorical],
+                           dtypes=self.dtypes)
 
     def append(self, row: tuple) -> None:
         """Add one *row* (a tuple in the table's column order; times in the table's stored unit) under
@@ -248,7 +256,7 @@ class Recorder:
         elif mode == "window":
             self._buf = deque()
         elif mode == "keep":
-            self._buf = ColumnStore(len(self.columns))
+            self._buf = self._column_store()
         else:
             self._buf = []
         store = self._make_store()
@@ -439,28 +447,33 @@ class Trace:
         self._clock = clock
         self._default: dict | None = None
         self.signal_rec = self.table("signals", ("time", "source", "signal", "value"),
-                                     categorical=("source", "signal"), time_unit="s", key=("source", "signal"))
+                                     categorical=("source", "signal"), time_unit="s", key=("source", "signal"),
+                                     dtypes=("float", None, None, "float"))
         # stored in ticks, reported in seconds
         self.schedule_rec = self.table("schedule", ("time", "node", "task", "state"),
-                                       categorical=("node", "task", "state"), transform=_schedule_frame)
+                                       categorical=("node", "task", "state"), transform=_schedule_frame,
+                                       dtypes=("int", None, None, None))
         self.job_rec = self.table("jobs", JOB_RAW, categorical=("node", "task"), transform=_jobs_frame,
-                                  time="release")
+                                  time="release", dtypes=(None, None) + ("int",) * 6 + ("bool",) * 3)
 
     def table(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
               transform=None, *, time: str | None = "time", time_unit: str = "ticks",
-              key: Sequence[str] = ()) -> Recorder:
+              key: Sequence[str] = (), dtypes: Sequence[str | None] | None = None) -> Recorder:
         """Create (or return the existing) recorder called *name*.
 
         ``columns`` are the stored columns; ``transform(df) -> df`` (optional) derives
         the reported frame from the stored one (e.g. ticks to seconds).  ``time`` is the
         stored column the ``window`` mode measures, in ``time_unit`` (``"ticks"`` or
         ``"s"``); ``key`` the columns naming one signal (for ``every``).  A table created
-        after :meth:`configure_all` starts in that configuration.
+        after :meth:`configure_all` starts in that configuration.  ``dtypes`` (optional, one
+        per column: None, ``"int"``, ``"float"`` or ``"bool"``) promises the producers'
+        value types, which spares the columnar store checking them (see
+        :class:`~netcosim.columns.ColumnStore`).
         """
         rec = self._tables.get(name)
         if rec is None:
             rec = self._tables[name] = Recorder(name, columns, categorical, transform, time=time,
-                                                time_unit=time_unit, key=key, clock=self._clock)
+                                                time_unit=time_unit, key=key, clock=self._clock, dtypes=dtypes)
             if self._default is not None:
                 self._apply_default(rec)
         elif rec.columns != tuple(columns):
