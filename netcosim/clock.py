@@ -68,7 +68,8 @@ class Timer(simpy.events.Event):
         self._value = None
         self.callbacks = [callback]
         # env.schedule(self, priority, delay), inlined: a timer is created per job segment
-        heappush(env._queue, (env._now + delay, priority, next(env._eid), self))  # type: ignore[attr-defined]
+        queue: list = env._queue
+        heappush(queue, (env._now + delay, priority, next(env._eid), self))
 
     @classmethod
     def call(cls, env: simpy.Environment, delay: int, fn: Callable, arg: Any = _NOARG,

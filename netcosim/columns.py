@@ -1,9 +1,9 @@
 """Columnar row storage: the rows of a trace table in typed arrays, strings as small codes.
 
 A :class:`ColumnStore` takes rows (tuples) one at a time and returns them unchanged,
-but holds them compactly: the newest rows stay tuples (appending is one list append and
-a length check), and every ``chunk_rows`` rows the oldest ``chunk_rows`` of them are
-encoded column by column:
+but holds them compactly: appending is a plain list append, and :meth:`ColumnStore.maintain`
+(called by the simulation every :data:`netcosim.sim.MAINTAIN_EVERY` events) encodes the
+appended tuples ``chunk_rows`` at a time, column by column, keeping the newest as tuples:
 
 ===================  ==================================================================
 column values        stored as
@@ -56,7 +56,8 @@ class ColumnStore:
     """Rows of *ncols* columns, held as typed column chunks plus a tail of recent tuples.
 
     Behaves like the list of rows appended (``len``, iteration, indexing, ``clear``);
-    ``append`` and ``extend`` are attributes (closures), so ``store.append(row)`` costs one call.
+    ``append`` and ``extend`` are the bound methods of a list (the cheapest call Python
+    has); :meth:`maintain` encodes what they appended.
     Rows must be tuples of *ncols* values; a chunk whose rows do not all have *ncols*
     values is kept as rows.  The columns whose indices are in *categorical* are coded
     whatever their type, without checking it (the hot path's names): values equal as
@@ -72,7 +73,8 @@ class ColumnStore:
     declared type).  ``None``: the type is found from the values.
     """
 
-    __slots__ = ("append", "extend", "ncols", "chunk_rows", "categorical", "dtypes", "_tail", "_chunks", "_n", "_codes", "_names")
+    __slots__ = ("append", "extend", "ncols", "chunk_rows", "categorical", "dtypes", "_tail", "_chunks", "_n",
+                 "_codes", "_names")
 
     def __init__(self, ncols: int, chunk_rows: int = CHUNK_ROWS, categorical: Iterable[int] = (),
                  dtypes: Sequence[str | None] | None = None):
@@ -88,23 +90,15 @@ class ColumnStore:
         self._n = 0                                   # rows in chunks
         self._codes: list[dict[str, int]] = [{} for _ in range(ncols)]   # per column: string -> code
         self._names: list[list[str]] = [[] for _ in range(ncols)]        # per column: code -> string
-        tail = self._tail
-        tail_append = tail.append
-        limit = 2 * chunk_rows
-        compact = self._compact
+        # the hot path: C-level list methods; encoding waits for maintain()
+        self.append = self._tail.append
+        self.extend = self._tail.extend
 
-        def append(row):
-            tail_append(row)
-            if len(tail) >= limit:
-                compact()
-
-        def extend(rows):
-            tail_extend(rows)
-            while len(tail) >= limit:
-                compact()
-        tail_extend = tail.extend
-        self.append = append
-        self.extend = extend
+    def maintain(self) -> None:
+        """Encode the tuples appended so far, ``chunk_rows`` at a time, until fewer than
+        ``2 * chunk_rows`` are left (the newest stay tuples, for :meth:`replace`)."""
+        while len(self._tail) >= 2 * self.chunk_rows:
+            self._compact()
 
     # -- encoding ------------------------------------------------------------------
     def _compact(self) -> None:
@@ -116,11 +110,15 @@ class ColumnStore:
         self._n += k
 
     def _encode(self, rows: list[tuple]):
-        if set(map(len, rows)) != {self.ncols}:
+        try:
+            transposed = list(zip(*rows, strict=True))  # raises when the rows differ in length
+        except ValueError:
             return ("rows", rows)
-        cols = []
+        if len(transposed) != self.ncols:
+            return ("rows", rows)
+        cols: list = []
         categorical, dtypes = self.categorical, self.dtypes
-        for c, col in enumerate(zip(*rows)):
+        for c, col in enumerate(transposed):
             if c in categorical:
                 try:
                     cols.append(("str", self._code(c, col)))

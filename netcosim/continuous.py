@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import math
 import weakref
-from itertools import repeat
 from collections import OrderedDict
 from dataclasses import dataclass
+from itertools import repeat
 from typing import Any, Callable, Sequence
 
 import numpy as np

@@ -37,6 +37,8 @@ class _Realtime(simpy.rt.RealtimeEnvironment):
         self.strict_lag = strict
         self.max_lag = max_lag
         self.lags: list[tuple[float, float]] = []  # (sim time s, lag s) when lagging
+        self.steps = 0
+        self.maintain: Callable[[], None] | None = None  # the trace's, set by the Simulation
 
     def step(self) -> None:
         evt_time = cast(int, self.peek())  # SimPy types time as int | float; here it is integer ticks
@@ -58,26 +60,40 @@ class _Realtime(simpy.rt.RealtimeEnvironment):
                     break
                 simpy.rt.sleep(delta)
         simpy.Environment.step(self)
+        self.steps += 1
+        if self.maintain is not None and not self.steps % MAINTAIN_EVERY:
+            self.maintain()
 
 
-def _run_until(env: simpy.Environment, stop: int) -> None:
-    """``env.run(until=stop)`` for ``stop > now`` with SimPy's ``Environment.step`` inlined.
+#: events between two calls of :meth:`Trace.maintain <netcosim.trace.Trace.maintain>`
+#: (which encodes the rows appended since into the columnar store)
+MAINTAIN_EVERY = 256
+
+
+def _run_until(env: simpy.Environment, stop: int, maintain: Callable[[], None]) -> None:
+    """``env.run(until=stop)`` for ``stop > now`` with SimPy's ``Environment.step`` inlined,
+    calling ``maintain()`` every :data:`MAINTAIN_EVERY` events.
 
     The same stop event (urgent, at *stop*), the same order of events and callbacks, the
     same handling of ``StopSimulation`` and of failed events as SimPy 4's ``run`` and
-    ``step``; only the method call per event is saved (a tenth of the kernel's cost per job).
+    ``step``; the method call per event is saved.
     """
     until = simpy.events.Event(env)
     until._ok = True
     until._value = None
     env.schedule(until, URGENT, stop - env._now)
     queue = env._queue
+    countdown = MAINTAIN_EVERY
     while True:
         env._now, _, _, event = heappop(queue)  # `until` is in the queue: it never runs empty first
         if event is until:
-            until.callbacks = None
+            until.callbacks = None  # type: ignore[assignment]  # as SimPy marks a processed event
             return
-        callbacks, event.callbacks = event.callbacks, None
+        countdown -= 1
+        if not countdown:
+            countdown = MAINTAIN_EVERY
+            maintain()
+        callbacks, event.callbacks = event.callbacks, None  # type: ignore[assignment]
         try:
             for callback in callbacks:
                 callback(event)
@@ -123,11 +139,14 @@ class Simulation:
             validate.non_negative(max_lag, "max_lag", kind="a non-negative number of seconds",
                                   type_error=ConfigurationError)
             validate.boolean(strict, "strict")
-            self.env: simpy.Environment = _Realtime(factor, strict, max_lag)
+            rt = _Realtime(factor, strict, max_lag)
+            self.env: simpy.Environment = rt
         else:
             self.env = simpy.Environment(initial_time=0)
         self.realtime = realtime
         self.trace = Trace(clock=lambda: cast(int, self.env._now))
+        if realtime:
+            rt.maintain = self.trace.maintain
         self._rngs: dict[str, np.random.Generator] = {}
         self._names: dict[str, Any] = {}
         self.nodes: dict[str, Any] = {}
@@ -287,7 +306,7 @@ class Simulation:
             if self.realtime or stop <= self.env._now:
                 self.env.run(until=stop)
             else:
-                _run_until(self.env, stop)
+                _run_until(self.env, stop, self.trace.maintain)
         except BaseException as exc:
             self._fail(exc)
             raise
@@ -297,6 +316,7 @@ class Simulation:
             except BaseException as exc:
                 self._fail(exc)
                 raise
+        self.trace.maintain()
 
     def _fail(self, exc: BaseException) -> None:
         """Mark the simulation dead, note the time on *exc*, bring the other components to now.

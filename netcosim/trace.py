@@ -132,7 +132,7 @@ class Sink:
             return
         for i in range(len(buf) - 1, -1, -1):
             if buf[i] is old:
-                buf[i] = new
+                buf[i] = new  # type: ignore[index]  # a list or a deque here
                 return
         self.append(new)
 
@@ -579,6 +579,16 @@ class Trace:
                 rec.clear()
         else:
             self._rec(name).clear()
+
+    def maintain(self) -> None:
+        """Encode the rows appended to ``keep``-mode tables into their columnar chunks
+        (:meth:`ColumnStore.maintain <netcosim.columns.ColumnStore.maintain>`); the
+        simulation calls it every :data:`~netcosim.sim.MAINTAIN_EVERY` events and at
+        the end of a run.  Reading is the same before and after."""
+        for rec in self._tables.values():
+            buf = rec._buf
+            if type(buf) is ColumnStore:
+                buf.maintain()
 
     def flush(self) -> None:
         """Write the in-memory rows of every streamed table to Parquet now."""

@@ -40,7 +40,9 @@ def test_every_codec_round_trips_exactly():
     store = ColumnStore(len(ROWS[0]), chunk_rows=4)
     for r in ROWS:
         store.append(r)
-    # 21 rows: two chunks of 4 encoded, at most 2 * 4 - 1 tuples after them
+    assert store._n == 0 and len(store) == 21      # appending only appends
+    store.maintain()
+    # 21 rows: four chunks of 4 encoded, fewer than 2 * 4 tuples after them
     assert len(store) == 21 and store._n == 16 and len(store._tail) == 5
     codecs = [codec for codec, _ in store._chunks[0][1][1]]
     assert codecs == ["q", "d", "mixed", "bool", "str", "obj", "d", "mixed", "obj"]
@@ -57,6 +59,7 @@ def test_strings_are_stored_once_as_one_byte_codes():
     # a fresh string object per row (as ctx.log builds "node.task"), 3 distinct values
     for i in range(2000):
         store.append((float(i), "".join(["node", ".", "task", str(i % 3)])))
+    store.maintain()
     codec, codes = store._chunks[0][1][1][1]
     assert codec == "str" and isinstance(codes, bytes) and len(codes) == 1000
     assert store._names[1] == ["node.task0", "node.task1", "node.task2"]
@@ -67,6 +70,7 @@ def test_more_than_256_strings_use_two_byte_codes():
     store = ColumnStore(1, chunk_rows=300)
     for i in range(600):
         store.append((f"s{i}",))
+    store.maintain()
     codec, codes = store._chunks[-1][1][1][0]
     assert codec == "str" and codes.itemsize == 2
     assert [r[0] for r in store] == [f"s{i}" for i in range(600)]
@@ -77,6 +81,7 @@ def test_integers_beyond_two_to_the_53_among_floats_stay_exact():
     rows = [(2**53 + 1,), (0.5,), (1,), (0.25,)]
     for r in rows:
         store.append(r)
+    store.maintain()
     kinds = [chunk[1][1][0][0] for chunk in store._chunks]
     assert kinds == ["obj"]          # the first chunk could not be doubles
     assert_same_rows(list(store), rows)
@@ -87,6 +92,7 @@ def test_rows_of_the_wrong_length_are_kept_as_rows():
     rows = [(1, 2), (3,), (4, 5), (6, 7), (8, 9)]
     for r in rows:
         store.append(r)
+    store.maintain()
     assert store._chunks[0][1][0] == "rows"
     assert list(store) == rows
 
@@ -97,6 +103,7 @@ def test_replace_finds_a_row_by_identity_then_by_value_in_the_newest_chunk():
     store.append(first)
     for i in range(1, 4):
         store.append((i, "x"))
+    store.maintain()
     assert store._n == 2                   # `first` was encoded: matched by value now
     assert store.replace(first, (0, "sending")) and store[0] == (0, "sending")
     last = (9, "waiting")
@@ -121,6 +128,7 @@ def test_columnar_storage_is_much_smaller_than_tuples():
     rows = [(i * 1e-3, "servo", "y.y", i * 0.5) for i in range(1024 * 8)]
     for r in rows:
         store.append(r)
+    store.maintain()
     encoded = sum(c[1][1][0][1].itemsize * 1024 * 2 + 2 * 1024 for c in store._chunks)
     per_row_encoded = encoded / store._n
     per_row_tuple = sys.getsizeof(rows[0]) + 2 * sys.getsizeof(1.5) + 8  # tuple, two floats, list slot
@@ -154,3 +162,20 @@ def test_frames_equal_those_built_from_tuples():
         ref.providers = rec.providers
         pd.testing.assert_frame_equal(got, ref.frame(), check_exact=True)
     assert list(trace.jobs()["job"]) == list(range(3000))
+
+
+def test_a_run_encodes_as_it_goes_and_at_its_end():
+    sim = logging_sim(100)
+    store = sim.trace._tables["schedule"]._buf
+    # 300 rows: fewer than two chunks stay tuples after the run's final maintain()
+    assert len(store) == 300 and store._n == 0
+    sim = Simulation()
+    cpu = sim.node("cpu")
+    cpu.periodic(lambda ctx: None, period=1e-3, priority=1, name="t")
+    store = sim.trace._tables["schedule"]._buf
+    seen = []
+    cpu.periodic(lambda ctx: seen.append(len(store._tail)), period=1e-3, offset=5e-4, priority=2, name="probe")
+    sim.run(1.0)
+    # every 256 events at most: the tuple tail never holds much more than two chunks
+    assert store._n > 0 and max(seen) < 2 * store.chunk_rows + 256 * 3
+    assert len(store) == 6 * 1000

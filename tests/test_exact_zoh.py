@@ -9,10 +9,10 @@ the task wrote.
 from __future__ import annotations
 
 import numpy as np
-import netcosim.continuous
 import pytest
 from scipy.signal import cont2discrete
 
+import netcosim.continuous
 from controllers.pid import PID
 from netcosim import RK4, ContinuousSystem, ExactZOH, HybridEvent, Simulation
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
