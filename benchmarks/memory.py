@@ -112,6 +112,7 @@ def _tuple_store(sim) -> None:
     for rec in sim.trace._tables.values():
         rec._buf = list(rec._buf)  # rows recorded while building (network attach) carry over
         rec.rows.append = rec._buf.append
+        rec.rows.extend = rec._buf.extend
 
 
 def _row_cost(tuples: bool, until: float) -> tuple[int, int]:
