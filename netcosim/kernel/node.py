@@ -64,6 +64,7 @@ class Node:
         self._dispatch_event: simpy.Event = simpy.events.Event(sim.env)
         self._dispatch_event._ok, self._dispatch_event._value = True, None
         self._dispatch_callbacks: list[Callable] = [self._dispatch]
+        self._segment_cb = self._segment_done  # one bound method for every segment timer
         self._sched: list[tuple] = sim.trace.schedule_rec.rows
         self._jobrec: list[tuple] = sim.trace.job_rec.rows
         sim.trace.job_rec.providers.append(self._unfinished_rows)
@@ -299,7 +300,7 @@ class Node:
             self._sched.append((now, self.name, task.name, "running"))
         if job.remaining > 0:
             job.seg_start = now
-            job.seg_timer = Timer(self._env, job.remaining, self._segment_done, job)
+            job.seg_timer = Timer(self._env, job.remaining, self._segment_cb, job)
             self._arm_budget(job)
         else:
             self._step(job)
@@ -342,7 +343,7 @@ class Node:
                     if cmd > 0:
                         job.remaining = cmd
                         job.seg_start = env._now
-                        job.seg_timer = Timer(env, cmd, self._segment_done, job)
+                        job.seg_timer = Timer(env, cmd, self._segment_cb, job)
                         if job.task.wcet_ticks is not None and job.budget_timer is None:
                             self._arm_budget(job)
                         break

@@ -207,6 +207,7 @@ class Task:
         self.ctx = TaskContext(self)
         self._release_timer: Timer | None = None
         self._k = 0
+        self._release_cb = self._periodic_release  # one bound method for every release timer
 
     # Release ---------------------------------------------------------------
     def release(self) -> Job | None:
@@ -218,7 +219,7 @@ class Task:
         now = node._env._now
         self._k += 1
         nxt = self.offset_ticks + self._k * self.period_ticks
-        self._release_timer = Timer(node._env, nxt - now, self._periodic_release, None)
+        self._release_timer = Timer(node._env, nxt - now, self._release_cb, None)
         node._release(self, now)
 
     def stop(self) -> None:
