@@ -145,10 +145,11 @@ def bytes_per_row(until: float = ROW_SECONDS) -> dict:
     return res
 
 
-def main(hours: float = 1.0, default_hours: tuple[float, float] = (60.0, 240.0)) -> dict:
-    """Measure every configuration; print a table (MB = 2**20 bytes)."""
+def main(hours: float = 1.0, default_hours: tuple[float, float] = (60.0, 240.0),
+         row_seconds: float = ROW_SECONDS) -> dict:
+    """Bytes per row (:func:`bytes_per_row`), then every configuration; print tables (MB = 2**20 bytes)."""
     until = hours * 3600.0
-    res = {}
+    res: dict = {"bytes_per_row": bytes_per_row(row_seconds)}
     lo, hi = (measure("default", t) for t in default_hours)
     slope = (hi["rss_end"] - lo["rss_end"]) / (hi["until"] - lo["until"])  # bytes per simulated s
     res["default"] = {"short": lo, "long": hi, "bytes_per_sim_hour": slope * 3600.0,
@@ -185,8 +186,6 @@ if __name__ == "__main__":
     elif args.child:
         print(json.dumps(child(args.child[0], float(args.child[1]))))
     elif args.quick:
-        bytes_per_row(10.0)
-        main(hours=60.0 / 3600.0, default_hours=(15.0, 60.0))
+        main(hours=60.0 / 3600.0, default_hours=(15.0, 60.0), row_seconds=10.0)
     else:
-        bytes_per_row()
         main()
