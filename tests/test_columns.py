@@ -179,3 +179,45 @@ def test_a_run_encodes_as_it_goes_and_at_its_end():
     # every 256 events at most: the tuple tail never holds much more than two chunks
     assert store._n > 0 and max(seen) < 2 * store.chunk_rows + 256 * 3
     assert len(store) == 6 * 1000
+
+
+def plant_logging_sim(**configure):
+    """The README servo with ExactZOH for 0.3 s; the plant logs 4 signals per read and write."""
+    from controllers.pid import PID
+    from netcosim import ExactZOH
+    from plants.dc_servo import DCServo
+    sim = Simulation(seed=1)
+    if configure:
+        sim.trace.configure("signals", **configure)
+    servo = sim.plant(DCServo(), x0=[0.0, 0.0], integrator=ExactZOH())
+    cpu = sim.node("controller", context_switch=20e-6)
+    pid = PID(h=0.006)
+
+    @cpu.periodic(period=0.006, priority=1)
+    def control(ctx):
+        u = pid.compute(1.0, ctx.read(servo.output("y")))
+        yield ctx.execute(0.002)
+        ctx.write(servo.input("u"), u)
+    sim.run(0.3)
+    return sim.trace.signals()
+
+
+@pytest.mark.parametrize("configure, pick", [
+    (dict(mode="ring", rows=10), lambda df: df.iloc[-10:]),
+    (dict(mode="window", seconds=0.05), lambda df: df[df["time"] >= 0.3 - 0.05]),
+    (dict(mode="off"), "empty"),
+    (dict(mode="keep", every=3), None),
+])
+def test_plant_logs_written_several_rows_at_once_obey_every_mode(configure, pick):
+    keep = plant_logging_sim()
+    # 50 jobs: a read (one log) and a write (two logs), 4 signals each
+    assert len(keep) == 50 * 3 * 4
+    got = plant_logging_sim(**configure)
+    if pick == "empty":
+        assert len(got) == 0 and list(got.columns) == list(keep.columns)
+        return
+    if pick is None:  # every 3rd sample of each (source, signal)
+        want = keep[keep.groupby(["source", "signal"], observed=True).cumcount() % 3 == 0]
+    else:
+        want = pick(keep)
+    pd.testing.assert_frame_equal(got.reset_index(drop=True), want.reset_index(drop=True), check_categorical=False)
