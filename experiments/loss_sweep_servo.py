@@ -57,7 +57,7 @@ DIVERGENCE_BOUND = 10.0
 TRAJECTORY_EVERY = 20
 MODES = ("broadcast", "unicast")
 LOSSES = tuple(round(0.1 * k, 1) for k in range(10))
-PARAMS = ("loss", "mode")
+PARAMS = ("loss", "mode")  # the keys of scenario()'s params
 
 
 def build(loss: float, mode: str, seed: int):
@@ -135,6 +135,10 @@ def scenario(params: dict, seed: int) -> dict[str, Any]:
         "diverged": metrics.diverged(y.to_numpy(), DIVERGENCE_BOUND, error=error),
         "trajectory": pd.DataFrame({"time": t[::TRAJECTORY_EVERY], "error": e[::TRAJECTORY_EVERY]}),
     }
+
+
+#: The parameters the scenario reads (a sweep refuses any other grid key before running).
+scenario.params = PARAMS  # type: ignore[attr-defined]
 
 
 def main(outdir: str = "results/loss_sweep_servo", quick: bool = False) -> pd.DataFrame:

@@ -66,3 +66,7 @@ def test_same_seed_same_result():
 def test_bad_params_name_the_value(params, match):
     with pytest.raises(ConfigurationError, match=match):
         exp.scenario(params, 0)
+
+
+def test_the_scenario_declares_its_parameters():
+    assert set(exp.scenario.params) == {"loss", "mode"}
