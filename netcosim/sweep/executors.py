@@ -253,6 +253,10 @@ class PoolExecutor:
 def _dask_task(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: float | None) -> Outcome:
     if timeout is not None:
         return run_in_child(ref, params, seed, timeout)
+    if ref not in _loaded:
+        load(ref)
+        gc.collect()
+        gc.freeze()      # the worker's own objects stay out of the collection after each run
     return run_one(load(ref), params, seed)
 
 
@@ -293,7 +297,7 @@ class DaskExecutor:
             return
         import logging
         cluster = LocalCluster(n_workers=self.n_workers or cpu_count(), threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+                               dashboard_address=":0", silence_logs=logging.ERROR)
         self.client = Client(cluster, set_as_default=False)
         self._owned += [self.client, cluster]
 
@@ -315,7 +319,7 @@ class DaskExecutor:
         futures = {self.client.submit(_dask_task, self.ref, params, seed, self.timeout, pure=False): index
                    for index, params, seed in tasks}
         try:
-            for fut in as_completed(list(futures)):
+            for fut in as_completed(list(futures), loop=self.client.loop):
                 index = futures.pop(fut)
                 try:
                     outcome = fut.result()
