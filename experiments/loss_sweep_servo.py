@@ -33,12 +33,11 @@ import pandas as pd
 
 from controllers.networked_loop import networked_loop
 from controllers.pid import PID
+from experiments.servo import square_wave  # absolute: the file also loads as "path.py:scenario"
 from netcosim import RK4, Simulation, metrics, validate
 from netcosim.errors import ConfigurationError
 from netcosim.network import WLAN80211b
 from plants.dc_servo import DCServo
-
-from .servo import square_wave
 
 PERIOD = 0.010          # sampling period (s)
 CONTROL_EXEC = 0.0005   # PID execution time (s)
@@ -141,11 +140,12 @@ def scenario(params: dict, seed: int) -> dict[str, Any]:
 scenario.params = PARAMS  # type: ignore[attr-defined]
 
 
-def main(outdir: str = "results/loss_sweep_servo", quick: bool = False) -> pd.DataFrame:
+def main(outdir: str = "results/loss_sweep_servo", quick: bool = False, executor: str = "pool") -> pd.DataFrame:
     """Sweep ``loss`` x ``mode`` over seeds with :func:`netcosim.sweep.run_sweep` into
     ``outdir/dataset`` (resumable: finished runs are kept); write the plots and
     ``summary.parquet``.  Full: losses 0, 0.1, ..., 0.9, 20 seeds; ``quick``: losses 0,
-    0.5, 0.9, 3 seeds.  Returns the runs table.
+    0.5, 0.9, 3 seeds.  ``executor``: as ``run_sweep``'s (``"pool"``: all cores).
+    Returns the runs table.
     """
     import matplotlib.pyplot as plt
 
@@ -156,15 +156,16 @@ def main(outdir: str = "results/loss_sweep_servo", quick: bool = False) -> pd.Da
     out.mkdir(parents=True, exist_ok=True)
     losses = (0.0, 0.5, 0.9) if quick else LOSSES
     seeds = 3 if quick else 20
-    result = run_sweep(scenario, grid={"loss": list(losses), "mode": list(MODES)}, seeds=seeds,
-                       out=out / "dataset")
-    runs = result.to_pandas() if hasattr(result, "to_pandas") else result
+    # by import path: run as `python -m`, this module is __main__, which workers cannot import
+    result = run_sweep("experiments.loss_sweep_servo:scenario", grid={"loss": list(losses), "mode": list(MODES)},
+                       seeds=seeds, out=out / "dataset", executor=executor)
+    runs = result.to_pandas()
     summary = summarize(runs, "loss", "J", hue="mode")
     summary.to_parquet(out / "summary.parquet", index=False)
 
     ax = plot_sweep(runs, x="loss", y="J", hue="mode", logy=True)
     ax.set_xlabel("frame loss probability p")
-    ax.set_title(f"networked servo over 802.11b: J over {DURATION:g} s, {seeds} seeds")
+    ax.set_title(f"servo over 802.11b: J ({DURATION:g} s), {seeds} seeds per point")
     ax.figure.tight_layout()
     ax.figure.savefig(out / "cost.png", dpi=120)
     plt.close(ax.figure)

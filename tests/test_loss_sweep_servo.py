@@ -4,6 +4,7 @@ message loss on 802.11b, cost of the loop), and main() end to end on a small swe
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy.stats import binomtest
 
@@ -70,3 +71,29 @@ def test_bad_params_name_the_value(params, match):
 
 def test_the_scenario_declares_its_parameters():
     assert set(exp.scenario.params) == {"loss", "mode"}
+
+
+def test_main_quick_end_to_end(tmp_path, monkeypatch):
+    # 0.5 s runs in this process (serial executor), so the sweep takes seconds
+    monkeypatch.setattr(exp, "DURATION", 0.5)
+    runs = exp.main(outdir=str(tmp_path), quick=True, executor="serial")
+    assert len(runs) == 3 * 2 * 3
+    assert set(runs["status"]) == {"ok"}
+    assert sorted(set(runs["loss"])) == [0.0, 0.5, 0.9] and set(runs["mode"]) == {"broadcast", "unicast"}
+    for name in ("cost.png", "message_loss.png", "summary.parquet", "dataset"):
+        assert (tmp_path / name).exists(), name
+    summary = pd.read_parquet(tmp_path / "summary.parquet")
+    assert summary["n"].tolist() == [3] * 6
+    loss_free = summary[summary["loss"] == 0.0]
+    assert loss_free["n_diverged"].tolist() == [0, 0] and loss_free["median"].iloc[0] == loss_free["median"].iloc[1]
+    # broadcast at p = 0.9: the measured message loss is the frame loss, run by run
+    b = runs[(runs["mode"] == "broadcast") & (runs["loss"] == 0.9)]
+    assert (b["message_loss"] == b["frame_loss"]).all() and (b["message_loss"] > 0.8).all()
+    u = runs[(runs["mode"] == "unicast") & (runs["loss"] == 0.9)]
+    assert (u["message_loss"] < 0.75).all()            # 0.9**6 = 0.53
+    # the sweep resumes: a second call reruns nothing and returns the same table
+    again = exp.main(outdir=str(tmp_path), quick=True, executor="serial")
+    cols = [c for c in runs.columns if c != "wall_time"]
+    pd.testing.assert_frame_equal(again[cols], runs[cols])
+    from netcosim.sweep import load_sweep
+    assert load_sweep(tmp_path / "dataset").summary["missing"] == 0

@@ -104,6 +104,8 @@ def test_plot_sweep_draws_medians_bands_and_counts():
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert labels == ["strategy=a (diverged 1/10, failed 1)", "strategy=b (diverged 5/10, failed 1)"]
     assert ax.get_xlabel() == "loss"
+    lo, hi = ax.get_xlim()
+    assert lo < 0.0 and hi > 0.5                         # loss 0.5 stays in view though b has no median there
 
 
 def test_plot_sweep_on_given_axes_without_hue():

@@ -9,7 +9,8 @@ on each; it can write a resumable Parquet dataset as runs finish.  See ``docs/sw
 Modules: :mod:`~netcosim.sweep.grid` (cases), :mod:`~netcosim.sweep.seeds` (run seeds),
 :mod:`~netcosim.sweep.scenario` (finding the function), :mod:`~netcosim.sweep.run` (one run),
 :mod:`~netcosim.sweep.executors`, :mod:`~netcosim.sweep.store` (the dataset on disk),
-:mod:`~netcosim.sweep.result`, :mod:`~netcosim.sweep.runner`.
+:mod:`~netcosim.sweep.result`, :mod:`~netcosim.sweep.runner`, :mod:`~netcosim.sweep.aggregate` (medians,
+bands and counts across seeds; :func:`~netcosim.sweep.aggregate.plot_sweep`).
 """
 
 from .result import SweepResult

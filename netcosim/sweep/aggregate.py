@@ -115,6 +115,7 @@ def plot_sweep(df: pd.DataFrame, x: str = "loss", y: str = "J", hue: str | None 
     and the ``quantiles`` band shaded; diverged and failed runs are not plotted but
     counted: a label ``"<d> div, <f> fail"`` at each ``x`` that has any (at the
     median, or at the top of the axes if no run was used) and the totals in the legend.
+    A numeric ``x`` axis spans every ``x`` of the runs, usable or not.
 
     Arguments as :func:`summarize`; ``ax``: a matplotlib ``Axes`` (default: a new
     figure); ``logy``: logarithmic ``y`` axis.  Returns the axes.
@@ -145,6 +146,12 @@ def plot_sweep(df: pd.DataFrame, x: str = "loss", y: str = "J", hue: str | None 
             else:
                 ax.text(r[x], 0.97 - 0.05 * i, text, transform=top, fontsize=7, color=line.get_color(),
                         ha="center", va="top")
+    xs = s[x].to_numpy()
+    if xs.size and np.issubdtype(xs.dtype, np.number):
+        # every x stays in view, also one where no run was usable (only its count is drawn)
+        lo_x, hi_x = float(np.min(xs)), float(np.max(xs))
+        pad = 0.05 * (hi_x - lo_x) if hi_x > lo_x else 0.5
+        ax.set_xlim(lo_x - pad, hi_x + pad)
     if logy:
         ax.set_yscale("log")
     ax.set_xlabel(x)
