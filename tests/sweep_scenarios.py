@@ -31,8 +31,11 @@ def logged(params, seed):
 
 
 def flaky(params, seed):
-    """``mode``: "ok" returns, "raise" raises, "hang" sleeps for an hour, "list" returns a list."""
+    """``mode``: "ok" returns, "raise" raises, "hang" sleeps for an hour, "list" returns a list,
+    "die" ends its process at once (exit status 3)."""
     mode = params["mode"]
+    if mode == "die":
+        os._exit(3)
     if mode == "raise":
         raise FloatingPointError(f"diverged at case {params['i']}")
     if mode == "hang":

@@ -95,6 +95,27 @@ def test_a_raising_run_a_bad_return_and_a_timeout_are_recorded_and_the_others_co
     assert res.summary == {"total": 6, "ok": 3, "error": 2, "timeout": 1, "skipped": 0, "missing": 0}
 
 
+def test_a_pool_worker_that_dies_records_its_run_and_is_replaced():
+    cases = [{"mode": m, "i": i} for i, m in enumerate(["ok", "die", "ok", "ok", "die", "ok"])]
+    res = run_sweep(sc.flaky, cases, 1, executor="pool", workers=2, quiet=True)
+    assert res.runs["status"].tolist() == ["ok", "error", "ok", "ok", "error", "ok"]
+    assert res.runs["error"].iloc[1] == "the worker process died during the run (exit code 3)"
+    assert res.runs["value"].iloc[[0, 2, 3, 5]].tolist() == [0, 4, 6, 10]
+
+
+def test_a_script_without_a_main_guard_gets_an_error_not_a_hang(tmp_path):
+    import subprocess
+    import sys
+
+    script = tmp_path / "unguarded.py"
+    script.write_text("from netcosim.sweep import run_sweep\n"
+                      "def f(params, seed):\n    return {'x': 1}\n"
+                      "run_sweep(f, {'a': [1, 2]}, 1, workers=1, quiet=True)\n")
+    result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1
+    assert 'under `if __name__ == "__main__":`' in result.stderr
+
+
 def test_the_dataset_on_disk_reads_back_and_a_rerun_skips_every_finished_run(tmp_path):
     out = tmp_path / "sweep"
     res = run_sweep(sc.cheap, {"a": [0, 1], "b": [0.5]}, 2, executor="serial", out=out, quiet=True)

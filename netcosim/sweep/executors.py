@@ -136,6 +136,8 @@ def _pool_worker(conn, ref: ScenarioRef) -> None:
     except BaseException as exc:
         conn.send(("failed", f"{type(exc).__name__}: {exc}"))
         return
+    import pandas  # noqa: F401  (run_one needs it: imported before the freeze, it stays out of every collection)
+    gc.collect()
     gc.freeze()          # the imports stay out of every later collection: gc.collect() after a run stays cheap
     conn.send(("ready",))
     while True:
@@ -211,7 +213,8 @@ class PoolExecutor:
                     done = self._poll(w, ready)
                     if done is not None:
                         yield done
-                    if not w.proc.is_alive() and not w.conn.poll():
+                    if not w.proc.is_alive():
+                        yield from self._drain(w)
                         if not w.ready:
                             raise RuntimeError(
                                 f"a sweep worker process exited with code {w.proc.exitcode} while starting; a "
@@ -234,13 +237,31 @@ class PoolExecutor:
             for w in pool:
                 w.stop()
 
+    def _drain(self, w: _Worker) -> list[tuple[int, Outcome]]:
+        """The results a dead worker sent before it died (poll() is also true at end of file)."""
+        out = []
+        while True:
+            try:
+                if not w.conn.poll():
+                    return out
+                msg = w.conn.recv()
+            except (EOFError, OSError):
+                return out
+            done = self._handle(w, msg)
+            if done is not None:
+                out.append(done)
+
     def _poll(self, w: _Worker, ready: list) -> tuple[int, Outcome] | None:
         if w.conn not in ready and not w.conn.poll():
             return None
         try:
             msg = w.conn.recv()
-        except (EOFError, OSError):
+        except (EOFError, OSError):        # the worker is gone; its sentinel tells the loop
+            w.proc.join(5)
             return None
+        return self._handle(w, msg)
+
+    def _handle(self, w: _Worker, msg: tuple) -> tuple[int, Outcome] | None:
         if msg[0] == "ready":
             w.ready = True
             return None
@@ -255,6 +276,7 @@ def _dask_task(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: flo
         return run_in_child(ref, params, seed, timeout)
     if ref not in _loaded:
         load(ref)
+        import pandas  # noqa: F401  (see _pool_worker)
         gc.collect()
         gc.freeze()      # the worker's own objects stay out of the collection after each run
     return run_one(load(ref), params, seed)
