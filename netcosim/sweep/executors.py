@@ -239,7 +239,7 @@ class PoolExecutor:
 
     def _drain(self, w: _Worker) -> list[tuple[int, Outcome]]:
         """The results a dead worker sent before it died (poll() is also true at end of file)."""
-        out = []
+        out: list[tuple[int, Outcome]] = []
         while True:
             try:
                 if not w.conn.poll():
