@@ -116,6 +116,46 @@ def test_a_script_without_a_main_guard_gets_an_error_not_a_hang(tmp_path):
     assert 'under `if __name__ == "__main__":`' in result.stderr
 
 
+def test_each_run_is_followed_by_a_collection_so_cycles_left_behind_are_freed():
+    import gc
+
+    sc.REFS.clear()
+    full = []
+
+    def count(phase, info):
+        if phase == "start" and info["generation"] == 2:
+            full.append(len(sc.REFS))
+
+    gc.callbacks.append(count)
+    try:
+        res = run_sweep(sc.cyclic, {"i": [0, 1, 2]}, 2, executor="serial", quiet=True)
+    finally:
+        gc.callbacks.remove(count)
+    assert res.summary["ok"] == 6 and len(sc.REFS) == 6
+    assert {1, 2, 3, 4, 5, 6} <= set(full)          # a full collection after each run
+    assert all(ref() is None for ref in sc.REFS)
+
+
+def test_the_progress_bar_counts_runs_and_failures_on_a_terminal(monkeypatch):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    cases = [{"mode": m, "i": i} for i, m in enumerate(["ok", "raise", "ok"])]
+    run_sweep(sc.flaky, cases, 2, executor="serial")
+    text = term.getvalue()
+    assert "6/6" in text and "failed=2" in text
+    quiet = Terminal()
+    monkeypatch.setattr(sys, "stderr", quiet)
+    run_sweep(sc.flaky, cases, 2, executor="serial", quiet=True)
+    assert quiet.getvalue() == ""
+
+
 def test_the_dataset_on_disk_reads_back_and_a_rerun_skips_every_finished_run(tmp_path):
     out = tmp_path / "sweep"
     res = run_sweep(sc.cheap, {"a": [0, 1], "b": [0.5]}, 2, executor="serial", out=out, quiet=True)
