@@ -107,8 +107,6 @@ def run_in_child(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: f
 class SerialExecutor:
     """Runs every task in this process, one after another (timed runs in a child process)."""
 
-    workers = 1
-
     def __init__(self, fn: Callable, ref: ScenarioRef | None, timeout: float | None):
         self.fn, self.ref, self.timeout = fn, ref, timeout
 
@@ -291,14 +289,6 @@ class DaskExecutor:
         self.ref, self.timeout = ref, timeout
         self.client, self.scheduler, self.n_workers = client, scheduler, workers
         self._owned: list[Any] = []
-
-    @property
-    def workers(self) -> int:
-        """Number of worker threads of the cluster."""
-        try:
-            return max(1, sum(w.get("nthreads", 1) for w in self.client.scheduler_info()["workers"].values()))
-        except Exception:
-            return self.n_workers or 1
 
     def start(self) -> None:
         """Connect (or start the local cluster); raises naming an unreachable scheduler."""
