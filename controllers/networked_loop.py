@@ -12,13 +12,15 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from netcosim.network import BROADCAST
+
 __all__ = ["networked_loop"]
 
 
 def networked_loop(plant: Any, sensor: Any, controller: Any, sensor_iface: Any, controller_iface: Any, *,
                    law: Callable[[float, float], float], reference: Callable[[float], float], period: float,
                    io_exec: float, control_exec: float, frame_bits: int, u_max: float | None = None,
-                   log_reference: bool = True) -> None:
+                   log_reference: bool = True, broadcast: bool = False) -> None:
     """Add the loop's three tasks to the nodes *sensor* and *controller*.
 
     ``plant``: a plant instance (output 0 is measured, input 0 actuated);
@@ -27,13 +29,16 @@ def networked_loop(plant: Any, sensor: Any, controller: Any, sensor_iface: Any, 
     point at the sampling instant ``t`` (s); ``period``: sampling period (s);
     ``io_exec``/``control_exec``: CPU time (s) of the sensor/actuator and controller
     jobs; ``frame_bits``: size of each message (bits); ``u_max``: saturate ``|u|`` to
-    this value (None: no saturation); ``log_reference``: log ``r`` beside ``y``.
+    this value (None: no saturation); ``log_reference``: log ``r`` beside ``y``;
+    ``broadcast``: address every message to ``BROADCAST`` instead of the peer node (on
+    a wireless network: no ACK and no retry, so a lost frame is a lost message; meant
+    for a network holding just the two nodes, as every other node receives them too).
     Signals logged: ``u`` and ``delay`` (s) by ``sensor.actuate``, ``r`` and ``y`` by
     ``controller.pid``.
     """
     y_port, u_port = plant.output(0), plant.input(0)
-    controller_name = controller.name
-    sensor_name = sensor.name
+    controller_name: Any = BROADCAST if broadcast else controller.name
+    sensor_name: Any = BROADCAST if broadcast else sensor.name
 
     @sensor.periodic(period=period, priority=2, name="sample")
     def sample(ctx):

@@ -154,3 +154,56 @@ def test_bad_loss_parameters_raise_naming_the_value(bad, match):
         bad()
     with pytest.raises(TypeError, match="loss"):
         IdealLink(Simulation(), "l", loss="often")
+
+
+def _message_loss(mode: str, p: float, n: int, retry_limit: int = 7, seed: int = 8):
+    """a sends n messages to b (unicast) or to every other station (broadcast, one receiver)
+    every 20 ms; returns (messages lost, attempts made, attempts lost by the loss draw)."""
+    sim = Simulation(seed=seed)
+    net = WLAN80211b(sim, "w", data_rate=11e6, loss=p, retry_limit=retry_limit)
+    a = net.attach("a", position=(0.0, 0.0))
+    b = net.attach("b", position=(10.0, 0.0), mailbox=False)
+    dst = BROADCAST if mode == "broadcast" else "b"
+    for k in range(n):
+        sim.call_at(k * 20e-3, lambda: a.send(dst, None, 800))
+    sim.run(n * 20e-3 + 0.5)
+    df = net.frames()
+    ends = df[df["event"] == "attempt_end"]
+    random = int((df["outcome"] == "random_loss").sum()) if mode == "broadcast" else \
+        int((ends["outcome"] == "random_loss").sum())
+    assert a.stats["sent"] + a.stats["dropped"] == n
+    return n - b.stats["received"], len(ends), random
+
+
+def test_frame_loss_is_per_attempt_message_loss_depends_on_retries():
+    """``loss`` is a per-frame probability (per attempt, per receiver).  Broadcast: one
+    attempt, message loss = p.  Unicast: ``retry_limit`` counts *attempts* (the frame is
+    dropped when ``attempts >= retry_limit``), so with only the loss draw failing attempts
+    the message loss is p**retry_limit: p**5 for retry_limit=5 -- not p**6 (5 retries
+    after a first attempt) nor p**4."""
+    p, n = 0.5, 3000
+    lost, attempts, drawn = _message_loss("broadcast", p, n)
+    assert attempts == n
+    ci = binomtest(lost, n).proportion_ci(confidence_level=0.99)
+    assert ci.low <= p <= ci.high
+    assert drawn == lost
+
+    lost, attempts, drawn = _message_loss("unicast", p, n, retry_limit=5)
+    frame_ci = binomtest(drawn, attempts).proportion_ci(confidence_level=0.99)
+    assert frame_ci.low <= p <= frame_ci.high              # the frame loss is still p per attempt
+    ci = binomtest(lost, n).proportion_ci(confidence_level=0.99)
+    assert ci.low <= p ** 5 <= ci.high
+    assert not ci.low <= p ** 6 <= ci.high
+    assert not ci.low <= p ** 4 <= ci.high
+    # the default retry limit (7 attempts) hides a frame loss of 0.5 almost completely
+    lost7, _, _ = _message_loss("unicast", p, n)
+    assert binomtest(lost7, n).proportion_ci(confidence_level=0.99).low <= p ** 7 < 0.01
+
+
+def test_star_is_not_broadcast():
+    sim = Simulation(seed=1)
+    net = WLAN80211b(sim, "w")
+    a = net.attach("a")
+    net.attach("b", position=(10.0, 0.0))
+    with pytest.raises(ValueError, match=r"unknown destination node '\*'"):
+        a.send("*", None, 800)      # '*' is how the trace writes BROADCAST, not an address

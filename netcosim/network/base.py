@@ -102,7 +102,15 @@ class Network:
         MAC timing (carrier sense, ACK turnaround) does not see it.
     loss:
         A probability (Bernoulli), a :mod:`loss model <netcosim.network.loss>`, or a
-        list of them; drawn per frame and receiver.
+        list of them.  It is a *frame* loss: drawn once per transmitted frame (each
+        attempt of a retried frame is drawn again) and per receiver, independently of
+        the physics' own losses.  The *message* loss a task sees follows from the MAC:
+        where a frame lost so is not sent again (wired networks draw at delivery;
+        broadcast on the radio networks) it equals the frame loss ``p``; acknowledged
+        unicast on the radio networks retries it, up to ``retry_limit`` attempts in all
+        on 802.11b and ``max_frame_retries + 1`` on 802.15.4, so with independent
+        losses and no other failures a message is lost with probability ``p**attempts``
+        (``0.5**7 < 1 %`` with 802.11b's default of 7).
     queue, queue_capacity:
         Sender queue discipline (``"fifo"`` or ``"priority"``) and size in frames.
     mailbox_capacity:

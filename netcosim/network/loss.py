@@ -11,6 +11,12 @@ Where the draw happens:
 * WLAN: at the receiver after a successful decode, *before* the ACK -- a unicast frame
   lost this way is not acknowledged and is retried like any other failed attempt.
 
+A loss model gives *frame* loss (per attempt and receiver).  The *message* loss seen
+by the application is the same on networks that send a frame once, and far smaller
+on WLAN unicast, which retries: ``p**retry_limit`` for independent losses (see
+``retry_limit`` of :class:`~netcosim.network.wlan.WLAN80211b` and "Frame loss and
+message loss" in ``docs/networks.md``).
+
 Models: :class:`Bernoulli` (independent losses), :class:`GilbertElliott` (a two-state
 Markov channel for bursts), :class:`TraceLoss` (replay a recorded 0/1 sequence).
 Several models can be combined by passing a list; the frame is lost if any says so.

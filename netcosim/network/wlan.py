@@ -18,7 +18,8 @@ MAC overhead        24-byte header + 4-byte FCS = 224 bits per data frame
 ACK                 14 bytes (112 bits) + PLCP, at the highest basic rate <= data rate
                     (basic rates 1 and 2 Mbit/s), sent SIFS after the data frame
 ACK timeout         SIFS + slot + PLCP (aSIFSTime + aSlotTime + aPHY-RX-START-Delay)
-retry limit         7 transmission attempts (dot11ShortRetryLimit), then the frame is dropped
+retry limit         7 transmission attempts in all (dot11ShortRetryLimit), then the frame is
+                    dropped: a frame loss p gives a unicast message loss p**7
 max MSDU            2312 bytes
 ==================  ==========================================================
 
@@ -122,7 +123,15 @@ class WLAN80211b(RadioNetwork):
     preamble:
         ``"long"`` (192 µs PLCP) or ``"short"`` (96 µs).
     retry_limit:
-        Maximum transmission attempts of a unicast frame (default 7).
+        Maximum transmission *attempts* of a unicast frame, the first one included
+        (default 7, dot11ShortRetryLimit): the frame is dropped (``lost`` with outcome
+        ``retry_limit``) when its attempt number ``retry_limit`` fails, so
+        ``retry_limit=1`` means no retransmission.  A frame ``loss`` p then gives a
+        message loss of ``p**retry_limit`` if nothing else fails an attempt.  A retry
+        limit that counts retransmissions after the first attempt (TrueTime's reading
+        of its default 5, message loss ``p**6``) is ``retry_limit=6`` here.  Broadcast
+        frames (destination :data:`~netcosim.network.BROADCAST`; the trace writes it
+        ``*``, which is not an address) are sent once, never acknowledged.
     eifs:
         Use EIFS after erroneous receptions (default True, as the standard).
     ack_timeout:
