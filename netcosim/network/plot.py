@@ -75,7 +75,7 @@ def plot_network_schedule(schedule: pd.DataFrame, *, network: str | None = None,
     _shade(ax, df, row_of, t0, t1)
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
-    handles = [Patch(color=STATE_COLOURS[s], alpha=0.35, label=s)
+    handles: list = [Patch(color=STATE_COLOURS[s], alpha=0.35, label=s)
                for s in sorted(STATE_COLOURS, key=NETWORK_STATES.__getitem__, reverse=True)]
     handles.append(Line2D([], [], color="black", lw=0.9, label="idle (baseline)"))
     top = NETWORK_STATES["sending"]
