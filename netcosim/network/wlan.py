@@ -680,6 +680,31 @@ class WLAN80211b(RadioNetwork):
                 r = stations[i]
                 if r is not src:
                     self._solo_start(r, tx, first, now)
+        if c.count:
+            for i in tuple(self._solo):
+                r = stations[i]
+                if r is not src and r.mac_busy:
+                    self._try_join_busy(r, c, now)
+
+    def _try_join_busy(self, r, c, now) -> None:
+        """Busy station *r* joins the busy crowd if it will see the medium as the crowd does:
+        same locked frame and reception outcome, carrier sense, NAV and EIFS, and no frame on
+        the air is addressed to it (while busy, the instant it went idle last does not matter;
+        both freeze their backoff and count again from the same idle instant)."""
+        if (r.tx is not None or r.awaiting is not None or r.responding or r.immediate or r.ack_wait
+                or r.access_at >= 0 or r.rx is not c.rx or r.rx_ok != c.rx_ok or r.rx_reason != c.rx_reason or r.audible != c.audible
+                or r.eifs != c.eifs or not c.mac_busy):
+            return
+        if r.nav_end != c.nav_end and (r.nav_end > now or c.nav_end > now):
+            return
+        for tx in self.medium.active:
+            if tx.dst is r or tx.fail.get(r.index) != tx.crowd_fail:
+                return
+        r.in_crowd = True
+        c.count += 1
+        del self._solo[bisect.bisect_left(self._solo, r.index)]
+        if r.backoff is not None:
+            self._clock_key(r, r.backoff)
 
     def _solo_start(self, r, tx, first, now) -> None:
         r.n_active += 1
