@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from netcosim import Simulation
-from netcosim.network import BROADCAST, WLAN80211b, SaturatedSource
+from netcosim.network import BROADCAST, SaturatedSource, WLAN80211b
 
 
 def scenario(seed: int, shared_clock: bool, until: float = 0.08):

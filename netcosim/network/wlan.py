@@ -692,8 +692,8 @@ class WLAN80211b(RadioNetwork):
         the air is addressed to it (while busy, the instant it went idle last does not matter;
         both freeze their backoff and count again from the same idle instant)."""
         if (r.tx is not None or r.awaiting is not None or r.responding or r.immediate or r.ack_wait
-                or r.access_at >= 0 or r.rx is not c.rx or r.rx_ok != c.rx_ok or r.rx_reason != c.rx_reason or r.audible != c.audible
-                or r.eifs != c.eifs or not c.mac_busy):
+                or r.access_at >= 0 or r.rx is not c.rx or r.rx_ok != c.rx_ok or r.rx_reason != c.rx_reason
+                or r.audible != c.audible or r.eifs != c.eifs or not c.mac_busy):
             return
         if r.nav_end != c.nav_end and (r.nav_end > now or c.nav_end > now):
             return
