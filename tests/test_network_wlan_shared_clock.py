@@ -111,3 +111,15 @@ def test_shared_clock_must_be_a_bool():
     from netcosim.errors import ConfigurationTypeError
     with pytest.raises(ConfigurationTypeError, match="shared_clock"):
         WLAN80211b(Simulation(), "w", shared_clock="yes")
+
+
+def test_moving_stations_take_the_per_station_path():
+    sim = Simulation(seed=2)
+    net = WLAN80211b(sim, "w")
+    a = net.attach("a", position=(0.0, 0.0))
+    assert net._fast
+    net.attach("b", position=lambda t: (0.5 + t, 0.0))
+    assert not net._fast
+    SaturatedSource(a, "b", 8000)
+    sim.run(0.02)
+    assert a.stats["sent"] > 10
