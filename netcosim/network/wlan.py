@@ -675,16 +675,16 @@ class WLAN80211b(RadioNetwork):
                         r.iface._state()
                 else:
                     self._solo_start(r, tx, first, now)
+                    if r.rx is c.rx and r.access_at < 0 and r.tx is None:
+                        self._try_join_busy(r, c, now)
         else:
             for i in tuple(self._solo):
                 r = stations[i]
                 if r is not src:
                     self._solo_start(r, tx, first, now)
-        if c.count:
-            for i in tuple(self._solo):
-                r = stations[i]
-                if r is not src and r.mac_busy:
-                    self._try_join_busy(r, c, now)
+                    # the start set r's state for this frame; no other station's processing changes it
+                    if r.rx is c.rx and r.access_at < 0 and r.tx is None and c.count:
+                        self._try_join_busy(r, c, now)
 
     def _try_join_busy(self, r, c, now) -> None:
         """Busy station *r* joins the busy crowd if it will see the medium as the crowd does:
