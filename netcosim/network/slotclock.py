@@ -15,10 +15,11 @@ same NAV and EIFS.  Those stations form one *crowd* kept as a single
   crowd in the network's access heap.
 
 A station leaves the crowd (its state is written back into its own fields) when it is
-due to transmit, is the destination of a unicast frame, gets a frame to send while the
-medium is idle, or when a broadcast frame ends (every listener delivers or loses it on
-its own); it rejoins when it is idle again with the same idle instant and EIFS flag as
-the crowd.  Stations outside the crowd are processed exactly as on the per-station path.
+due to transmit, is the destination of a unicast frame, or gets a frame to send while
+the medium is idle; it rejoins when it is idle again with the same idle instant and EIFS
+flag as the crowd, or busy with the same view of the medium.  A broadcast frame is
+delivered (or lost) at each crowd station in station order, with the crowd's outcome.
+Stations outside the crowd are processed exactly as on the per-station path.
 
 :func:`hears_all` decides from the geometry, powers and thresholds whether the
 conditions hold: every received power at or above the receiver and carrier-sense

@@ -241,6 +241,7 @@ class WLAN80211b(RadioNetwork):
         self._end_pos = -1                  # while a transmission ends: the station being processed,
         self._end_pre: tuple | None = None  # the crowd's state before the end, and the stations still to do
         self._end_heap: list | None = None
+        self._end_mid = None                # a crowd station delivering a broadcast frame (its own step)
         self._fast = shared_clock
         if shared_clock:
             self._air_start = self._fast_start
@@ -589,7 +590,13 @@ class WLAN80211b(RadioNetwork):
         ended = None
         if pre is not None and r.index > self._end_pos:
             rx, rx_ok, rx_reason, audible, busy, idle_start, eifs, nav_end, ended = pre
-            heapq.heappush(self._end_heap, r.index)  # type: ignore[arg-type]  # set with _end_pre
+            if self._end_mid is None:           # (a broadcast end visits every station anyway)
+                heapq.heappush(self._end_heap, r.index)  # type: ignore[arg-type]  # set with _end_pre
+        elif r is self._end_mid:
+            # half-way through its own step of a broadcast end: received, not yet re-evaluated
+            rx, rx_ok, rx_reason, audible = c.rx, c.rx_ok, c.rx_reason, c.audible
+            eifs, nav_end = c.eifs, c.nav_end
+            busy, idle_start = pre[4], pre[5]   # type: ignore[index]  # set with _end_pre
         else:
             rx, rx_ok, rx_reason, audible = c.rx, c.rx_ok, c.rx_reason, c.audible
             busy, idle_start, eifs, nav_end = c.mac_busy, c.idle_start, c.eifs, c.nav_end
@@ -731,19 +738,19 @@ class WLAN80211b(RadioNetwork):
         m.active.remove(tx)
         src = tx.src
         c = self._clock
-        if tx.dst is BROADCAST and tx.kind == "data" and c.count:
-            self._dissolve()                    # every listener delivers or loses it itself
+        crowd_bcast = tx.dst is BROADCAST and tx.kind == "data" and c.count
         if c.count:
             self._end_pre = (c.rx, c.rx_ok, c.rx_reason, c.audible, c.mac_busy, c.idle_start, c.eifs, c.nav_end, tx)
             if c.rx is tx:
-                ok, locked = c.rx_ok, True
+                ok, locked, reason = c.rx_ok, True, c.rx_reason
                 c.rx = None
             else:
                 ok = locked = False
+                reason = tx.crowd_fail or "collision"
             c.audible -= 1
             if ok:
                 c.eifs = False
-                if tx.kind == "data":           # unicast to a station outside the crowd: NAV
+                if tx.kind == "data" and not crowd_bcast:   # unicast to a station outside the crowd: NAV
                     nav = now + self.sifs + self.ack_time
                     if nav > c.nav_end:
                         c.nav_end = nav
@@ -756,6 +763,9 @@ class WLAN80211b(RadioNetwork):
                 c.eifs = True
             self._clock_reeval(now)
         stations = self._stations
+        if crowd_bcast:
+            self._bcast_end(tx, src, ok, locked, reason)
+            return
         heap = self._end_heap = [i for i in self._solo if i != src.index]
         try:
             while heap:
@@ -781,6 +791,51 @@ class WLAN80211b(RadioNetwork):
             self._end_heap = None
             self._end_pre = None
             self._end_pos = -1
+
+    def _bcast_end(self, tx, src, c_ok, c_locked, c_reason) -> None:
+        """End of a broadcast data frame with a crowd (already updated): every station in
+        order delivers or loses it (the crowd's stations with the crowd's outcome), the
+        others also do their own reception and DCF step."""
+        m = self.medium
+        stations: list = self._stations
+        f = tx.frame
+        self._end_heap = []
+        try:
+            for r in stations:
+                if r is src:
+                    continue
+                self._end_pos = r.index
+                if r.in_crowd:
+                    if c_locked:
+                        r.iface.receiving = 0
+                        r.iface._state()
+                    self._end_mid = r
+                    if c_ok:
+                        self._deliver(f, r.iface)
+                    else:
+                        self._lost(f, r.iface, c_reason)
+                    self._end_mid = None
+                    if not r.in_crowd:          # it left (a callback made it send): its own re-evaluation
+                        self._reeval(r)
+                    continue
+                r.n_active -= 1
+                if r.rx is tx:
+                    ok, reason = r.rx_ok, r.rx_reason
+                    m._unlock(r)
+                    locked = True
+                    if not ok:
+                        tx.fail[r.index] = reason
+                else:
+                    ok, locked = False, False
+                    reason = tx.fail.get(r.index, "collision")
+                r.audible -= 1
+                self._rx_end(r, tx, ok, reason, locked)
+                self._reeval(r)
+        finally:
+            self._end_heap = None
+            self._end_pre = None
+            self._end_pos = -1
+            self._end_mid = None
 
     # ------------------------------------------------------------------ analysis helpers
     def timing(self) -> dict:
