@@ -1,7 +1,8 @@
 """802.11b: the shared idle-slot clock gives the per-station path's results bit for bit.
 
 Random scenarios (2..20 stations, unicast and broadcast, saturated and periodic senders,
-Bernoulli loss, EIFS on and off, replies sent from receive handlers and from other
+Bernoulli loss, EIFS on and off, small contention windows and retry limits, transmit
+powers differing by up to 4 dB, replies sent from receive handlers and from other
 stations' completion callbacks, a station attached mid-run) run twice, with
 ``shared_clock=True`` and ``False``; the frame and network-schedule tables and the
 counters must be identical.
@@ -24,13 +25,17 @@ def scenario(seed: int, shared_clock: bool, until: float = 0.08):
     rate = float(g.choice([1e6, 2e6, 5.5e6, 11e6]))
     loss = float(g.choice([0.0, 0.0, 0.1, 0.3]))
     net = WLAN80211b(sim, "w", data_rate=rate, eifs=bool(g.integers(0, 2)), loss=loss or None,
-                     preamble=str(g.choice(["long", "short"])), shared_clock=shared_clock)
-    # stations within 1.5 m of each other: everybody hears everybody, no capture possible
+                     preamble=str(g.choice(["long", "short"])), shared_clock=shared_clock,
+                     cw_min=int(g.choice([31, 31, 7, 3])), retry_limit=int(g.choice([7, 7, 2])),
+                     propagation_delay=float(g.choice([0.0, 0.0, 1e-6])))
+    # stations within 1.5 m of each other, transmit powers within 4 dB: everybody hears
+    # everybody, no capture possible
     ifaces = []
     for i in range(n):
         a = g.uniform(0, 2 * math.pi)
         rad = g.uniform(0, 0.7)
-        ifaces.append(net.attach(f"s{i}", position=(rad * math.cos(a), rad * math.sin(a))))
+        ifaces.append(net.attach(f"s{i}", position=(rad * math.cos(a), rad * math.sin(a)),
+                                 tx_power_dbm=15.0 + float(g.choice([0.0, 0.0, 2.0, -2.0]))))
     size = lambda: int(g.integers(1, 12)) * 800  # noqa: E731
     for i, iface in enumerate(ifaces):
         kind = g.integers(0, 4)
