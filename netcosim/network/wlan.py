@@ -275,10 +275,10 @@ class WLAN80211b(RadioNetwork):
             if r.mac_busy:
                 r.mac_busy = False
                 r.idle_start = now
+            if self._fast and self._try_join(r):
+                return              # the crowd counts its backoff down
             if r.access_at < 0 and r.backoff is not None:
                 self._schedule_access(r)
-            if self._fast:
-                self._try_join(r)
 
     def _on_busy(self, r, now) -> None:
         if r.eifs and now - r.idle_start >= self.eifs_time:
@@ -550,17 +550,19 @@ class WLAN80211b(RadioNetwork):
             if c.access_at < 0:
                 self._clock_schedule()
 
-    def _try_join(self, r) -> None:
-        """Idle station *r* joins the crowd if it sees the medium as the crowd does."""
+    def _try_join(self, r) -> bool:
+        """Idle station *r* joins the crowd if it sees the medium as the crowd does (True if it
+        did).  Its countdown, scheduled or not yet, starts where the crowd's does: same idle
+        instant and EIFS flag, no immediate access."""
         if (r.in_crowd or r.mac_busy or r.tx is not None or r.awaiting is not None or r.responding or r.immediate
                 or r.ack_wait or r.rx is not None):
-            return
+            return False
         c = self._clock
         if c.count:
             if c.mac_busy or c.idle_start != r.idle_start or c.eifs != r.eifs:
-                return
-            if r.backoff is not None and r.count_start != c.C:
-                return
+                return False
+            if r.access_at >= 0 and r.count_start != c.C:
+                return False
         else:                                   # the first member: the crowd takes its view
             c.mac_busy = False
             c.idle_start = r.idle_start
@@ -571,8 +573,8 @@ class WLAN80211b(RadioNetwork):
             c.C = r.idle_start + (self.eifs_time if (r.eifs and self.use_eifs) else self.difs)
             c.access_at = -1
             c.acc_gen -= 1
-            if r.backoff is not None and r.count_start != c.C:
-                return
+            if r.access_at >= 0 and r.count_start != c.C:
+                return False
         r.in_crowd = True
         c.count += 1
         del self._solo[bisect.bisect_left(self._solo, r.index)]
@@ -580,6 +582,7 @@ class WLAN80211b(RadioNetwork):
             r.access_at = -1
             self._clock_key(r, r.backoff)
             self._clock_schedule()
+        return True
 
     def _leave(self, r, due: int = -1) -> None:
         """Member *r* gets its own state back (as the crowd's; during the end of a transmission,
