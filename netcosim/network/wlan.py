@@ -651,8 +651,6 @@ class WLAN80211b(RadioNetwork):
         c = self._clock
         dst = tx.dst
         bcast = dst is BROADCAST
-        if not bcast and dst.in_crowd:
-            self._leave(dst)
         if c.count and not c.mac_busy and c.access_at == now:
             self._pop_due(now, True)
         active = m.active
@@ -674,6 +672,9 @@ class WLAN80211b(RadioNetwork):
             if not c.mac_busy:
                 c.mac_busy = True
                 self._clock_busy(now)
+            if lock and not bcast and dst.in_crowd:    # a destination in the crowd: leaves at the end
+                dst.iface.receiving = 1
+                dst.iface._state()
         stations: list = self._stations
         if bcast and tx.kind == "data" and c.count:
             for r in stations:
@@ -744,6 +745,10 @@ class WLAN80211b(RadioNetwork):
         crowd_bcast = tx.dst is BROADCAST and tx.kind == "data" and c.count
         if c.count:
             self._end_pre = (c.rx, c.rx_ok, c.rx_reason, c.audible, c.mac_busy, c.idle_start, c.eifs, c.nav_end, tx)
+            d = tx.dst
+            if d is not BROADCAST and d.in_crowd:
+                self._end_heap = []
+                self._leave(d)      # the destination answers or notes why it missed the frame: its own step
             if c.rx is tx:
                 ok, locked, reason = c.rx_ok, True, c.rx_reason
                 c.rx = None
