@@ -100,6 +100,17 @@ def test_shared_clock_reproduces_the_per_station_path(seed):
     assert sf.equals(ss)
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("block", range(8))
+def test_shared_clock_reproduces_the_per_station_path_on_many_seeds(block):
+    for seed in range(16 + 50 * block, 16 + 50 * (block + 1)):
+        sim_f, net_f = scenario(seed, True, 0.1)
+        sim_s, net_s = scenario(seed, False, 0.1)
+        assert net_f._fast is not net_f.late_far
+        a, b = tables(sim_f, net_f), tables(sim_s, net_s)
+        assert a[0].equals(b[0]) and a[1].equals(b[1]) and a[2:] == b[2:], seed
+
+
 def test_a_station_out_of_capture_range_switches_to_the_per_station_path():
     # s2 sits next to s0: at s0 its frames are > 10 dB above s1's, so capture is possible
     for shared in (True, False):
