@@ -11,6 +11,19 @@ timeout) is the cost of one complete 802.11 frame exchange -- which needs severa
 events per station (carrier-sense changes, backoff timers, data, SIFS, ACK, NAV) -- in
 units of the cheapest possible SimPy event.
 
+802.11b per-frame cost against the number of stations n (2, 10, 50), saturated unicast to
+an access point, measured with the shared idle-slot clock (``shared_clock=True``, the
+default) and with the per-station path (``False``), interleaved (one run of each
+configuration per round), untraced, in CPU time of this process (``time.process_time``: on
+a machine shared with other jobs, wall time also counts the time the other jobs run, which
+distorts the long runs at 50 stations more than the short ones).  Two geometries:
+
+``cluster``  the stations within 0.5 m of the access point: every station hears every
+             other one at the same power, no capture is possible -- the shared clock's case;
+``circle``   the stations on a 10 m circle (as above): all in range, but a near sender
+             can capture a receiver from a far one, so both settings take the per-station
+             path (shown for comparison).
+
 CAN per-frame cost against the number of nodes n (10 and 100), two scenarios with 8-byte
 standard frames, identifier = node index:
 
@@ -23,7 +36,8 @@ The measure is wall time per frame sent; the ratio of the cost at 100 nodes to t
 10 nodes, measured in the same run, for the heap arbitration of :class:`~netcosim.network.CAN`
 and for the scan of every node's queue it replaced (:class:`ScanCAN`, kept here for comparison).
 
-Run: ``python -m benchmarks.network`` (``--can`` for the CAN part only).
+Run: ``python -m benchmarks.network`` (``--can`` for the CAN part only, ``--wlan-scaling`` for
+the 802.11b scaling only).
 """
 
 from __future__ import annotations
@@ -96,8 +110,76 @@ def main(until: float = 2.0, repeats: int = 5) -> dict:
               f"{r['ratio_median']:.0f}x median of pairwise ratios")
     print(f"  bare SimPy: {bare_us:.3f} us per timeout (best)")
     res["bare_us_per_timeout"] = bare_us
+    res["wlan_scaling"] = wlan_scaling_main()
     res["can"] = can_main()
     return res
+
+
+#: Simulated seconds run before the timed part of a scaling run (s).
+WLAN_WARMUP = 0.2
+
+
+def wlan_scaling_run(n: int, shared_clock: bool, geometry: str, until: float) -> tuple[int, float, bool]:
+    """n saturated stations (*geometry*, see the module docstring) sending to an access point;
+    returns (frames sent or dropped, CPU seconds of this process, whether the shared clock was in
+    use) over
+    *until* simulated seconds after :data:`WLAN_WARMUP` (the steady state: at the start every
+    station sends at once, a collision of all n frames)."""
+    sim = Simulation(seed=0)
+    net = WLAN80211b(sim, "wlan", data_rate=11e6, trace=False, shared_clock=shared_clock)
+    ap = net.attach("ap", position=(0.0, 0.0), mailbox=False)
+    radius = 0.5 if geometry == "cluster" else 10.0
+    for i in range(n):
+        s = net.attach(f"s{i}", position=(radius * math.cos(i), radius * math.sin(i)))
+        SaturatedSource(s, ap, PAYLOAD_BITS)
+    sim.run(WLAN_WARMUP)            # past the start, where every station sends at once
+    done = sum(i.stats["sent"] + i.stats["dropped"] for i in net._ifaces)
+    gc.collect()
+    t0 = time.process_time()
+    sim.run(WLAN_WARMUP + until)
+    dt = time.process_time() - t0
+    return sum(i.stats["sent"] + i.stats["dropped"] for i in net._ifaces) - done, dt, net._fast
+
+
+def wlan_scaling_main(until: float = 1.0, repeats: int = 5, ns=(2, 10, 50)) -> dict:
+    """Per-frame cost at each n, shared clock vs per-station path, interleaved.
+
+    Each round runs every configuration once, the n of one configuration back to back:
+    the ratio largest n / smallest n is taken within a round (a pair of neighbouring
+    runs, so a burst of load from other jobs hits both or neither) and its median over
+    the rounds is reported, with the best (least disturbed) cost of each configuration.
+    """
+    best: dict = {}
+    fast: dict = {}
+    paired: dict = {}
+    wlan_scaling_run(2, True, "cluster", 0.05)      # warm-up (first-use imports)
+    wlan_scaling_run(2, False, "circle", 0.05)
+    for _ in range(repeats):
+        for geometry in ("cluster", "circle"):
+            for shared in (True, False):
+                cost = {}
+                for n in ns:
+                    frames, dt, used = wlan_scaling_run(n, shared, geometry, until)
+                    key = (geometry, shared, n)
+                    cost[n] = dt / frames
+                    best[key] = min(best.get(key, math.inf), cost[n])
+                    fast[key] = used
+                paired.setdefault((geometry, shared), []).append(cost[ns[-1]] / cost[ns[0]])
+    print(f"802.11b scaling: n saturated stations -> AP, 11 Mbit/s, {PAYLOAD_BITS // 8}-byte frames, {until} s "
+          f"simulated per run after {WLAN_WARMUP} s, untraced, CPU time, {repeats} interleaved rounds")
+    out: dict = {}
+    for geometry in ("cluster", "circle"):
+        for shared in (True, False):
+            us = [best[(geometry, shared, n)] * 1e6 for n in ns]
+            used = "shared clock" if all(fast[(geometry, shared, n)] for n in ns[1:]) else "per-station path"
+            cost = ", ".join(f"{u:.1f}" for u in us)
+            med = statistics.median(paired[(geometry, shared)])
+            print(f"  {geometry:7s} shared_clock={shared!s:5s} ({used}): best us/frame at n = "
+                  f"{'/'.join(map(str, ns))}: {cost}; ratio {ns[-1]}/{ns[0]}: {us[-1] / us[0]:.2f} best-vs-best, "
+                  f"{med:.2f} median of paired runs")
+            out[(geometry, shared)] = {"us_per_frame": dict(zip(ns, us)), "ratio": us[-1] / us[0],
+                                       "ratio_paired_median": med, "path": used}
+    return out
 
 
 class ScanCAN(CAN):
@@ -176,5 +258,7 @@ def can_main(frames: int = 20_000, repeats: int = 5) -> dict:
 if __name__ == "__main__":
     if "--can" in sys.argv[1:]:
         can_main()
+    elif "--wlan-scaling" in sys.argv[1:]:
+        wlan_scaling_main()
     else:
         main()

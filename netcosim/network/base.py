@@ -51,8 +51,8 @@ from .loss import as_loss_model
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
                  "bits", "backoff")
 SCHEDULE_COLUMNS = ("time", "network", "node", "state")
-#: Network-schedule states with their staircase levels (TrueTime-style plots).
-NETWORK_STATES = {"idle": 0.0, "receiving": 0.125, "waiting": 0.25, "sending": 0.5}
+#: Network-schedule states with their levels above a node's row in the plot (idle lowest, sending highest).
+NETWORK_STATES = {"idle": 0.0, "receiving": 0.2, "waiting": 0.4, "sending": 0.7}
 
 _NAN = math.nan
 

@@ -38,7 +38,7 @@ class Transmission:
     ``dst`` are radio stations (``dst`` may be :data:`BROADCAST`)."""
 
     __slots__ = ("src", "kind", "frame", "dst", "start", "end", "plcp_end", "mod", "powers", "fail",
-                 "dst_reason", "acked")
+                 "dst_reason", "acked", "crowd_fail")
 
     def __init__(self, src, kind, frame, dst, start, end, plcp_end, mod):
         self.src, self.kind, self.frame, self.dst = src, kind, frame, dst
@@ -47,6 +47,7 @@ class Transmission:
         self.fail = {}            # listener index -> reason it could not decode
         self.dst_reason = None    # why the (unicast) destination failed
         self.acked = False        # the destination decoded it and answers with an ACK
+        self.crowd_fail = None    # why the listeners of a shared idle-slot clock could not decode it
 
     def addressed_to(self, r) -> bool:
         """True if station *r* is this transmission's destination (a broadcast data frame is addressed

@@ -135,6 +135,9 @@ class RadioNetwork(Network):
                           else validate.finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
         self.medium = WirelessMedium(self, path_loss=path_loss, noise_w=dbm_to_watt(self.noise_dbm),
                                      capture_ratio=db_to_ratio(self.capture_db))
+        # what puts a transmission on the air and takes it off (a MAC may use a faster equivalent)
+        self._air_start = self.medium.start
+        self._air_end = self.medium.end
         #: unicast attempts that failed by a collision at the destination
         self.collisions = 0
 
@@ -188,14 +191,14 @@ class RadioNetwork(Network):
         r.tx = tx
         r.iface.sending = 1
         r.iface._state()
-        self.medium.start(tx)
+        self._air_start(tx)
         self.sim.call_at_ticks(tx.end, self._tx_end, arg=tx)
 
     def _tx_end(self, tx: Transmission) -> None:
         """*tx* left the air: an ACK is done, a broadcast (or unacknowledged) data frame is
         sent, a unicast data frame waits for its ACK."""
         r = tx.src
-        self.medium.end(tx)
+        self._air_end(tx)
         r.tx = None
         r.iface.sending = 0
         if tx.kind != "data":
