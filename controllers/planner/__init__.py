@@ -18,6 +18,7 @@ module                        holds
 :mod:`.dop853_coefficients`   the DOP853 tableau (Hairer, Norsett & Wanner), vendored
 :mod:`.gain_design`           offline gain design (3.21)-(3.25), (4.27)-(4.29)
 :mod:`.sikm`                  sampled tracking, ch. 5 (SIKM)
+:mod:`.plant_models`          the plants under the tasks: kinematic, dynamic with velocity tracking
 :mod:`.tasks`                 the laws as netcosim tasks in both architectures (Fig. 3.3/5.1)
 ============================  ==========================================================
 
