@@ -32,6 +32,7 @@ from netcosim import validate
 from netcosim.continuous import SolveIVP
 from netcosim.errors import ConfigurationError
 
+from plants.flycrane.input_modes import VelocityTrackingPlant
 from plants.kinematic import KinematicPlant
 
 __all__ = ["KinematicVelocityPlant", "KinematicModel", "VelocityTrackingModel", "PLANT_MODELS",
@@ -82,7 +83,10 @@ class VelocityTrackingModel:
     it evaluates the cable tensions at every integrator step, which doubles the cost, and
     stops the integrator where a cable goes slack; the tension is an output, ``t_min``,
     either way); ``rtol``, ``atol``: LSODA tolerances (the state is (q, q_dot) in rad, m,
-    rad/s, m/s).  The system must be a :class:`plants.flycrane.kinematics.MultiRobotSystem`.
+    rad/s, m/s); ``compiled``: evaluate the closed-loop dynamics with the CasADi function
+    compiled to C (:func:`plants.casadi_tools.compile_functions`, cached on disk; the
+    same expression graph, about 4x faster than CasADi's virtual machine; without a C
+    compiler it falls back to the uncompiled function with one warning).  The system must be a :class:`plants.flycrane.kinematics.MultiRobotSystem`.
     """
 
     alpha: float = 30.0
@@ -90,6 +94,7 @@ class VelocityTrackingModel:
     cable_slack_event: bool = False
     rtol: float = 1e-8
     atol: float = 1e-10
+    compiled: bool = True
 
     def __post_init__(self):
         object.__setattr__(self, "alpha", validate.positive(
@@ -102,9 +107,8 @@ class VelocityTrackingModel:
     def build(self, system: Any, name: str):
         """A :class:`plants.flycrane.input_modes.VelocityTrackingPlant` named *name*
         (outputs ``q.*`` first, inputs ``u.*`` in robot order)."""
-        from plants.flycrane.input_modes import VelocityTrackingPlant
-        plant = VelocityTrackingPlant(system, self.alpha, gravity_compensation=self.gravity_compensation,
-                                      name=name)
+        cls = _CompiledVelocityTracking if self.compiled and self.gravity_compensation else VelocityTrackingPlant
+        plant = cls(system, self.alpha, gravity_compensation=self.gravity_compensation, name=name)
         if not self.cable_slack_event:
             plant.events = ()
         return plant
@@ -116,6 +120,34 @@ class VelocityTrackingModel:
     def integrator(self) -> SolveIVP:
         """LSODA with ``rtol``, ``atol`` (one ``solve_ivp`` call between I/O instants)."""
         return SolveIVP(method="LSODA", rtol=self.rtol, atol=self.atol)
+
+
+_COMPILED: dict = {}
+
+
+def _compiled_velocity_tracking(dynamics):
+    """The velocity-tracking function of *dynamics* compiled to C (one per dynamics object)."""
+    from plants.casadi_tools import BufferedFunction, compile_functions
+    hit = _COMPILED.get(id(dynamics))
+    if hit is None or hit[0] is not dynamics:
+        fun = dynamics.velocity_tracking_fun
+        (cfun,) = compile_functions([fun], f"netcosim_{fun.name()}")
+        hit = _COMPILED[id(dynamics)] = (dynamics, BufferedFunction(cfun))
+    return hit[1]
+
+
+class _CompiledVelocityTracking(VelocityTrackingPlant):
+    """:class:`~plants.flycrane.input_modes.VelocityTrackingPlant` with gravity
+    compensation, its closed-loop dynamics evaluated by compiled code."""
+
+    def __init__(self, system, alpha, **kw):
+        super().__init__(system, alpha, **kw)
+        self._vt = _compiled_velocity_tracking(system.dynamics)
+
+    def _qdd_F(self, x, u):
+        m, n = self.system.m, self.system.n
+        qdd, F = self._vt(x[:m], x[m:], u[:n], self.alpha)
+        return self._checked(x, qdd), F
 
 
 #: Plant model names accepted by :func:`plant_model`.
