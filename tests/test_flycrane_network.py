@@ -34,3 +34,156 @@ def test_ideal_network_dynamic_plant_equals_fig4_10_simulation(architecture, gai
     assert ref.err.iloc[-1] < 0.1 * ref.err.iloc[0]          # the samples do move
     if architecture == "centralized":
         np.testing.assert_allclose(r.k[:n], ref.k.to_numpy()[:n], rtol=1e-9)
+
+
+# ---------------------------------------------------------------- the networked scenario
+
+from scipy.stats import binom  # noqa: E402
+
+from controllers.planner.networked import (FlyCraneNetworkConfig, build, d_weights, offline_gain,  # noqa: E402
+                                           run)
+from netcosim.errors import ConfigurationError  # noqa: E402
+from netcosim.network import WLAN80211b  # noqa: E402
+from netcosim.network.loss import LinkLoss, LossModel  # noqa: E402
+
+
+@pytest.mark.parametrize("strategy", ["offline", "online"])
+def test_loss_free_both_strategies_converge(strategy):
+    """No loss, the dynamic plant: ||e|| falls from 0.698 rad below 1e-3 within 30 s and
+    the online strategy is the faster (Fig. 4.11 at 0 %)."""
+    r = run(FlyCraneNetworkConfig(strategy=strategy, loss=0.0, horizon=30.0))
+    e = r.norm_e
+    assert e[0] == pytest.approx(np.sqrt(4) * np.radians(20.0), rel=1e-12)
+    assert r.failure is None and e[-1] < 1e-3
+    assert (r.messages["loss"] == 0).all() and (r.messages["sent"] == 20).all()
+    t_1e2 = r.t[np.argmax(e < 1e-2)]
+    assert t_1e2 < (6.0 if strategy == "online" else 18.0)
+
+
+@pytest.mark.parametrize("loss", [0.3, 0.7])
+def test_broadcast_message_loss_per_robot_within_binomial_interval(loss):
+    """Broadcast: one frame per period, no retry; each robot misses a message with the
+    configured probability (100 periods; 99 % binomial interval per robot)."""
+    r = run(FlyCraneNetworkConfig(strategy="online", loss=loss, horizon=150.0, sample_dt=1.5))
+    fr = r.frames
+    assert (fr[fr["event"] == "attempt_start"]["attempt"] == 1).all()        # never retried
+    assert int((fr["event"] == "attempt_start").sum()) == 100                 # one frame per period
+    lo, hi = binom.interval(0.99, 100, loss)
+    for _, row in r.messages.iterrows():
+        assert row["sent"] == 100
+        assert lo <= row["sent"] - row["received"] <= hi, row
+
+
+def test_unicast_retry_limit_5_loses_a_message_with_p_to_the_6():
+    """Unicast with TrueTime's retry limit 5 (6 attempts): a message is lost only when all
+    6 attempts are, p**6 = 0.118 at p = 0.7 (400 messages: 99 % binomial interval); the
+    frames show attempts 1..6 and no 7th."""
+    p = 0.7
+    r = run(FlyCraneNetworkConfig(strategy="offline", loss=p, messaging="unicast", horizon=150.0, sample_dt=1.5,
+                                  plant="kinematic"))
+    fr = r.frames
+    assert fr[fr["event"] == "attempt_start"]["attempt"].max() == 6
+    lost = int((r.messages["sent"] - r.messages["received"]).sum())
+    lo, hi = binom.interval(0.99, 400, p ** 6)
+    assert lo <= lost <= hi
+    assert not binom.interval(0.99, 400, p ** 5)[0] <= lost <= binom.interval(0.99, 400, p ** 5)[1] \
+        or not binom.interval(0.99, 400, p ** 7)[0] <= lost <= binom.interval(0.99, 400, p ** 7)[1]
+    assert int((fr["outcome"] == "retry_limit").sum()) == lost
+
+
+class _SilentAfter(LossModel):
+    """Every frame received after ``t_stop`` s is lost (the load falls silent)."""
+
+    def __init__(self, sim, t_stop):
+        self.sim, self.t_stop = sim, t_stop
+
+    def link(self, rng):
+        outer = self
+
+        class _Link(LinkLoss):
+            def lost(self):
+                return outer.sim.now > outer.t_stop
+        return _Link()
+
+
+def test_watchdog_zeroes_at_the_first_check_after_the_timeout_and_not_before():
+    """Online: messages stop after the one of t = 3 s.  Robot i processed it at t_rx
+    (3.0061 s + 1 ms); the watchdog (every 0.2 s, 0.1 ms) zeroes the command at the first
+    check k 0.2 s with k 0.2 - t_rx > T = 1.5 s, i.e. 4.6 s (not 4.4 s), written after its
+    0.1 ms execution; the robot's velocity is zero from then on."""
+    from netcosim import Simulation
+    cfg = FlyCraneNetworkConfig(strategy="online", plant="kinematic", horizon=6.0)
+    sim = Simulation(0)
+    net = WLAN80211b(sim, "wlan", data_rate=cfg.data_rate, loss=_SilentAfter(sim, 3.2))
+    dep, rec = build(sim, cfg, network=net)
+    sim.run(6.0)
+    t_rx = max(r.t_done for r in dep.records if getattr(r, "node", "") == "robot1" and hasattr(r, "u_i"))
+    assert t_rx == pytest.approx(3.0 + cfg.exec_planner + 1.122e-3 + cfg.exec_robot, abs=1e-9)
+    sig = sim.trace.frame("signals")
+    zero = sig[sig["signal"].astype(str) == "watchdog_zero"]
+    assert len(zero) == 4                                        # once per robot
+    check = 0.2 * np.ceil((t_rx + cfg.T) / 0.2 + 1e-9)
+    assert check == pytest.approx(4.6)
+    np.testing.assert_allclose(zero["time"].to_numpy(dtype=float), check + cfg.exec_watchdog, atol=1e-9)
+    t, q, u = rec.arrays()
+    k46, k47 = int(round(4.6 / 0.1)), int(round(4.7 / 0.1))
+    assert np.all(u[k46] != 0) and np.all(u[k47] == 0)           # held until 4.6001 s, zero after
+
+
+@pytest.mark.parametrize("strategy, messaging", [("offline", "broadcast"), ("online", "broadcast"),
+                                                 ("offline", "unicast")])
+def test_one_platform_job_and_one_transmission_chain_per_period(strategy, messaging):
+    """The load's task runs once per period, released at hT; each period's message leaves
+    as one frame (broadcast) or one frame per robot (unicast), each with consecutive
+    attempts (its retransmission chain) and nothing else."""
+    r = run(FlyCraneNetworkConfig(strategy=strategy, loss=0.5, messaging=messaging, horizon=15.0,
+                                  plant="kinematic", sample_dt=1.5))
+    jobs = r.jobs[r.jobs["node"].astype(str) == "pivot"]
+    assert len(jobs) == 10
+    np.testing.assert_allclose(jobs["release"].to_numpy(dtype=float), 1.5 * np.arange(10), atol=1e-12)
+    fr = r.frames[r.frames["src"].astype(str) == "pivot"]
+    created = fr[fr["event"] == "created"]
+    per = 1 if messaging == "broadcast" else 4
+    assert len(created) == 10 * per
+    exec_load = r.config.exec_planner if strategy == "online" else r.config.exec_pose
+    np.testing.assert_allclose(created["time"].to_numpy(dtype=float),
+                               np.repeat(1.5 * np.arange(10), per) + exec_load, atol=1e-9)
+    starts = fr[fr["event"] == "attempt_start"]
+    for _, g in starts.groupby("frame"):
+        assert g["attempt"].tolist() == list(range(1, len(g) + 1))
+        assert g["time"].max() < g["time"].min() + 0.1           # the chain ends within the period
+
+
+def test_same_seed_same_results_bit_for_bit():
+    cfg = FlyCraneNetworkConfig(strategy="online", loss=0.3, horizon=9.0)
+    a, b = run(cfg), run(cfg)
+    assert a.to_pandas().equals(b.to_pandas())
+    assert a.frames.equals(b.frames) and a.schedule.equals(b.schedule)
+    c = run(cfg.replace(seed=1))
+    assert not a.frames.equals(c.frames)
+
+
+def test_the_two_readings_of_D():
+    """The literal D = diag(I4, 4 I6) and the (4.9) reading D = diag(I4, I6/16).  With
+    the second, the ball of radius 1.05 ||e0||_D holds pose errors 16x larger, mu_hat
+    (4.27) explodes (5.7e4 instead of 1.54) and the offline gain is about 6e-6 1/s: the
+    load does not move.  The online gain hardly depends on D; it converges either way."""
+    lit = FlyCraneNetworkConfig(d_reading="literal", horizon=30.0)
+    ass = lit.replace(d_reading="assumption")
+    assert d_weights("literal")[4:] == (4.0,) * 6 and d_weights("assumption")[4:] == (1 / 16,) * 6
+    k_lit, k_ass = offline_gain(lit), offline_gain(ass)
+    assert k_lit == pytest.approx(0.2163, abs=5e-4)
+    assert 0 < k_ass < 1e-4
+    assert run(lit).norm_e[-1] < 1e-3
+    assert run(ass).norm_e[-1] > 0.69                      # offline, assumption reading: stuck
+    for cfg in (lit, ass):
+        assert run(cfg.replace(strategy="online")).norm_e[-1] < 1e-6
+
+
+@pytest.mark.parametrize("bad", [dict(loss=1.5), dict(loss=-0.1), dict(strategy="greedy"), dict(messaging="multicast"),
+                                 dict(plant="rigid"), dict(alpha=0.0), dict(exec_robot=-1e-3), dict(retry_limit=-1),
+                                 dict(d_reading="both")])
+def test_bad_configuration_is_named(bad):
+    (key, value), = bad.items()
+    with pytest.raises(ConfigurationError, match=key.split("_")[0]):
+        FlyCraneNetworkConfig(**bad)
