@@ -350,8 +350,8 @@ class SolveIVP:
         return None
 
     def observe(self, t, x) -> None:
-        """Hook for subclasses: the states ``x`` (nx, k) at the instants ``t`` (k,) asked
-        by :meth:`t_eval` (up to a terminal event)."""
+        """Hook for subclasses: the states ``x`` (nx, k; in the states' units) at the
+        instants ``t`` (k,; s) asked by :meth:`t_eval` (up to a terminal event)."""
 
     def integrate(self, rhs, t0, x0, t1, gs, jac=None):
         """Integrate ``dx/dt = rhs(t, x)`` from ``(t0, x0)`` to *t1* (s) with :func:`scipy.integrate.solve_ivp`.
