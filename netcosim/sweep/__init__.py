@@ -1,0 +1,18 @@
+"""Parameter sweeps: a scenario over a grid of cases and seeds, on a process pool or Dask.
+
+A *scenario* is a function ``fn(params: dict, seed: int) -> dict`` that builds and runs
+one simulation and returns its metrics (scalars) and, optionally, tidy tables
+(DataFrames).  :func:`run_sweep` runs it for every case of a grid and every seed, on
+this process, a local process pool or a Dask cluster, with the same results bit for bit
+on each; it can write a resumable Parquet dataset as runs finish.  See ``docs/sweeps.md``.
+
+Modules: :mod:`~netcosim.sweep.grid` (cases), :mod:`~netcosim.sweep.seeds` (run seeds),
+:mod:`~netcosim.sweep.scenario` (finding the function), :mod:`~netcosim.sweep.run` (one run),
+:mod:`~netcosim.sweep.executors`, :mod:`~netcosim.sweep.store` (the dataset on disk),
+:mod:`~netcosim.sweep.result`, :mod:`~netcosim.sweep.runner`.
+"""
+
+from .result import SweepResult
+from .runner import load_sweep, run_sweep
+
+__all__ = ["run_sweep", "load_sweep", "SweepResult"]

@@ -1,0 +1,334 @@
+"""Where the runs of a sweep execute: in this process, on a local process pool, or on Dask.
+
+Every executor takes the list of tasks ``(index, params, seed)`` and yields
+``(index, Outcome)`` as runs finish, in any order (the runner puts them back in grid
+order).  Each run is :func:`~netcosim.sweep.run.run_one`, so the results do not depend
+on the executor.
+
+The local pool is written here rather than taken from :mod:`concurrent.futures`:
+``ProcessPoolExecutor`` cannot stop one run that exceeds its timeout (a running future
+cannot be cancelled, and its worker cannot be told apart from the others to kill it).
+Here each worker is a ``multiprocessing`` process with its own pipe; the pool hands a
+worker one run at a time, so it knows which run each worker executes since when, and
+on a timeout it kills that worker and starts a new one.  Workers use the ``spawn``
+start method: they inherit nothing from the calling process (no threads, locks or
+random state of the caller, which ``fork`` would copy), it is the one method on every
+platform, and its start-up cost (a fresh interpreter importing netcosim, about a
+second) is paid once per worker, not per run.  A worker that dies during a run (killed,
+out of memory) records that run as an error and is replaced.
+
+A run with a timeout on the serial or the Dask executor runs in a child process of its
+own (``python -m netcosim.sweep._child``), killed when the timeout expires: a Python
+thread cannot be stopped, and a Dask worker serves other runs.  That costs a process
+start (about a second) per run; the pool has no such cost.
+"""
+
+from __future__ import annotations
+
+import collections
+import gc
+import os
+import pickle
+import signal
+import subprocess
+import sys
+import time
+from typing import Any, Callable, Iterator
+
+from ..errors import ConfigurationError, NetcosimError
+from .run import Outcome, run_one
+from .scenario import ScenarioRef, resolve
+
+__all__ = ["Task", "SerialExecutor", "PoolExecutor", "DaskExecutor", "load", "run_in_child", "cpu_count",
+           "CONNECT_TIMEOUT"]
+
+#: One run to execute: ``(index, params, seed)``.
+Task = tuple[int, dict[str, Any], int]
+
+#: Seconds allowed to connect to a Dask scheduler before the sweep gives up.
+CONNECT_TIMEOUT = 10.0
+
+_loaded: dict[ScenarioRef, Callable] = {}
+
+
+def cpu_count() -> int:
+    """The number of CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:       # not on Linux
+        return os.cpu_count() or 1
+
+
+def load(ref: ScenarioRef) -> Callable:
+    """The scenario *ref* names, loaded once per process (by module name, else from its file)."""
+    fn = _loaded.get(ref)
+    if fn is None:
+        fn = _loaded[ref] = resolve(f"{ref.module}:{ref.function}", ref.file)
+    return fn
+
+
+def _timeout_outcome(timeout: float) -> Outcome:
+    return Outcome("timeout", error=f"the run did not finish within the timeout of {timeout:g} s",
+                   wall_time=float(timeout))
+
+
+def run_in_child(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: float) -> Outcome:
+    """Run one task in a child process, killed after *timeout* seconds of running
+    (the child's start-up and the scenario's import are not counted)."""
+    payload = pickle.dumps((list(sys.path), ref, params, seed))
+    proc = subprocess.Popen([sys.executable, "-m", "netcosim.sweep._child"], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+    assert proc.stdin is not None and proc.stdout is not None
+    try:
+        proc.stdin.write(payload)
+        proc.stdin.close()
+        proc.stdin = None           # communicate() below must not touch it again
+        if proc.stdout.read(1) != b"R":
+            proc.wait()
+            return Outcome("error", error=f"the run's child process exited with status {proc.returncode} "
+                                          f"before loading the scenario")
+        try:
+            out, _ = proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
+            return _timeout_outcome(timeout)
+        if proc.returncode != 0 or not out:
+            return Outcome("error", error=f"the run's child process exited with status {proc.returncode}")
+        outcome = pickle.loads(out)
+        assert isinstance(outcome, Outcome)
+        return outcome
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
+class SerialExecutor:
+    """Runs every task in this process, one after another (timed runs in a child process)."""
+
+    workers = 1
+
+    def __init__(self, fn: Callable, ref: ScenarioRef | None, timeout: float | None):
+        self.fn, self.ref, self.timeout = fn, ref, timeout
+
+    def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
+        """Yield ``(index, outcome)`` for each task, in order.
+
+        The objects alive before the first run are frozen (:func:`gc.freeze`) for the
+        duration, so the collection after each run skips them and stays cheap."""
+        gc.freeze()
+        try:
+            for index, params, seed in tasks:
+                if self.timeout is not None:
+                    assert self.ref is not None
+                    yield index, run_in_child(self.ref, params, seed, self.timeout)
+                else:
+                    yield index, run_one(self.fn, params, seed)
+        finally:
+            gc.unfreeze()
+
+
+def _pool_worker(conn, ref: ScenarioRef) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)      # Ctrl-C is the caller's to handle
+    try:
+        fn = load(ref)
+    except BaseException as exc:
+        conn.send(("failed", f"{type(exc).__name__}: {exc}"))
+        return
+    gc.freeze()          # the imports stay out of every later collection: gc.collect() after a run stays cheap
+    conn.send(("ready",))
+    while True:
+        try:
+            msg = conn.recv()
+        except (EOFError, OSError):     # the caller is gone
+            return
+        if msg is None:
+            return
+        index, params, seed = msg
+        outcome = run_one(fn, params, seed)
+        try:
+            conn.send(("done", index, outcome))
+        except (BrokenPipeError, OSError):
+            return
+        except Exception as exc:        # an unpicklable table
+            conn.send(("done", index, Outcome("error", error=f"cannot send the run's result to the sweep: "
+                                                             f"{type(exc).__name__}: {exc}",
+                                              wall_time=outcome.wall_time)))
+
+
+class _Worker:
+    def __init__(self, ctx, ref: ScenarioRef):
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_pool_worker, args=(child, ref), name="netcosim-sweep-worker")
+        self.proc.start()
+        child.close()
+        self.ready = False
+        self.task: Task | None = None
+        self.started = 0.0
+
+    def stop(self, kill: bool = False) -> None:
+        if kill or self.task is not None or not self.ready:
+            self.proc.kill()
+        else:
+            try:
+                self.conn.send(None)
+            except OSError:
+                self.proc.kill()
+        self.proc.join(5)
+        if self.proc.is_alive():
+            self.proc.kill()
+            self.proc.join()
+        self.conn.close()
+
+
+class PoolExecutor:
+    """Runs the tasks on *workers* local processes (see the module docstring)."""
+
+    def __init__(self, ref: ScenarioRef, workers: int, timeout: float | None):
+        self.ref, self.workers, self.timeout = ref, workers, timeout
+
+    def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
+        """Yield ``(index, outcome)`` for each task as it finishes."""
+        import multiprocessing
+        from multiprocessing.connection import wait
+
+        ctx = multiprocessing.get_context("spawn")
+        queue = collections.deque(tasks)
+        pool = [_Worker(ctx, self.ref) for _ in range(min(self.workers, len(tasks)))]
+        try:
+            while queue or any(w.task is not None for w in pool):
+                for w in pool:
+                    if w.ready and w.task is None and queue:
+                        w.task = queue.popleft()
+                        w.conn.send(w.task)
+                        w.started = time.monotonic()
+                waits = [w.started + self.timeout - time.monotonic() for w in pool
+                         if self.timeout is not None and w.task is not None]
+                ready = wait([w.conn for w in pool] + [w.proc.sentinel for w in pool],
+                             timeout=max(0.0, min(waits)) if waits else None)
+                for i, w in enumerate(pool):
+                    done = self._poll(w, ready)
+                    if done is not None:
+                        yield done
+                    if not w.proc.is_alive() and not w.conn.poll():
+                        if not w.ready:
+                            raise RuntimeError(
+                                f"a sweep worker process exited with code {w.proc.exitcode} while starting; a "
+                                f"script that starts a sweep must do so under `if __name__ == \"__main__\":` "
+                                f"(worker processes import the script's module)")
+                        if w.task is not None:
+                            task = w.task
+                            w.task = None
+                            yield task[0], Outcome("error", error=f"the worker process died during the run "
+                                                                  f"(exit code {w.proc.exitcode})")
+                        w.stop(kill=True)
+                        pool[i] = _Worker(ctx, self.ref)
+                    elif (self.timeout is not None and w.task is not None
+                          and time.monotonic() - w.started >= self.timeout):
+                        index = w.task[0]
+                        w.stop(kill=True)
+                        pool[i] = _Worker(ctx, self.ref)
+                        yield index, _timeout_outcome(self.timeout)
+        finally:
+            for w in pool:
+                w.stop()
+
+    def _poll(self, w: _Worker, ready: list) -> tuple[int, Outcome] | None:
+        if w.conn not in ready and not w.conn.poll():
+            return None
+        try:
+            msg = w.conn.recv()
+        except (EOFError, OSError):
+            return None
+        if msg[0] == "ready":
+            w.ready = True
+            return None
+        if msg[0] == "failed":
+            raise ConfigurationError(f"a worker process cannot load scenario {self.ref.spec!r}: {msg[1]}")
+        w.task = None
+        return msg[1], msg[2]
+
+
+def _dask_task(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: float | None) -> Outcome:
+    if timeout is not None:
+        return run_in_child(ref, params, seed, timeout)
+    if ref not in _loaded:
+        load(ref)
+        gc.collect()
+        gc.freeze()      # the worker's own objects stay out of the collection after each run
+    return run_one(load(ref), params, seed)
+
+
+class DaskExecutor:
+    """Runs the tasks on a Dask cluster: a given ``Client``, a scheduler address, or a
+    ``LocalCluster`` of *workers* single-threaded processes started and closed here."""
+
+    def __init__(self, ref: ScenarioRef, timeout: float | None, *, client: Any = None,
+                 scheduler: str | None = None, workers: int | None = None):
+        self.ref, self.timeout = ref, timeout
+        self.client, self.scheduler, self.n_workers = client, scheduler, workers
+        self._owned: list[Any] = []
+
+    @property
+    def workers(self) -> int:
+        """Number of worker threads of the cluster."""
+        try:
+            return max(1, sum(w.get("nthreads", 1) for w in self.client.scheduler_info()["workers"].values()))
+        except Exception:
+            return self.n_workers or 1
+
+    def start(self) -> None:
+        """Connect (or start the local cluster); raises naming an unreachable scheduler."""
+        if self.client is not None:
+            return
+        try:
+            from dask.distributed import Client, LocalCluster
+        except ImportError as exc:
+            raise ConfigurationError(f"executor 'dask' needs dask.distributed (pip install 'netcosim[dask]'): "
+                                     f"{exc}") from None
+        if self.scheduler is not None:
+            try:
+                self.client = Client(self.scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
+            except Exception as exc:
+                raise ConfigurationError(f"cannot reach the Dask scheduler {self.scheduler!r} within "
+                                         f"{CONNECT_TIMEOUT:g} s: {type(exc).__name__}: {exc}") from None
+            self._owned.append(self.client)
+            return
+        import logging
+        cluster = LocalCluster(n_workers=self.n_workers or cpu_count(), threads_per_worker=1, processes=True,
+                               dashboard_address=":0", silence_logs=logging.ERROR)
+        self.client = Client(cluster, set_as_default=False)
+        self._owned += [self.client, cluster]
+
+    def close(self) -> None:
+        """Close what :meth:`start` opened (a given client stays open)."""
+        for obj in self._owned:
+            try:
+                obj.close()
+            except Exception:
+                pass
+        if self._owned:
+            self.client = None
+        self._owned = []
+
+    def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
+        """Yield ``(index, outcome)`` for each task as it finishes."""
+        from dask.distributed import as_completed
+
+        futures = {self.client.submit(_dask_task, self.ref, params, seed, self.timeout, pure=False): index
+                   for index, params, seed in tasks}
+        try:
+            for fut in as_completed(list(futures), loop=self.client.loop):
+                index = futures.pop(fut)
+                try:
+                    outcome = fut.result()
+                except NetcosimError:
+                    raise
+                except Exception as exc:        # the worker died (KilledWorker), the cluster went away
+                    outcome = Outcome("error", error=f"{type(exc).__name__}: {exc}")
+                fut.release()
+                yield index, outcome
+        finally:
+            for fut in futures:
+                fut.cancel()

@@ -1,0 +1,90 @@
+"""The result of a sweep: the run table, the per-run tables, the counts."""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["SweepResult", "run_frame"]
+
+
+def run_frame(records: list[dict[str, Any]], params: list[str]):
+    """The tidy run table of *records* (in the order given): parameter columns,
+    ``seed_index``, ``seed``, the metrics (in order of first appearance), ``status``,
+    ``error``, ``traceback``, ``wall_time``."""
+    import pandas as pd
+
+    head = [*params, "seed_index", "seed"]
+    tail = ["status", "error", "traceback", "wall_time"]
+    metrics: dict[str, None] = {}
+    for r in records:
+        for k in r:
+            if k not in metrics and k not in head and k not in tail:
+                metrics[k] = None
+    columns = head + list(metrics) + tail
+    return pd.DataFrame.from_records(records, columns=columns) if records else pd.DataFrame(columns=columns)
+
+
+class SweepResult:
+    """What :func:`~netcosim.sweep.run_sweep` returns (and :func:`~netcosim.sweep.load_sweep` reads back).
+
+    ``runs``: the tidy run table, one row per (case, seed) in grid order then seed index
+    (see :func:`run_frame`; ``wall_time`` in s); ``summary``: counts ``total``, ``ok``,
+    ``error``, ``timeout``, ``skipped`` (runs found finished on disk and not rerun) and
+    ``missing`` (runs not finished, for a sweep read back before its end); ``meta``: the
+    sweep's metadata; ``path``: its directory (None for a sweep kept in memory).
+    """
+
+    def __init__(self, runs, params: list[str], meta: dict[str, Any], summary: dict[str, int],
+                 tables: dict[tuple[int, int], dict[str, Any]] | None = None, store: Any = None,
+                 keys: list[tuple[int, int]] | None = None):
+        self.runs = runs
+        self.params = list(params)
+        self.meta = meta
+        self.summary = summary
+        self._tables = tables or {}
+        self._store = store
+        self._keys = keys or []
+        self.path = None if store is None else store.root
+
+    def to_pandas(self):
+        """The run table (:attr:`runs`)."""
+        return self.runs
+
+    @property
+    def table_names(self) -> list[str]:
+        """Names of the per-run tables some run returned."""
+        if self._store is not None:
+            return self._store.table_names()
+        return sorted({n for t in self._tables.values() for n in t})
+
+    def table(self, name: str):
+        """Long DataFrame of the tables the runs returned under *name*, each with the
+        parameter columns, ``seed_index`` and ``seed`` prepended, in run order.
+
+        Raises ``KeyError`` naming *name* (and the available names) if no run returned it.
+        """
+        import pandas as pd
+
+        if name not in self.table_names:
+            raise KeyError(f"no run returned a table {name!r}; tables: {self.table_names}")
+        frames = []
+        for key in self._keys:
+            frame = (self._store.read_table(name, *key) if self._store is not None
+                     else self._tables.get(key, {}).get(name))
+            if frame is not None:
+                frames.append(frame)
+        return pd.concat(frames, ignore_index=True)
+
+    def plot(self, y: str, x: str | None = None, hue: str | None = None, **kw):
+        """``plot_sweep(self.runs, x, y, hue)``: median and band of *y* across seeds
+        (:func:`netcosim.sweep.aggregate.plot_sweep`); *x* defaults to the first parameter."""
+        from importlib import import_module
+
+        plot_sweep = import_module("netcosim.sweep.aggregate").plot_sweep
+        return plot_sweep(self.runs, x=x or self.params[0], y=y, hue=hue, **kw)
+
+    def __repr__(self) -> str:
+        s = self.summary
+        where = f", path={str(self.path)!r}" if self.path is not None else ""
+        return (f"SweepResult({s['total']} runs: {s['ok']} ok, {s['error']} error, {s['timeout']} timeout, "
+                f"{s['skipped']} skipped{where})")

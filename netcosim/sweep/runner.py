@@ -1,0 +1,231 @@
+"""``run_sweep``: check everything, then run every (case, seed) on an executor and keep the results.
+
+Everything that can be checked is checked before the first run (grid, seeds, scenario,
+executor, output directory, Dask scheduler), each error naming the value.  Then runs
+go to the executor in grid order; each finished run is stored at once (in memory, and
+in the output directory if one is given) and counted on the progress bar.  The run
+table is assembled from the runs' records in grid order, then seed index, whatever
+order they finished in, so every executor gives the same table.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Callable
+
+from .. import validate
+from ..errors import ConfigurationError, ConfigurationTypeError
+from . import grid as _grid
+from .executors import DaskExecutor, PoolExecutor, SerialExecutor, cpu_count
+from .result import SweepResult, run_frame
+from .run import Outcome
+from .scenario import reference, source_sha256
+from .seeds import run_seed, seed_list
+from .store import FORMAT, Store
+
+__all__ = ["run_sweep", "load_sweep", "EXECUTORS"]
+
+#: Executors by name (a ``dask.distributed.Client`` may be given instead).
+EXECUTORS = ("serial", "pool", "dask")
+
+
+def _version() -> str:
+    from .. import __version__
+    return __version__
+
+
+def _is_dask_client(obj: Any) -> bool:
+    return type(obj).__name__ == "Client" and type(obj).__module__.startswith("distributed")
+
+
+def _long(frame, params: dict[str, Any], seed_index: int, seed: int):
+    frame = frame.reset_index(drop=True)
+    for i, (col, val) in enumerate([*params.items(), ("seed_index", seed_index), ("seed", seed)]):
+        frame.insert(i, col, val)
+    return frame
+
+
+def _record(params: dict[str, Any], seed_index: int, seed: int, outcome: Outcome) -> dict[str, Any]:
+    return {**params, "seed_index": seed_index, "seed": seed, **outcome.metrics, "status": outcome.status,
+            "error": outcome.error, "traceback": outcome.traceback, "wall_time": float(outcome.wall_time)}
+
+
+def _summary(records: list[dict[str, Any]], total: int, skipped: int) -> dict[str, int]:
+    status = [r["status"] for r in records]
+    return {"total": total, "ok": status.count("ok"), "error": status.count("error"),
+            "timeout": status.count("timeout"), "skipped": skipped, "missing": total - len(records)}
+
+
+def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *, root_seed: int = 0,
+              executor: Any = "pool", workers: int | None = None, scheduler: str | None = None,
+              out: str | os.PathLike | None = None, fresh: bool = False, timeout: float | None = None,
+              quiet: bool = False) -> SweepResult:
+    """Run *scenario* for every case of *grid* and every seed; returns a :class:`SweepResult`.
+
+    Parameters
+    ----------
+    scenario:
+        ``fn(params: dict, seed: int) -> dict``, or its name ``"package.module:function"``
+        / ``"path/to/file.py:function"``.  The returned dict's scalar values (int, float,
+        bool, str, None) are the run's metrics, its pandas DataFrames the run's tables;
+        anything else, or a return value that is not a dict, records the run as an
+        error naming the type.  A scenario may declare the parameters it accepts as
+        ``fn.params = {...}``; a grid parameter outside it is refused before any run.
+    grid:
+        The cases (:mod:`netcosim.sweep.grid`): a dict of lists (their product), a list
+        of dicts, or a DataFrame (one case per row).
+    seeds:
+        Runs per case: a count ``n`` (seed indices ``0..n-1``, each run's seed derived
+        from *root_seed*, the case's parameters and the index, see
+        :mod:`netcosim.sweep.seeds`), or an explicit list of seeds used as given.
+    root_seed:
+        Non-negative integer from which every run's seed is derived.
+    executor:
+        ``"serial"`` (this process), ``"pool"`` (local worker processes, default),
+        ``"dask"`` (a Dask ``LocalCluster`` started and closed here, or the scheduler at
+        *scheduler*), or a ``dask.distributed.Client``.
+    workers:
+        Number of worker processes for ``"pool"`` and the local Dask cluster (default:
+        the CPUs this process may use).
+    scheduler:
+        Address of a Dask scheduler (``"tcp://host:8786"``), implies ``executor="dask"``;
+        unreachable within :data:`~netcosim.sweep.executors.CONNECT_TIMEOUT` seconds
+        raises naming the address.
+    out:
+        Directory of the sweep's Parquet dataset (:mod:`netcosim.sweep.store`), written
+        as runs finish.  If it already holds this sweep, its finished runs are kept and
+        not rerun; if it holds another sweep, ``ConfigurationError`` names what differs.
+        None: results in memory only.
+    fresh:
+        Discard a different (or the same) sweep found in *out* and start over.
+    timeout:
+        Wall-clock seconds one run may take (None: unlimited); a run still going then is
+        stopped and recorded with status ``"timeout"``.
+    quiet:
+        No progress bar (it is also off when stderr is not a terminal).
+    """
+    # --- check everything before the first run ---------------------------------------
+    cases = _grid.cases(grid)
+    names = list(cases[0])
+    n_seeds, explicit = seed_list(seeds)
+    root_seed = validate.integer(root_seed, "root_seed", lo=0, kind="a non-negative integer")
+    if timeout is not None:
+        timeout = validate.real(timeout, "timeout", lo=0.0, lo_open=True, kind="a positive number of seconds")
+    if workers is not None:
+        workers = validate.integer(workers, "workers", lo=1, kind="a number of worker processes (an integer >= 1)")
+    if not isinstance(fresh, bool):
+        raise ConfigurationTypeError(f"fresh must be True or False, got {fresh!r}")
+    if scheduler is not None:
+        if not isinstance(scheduler, str) or not scheduler.strip():
+            raise ConfigurationTypeError(f"scheduler must be an address such as 'tcp://host:8786', got {scheduler!r}")
+        if executor == "pool":
+            executor = "dask"
+        elif executor != "dask":
+            raise ConfigurationError(f"scheduler {scheduler!r} is a Dask address, but executor is {executor!r}")
+    if not (_is_dask_client(executor) or (isinstance(executor, str) and executor in EXECUTORS)):
+        raise ConfigurationError(f"executor must be one of {list(EXECUTORS)} or a dask.distributed.Client, "
+                                 f"got {executor!r}")
+    fn, ref = reference(scenario)
+    _grid.check_accepted(names, fn)
+    if ref is None and (executor != "serial" or timeout is not None):
+        raise ConfigurationError(f"scenario {fn!r} cannot be found by a worker process (a lambda or a nested "
+                                 f"function): define it at the top level of a module, or use executor='serial' "
+                                 f"without a timeout")
+
+    meta = {"format": FORMAT, "scenario": ref.spec if ref else repr(fn),
+            "scenario_file": ref.file if ref else None, "scenario_sha256": source_sha256(fn),
+            "params": names, "cases": cases, "seeds": explicit if explicit is not None else n_seeds,
+            "root_seed": root_seed, "netcosim_version": _version()}
+    tasks_all = []
+    for c, params in enumerate(cases):
+        for s in range(n_seeds):
+            seed = explicit[s] if explicit is not None else run_seed(root_seed, params, s)
+            tasks_all.append((c, s, params, seed))
+
+    store = None
+    done: set[tuple[int, int]] = set()
+    if out is not None:
+        validate.path(out, "out")
+        store = Store(out)
+    # connect before touching the directory: an unreachable scheduler changes nothing
+    if executor == "serial":
+        ex: Any = SerialExecutor(fn, ref, timeout)
+    elif executor == "pool":
+        assert ref is not None
+        ex = PoolExecutor(ref, workers or cpu_count(), timeout)
+    else:
+        assert ref is not None
+        ex = DaskExecutor(ref, timeout, client=executor if _is_dask_client(executor) else None,
+                          scheduler=scheduler, workers=workers)
+        ex.start()
+    try:
+        if store is not None:
+            done = store.open(meta, fresh)
+        return _execute(ex, tasks_all, done, store, names, meta, quiet)
+    finally:
+        if isinstance(ex, DaskExecutor):
+            ex.close()
+
+
+def _execute(ex, tasks_all, done, store, names, meta, quiet) -> SweepResult:
+    from tqdm.auto import tqdm
+
+    records: dict[tuple[int, int], dict[str, Any]] = {}
+    tables: dict[tuple[int, int], dict[str, Any]] = {}
+    for c, s, _params, _seed in tasks_all:
+        if (c, s) in done:
+            records[(c, s)] = store.read_run(c, s)
+    todo = [(c, s, p, seed) for c, s, p, seed in tasks_all if (c, s) not in done]
+    keys = {i: (c, s, p, seed) for i, (c, s, p, seed) in enumerate(todo)}
+    failed = sum(r["status"] != "ok" for r in records.values())
+    bar = tqdm(total=len(tasks_all), initial=len(records), disable=True if quiet else None, unit="run",
+               desc="sweep", dynamic_ncols=True)
+    bar.set_postfix(failed=failed, refresh=False)
+    runs = ex.run([(i, p, seed) for i, (c, s, p, seed) in keys.items()]) if todo else iter(())
+    try:
+        for i, outcome in runs:
+            c, s, params, seed = keys[i]
+            record = _record(params, s, seed, outcome)
+            long = {name: _long(frame, params, s, seed) for name, frame in outcome.tables.items()}
+            if store is not None:
+                store.write_run(c, s, record, long)
+            elif long:
+                tables[(c, s)] = long
+            records[(c, s)] = record
+            if outcome.status != "ok":
+                failed += 1
+                bar.set_postfix(failed=failed, refresh=False)
+            bar.update(1)
+    finally:
+        close = getattr(runs, "close", None)
+        if close is not None:
+            close()
+        bar.close()
+    order = [(c, s) for c, s, _, _ in tasks_all]
+    frame = run_frame([records[k] for k in order], names)
+    if store is not None:
+        store.write_runs(frame)
+    summary = _summary(list(records.values()), len(tasks_all), len(done))
+    return SweepResult(frame, names, meta, summary, tables=tables, store=store, keys=order)
+
+
+def load_sweep(path: str | os.PathLike) -> SweepResult:
+    """The sweep stored in directory *path* (finished or not: runs not finished are
+    missing from ``runs`` and counted in ``summary["missing"]``).
+
+    Raises :class:`~netcosim.errors.ConfigurationError` naming *path* if it holds no sweep.
+    """
+    store = Store(validate.path(path, "path"))
+    meta = store.read_metadata()
+    if meta is None:
+        raise ConfigurationError(f"{str(path)!r} holds no sweep (no {store.root / 'sweep.json'})")
+    finished = store.finished()
+    seeds = meta["seeds"]
+    n = len(seeds) if isinstance(seeds, list) else int(seeds)
+    order = [(c, s) for c in range(len(meta["cases"])) for s in range(n) if (c, s) in finished]
+    records = [store.read_run(c, s) for c, s in order]
+    frame = run_frame(records, meta["params"])
+    summary = _summary(records, len(meta["cases"]) * n, 0)
+    return SweepResult(frame, meta["params"], meta, summary, store=store, keys=order)
+
+

@@ -1,0 +1,42 @@
+"""Scenarios for the sweep tests: cheap, deterministic, importable by worker processes.
+
+``SWEEP_TEST_LOG`` (environment): a file each run of :func:`logged` appends one line
+to, so a test can count the runs that executed.
+"""
+
+import os
+import time
+
+import numpy as np
+import pandas as pd
+
+
+def cheap(params, seed):
+    """A few random draws from *seed*: a known function of the parameters and the seed."""
+    rng = np.random.default_rng(seed)
+    x = params["a"] * 10 + params["b"] + float(rng.normal())
+    return {"x": x, "draw": int(rng.integers(0, 1000)), "label": f"{params['a']}-{params['b']}",
+            "trajectory": pd.DataFrame({"k": np.arange(3), "v": rng.normal(size=3)})}
+
+
+cheap.params = {"a", "b"}
+
+
+def logged(params, seed):
+    """:func:`cheap`, plus a line in ``$SWEEP_TEST_LOG`` and a short sleep (s)."""
+    with open(os.environ["SWEEP_TEST_LOG"], "a") as f:
+        f.write(f"{params['a']} {params['b']} {seed}\n")
+    time.sleep(float(os.environ.get("SWEEP_TEST_SLEEP", "0")))
+    return cheap(params, seed)
+
+
+def flaky(params, seed):
+    """``mode``: "ok" returns, "raise" raises, "hang" sleeps for an hour, "list" returns a list."""
+    mode = params["mode"]
+    if mode == "raise":
+        raise FloatingPointError(f"diverged at case {params['i']}")
+    if mode == "hang":
+        time.sleep(3600)
+    if mode == "list":
+        return [1, 2]
+    return {"value": params["i"] * 2}

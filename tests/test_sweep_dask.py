@@ -1,0 +1,84 @@
+"""``netcosim.sweep`` on Dask: the same table as serially and on the pool, a given client
+or a local cluster, an unreachable scheduler refused within a bounded time.
+
+One ``LocalCluster`` (2 single-threaded worker processes) serves the module.
+"""
+
+from __future__ import annotations
+
+import socket
+
+import pandas.testing as pdt
+import pytest
+
+import sweep_scenarios as sc
+from netcosim.errors import ConfigurationError
+from netcosim.sweep import run_sweep
+
+distributed = pytest.importorskip("distributed")
+
+GRID = {"a": [0, 1, 2, 3, 4], "b": [0.0, 0.5, 1.0, 1.5]}
+
+
+@pytest.fixture(scope="module")
+def client():
+    import logging
+
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                       silence_logs=logging.ERROR)
+    c = distributed.Client(cluster, set_as_default=False)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def test_serial_pool_and_dask_give_identical_tables_for_a_5x4_grid_and_3_seeds(client):
+    serial = run_sweep(sc.cheap, GRID, 3, executor="serial", quiet=True)
+    pool = run_sweep(sc.cheap, GRID, 3, executor="pool", workers=2, quiet=True)
+    dask = run_sweep(sc.cheap, GRID, 3, executor=client, quiet=True)
+    assert len(serial.runs) == 60 and (serial.runs["status"] == "ok").all()
+    for other in (pool, dask):
+        pdt.assert_frame_equal(serial.runs.drop(columns="wall_time"), other.runs.drop(columns="wall_time"))
+        pdt.assert_frame_equal(serial.table("trajectory"), other.table("trajectory"))
+
+
+def test_errors_and_a_timeout_on_dask_are_recorded(client, tmp_path):
+    cases = [{"mode": m, "i": i} for i, m in enumerate(["ok", "raise", "hang", "ok"])]
+    res = run_sweep(sc.flaky, cases, 1, executor=client, timeout=3.0, out=tmp_path / "s", quiet=True)
+    assert res.runs["status"].tolist() == ["ok", "error", "timeout", "ok"]
+    assert res.runs["error"].iloc[1] == "FloatingPointError: diverged at case 1"
+    assert client.status == "running"          # a given client stays open
+
+
+def test_a_scheduler_address_is_used_and_the_client_closed(client):
+    address = client.scheduler.address
+    res = run_sweep(sc.cheap, {"a": [1], "b": [0.5]}, 2, scheduler=address, quiet=True)
+    serial = run_sweep(sc.cheap, {"a": [1], "b": [0.5]}, 2, executor="serial", quiet=True)
+    pdt.assert_frame_equal(serial.runs.drop(columns="wall_time"), res.runs.drop(columns="wall_time"))
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.timeout(60)
+def test_an_unreachable_scheduler_is_refused_naming_its_address_before_any_run(tmp_path, monkeypatch):
+    monkeypatch.setattr("netcosim.sweep.executors.CONNECT_TIMEOUT", 2.0)
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    with pytest.raises(ConfigurationError, match=f"cannot reach the Dask scheduler '{address}' within 2 s"):
+        run_sweep(sc.cheap, {"a": [1], "b": [0.5]}, 1, scheduler=address, out=tmp_path / "s", quiet=True)
+    assert not (tmp_path / "s").exists()
+
+
+def test_executor_dask_starts_a_local_cluster_and_closes_it():
+    import threading
+
+    before = threading.active_count()
+    res = run_sweep(sc.cheap, {"a": [1, 2], "b": [0.5]}, 2, executor="dask", workers=2, quiet=True)
+    serial = run_sweep(sc.cheap, {"a": [1, 2], "b": [0.5]}, 2, executor="serial", quiet=True)
+    pdt.assert_frame_equal(serial.runs.drop(columns="wall_time"), res.runs.drop(columns="wall_time"))
+    open_clients = [c for c in list(distributed.Client._instances) if c.status not in ("closed", "closing")]
+    assert len(open_clients) == 1              # only the module's client is left open
+    assert threading.active_count() <= before + 2
