@@ -21,7 +21,6 @@ Run ``python -m experiments.flycrane_network`` (``--quick``: 3 losses x 3 seeds,
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 from typing import Any
@@ -111,76 +110,35 @@ def scenario(params: dict, seed: int) -> dict:
     return out
 
 
-def _scenario_with(base: dict, params: dict, seed: int) -> dict:
-    return scenario({**base, **params}, seed)
-
-
-def _call(fn, point):
-    loss, st, s = point
-    return fn({"loss": loss, "strategy": st}, s)
-
-
-def _map(fn, points, workers: int, progress: bool) -> list:
-    """``fn`` over the (loss, strategy, seed) points, in order, on *workers* processes."""
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(points), desc="flycrane sweep", unit="run")
-    out = []
-    if workers <= 1:
-        for pt in points:
-            out.append(_call(fn, pt))
-            if bar is not None:
-                bar.update()
-    else:
-        from concurrent.futures import ProcessPoolExecutor
-        with ProcessPoolExecutor(workers) as ex:
-            for res in ex.map(functools.partial(_call, fn), points, chunksize=4):
-                out.append(res)
-                if bar is not None:
-                    bar.update()
-    if bar is not None:
-        bar.close()
-    return out
+scenario.params = set(PARAMS)  # type: ignore[attr-defined]  # the sweep engine checks the grid against it
 
 
 def run_grid(losses=GRID_LOSSES, seeds: int = 20, strategies=STRATEGIES, horizon: float = HORIZON,
              out: str | None = None, progress: bool = True, workers: int = 1, **fixed):
-    """The sweep loss x strategy x seeds.  Uses ``netcosim.sweep.run_sweep`` when it
-    exists (results under *out*), else ``workers`` processes here (each run is seeded by
-    its own seed, so the tables do not depend on ``workers``).  Returns ``(runs, error)``:
-    one row per run (params, ``seed``, metrics) and the long error table (params,
+    """The sweep loss x strategy x seeds on :func:`netcosim.sweep.run_sweep` (one
+    process with ``workers=1``, else a pool of ``workers`` processes: the same tables
+    either way, each run's seed derived from its case and seed index); ``fixed``: further
+    :data:`PARAMS` held constant.  ``out``: the sweep's Parquet dataset (resumable).
+    Returns ``(runs, error)``: one row per run (parameters, ``seed_index``, ``seed``,
+    :func:`metrics`, ``status``) and the long error table (parameters, ``seed_index``,
     ``seed``, ``t``, ``norm_e``)."""
-    grid = {"loss": list(losses), "strategy": list(strategies)}
-    base = {"horizon": horizon, **fixed}
-    fn = functools.partial(_scenario_with, base)
-    try:
-        from netcosim.sweep import run_sweep
-    except ImportError:
-        run_sweep = None
-    if run_sweep is not None:
-        res = run_sweep(fn, grid=grid, seeds=seeds, out=out, progress=progress)
-        return res.runs, res.table("error")
-    points = [(loss, st, s) for loss in grid["loss"] for st in grid["strategy"] for s in range(seeds)]
-    results = _map(fn, points, workers, progress)
-    rows, errs = [], []
-    for (loss, st, s), res in zip(points, results):
-        err = res.pop("error")
-        rows.append({"loss": loss, "strategy": st, "seed": s, **res})
-        errs.append(err.assign(loss=loss, strategy=st, seed=s))
-    runs, error = pd.DataFrame(rows), pd.concat(errs, ignore_index=True)
-    if out is not None:
-        os.makedirs(out, exist_ok=True)
-        runs.to_parquet(os.path.join(out, "runs.parquet"))
-        error.to_parquet(os.path.join(out, "error.parquet"))
-    return runs, error
+    from netcosim.sweep import run_sweep
+    grid = {"loss": [float(x) for x in losses], "strategy": list(strategies), "horizon": [float(horizon)],
+            **{k: [v] for k, v in fixed.items()}}
+    res = run_sweep(scenario, grid, seeds, executor="serial" if workers <= 1 else "pool", workers=workers,
+                    out=out, quiet=not progress)
+    return res.runs, res.table("error")
 
 
 def summary(runs: pd.DataFrame) -> pd.DataFrame:
     """Cost per loss and strategy: median and 10/90 % quantiles (nearest order statistic,
     so runs that never settle count as ``inf``) of ``iae`` and ``t_settle``, the number
-    of runs and of diverged runs, the mean measured message loss."""
-    g = runs.groupby(["strategy", "loss"])
+    of runs and of diverged runs, the mean measured message loss, and ``run_errors``:
+    runs the sweep recorded as failed (an exception or a timeout; left out of the rest)."""
+    ok = runs[runs["status"] == "ok"] if "status" in runs else runs
+    failed = (runs.groupby(["strategy", "loss"])["status"].apply(lambda s: int((s != "ok").sum()))
+              if "status" in runs else None)
+    g = ok.groupby(["strategy", "loss"])
 
     def qs(col, p):  # nearest order statistic: defined with inf values (never inf - inf)
         return g[col].quantile(p, interpolation="nearest")
@@ -188,7 +146,8 @@ def summary(runs: pd.DataFrame) -> pd.DataFrame:
         "runs": g.size(), "diverged": g["diverged"].sum().astype(int),
         "iae_median": qs("iae", 0.5), "iae_q10": qs("iae", 0.1), "iae_q90": qs("iae", 0.9),
         "t_settle_median": qs("t_settle", 0.5), "t_settle_q10": qs("t_settle", 0.1),
-        "t_settle_q90": qs("t_settle", 0.9), "msg_loss": g["msg_loss"].mean()}).reset_index()
+        "t_settle_q90": qs("t_settle", 0.9), "msg_loss": g["msg_loss"].mean(),
+        "run_errors": failed if failed is not None else 0}).reset_index()
 
 
 # ---------------------------------------------------------------- figures
