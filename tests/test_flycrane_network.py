@@ -239,18 +239,20 @@ def test_figures_and_summary(tmp_path):
 
 @pytest.mark.slow
 def test_cost_grows_with_loss_statistically():
-    """20 seeds per (strategy, loss), 45 s, the dynamic plant; one-sided Mann-Whitney U
-    (scipy.stats.mannwhitneyu, alternative 'greater') at alpha = 0.01 (99 % confidence)
-    on the cost iae.  Online: 0 < 0.3 < 0.7.  Offline: 0.3 < 0.7 and 0 < 0.7, but not
-    0 < 0.3: holding the last u with the small offline gain (k T = 0.32) over a lost
-    period moves the load further towards q^r, so 30 % loss costs about what no loss
-    costs (median within 10 %)."""
+    """40 seeds per (strategy, loss) (the sweep's seeds, root seed 0), 45 s, the dynamic
+    plant; one-sided Mann-Whitney U (scipy.stats.mannwhitneyu, alternative 'greater')
+    at alpha = 0.01 (99 % confidence) on the cost iae, for 0 < 0.3 and 0.3 < 0.7 in
+    both strategies.  Offline 0 -> 0.3 is the weak one: holding the last u with the small
+    offline gain (k T = 0.32) over a lost period moves the load further towards q^r, so
+    about a quarter of the runs at 30 % loss cost less than the loss-free run (with 20
+    seeds p ranges from 0.002 to 0.13 between seed sets; with these 40, 1e-4)."""
     from scipy.stats import mannwhitneyu
-    runs, _ = fn.run_grid(losses=fn.FIG_LOSSES, seeds=20, progress=False, workers=2)
+    runs, _ = fn.run_grid(losses=fn.FIG_LOSSES, seeds=40, progress=False, workers=2)
+    assert (runs["status"] == "ok").all()
     cost = {(st, loss): runs[(runs["strategy"] == st) & (runs["loss"] == loss)]["iae"].to_numpy()
             for st in fn.STRATEGIES for loss in fn.FIG_LOSSES}
-    pairs = {"online": [(0.0, 0.3), (0.3, 0.7)], "offline": [(0.3, 0.7), (0.0, 0.7)]}
-    for st, ps in pairs.items():
-        for a, b in ps:
+    for st in fn.STRATEGIES:
+        for a, b in ((0.0, 0.3), (0.3, 0.7)):
             assert mannwhitneyu(cost[st, b], cost[st, a], alternative="greater").pvalue < 0.01, (st, a, b)
-    assert np.median(cost["offline", 0.3]) == pytest.approx(np.median(cost["offline", 0.0]), rel=0.1)
+    below = np.mean(cost["offline", 0.3] < cost["offline", 0.0][0])
+    assert 0.1 < below < 0.5
