@@ -1,4 +1,4 @@
-"""Command line: ``netcosim run EXPERIMENT`` and ``netcosim plot schedule TRACE.parquet``.
+"""Command line: ``netcosim run EXPERIMENT``, ``netcosim sweep SCENARIO`` and ``netcosim plot schedule TRACE``.
 
 ``run`` calls an experiment's entry point with ``outdir`` (and ``quick``) keyword
 arguments.  EXPERIMENT is one of
@@ -9,6 +9,13 @@ arguments.  EXPERIMENT is one of
 * ``package.module:function``: that function of that module;
 * ``path/to/file.py`` (or ``path/to/file.py:function``): a Python file, loaded as a
   module (its directory is put first on ``sys.path``), its ``main`` (or *function*).
+
+``sweep`` runs a scenario function ``fn(params, seed) -> dict`` over a grid of cases and
+seeds (:func:`netcosim.sweep.run_sweep`) into a Parquet dataset: SCENARIO is
+``package.module:function`` or ``path/to/file.py:function``; ``--grid NAME=V1,V2,...``
+(repeatable, the product of the lists) with each value read as an int, else a float, else
+a bool (``true``/``false``), else a string; ``--resume DIR`` continues the sweep stored in
+DIR.  Exit status 1 if a run failed (error or timeout).
 
 ``plot schedule`` draws a schedule table written by ``Trace.to_parquet``.
 
@@ -164,6 +171,68 @@ def _plot(args) -> int:
     return 0
 
 
+def grid_value(text: str) -> int | float | bool | str:
+    """A ``--grid`` value: an int if it reads as one, else a float, else a bool
+    (``true``/``false``, any case), else the text itself."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    return text
+
+
+def parse_grid(items: list[str]) -> dict[str, list]:
+    """``{"loss": [0, 0.1]}`` from ``["loss=0,0.1"]``; raises :class:`UsageError` naming a
+    malformed item or a parameter given twice."""
+    grid: dict[str, list] = {}
+    for item in items:
+        name, sep, values = item.partition("=")
+        name = name.strip()
+        if not sep or not name or not values.strip():
+            raise UsageError(f"--grid {item!r} must read NAME=VALUE[,VALUE...]")
+        if name in grid:
+            raise UsageError(f"--grid names parameter {name!r} twice")
+        grid[name] = [grid_value(v.strip()) for v in values.split(",")]
+    return grid
+
+
+def _sweep(args) -> int:
+    from .errors import NetcosimError
+    from .sweep import load_sweep, run_sweep
+
+    common = dict(executor=args.executor, workers=args.workers, scheduler=args.scheduler, timeout=args.timeout,
+                  quiet=args.quiet)
+    try:
+        if args.resume is not None:
+            if args.scenario is not None or args.grid or args.seeds is not None or args.out is not None \
+                    or args.root_seed is not None:
+                raise UsageError("--resume DIR takes the scenario, grid, seeds and output from DIR: "
+                                 "give no SCENARIO, --grid, --seeds, --root-seed or --out with it")
+            meta = load_sweep(args.resume).meta
+            from .sweep.scenario import resolve
+            scenario = resolve(meta["scenario"], meta.get("scenario_file"))
+            res = run_sweep(scenario, meta["cases"], meta["seeds"], root_seed=meta["root_seed"], out=args.resume,
+                            **common)
+        else:
+            if args.scenario is None:
+                raise UsageError("give a SCENARIO (package.module:function or path/file.py:function) or --resume DIR")
+            if args.out is None:
+                raise UsageError("--out DIR is required: the directory of the sweep's Parquet dataset")
+            if not args.grid:
+                raise UsageError("give at least one --grid NAME=VALUE[,VALUE...]")
+            res = run_sweep(args.scenario, parse_grid(args.grid), 1 if args.seeds is None else args.seeds,
+                            root_seed=args.root_seed or 0, out=args.out, fresh=args.fresh, **common)
+    except NetcosimError as exc:
+        raise UsageError(str(exc)) from None
+    s = res.summary
+    print(f"{s['total']} runs: {s['ok']} ok, {s['error']} error, {s['timeout']} timeout, "
+          f"{s['skipped']} already done; {res.path}")
+    return 1 if s["error"] or s["timeout"] else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``netcosim`` argument parser."""
     p = argparse.ArgumentParser(prog="netcosim", description=__doc__.splitlines()[0],
@@ -177,6 +246,28 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--outdir", help="output directory (default: the experiment's own)")
     r.add_argument("--quick", action="store_true", help="pass quick=True: the experiment's short run")
     r.set_defaults(fn=_run)
+    sw = sub.add_parser("sweep", help="run a scenario over a grid of cases and seeds into a Parquet dataset",
+                        description="Run SCENARIO(params, seed) for every case of the grid and every seed; "
+                                    "results go to the Parquet dataset --out DIR as runs finish (see "
+                                    "docs/sweeps.md).  Exit status 1 if a run failed.")
+    sw.add_argument("scenario", nargs="?",
+                    help="package.module:function or path/to/file.py:function, called as fn(params: dict, seed: int)")
+    sw.add_argument("--grid", action="append", default=[], metavar="NAME=V1,V2",
+                    help="a parameter and its values (repeat for more parameters: their product is swept); each "
+                         "value is read as an int, else a float, else true/false, else a string")
+    sw.add_argument("--seeds", type=int, help="runs per case (default 1)")
+    sw.add_argument("--root-seed", type=int, help="root of every run's seed (default 0)")
+    sw.add_argument("--executor", choices=["pool", "dask", "serial"], default="pool",
+                    help="where runs execute: local worker processes (default), Dask, or this process")
+    sw.add_argument("--scheduler", metavar="tcp://HOST:8786", help="address of a Dask scheduler (implies dask)")
+    sw.add_argument("--workers", type=int, help="worker processes of the pool or the local Dask cluster "
+                                                "(default: one per CPU)")
+    sw.add_argument("--timeout", type=float, metavar="S", help="wall-clock seconds one run may take")
+    sw.add_argument("--out", metavar="DIR", help="directory of the sweep's Parquet dataset")
+    sw.add_argument("--resume", metavar="DIR", help="continue the sweep stored in DIR (runs only the missing runs)")
+    sw.add_argument("--fresh", action="store_true", help="discard a sweep found in --out and start over")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    sw.set_defaults(fn=_sweep)
     pl = sub.add_parser("plot", help="plot a saved trace")
     pl.add_argument("kind", choices=["schedule"])
     pl.add_argument("trace", help="Parquet file written by Trace.to_parquet (schedule table)")

@@ -31,8 +31,11 @@ def logged(params, seed):
 
 
 def flaky(params, seed):
-    """``mode``: "ok" returns, "raise" raises, "hang" sleeps for an hour, "list" returns a list."""
+    """``mode``: "ok" returns, "raise" raises, "hang" sleeps for an hour, "list" returns a list,
+    "die" ends its process at once (exit status 3)."""
     mode = params["mode"]
+    if mode == "die":
+        os._exit(3)
     if mode == "raise":
         raise FloatingPointError(f"diverged at case {params['i']}")
     if mode == "hang":
@@ -40,3 +43,22 @@ def flaky(params, seed):
     if mode == "list":
         return [1, 2]
     return {"value": params["i"] * 2}
+
+
+#: Weak references to the big object of every :func:`cyclic` run.
+REFS: list = []
+
+
+class _Big:
+    def __init__(self):
+        self.data = np.zeros(100_000)
+        self.me = self                       # a reference cycle, as a finished simulation is
+
+
+def cyclic(params, seed):
+    """Leaves a 0.8 MB reference cycle behind (freed only by the cyclic collector)."""
+    import weakref
+
+    big = _Big()
+    REFS.append(weakref.ref(big))
+    return {"n": len(big.data)}

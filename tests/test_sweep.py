@@ -95,6 +95,67 @@ def test_a_raising_run_a_bad_return_and_a_timeout_are_recorded_and_the_others_co
     assert res.summary == {"total": 6, "ok": 3, "error": 2, "timeout": 1, "skipped": 0, "missing": 0}
 
 
+def test_a_pool_worker_that_dies_records_its_run_and_is_replaced():
+    cases = [{"mode": m, "i": i} for i, m in enumerate(["ok", "die", "ok", "ok", "die", "ok"])]
+    res = run_sweep(sc.flaky, cases, 1, executor="pool", workers=2, quiet=True)
+    assert res.runs["status"].tolist() == ["ok", "error", "ok", "ok", "error", "ok"]
+    assert res.runs["error"].iloc[1] == "the worker process died during the run (exit code 3)"
+    assert res.runs["value"].iloc[[0, 2, 3, 5]].tolist() == [0, 4, 6, 10]
+
+
+def test_a_script_without_a_main_guard_gets_an_error_not_a_hang(tmp_path):
+    import subprocess
+    import sys
+
+    script = tmp_path / "unguarded.py"
+    script.write_text("from netcosim.sweep import run_sweep\n"
+                      "def f(params, seed):\n    return {'x': 1}\n"
+                      "run_sweep(f, {'a': [1, 2]}, 1, workers=1, quiet=True)\n")
+    result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1
+    assert 'under `if __name__ == "__main__":`' in result.stderr
+
+
+def test_each_run_is_followed_by_a_collection_so_cycles_left_behind_are_freed():
+    import gc
+
+    sc.REFS.clear()
+    full = []
+
+    def count(phase, info):
+        if phase == "start" and info["generation"] == 2:
+            full.append(len(sc.REFS))
+
+    gc.callbacks.append(count)
+    try:
+        res = run_sweep(sc.cyclic, {"i": [0, 1, 2]}, 2, executor="serial", quiet=True)
+    finally:
+        gc.callbacks.remove(count)
+    assert res.summary["ok"] == 6 and len(sc.REFS) == 6
+    assert {1, 2, 3, 4, 5, 6} <= set(full)          # a full collection after each run
+    assert all(ref() is None for ref in sc.REFS)
+
+
+def test_the_progress_bar_counts_runs_and_failures_on_a_terminal(monkeypatch):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    cases = [{"mode": m, "i": i} for i, m in enumerate(["ok", "raise", "ok"])]
+    run_sweep(sc.flaky, cases, 2, executor="serial")
+    text = term.getvalue()
+    assert "6/6" in text and "failed=2" in text
+    quiet = Terminal()
+    monkeypatch.setattr(sys, "stderr", quiet)
+    run_sweep(sc.flaky, cases, 2, executor="serial", quiet=True)
+    assert quiet.getvalue() == ""
+
+
 def test_the_dataset_on_disk_reads_back_and_a_rerun_skips_every_finished_run(tmp_path):
     out = tmp_path / "sweep"
     res = run_sweep(sc.cheap, {"a": [0, 1], "b": [0.5]}, 2, executor="serial", out=out, quiet=True)

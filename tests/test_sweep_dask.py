@@ -10,8 +10,8 @@ import socket
 
 import pandas.testing as pdt
 import pytest
-
 import sweep_scenarios as sc
+
 from netcosim.errors import ConfigurationError
 from netcosim.sweep import run_sweep
 

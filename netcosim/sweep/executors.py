@@ -107,8 +107,6 @@ def run_in_child(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: f
 class SerialExecutor:
     """Runs every task in this process, one after another (timed runs in a child process)."""
 
-    workers = 1
-
     def __init__(self, fn: Callable, ref: ScenarioRef | None, timeout: float | None):
         self.fn, self.ref, self.timeout = fn, ref, timeout
 
@@ -136,6 +134,8 @@ def _pool_worker(conn, ref: ScenarioRef) -> None:
     except BaseException as exc:
         conn.send(("failed", f"{type(exc).__name__}: {exc}"))
         return
+    import pandas  # noqa: F401  (run_one needs it: imported before the freeze, it stays out of every collection)
+    gc.collect()
     gc.freeze()          # the imports stay out of every later collection: gc.collect() after a run stays cheap
     conn.send(("ready",))
     while True:
@@ -211,7 +211,8 @@ class PoolExecutor:
                     done = self._poll(w, ready)
                     if done is not None:
                         yield done
-                    if not w.proc.is_alive() and not w.conn.poll():
+                    if not w.proc.is_alive():
+                        yield from self._drain(w)
                         if not w.ready:
                             raise RuntimeError(
                                 f"a sweep worker process exited with code {w.proc.exitcode} while starting; a "
@@ -234,13 +235,31 @@ class PoolExecutor:
             for w in pool:
                 w.stop()
 
+    def _drain(self, w: _Worker) -> list[tuple[int, Outcome]]:
+        """The results a dead worker sent before it died (poll() is also true at end of file)."""
+        out: list[tuple[int, Outcome]] = []
+        while True:
+            try:
+                if not w.conn.poll():
+                    return out
+                msg = w.conn.recv()
+            except (EOFError, OSError):
+                return out
+            done = self._handle(w, msg)
+            if done is not None:
+                out.append(done)
+
     def _poll(self, w: _Worker, ready: list) -> tuple[int, Outcome] | None:
         if w.conn not in ready and not w.conn.poll():
             return None
         try:
             msg = w.conn.recv()
-        except (EOFError, OSError):
+        except (EOFError, OSError):        # the worker is gone; its sentinel tells the loop
+            w.proc.join(5)
             return None
+        return self._handle(w, msg)
+
+    def _handle(self, w: _Worker, msg: tuple) -> tuple[int, Outcome] | None:
         if msg[0] == "ready":
             w.ready = True
             return None
@@ -255,6 +274,7 @@ def _dask_task(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: flo
         return run_in_child(ref, params, seed, timeout)
     if ref not in _loaded:
         load(ref)
+        import pandas  # noqa: F401  (see _pool_worker)
         gc.collect()
         gc.freeze()      # the worker's own objects stay out of the collection after each run
     return run_one(load(ref), params, seed)
@@ -269,14 +289,6 @@ class DaskExecutor:
         self.ref, self.timeout = ref, timeout
         self.client, self.scheduler, self.n_workers = client, scheduler, workers
         self._owned: list[Any] = []
-
-    @property
-    def workers(self) -> int:
-        """Number of worker threads of the cluster."""
-        try:
-            return max(1, sum(w.get("nthreads", 1) for w in self.client.scheduler_info()["workers"].values()))
-        except Exception:
-            return self.n_workers or 1
 
     def start(self) -> None:
         """Connect (or start the local cluster); raises naming an unreachable scheduler."""

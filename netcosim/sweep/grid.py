@@ -8,7 +8,8 @@ A grid is given as
 * a pandas DataFrame, one case per row, the columns as parameter names.
 
 A parameter value is a plain scalar: ``int``, finite ``float``, ``bool``, ``str`` or
-``None`` (NumPy scalars are converted to them), so that a case has one canonical text
+``None`` (NumPy scalars are converted to them), the values of one parameter all
+numbers, all bools or all strings (``None`` goes with any), so that a case has one canonical text
 form (its run seeds derive from it, see :mod:`netcosim.sweep.seeds`) and fits a Parquet
 column.  Anything else raises, naming the parameter and the value.
 """
@@ -27,6 +28,9 @@ __all__ = ["cases", "param_value", "check_accepted", "RESERVED"]
 
 #: Column names of a sweep's run table that a parameter or a metric may not take.
 RESERVED = ("seed_index", "seed", "status", "error", "traceback", "wall_time")
+
+
+_KIND = {int: "number", float: "number", bool: "bool", str: "string"}
 
 
 def param_value(value: Any, what: str) -> Any:
@@ -96,6 +100,16 @@ def cases(grid: Any) -> list[dict[str, Any]]:
     else:
         raise ConfigurationTypeError(f"grid must be a dict of lists, a list of dicts or a DataFrame, got {grid!r}")
     out = [{k: param_value(v, f"grid parameter {k!r}") for k, v in c.items()} for c in raw]
+    for k in names:
+        kinds: dict[str, Any] = {}
+        for c in out:
+            v = c[k]
+            if v is not None:
+                kinds.setdefault(_KIND[type(v)], v)
+        if len(kinds) > 1:
+            (k1, v1), (k2, v2) = list(kinds.items())[:2]
+            raise ConfigurationTypeError(f"grid parameter {k!r} mixes a {k1} ({v1!r}) and a {k2} ({v2!r}): the "
+                                         f"values of one parameter must be all numbers, all bools or all strings")
     seen: dict[tuple, int] = {}
     for i, c in enumerate(out):
         key = tuple((type(v).__name__, v) for v in c.values())

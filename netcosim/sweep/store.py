@@ -25,6 +25,7 @@ import json
 import os
 import shutil
 import uuid
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -161,5 +162,21 @@ class Store:
         return pd.read_parquet(path) if path.is_file() else None
 
     def write_runs(self, frame) -> None:
-        """Write the whole run table to ``runs.parquet``."""
-        _write_frame(self.root / "runs.parquet", frame)
+        """Write the whole run table to ``runs.parquet``.
+
+        A metric whose runs returned values of different kinds (a number in one run, a
+        string in another) cannot be one Parquet column: it is written as text, with a
+        warning naming it (each run's own file keeps its value as returned)."""
+        import pyarrow as pa
+
+        try:
+            _write_frame(self.root / "runs.parquet", frame)
+        except (pa.ArrowInvalid, pa.ArrowTypeError):
+            mixed = [c for c in frame.columns if frame[c].dtype == object
+                     and len({type(v) for v in frame[c] if v is not None}) > 1]
+            warnings.warn(f"sweep {str(self.root)!r}: metrics {mixed} hold values of different kinds; "
+                          f"runs.parquet stores them as text", stacklevel=3)
+            frame = frame.copy()
+            for c in mixed:
+                frame[c] = [None if v is None else str(v) for v in frame[c]]
+            _write_frame(self.root / "runs.parquet", frame)

@@ -109,7 +109,7 @@ CASES = [
          names="experiment"),
     Case(id="cli-run-unknown-option", call=lambda: netcosim("run", "servo", "--fast"), exc=CommandFailed,
          names="--fast"),
-    Case(id="cli-unknown-command", call=lambda: netcosim("sweep", "servo"), exc=CommandFailed, names="'sweep'"),
+    Case(id="cli-unknown-command", call=lambda: netcosim("sweeep", "servo"), exc=CommandFailed, names="'sweeep'"),
     # netcosim plot
     Case(id="cli-plot-missing-trace", call=lambda: netcosim("plot", "schedule", "/no/such/dir/trace.parquet"),
          exc=CommandFailed, names="'/no/such/dir/trace.parquet'"),
