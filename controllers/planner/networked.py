@@ -147,9 +147,8 @@ class FlyCraneNetworkConfig:
         _choice(self.messaging, "messaging", MESSAGINGS)
         _choice(self.plant, "plant", PLANTS)
         _choice(self.d_reading, "d_reading", D_READINGS)
-        if isinstance(self.loss, bool) or not isinstance(self.loss, (int, float)) or not 0.0 <= self.loss <= 1.0:
-            raise ConfigurationError(f"loss must be a probability in [0, 1], got {self.loss!r}")
-        object.__setattr__(self, "loss", float(self.loss))
+        object.__setattr__(self, "loss", validate.probability(self.loss, "loss (per-frame loss probability)",
+                                                             type_error=ConfigurationError))
         for nm in ("alpha", "data_rate", "T", "watchdog_period", "horizon", "sample_dt"):
             v = validate.positive(getattr(self, nm), nm, kind="a positive number", type_error=ConfigurationError)
             if not math.isfinite(v):
@@ -163,9 +162,9 @@ class FlyCraneNetworkConfig:
         validate.integer(self.n_mu, "n_mu", lo=1, kind="a positive integer", type_error=ConfigurationError)
         validate.integer(self.seed, "seed", lo=0, kind="a non-negative integer", type_error=ConfigurationError)
         for nm in ("q0_deg", "qr_deg"):
-            v = getattr(self, nm)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 < v < 180.0:
-                raise ConfigurationError(f"{nm} must be an angle in (0, 180) deg, got {v!r}")
+            object.__setattr__(self, nm, validate.real(getattr(self, nm), nm, lo=0.0, hi=180.0, lo_open=True,
+                                                       hi_open=True, kind="an angle in (0, 180) deg",
+                                                       type_error=ConfigurationError))
         if self.k_offline is not None:
             validate.positive(self.k_offline, "k_offline (1/s)", kind="a positive number",
                               type_error=ConfigurationError)
