@@ -256,3 +256,11 @@ def test_cost_grows_with_loss_statistically():
             assert mannwhitneyu(cost[st, b], cost[st, a], alternative="greater").pvalue < 0.01, (st, a, b)
     below = np.mean(cost["offline", 0.3] < cost["offline", 0.0][0])
     assert 0.1 < below < 0.5
+
+
+def test_sweep_tables_identical_on_one_process_and_on_a_pool():
+    a_runs, a_err = fn.run_grid(losses=(0.3,), seeds=2, horizon=4.5, progress=False, workers=1, plant="kinematic")
+    b_runs, b_err = fn.run_grid(losses=(0.3,), seeds=2, horizon=4.5, progress=False, workers=2, plant="kinematic")
+    cols = [c for c in a_runs.columns if c != "wall_time"]
+    assert a_runs[cols].equals(b_runs[cols])
+    assert a_err.equals(b_err)
