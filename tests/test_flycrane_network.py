@@ -264,3 +264,13 @@ def test_sweep_tables_identical_on_one_process_and_on_a_pool():
     cols = [c for c in a_runs.columns if c != "wall_time"]
     assert a_runs[cols].equals(b_runs[cols])
     assert a_err.equals(b_err)
+
+
+def test_main_quick_writes_the_dataset_and_every_figure(tmp_path):
+    summ = fn.main(str(tmp_path), quick=True, workers=2)
+    assert len(summ) == 6 and (summ["runs"] == 3).all() and (summ["run_errors"] == 0).all()
+    names = {p.name for p in tmp_path.glob("*.png")}
+    assert names == {"fig4_11.png", "fig4_11_band.png", "figA_2.png", "figA_3.png", "figA_4.png", "figA_5.png",
+                     "figA_6.png", "cost_vs_loss.png"}
+    from netcosim.sweep import load_sweep
+    assert len(load_sweep(str(tmp_path / "dataset")).runs) == 18
