@@ -274,3 +274,14 @@ def test_main_quick_writes_the_dataset_and_every_figure(tmp_path):
                      "figA_6.png", "cost_vs_loss.png"}
     from netcosim.sweep import load_sweep
     assert len(load_sweep(str(tmp_path / "dataset")).runs) == 18
+
+
+def test_a_run_whose_plant_fails_is_returned_diverged_with_the_error():
+    """An offline gain far outside the stability set (k T = 4.5) drives the cable angles to
+    0 within the first period: A_q becomes singular, the run stops there and is reported
+    (cost inf, diverged, the error named), the series up to the last completed advance."""
+    r = run(FlyCraneNetworkConfig(strategy="offline", k_offline=3.0, plant="kinematic", horizon=15.0))
+    assert r.failure.startswith("SingularConfigurationError") and "t = 0.80" in r.failure
+    m = fn.metrics(r)
+    assert m["iae"] == math.inf and m["t_settle"] == math.inf and m["diverged"]
+    assert r.t[-1] == 0.0 and r.norm_e[-1] == pytest.approx(0.6981317007977319)

@@ -278,7 +278,8 @@ def build(sim: Simulation, config: FlyCraneNetworkConfig, *, network: Any = None
 def run(config: FlyCraneNetworkConfig | None = None, **changes) -> "FlyCraneRun":
     """Run *config* (default :class:`FlyCraneNetworkConfig`, with *changes*) for
     ``config.horizon`` s.  A run whose plant fails (singular configuration, non-finite
-    state) is returned with ``failure`` set and the series up to the failure."""
+    state) is returned with ``failure`` set (the exception's type and message) and the
+    series up to the last completed plant advance (one I/O instant to the next)."""
     config = config or FlyCraneNetworkConfig()
     if changes:
         config = config.replace(**changes)
