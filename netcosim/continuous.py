@@ -353,6 +353,17 @@ class SolveIVP:
         """True for the stiff-capable methods (Radau, BDF, LSODA)."""
         return self.method in IMPLICIT_METHODS
 
+    def t_eval(self, t0: float, t1: float):
+        """Hook for subclasses: instants (s, increasing, in ``(t0, t1]``, ending with *t1*)
+        at which one advance from *t0* to *t1* should also report the state through
+        :meth:`observe` (from the solver's dense output: the steps do not change).  The
+        default, None, reports nothing."""
+        return None
+
+    def observe(self, t, x) -> None:
+        """Hook for subclasses: the states ``x`` (nx, k; in the states' units) at the
+        instants ``t`` (k,; s) asked by :meth:`t_eval` (up to a terminal event)."""
+
     def integrate(self, rhs, t0, x0, t1, gs, jac=None):
         """Integrate ``dx/dt = rhs(t, x)`` from ``(t0, x0)`` to *t1* (s) with :func:`scipy.integrate.solve_ivp`.
 
@@ -379,6 +390,9 @@ class SolveIVP:
             reached[0] = t
             return rhs(t, x)
         kw = {"jac": jac} if jac is not None and self.implicit else {}
+        t_eval = self.t_eval(t0, t1)
+        if t_eval is not None:
+            kw["t_eval"] = t_eval
         try:
             from scipy.integrate import solve_ivp  # loaded on first use
             sol = solve_ivp(counted, (t0, t1), x0, method=self.method, rtol=self.rtol, atol=self.atol,
@@ -394,6 +408,8 @@ class SolveIVP:
         if sol.status == -1:
             raise IntegrationError(f"solve_ivp ({self!r}) failed between t={t0!r} and t={t1!r} s: "
                                    f"{sol.message}")
+        if t_eval is not None:
+            self.observe(sol.t, sol.y)
         if sol.status == 1:
             first = None
             for j, te in enumerate(sol.t_events):

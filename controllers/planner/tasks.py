@@ -2,9 +2,11 @@
 
 :func:`deploy` builds, from a validated :class:`DeploymentConfig`, inside a
 :class:`netcosim.Simulation`, a pivot node, one node per robot, a network between them
-and the kinematic plant ``q_dot = A_q^+ u`` (:func:`deploy_planner`: the same with the
-configuration as keyword arguments).  Small task factories (``add_planner_task``,
-``add_pose_task``, ``add_command_task``, ``add_actuation_task``, ``add_watchdog_task``)
+and the plant ``config.plant`` (:mod:`controllers.planner.plant_models`: the kinematic
+``q_dot = A_q^+ u`` by default, or the dynamic model with velocity tracking)
+(:func:`deploy_planner`: the same with the configuration as keyword arguments).  Small
+task factories (``add_planner_task``, ``add_pose_task``, ``add_command_task``,
+``add_actuation_task``, ``add_watchdog_task``)
 are wired by one function per architecture (:func:`wire_centralized`,
 :func:`wire_sparse`):
 
@@ -46,38 +48,22 @@ from typing import Any
 import numpy as np
 
 from netcosim import validate
-from netcosim.continuous import SolveIVP
 from netcosim.errors import ConfigurationError
-
-from plants.kinematic import KinematicPlant
+from netcosim.network.frame import BROADCAST
 
 from .deployment import CommandRecord, Deployment, PlannerRecord, PlannerResponse, PoseRecord
 from .kinematics import as_vector, check_period, check_system, diag_gain, jacobian
 from .laws import OfflineGain, OnlineGain, robot_velocity, sampled_velocity
 from .norms import WeightedNorm
+from .plant_models import KinematicModel, KinematicVelocityPlant, VelocityTrackingModel, check_model, plant_integrator
 from .structure import StarStructure
 from .sikm import FEEDFORWARDS, Trajectory
 
-__all__ = ["KinematicVelocityPlant", "PlannerLaw", "DeploymentConfig", "Deployment", "PlannerResponse",
+__all__ = ["KinematicVelocityPlant", "KinematicModel", "VelocityTrackingModel", "PlannerLaw", "DeploymentConfig",
+           "Deployment", "PlannerResponse",
            "PlannerRecord", "PoseRecord", "CommandRecord", "deploy", "deploy_planner", "wire_centralized",
            "wire_sparse", "add_planner_task", "add_pose_task", "add_command_task", "add_actuation_task",
-           "add_watchdog_task", "ideal_network", "plant_integrator", "ARCHITECTURES", "ON_LOSS"]
-
-
-class KinematicVelocityPlant(KinematicPlant):
-    """The one kinematic plant ``q_dot = A_q^+ u`` (:class:`plants.kinematic.KinematicPlant`)
-    as the deployments build it: states and outputs ``q0..q{m-1}`` (rad, m), inputs
-    ``u0..u{n-1}`` (m/s), no singular-set event (the pseudo-inverse still raises by the
-    rank rule wherever the integrator evaluates it)."""
-
-    def __init__(self, system: Any, name: str | None = None):
-        super().__init__(system, name=name, indexed=True, singular_event=False)
-
-
-def plant_integrator() -> SolveIVP:
-    """The plant integrator matching :func:`controllers.planner.kinematics.integrate_kinematics`
-    (DOP853, rtol 1e-12, atol 1e-13)."""
-    return SolveIVP(method="DOP853", rtol=1e-12, atol=1e-13)
+           "add_watchdog_task", "ideal_network", "plant_integrator", "ARCHITECTURES", "ON_LOSS", "MESSAGING"]
 
 
 def ideal_network(sim, name: str = "planner_net"):
@@ -126,6 +112,8 @@ class PlannerLaw:
 #: The two architectures of Fig. 3.3 / Fig. 5.1 and what a robot does on a lost command.
 ARCHITECTURES = ("sparse", "centralized")
 ON_LOSS = ("hold", "zero")
+#: How the pivot addresses the robots: one message per robot, or one broadcast frame.
+MESSAGING = ("unicast", "broadcast")
 
 
 @dataclass(frozen=True)
@@ -142,7 +130,12 @@ class DeploymentConfig:
     ``plant_name``, ``log_interval`` (s): passed to ``sim.plant``; ``guarantee``: a
     :class:`~controllers.planner.gain_design.GainDesign` (point stabilization) or
     :class:`~controllers.planner.sikm.SIKMParams` (tracking): an offline gain outside
-    the corresponding stability set raises ``ValueError``.
+    the corresponding stability set raises ``ValueError``; ``plant``: the plant model
+    (:mod:`controllers.planner.plant_models`: :class:`KinematicModel` ``q_dot = A_q^+ u``,
+    the default, or :class:`VelocityTrackingModel` ``(alpha)``, the dynamic model (4.10)
+    under the velocity-tracking force (4.11)); ``messaging``: ``"unicast"`` (one message
+    per robot with its part) or ``"broadcast"`` (one message to every robot: the whole
+    ``u``, or ``q_V``); ``exec_watchdog``: the watchdog's execution time (s, as above).
     """
 
     T: float
@@ -157,9 +150,15 @@ class DeploymentConfig:
     plant_name: str = "plant"
     log_interval: float | None = None
     guarantee: Any = None
+    plant: Any = KinematicModel()
+    messaging: str = "unicast"
+    exec_watchdog: Any = 0.0
 
     def __post_init__(self):
         object.__setattr__(self, "T", check_period(self.T))
+        check_model(self.plant)
+        if self.messaging not in MESSAGING:
+            raise ConfigurationError(f"messaging must be one of {MESSAGING}, got {self.messaging!r}")
         if self.architecture not in ARCHITECTURES:
             raise ValueError(f"architecture must be 'sparse' or 'centralized', got {self.architecture!r}")
         if self.on_loss not in ON_LOSS:
@@ -268,10 +267,14 @@ def add_planner_task(pivot, sh: _Shared, q_port) -> Any:
         u = sampled_velocity(system, q, qr_h, k, sh.kd)
         A_h = jacobian(system, q) if sh.ff == "sample" else None
         yield ctx.execute(cfg.exec_pivot)
-        for i, dst in enumerate(sh.names):
-            rows = list(st.rows[i])
-            payload = {"h": h, "t": t_h, "u": u[rows], "A": None if A_h is None else A_h[rows]}
-            ctx.send(dst, payload, cfg.size_bits * (len(rows) * (1 + (m if A_h is not None else 0)) + 1))
+        if cfg.messaging == "broadcast":
+            ctx.send(BROADCAST, {"h": h, "t": t_h, "u": u, "A": A_h, "all": True},
+                     cfg.size_bits * (system.n * (1 + (m if A_h is not None else 0)) + 1))
+        else:
+            for i, dst in enumerate(sh.names):
+                rows = list(st.rows[i])
+                payload = {"h": h, "t": t_h, "u": u[rows], "A": None if A_h is None else A_h[rows]}
+                ctx.send(dst, payload, cfg.size_bits * (len(rows) * (1 + (m if A_h is not None else 0)) + 1))
         sh.records.append(PlannerRecord("pivot", h, t_h, ctx.now, q, u, k))
         ctx.log("k", k)
 
@@ -287,7 +290,7 @@ def add_pose_task(pivot, sh: _Shared, qV_port) -> Any:
         job = ctx.job
         h, t_h = job.index, job.release_time
         yield ctx.execute(cfg.exec_pivot)
-        for dst in sh.names:
+        for dst in ((BROADCAST,) if cfg.messaging == "broadcast" else sh.names):
             ctx.send(dst, {"h": h, "t": t_h, "q_V": q_V}, cfg.size_bits * (len(q_V) + 1))
         sh.records.append(PoseRecord("pivot", h, t_h, ctx.now, q_V))
 
@@ -304,7 +307,12 @@ def _newest(mailbox):
 
 
 def _received_feedback(ctx, sh: _Shared, robot: _Robot, p) -> tuple:
-    """Centralized: the feedback ``u_i`` (and A_{q_h} rows) as sent by the pivot."""
+    """Centralized: the feedback ``u_i`` (and A_{q_h} rows) as sent by the pivot (a
+    broadcast carries all robots' rows: robot i picks its own)."""
+    if p.get("all"):
+        A = p["A"]
+        return (np.asarray(p["u"], dtype=float)[robot.rows], None if A is None else A[robot.rows], np.zeros(0),
+                math.nan)
     return np.asarray(p["u"], dtype=float), p["A"], np.zeros(0), math.nan
 
 
@@ -358,11 +366,15 @@ def add_actuation_task(sh: _Shared, robot: _Robot) -> Any:
 
 
 def add_watchdog_task(sh: _Shared, robot: _Robot) -> Any:
-    """Every ``watchdog_period`` s: zero the command once the last one is older than the timeout."""
+    """Every ``watchdog_period`` s: zero the command once the last one is older than the
+    timeout (decided at the release instant, written after ``exec_watchdog``)."""
     cfg = sh.config
 
     def watchdog(ctx):
-        if robot.have and not robot.zeroed and ctx.now - robot.t_rx > cfg.timeout:
+        late = robot.have and not robot.zeroed and ctx.now - robot.t_rx > cfg.timeout
+        if cfg.exec_watchdog != 0.0:
+            yield ctx.execute(cfg.exec_watchdog)
+        if late:
             ctx.write(robot.u_port, np.zeros(len(robot.rows)))
             robot.zeroed = True
             ctx.log("watchdog_zero", 1.0)
@@ -392,7 +404,7 @@ def _add_robot(sim, net, plant, sh: _Shared, i: int, feedback, reads_q_i: bool) 
 
 def wire_centralized(sim, plant, pivot, net, sh: _Shared) -> list:
     """The pivot runs the whole planner on q; the robots apply what they receive."""
-    add_planner_task(pivot, sh, plant.output(None))
+    add_planner_task(pivot, sh, plant.output(list(range(sh.system.m))))
     return [_add_robot(sim, net, plant, sh, i, _received_feedback, False) for i in range(sh.structure.N)]
 
 
@@ -414,18 +426,21 @@ def _structure_of(system: Any, structure: StarStructure | None) -> StarStructure
 
 def deploy(sim, system: Any, q0: Any, config: DeploymentConfig, *, network: Any = None,
            structure: StarStructure | None = None, integrator: Any = None) -> Deployment:
-    """Build, inside *sim*, the plant ``q_dot = A_q^+ u`` from *q0* (rad, m), node ``pivot``
+    """Build, inside *sim*, the plant ``config.plant`` (default ``q_dot = A_q^+ u``) from *q0*
+    (rad, m; a dynamic plant starts at rest), node ``pivot``
     and nodes ``robot1..robotN`` on *network* (default :func:`ideal_network`) and their
     tasks, wired for ``config.architecture`` (see the module docstring).
 
     ``structure``: the :class:`StarStructure` (default :meth:`StarStructure.for_system`);
-    ``integrator``: plant integrator (default :func:`plant_integrator`).
+    ``integrator``: plant integrator (default ``config.plant.integrator()``).
     """
     check_system(system)
     q0 = as_vector(q0, system.m, "q0")
     sh = _Shared(system, _structure_of(system, structure), config, [])
-    plant = sim.plant(KinematicVelocityPlant(system, config.plant_name), q0, name=config.plant_name,
-                      integrator=integrator or plant_integrator(), log_interval=config.log_interval)
+    model = config.plant
+    cs = model.build(system, config.plant_name)
+    plant = sim.plant(cs, model.initial_state(cs, q0), name=config.plant_name,
+                      integrator=integrator or model.integrator(), log_interval=config.log_interval)
     net = network if network is not None else ideal_network(sim)
     pivot = sim.node("pivot")
     net.attach(pivot)

@@ -1,0 +1,84 @@
+"""Real-time factor of the networked Fly-crane (5 nodes on 802.11b, §4.6.1) per plant.
+
+One run of :func:`controllers.planner.networked.run` (45 s simulated, 30 % loss,
+broadcast, both strategies) is timed on this core, best of ``--repeats``; the real-time
+factor is simulated seconds per wall second.  Baseline measured in the same run: the
+same scenario on the dynamic plant whose dynamics run uncompiled in CasADi's virtual
+machine (what the plant costs without :class:`VelocityTrackingModel`'s compiled code),
+reported as a ratio.  Target: the dynamic plant at >= 100x real time.
+
+``--sweep`` also times the default ``python -m experiments.flycrane_network`` sweep
+(10 losses x 2 strategies x 20 seeds on 2 processes; several minutes).
+``--profile`` prints the functions that dominate one dynamic run.
+
+Run: ``python -m benchmarks.flycrane``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+HORIZON = 45.0
+
+
+def _best(fn, repeats: int) -> float:
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def main(repeats: int = 3, sweep: bool = False, profile: bool = False) -> list[tuple[str, float]]:
+    import controllers.planner.networked as nw
+    from controllers.planner.plant_models import VelocityTrackingModel
+
+    rows = []
+    cfg = nw.FlyCraneNetworkConfig(loss=0.3, horizon=HORIZON)
+    nw.run(cfg.replace(horizon=3.0))                       # imports, compiled code, offline gain
+    orig = nw.VelocityTrackingModel
+    nw.VelocityTrackingModel = lambda alpha: VelocityTrackingModel(alpha, compiled=False)  # type: ignore
+    try:
+        base = _best(lambda: nw.run(cfg.replace(strategy="online")), repeats)
+    finally:
+        nw.VelocityTrackingModel = orig
+    rows.append(("baseline: dynamic, online, uncompiled dynamics", base))
+    for plant in ("dynamic", "kinematic"):
+        for strategy in ("online", "offline"):
+            wall = _best(lambda: nw.run(cfg.replace(plant=plant, strategy=strategy)), repeats)
+            rows.append((f"{plant}, {strategy}", wall))
+    w = max(len(r[0]) for r in rows)
+    print(f"{'45 s of the 5-node scenario, 30 % loss':<{w}}  {'wall':>8}  {'x real time':>11}  {'vs baseline':>11}")
+    for name, t in rows:
+        print(f"{name:<{w}}  {t:7.3f}s  {HORIZON / t:11.0f}  {base / t:11.2f}")
+    if profile:
+        import cProfile
+        import pstats
+        pr = cProfile.Profile()
+        pr.enable()
+        nw.run(cfg.replace(strategy="online"))
+        pr.disable()
+        pstats.Stats(pr).sort_stats("tottime").print_stats(12)
+    if sweep:
+        import tempfile
+
+        from experiments import flycrane_network as fn
+        with tempfile.TemporaryDirectory() as d:
+            t0 = time.perf_counter()
+            fn.main(d)
+            wall = time.perf_counter() - t0
+        print(f"default sweep ({len(fn.GRID_LOSSES)} losses x 2 strategies x 20 seeds, 2 processes) and figures: "
+              f"{wall:.0f} s")
+        rows.append(("default sweep", wall))
+    return rows
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--sweep", action="store_true", help="also time the default sweep (minutes)")
+    ap.add_argument("--profile", action="store_true", help="profile one dynamic run")
+    a = ap.parse_args()
+    main(a.repeats, a.sweep, a.profile)

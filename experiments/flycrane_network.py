@@ -1,0 +1,354 @@
+"""The networked Fly-crane over lossy 802.11b (thesis §4.6.1, Fig. 4.11, appendix A).
+
+Four robots carry a load (the non-square system of Fig. 4.3a, m = 10, n = 12) from
+cable angles 80 deg to 60 deg; the ch. 4 planners run as tasks on five nodes (the load
+and four robots) that talk over one IEEE 802.11b network at 1.2 Mbit/s, T = 1.5 s, on
+the dynamic model (4.10) with velocity tracking (4.11), alpha = 30 N s/m.  Offline
+strategy: the load broadcasts its pose, each robot computes its velocity with the
+offline gain and keeps it on a loss.  Online strategy: the load computes all velocities
+with the online gain and broadcasts them; a watchdog on each robot zeroes its velocity
+when the last message is older than T (checked every 0.2 s).
+
+The sweep: packet loss probability 0..0.9 (step 0.1, which holds Fig. 4.11's 0, 0.3,
+0.7) x seeds x {offline, online}, into DIR/dataset (Parquet, one row per run, and the
+error time series); then the figures: fig4_11.png (one seed), fig4_11_band.png (median
+and 10-90 % band across seeds), figA_2.png, figA_3.png (20 % loss), figA_4.png,
+figA_5.png (schedules), figA_6.png (gains), cost_vs_loss.png and summary.parquet.
+
+Run ``python -m experiments.flycrane_network`` (``--quick``: 3 losses x 3 seeds,
+15 s).  ``--seeds N`` sets the number of seeds.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from controllers.planner.networked import FlyCraneNetworkConfig, FlyCraneRun, run
+
+#: Loss probabilities of Fig. 4.11.
+FIG_LOSSES = (0.0, 0.3, 0.7)
+#: The finer grid of the sweep.
+GRID_LOSSES = tuple(round(0.1 * i, 1) for i in range(10))
+STRATEGIES = ("offline", "online")
+#: ``||e|| <`` this counts as converged (rad and m).
+SETTLE_TOL = 1e-2
+#: Horizon of the sweep runs (s): 30 periods, as Fig. 4.10.
+HORIZON = 45.0
+#: Grid of the per-run error table (s).
+ERROR_DT = 0.3
+#: Keys of ``params`` that :func:`scenario` passes on to :class:`FlyCraneNetworkConfig`.
+PARAMS = ("loss", "strategy", "messaging", "plant", "alpha", "data_rate", "horizon", "d_reading", "k_offline")
+
+
+def config_of(params: dict, seed: int) -> FlyCraneNetworkConfig:
+    """The :class:`FlyCraneNetworkConfig` of one sweep point: ``params`` holds ``loss``
+    and ``strategy`` and optionally ``messaging``, ``plant``, ``alpha``, ``data_rate``,
+    ``horizon`` (default :data:`HORIZON`), ``d_reading``, ``k_offline``; unknown keys raise."""
+    from netcosim.errors import ConfigurationError
+    unknown = sorted(set(params) - set(PARAMS))
+    if unknown:
+        raise ConfigurationError(f"unknown scenario parameter(s) {unknown}; known: {list(PARAMS)}")
+    if "loss" not in params or "strategy" not in params:
+        raise ConfigurationError(f"scenario parameters need 'loss' and 'strategy', got {sorted(params)}")
+    kw = {k: (v.item() if hasattr(v, "item") else v) for k, v in params.items()}
+    kw.setdefault("horizon", HORIZON)
+    return FlyCraneNetworkConfig(seed=int(seed), **kw)
+
+
+def metrics(r: FlyCraneRun) -> dict:
+    """Scalar metrics of one run.
+
+    ``iae``: the cost, ``integral of ||q - q^r||_2 dt`` over the horizon (trapezoid on
+    the ``sample_dt`` grid; rad s), ``inf`` if the plant failed; ``t_settle`` (s): the
+    first time from which ``||e|| < 1e-2`` until the horizon, ``inf`` if the run ends
+    above it; ``final_e``: ``||e||`` at the horizon; ``max_e``; ``diverged``: the plant
+    failed or ``||e||`` ends above its initial value; ``msg_loss_robot1..4`` and
+    ``msg_loss``: measured fraction of the load's messages each robot (all robots)
+    did not receive; ``messages``: messages the load sent; ``frames_sent``:
+    transmissions on the air (retransmissions included, ACKs not); ``frames_lost``:
+    frame losses (one per frame and receiver that missed it); ``messages_lost``.
+    """
+    e = r.norm_e
+    failed = r.failure is not None
+    below = e < SETTLE_TOL
+    if len(e) and below[-1] and not failed:
+        above = np.flatnonzero(~below)
+        t_settle = float(r.t[above[-1] + 1]) if len(above) else float(r.t[0])
+    else:
+        t_settle = math.inf
+    iae = math.inf if failed else float(np.trapezoid(e, r.t))
+    fr = r.frames
+    ev = fr["event"].astype(str)
+    out = {"iae": iae, "t_settle": t_settle, "final_e": float(e[-1]), "max_e": float(e.max()),
+           "diverged": bool(failed or e[-1] > e[0]), "messages": int(r.messages["sent"].iloc[0]),
+           "frames_sent": int((ev == "attempt_start").sum()), "frames_lost": int((ev == "lost").sum()),
+           "messages_lost": int((r.messages["sent"] - r.messages["received"]).sum()),
+           "failure": r.failure or ""}
+    for name, loss in zip(r.messages["robot"], r.messages["loss"]):
+        out[f"msg_loss_{name}"] = float(loss)
+    out["msg_loss"] = float(out["messages_lost"] / max(1, 4 * out["messages"]))
+    return out
+
+
+def error_table(r: FlyCraneRun, dt: float = ERROR_DT) -> pd.DataFrame:
+    """``t`` (s), ``norm_e`` on a grid of *dt* seconds (decimated from the run's grid)."""
+    step = max(1, int(round(dt / r.config.sample_dt)))
+    return pd.DataFrame({"t": r.t[::step], "norm_e": r.norm_e[::step]})
+
+
+def scenario(params: dict, seed: int) -> dict:
+    """One sweep run: ``params`` as :func:`config_of`, ``seed`` the simulation seed.
+    Returns :func:`metrics` plus ``error``: :func:`error_table` (a DataFrame)."""
+    r = run(config_of(params, seed))
+    out: dict[str, Any] = metrics(r)
+    out["error"] = error_table(r)
+    return out
+
+
+scenario.params = set(PARAMS)  # type: ignore[attr-defined]  # the sweep engine checks the grid against it
+
+
+def run_grid(losses=GRID_LOSSES, seeds: int = 20, strategies=STRATEGIES, horizon: float = HORIZON,
+             out: str | None = None, progress: bool = True, workers: int = 1, **fixed):
+    """The sweep loss x strategy x seeds on :func:`netcosim.sweep.run_sweep` (one
+    process with ``workers=1``, else a pool of ``workers`` processes: the same tables
+    either way, each run's seed derived from its case and seed index); ``fixed``: further
+    :data:`PARAMS` held constant.  ``out``: the sweep's Parquet dataset (resumable).
+    Returns ``(runs, error)``: one row per run (parameters, ``seed_index``, ``seed``,
+    :func:`metrics`, ``status``) and the long error table (parameters, ``seed_index``,
+    ``seed``, ``t``, ``norm_e``)."""
+    from netcosim.sweep import run_sweep
+    grid = {"loss": [float(x) for x in losses], "strategy": list(strategies), "horizon": [float(horizon)],
+            **{k: [v] for k, v in fixed.items()}}
+    res = run_sweep(scenario, grid, seeds, executor="serial" if workers <= 1 else "pool", workers=workers,
+                    out=out, quiet=not progress)
+    return res.runs, res.table("error")
+
+
+def summary(runs: pd.DataFrame) -> pd.DataFrame:
+    """Cost per loss and strategy: median and 10/90 % quantiles (nearest order statistic,
+    so runs that never settle count as ``inf``) of ``iae`` and ``t_settle``, the number
+    of runs and of diverged runs, the mean measured message loss, and ``run_errors``:
+    runs the sweep recorded as failed (an exception or a timeout; left out of the rest)."""
+    ok = runs[runs["status"] == "ok"] if "status" in runs else runs
+    failed = (runs.groupby(["strategy", "loss"])["status"].apply(lambda s: int((s != "ok").sum()))
+              if "status" in runs else None)
+    g = ok.groupby(["strategy", "loss"])
+
+    def qs(col, p):  # nearest order statistic: defined with inf values (never inf - inf)
+        return g[col].quantile(p, interpolation="nearest")
+    return pd.DataFrame({
+        "runs": g.size(), "diverged": g["diverged"].sum().astype(int),
+        "iae_median": qs("iae", 0.5), "iae_q10": qs("iae", 0.1), "iae_q90": qs("iae", 0.9),
+        "t_settle_median": qs("t_settle", 0.5), "t_settle_q10": qs("t_settle", 0.1),
+        "t_settle_q90": qs("t_settle", 0.9), "msg_loss": g["msg_loss"].mean(),
+        "run_errors": failed if failed is not None else 0}).reset_index()
+
+
+# ---------------------------------------------------------------- figures
+
+def _semilogy(ax, t, e, *args, **kw):
+    return ax.semilogy(t, np.maximum(e, 1e-16), *args, **kw)
+
+
+STYLE = {"offline": "-", "online": "--"}
+COLORS = {0.0: "tab:blue", 0.3: "tab:orange", 0.7: "tab:red"}
+
+
+def fig_4_11(results: dict, path=None):
+    """Fig. 4.11, one seed: ``||q - q^r||`` against t for each (loss, strategy).
+    *results* maps ``(loss, strategy)`` to a :class:`FlyCraneRun`.  Returns the axes."""
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for (loss, st), r in sorted(results.items()):
+        _semilogy(ax, r.t, r.norm_e, STYLE.get(st, "-"), color=COLORS.get(loss), label=f"{st}, loss {loss:.0%}")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("||q - q^r||_2")
+    ax.set_title(f"Fig. 4.11: 802.11b broadcast, seed {next(iter(results.values())).config.seed}")
+    ax.legend(fontsize=8)
+    _save(fig, path)
+    return ax
+
+
+def fig_4_11_band(error: pd.DataFrame, losses=FIG_LOSSES, path=None, q=(0.1, 0.9)):
+    """Fig. 4.11 across seeds: median of ``||q - q^r||`` and the ``q`` inter-quantile band
+    per (loss, strategy), from the long error table (``loss``, ``strategy``, ``seed``, ``t``,
+    ``norm_e``).  Returns the axes."""
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for loss in losses:
+        for st in STRATEGIES:
+            d = error[np.isclose(error["loss"], loss) & (error["strategy"] == st)]
+            if d.empty:
+                continue
+            g = d.groupby("t")["norm_e"]
+            med, lo, hi = g.median(), g.quantile(q[0]), g.quantile(q[1])
+            n = d["seed"].nunique()
+            _semilogy(ax, med.index, med.values, STYLE[st], color=COLORS.get(loss),
+                      label=f"{st}, loss {loss:.0%} (median of {n})")
+            ax.fill_between(med.index, np.maximum(lo.values, 1e-16), np.maximum(hi.values, 1e-16),
+                            color=COLORS.get(loss), alpha=0.12 if st == "offline" else 0.22, lw=0)
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("||q - q^r||_2")
+    ax.set_title(f"Fig. 4.11 across seeds: median and {q[0]:.0%}-{q[1]:.0%} band")
+    ax.legend(fontsize=7)
+    _save(fig, path)
+    return ax
+
+
+def fig_a_2(results: dict, path=None):
+    """Fig. A.2: the cable angles alpha_i (deg) of each strategy (*results*: strategy ->
+    :class:`FlyCraneRun`).  Returns the axes."""
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(2, 2, sharex=True, figsize=(8, 5.5))
+    for i, ax in enumerate(axes.flat):
+        for st, r in results.items():
+            ax.plot(r.t, r.alpha[:, i], STYLE[st], label=st)
+        ax.axhline(np.degrees(next(iter(results.values())).q_ref[i]), color="k", lw=0.5)
+        ax.set_ylabel(f"alpha_{i + 1} (deg)")
+    axes[0, 0].legend()
+    for ax in axes[-1]:
+        ax.set_xlabel("t (s)")
+    fig.suptitle(f"Fig. A.2: cable angles, loss {next(iter(results.values())).config.loss:.0%}")
+    _save(fig, path)
+    return axes
+
+
+def fig_a_3(results: dict, path=None):
+    """Fig. A.3: the load pose q_V (x, y, z in m; roll, pitch, yaw in deg) of each
+    strategy.  Returns the axes."""
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(2, 3, sharex=True, figsize=(10, 5.5))
+    names = ("x (m)", "y (m)", "z (m)", "roll (deg)", "pitch (deg)", "yaw (deg)")
+    for j, ax in enumerate(axes.flat):
+        for st, r in results.items():
+            ax.plot(r.t, r.q_V[:, j], STYLE[st], label=st)
+        ax.set_ylabel(names[j])
+    axes[0, 0].legend()
+    for ax in axes[-1]:
+        ax.set_xlabel("t (s)")
+    fig.suptitle(f"Fig. A.3: load pose, loss {next(iter(results.values())).config.loss:.0%}")
+    _save(fig, path)
+    return axes
+
+
+def fig_schedules(r, t_range=(2.9, 4.9), path=None, title=None):
+    """Figs. A.4 (online) / A.5 (offline): close-up of the robots' kernels, the load's
+    kernel and the network schedule (lost frames marked).  Returns the three axes."""
+    import matplotlib.pyplot as plt
+
+    from netcosim.network.plot import plot_network_schedule
+    from netcosim.plot import plot_schedule
+    fig, axes = plt.subplots(3, 1, figsize=(9, 10), gridspec_kw={"height_ratios": [3, 1, 2]})
+    sch = r.schedule
+    robots = sch[sch["node"].astype(str) != "pivot"]
+    plot_schedule(robots, t_range=t_range, ax=axes[0], title="robots' kernels (high = running, low = idle)")
+    plot_schedule(sch, node="pivot", t_range=t_range, ax=axes[1], title="load (platform) kernel")
+    plot_network_schedule(r.network_schedule, network="wlan", t_range=t_range, frames=r.frames, ax=axes[2])
+    fig.suptitle(title or f"{r.config.strategy} strategy, loss {r.config.loss:.0%}")
+    fig.tight_layout()
+    _save(fig, path)
+    return axes
+
+
+def fig_a_6(results: dict, path=None):
+    """Fig. A.6: the gains k (1/s) each strategy used at each period.  Returns the axes."""
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for st, r in results.items():
+        g = r.gains.drop_duplicates("t") if st == "offline" else r.gains
+        ax.step(g["t"], g["k"], STYLE[st], where="post", label=f"{st} gain")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("k (1/s)")
+    ax.set_title("Fig. A.6: offline vs online gain")
+    ax.legend()
+    _save(fig, path)
+    return ax
+
+
+def fig_cost(runs: pd.DataFrame, cost: str = "iae", path=None):
+    """The summary: *cost* against loss per strategy, median and 10-90 % band across
+    seeds, each run a dot, diverged runs as red crosses.  Returns the axes."""
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for st in STRATEGIES:
+        d = runs[runs["strategy"] == st]
+        if d.empty:
+            continue
+        finite = d[np.isfinite(d[cost])]
+        g = finite.groupby("loss")[cost]
+        line, = ax.plot(g.median().index, g.median().values, "o" + STYLE[st], label=f"{st} (median)")
+        ax.fill_between(g.median().index, g.quantile(0.1).values, g.quantile(0.9).values, color=line.get_color(),
+                        alpha=0.2, lw=0)
+        ax.plot(finite["loss"], finite[cost], ".", color=line.get_color(), ms=2, alpha=0.5)
+        div = d[d["diverged"]]
+        if len(div):
+            y = np.where(np.isfinite(div[cost]), div[cost], np.nanmax(finite[cost]) if len(finite) else 1.0)
+            ax.plot(div["loss"], y, "x", color="red", ms=6, label=f"{st}: diverged")
+    ax.set_yscale("log")
+    ax.set_xlabel("packet loss probability")
+    ax.set_ylabel({"iae": "integral of ||q - q^r|| dt (rad s)", "t_settle": "time to ||e|| < 1e-2 (s)"}.get(cost, cost))
+    ax.set_title("cost against loss")
+    ax.legend(fontsize=8)
+    _save(fig, path)
+    return ax
+
+
+def _save(fig, path) -> None:
+    if path is not None:
+        import matplotlib.pyplot as plt
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+
+
+# ---------------------------------------------------------------- main
+
+#: Default sweep size and the --quick one: (losses, seeds, horizon s).
+DEFAULT_SIZE = (GRID_LOSSES, 20, HORIZON)
+QUICK_SIZE = (FIG_LOSSES, 3, 15.0)
+
+
+def figures(runs: pd.DataFrame, error: pd.DataFrame, outdir: str, horizon: float = HORIZON, seed: int = 0) -> None:
+    """Run the single-seed cases and write every figure into *outdir*."""
+    one = {(loss, st): run(FlyCraneNetworkConfig(strategy=st, loss=loss, seed=seed, horizon=horizon))
+           for loss in FIG_LOSSES for st in STRATEGIES}
+    fig_4_11(one, os.path.join(outdir, "fig4_11.png"))
+    fig_4_11_band(error, path=os.path.join(outdir, "fig4_11_band.png"))
+    at20 = {st: run(FlyCraneNetworkConfig(strategy=st, loss=0.2, seed=seed, horizon=horizon)) for st in STRATEGIES}
+    fig_a_2(at20, os.path.join(outdir, "figA_2.png"))
+    fig_a_3(at20, os.path.join(outdir, "figA_3.png"))
+    fig_schedules(at20["online"], path=os.path.join(outdir, "figA_4.png"),
+                  title="Fig. A.4: online strategy, loss 20 %")
+    fig_schedules(at20["offline"], path=os.path.join(outdir, "figA_5.png"),
+                  title="Fig. A.5: offline strategy, loss 20 %")
+    fig_a_6(at20, os.path.join(outdir, "figA_6.png"))
+    fig_cost(runs, "iae", os.path.join(outdir, "cost_vs_loss.png"))
+
+
+def main(outdir: str = "results/flycrane_network", quick: bool = False, seeds: int | None = None,
+         workers: int = 2) -> pd.DataFrame:
+    """The sweep into ``outdir/dataset`` (Parquet), the figures and ``summary.parquet``;
+    returns the summary (cost per loss and strategy)."""
+    losses, n_seeds, horizon = QUICK_SIZE if quick else DEFAULT_SIZE
+    n_seeds = seeds or n_seeds
+    os.makedirs(outdir, exist_ok=True)
+    runs, error = run_grid(losses, n_seeds, horizon=horizon, out=os.path.join(outdir, "dataset"), workers=workers)
+    summ = summary(runs)
+    summ.to_parquet(os.path.join(outdir, "summary.parquet"))
+    figures(runs, error, outdir, horizon)
+    return summ
+
+
+if __name__ == "__main__":
+    from experiments._cli import experiment_parser
+    ap = experiment_parser(__doc__, "results/flycrane_network")
+    ap.add_argument("--seeds", type=int, default=None, help="seeds per (loss, strategy) (default 20; quick 3)")
+    ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    a = ap.parse_args()
+    with pd.option_context("display.width", 200, "display.max_columns", 20):
+        print(main(a.outdir, a.quick, a.seeds, a.workers))
