@@ -148,6 +148,7 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
     if out is not None:
         validate.path(out, "out")
         store = Store(out)
+        store.check(meta, fresh)
     # connect before touching the directory: an unreachable scheduler changes nothing
     if executor == "serial":
         ex: Any = SerialExecutor(fn, ref, timeout)
