@@ -15,7 +15,8 @@ seeds (:func:`netcosim.sweep.run_sweep`) into a Parquet dataset: SCENARIO is
 ``package.module:function`` or ``path/to/file.py:function``; ``--grid NAME=V1,V2,...``
 (repeatable, the product of the lists) with each value read as an int, else a float, else
 a bool (``true``/``false``), else a string; ``--resume DIR`` continues the sweep stored in
-DIR.  Exit status 1 if a run failed (error or timeout).
+DIR.  Modules are also looked up in the current directory.  Exit status 1 if a run
+failed (error or timeout).
 
 ``plot schedule`` draws a schedule table written by ``Trace.to_parquet``.
 
@@ -30,6 +31,7 @@ import importlib
 import importlib.util
 import inspect
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -203,6 +205,8 @@ def _sweep(args) -> int:
     from .errors import NetcosimError
     from .sweep import load_sweep, run_sweep
 
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())       # as `python -m` does: a module in the current directory is found
     common = dict(executor=args.executor, workers=args.workers, scheduler=args.scheduler, timeout=args.timeout,
                   quiet=args.quiet)
     try:

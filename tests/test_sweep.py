@@ -188,3 +188,33 @@ def test_a_directory_holding_another_sweep_is_refused_naming_the_difference_or_s
     res = run_sweep(sc.cheap, {"a": [0, 2], "b": [0.5]}, 1, executor="serial", out=out, fresh=True, quiet=True)
     assert res.summary["skipped"] == 0 and len(list((out / "parts").iterdir())) == 2
     assert load_sweep(out).runs["a"].tolist() == [0, 2]
+
+
+SCRIPT = """
+from netcosim.sweep import run_sweep
+
+def square(params, seed):
+    return {"y": params["x"] ** 2, "seed_mod": seed % 1000}
+
+if __name__ == "__main__":
+    import sys
+    res = run_sweep(square, {"x": [1, 2, 3]}, 2, executor=sys.argv[1], workers=2, quiet=True)
+    print(res.runs["y"].tolist(), res.runs["seed_mod"].tolist())
+"""
+
+
+def test_a_scenario_in_a_file_or_in_the_running_script_runs_on_the_pool(tmp_path):
+    import subprocess
+    import sys
+
+    script = tmp_path / "study.py"
+    script.write_text(SCRIPT)
+    by_file = run_sweep(f"{script}:square", {"x": [1, 2, 3]}, 2, executor="pool", workers=2, quiet=True)
+    assert by_file.runs["y"].tolist() == [1, 1, 4, 4, 9, 9]
+    assert by_file.meta["scenario"] == "study:square" and by_file.meta["scenario_file"] == str(script)
+    expected = f"{by_file.runs['y'].tolist()} {by_file.runs['seed_mod'].tolist()}"
+    for executor in ("serial", "pool"):            # the function defined in __main__
+        out = subprocess.run([sys.executable, str(script), executor], capture_output=True, text=True, timeout=120,
+                             cwd=tmp_path)
+        assert out.returncode == 0, out.stderr
+        assert out.stdout.strip() == expected

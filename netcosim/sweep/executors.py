@@ -331,13 +331,14 @@ class DaskExecutor:
         futures = {self.client.submit(_dask_task, self.ref, params, seed, self.timeout, pure=False): index
                    for index, params, seed in tasks}
         try:
-            for fut in as_completed(list(futures), loop=self.client.loop):
+            # results are gathered in batches as they complete (one round trip per batch, not per run)
+            for fut, outcome in as_completed(list(futures), loop=self.client.loop, with_results=True,
+                                             raise_errors=False):
                 index = futures.pop(fut)
-                try:
-                    outcome = fut.result()
-                except NetcosimError:
-                    raise
-                except Exception as exc:        # the worker died (KilledWorker), the cluster went away
+                if not isinstance(outcome, Outcome):     # the worker died (KilledWorker), the cluster went away
+                    exc = outcome[1] if isinstance(outcome, tuple) and len(outcome) == 3 else outcome
+                    if isinstance(exc, NetcosimError):
+                        raise exc
                     outcome = Outcome("error", error=f"{type(exc).__name__}: {exc}")
                 fut.release()
                 yield index, outcome

@@ -128,8 +128,9 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
     fn, ref = reference(scenario)
     _grid.check_accepted(names, fn)
     if ref is None and (executor != "serial" or timeout is not None):
-        raise ConfigurationError(f"scenario {fn!r} cannot be found by a worker process (a lambda or a nested "
-                                 f"function): define it at the top level of a module, or use executor='serial' "
+        raise ConfigurationError(f"scenario {fn!r} cannot be found by a worker process (a lambda, a nested "
+                                 f"function, a function typed in an interactive session): define it at the top "
+                                 f"level of a module or file, or use executor='serial' "
                                  f"without a timeout")
 
     meta = {"format": FORMAT, "scenario": ref.spec if ref else repr(fn),
@@ -147,6 +148,7 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
     if out is not None:
         validate.path(out, "out")
         store = Store(out)
+        store.check(meta, fresh)
     # connect before touching the directory: an unreachable scheduler changes nothing
     if executor == "serial":
         ex: Any = SerialExecutor(fn, ref, timeout)

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .. import validate
-from ..errors import ConfigurationError, ConfigurationTypeError
+from ..errors import ConfigurationError
 
 __all__ = ["canonical", "run_seed", "seed_list"]
 
@@ -50,7 +50,5 @@ def seed_list(seeds: Any) -> tuple[int, list[int] | None]:
         if dup:
             raise ConfigurationError(f"seeds lists seed {dup[0]!r} twice: {given!r}")
         return len(out), out
-    if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)):
-        raise ConfigurationTypeError(f"seeds must be a number of seeds (an integer >= 1) or a list of seeds, "
-                                     f"got {seeds!r}")
-    return validate.integer(seeds, "seeds", lo=1, kind="a number of seeds (an integer >= 1)"), None
+    return validate.integer(seeds, "seeds", lo=1,
+                            kind="a number of seeds (an integer >= 1) or a list of seeds"), None

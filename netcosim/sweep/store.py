@@ -78,10 +78,10 @@ class Store:
         except (OSError, ValueError) as exc:
             raise ConfigurationError(f"cannot read the sweep metadata {str(path)!r}: {exc}") from None
 
-    def open(self, meta: dict[str, Any], fresh: bool) -> set[tuple[int, int]]:
-        """Prepare the directory for the sweep *meta*; returns the ``(case, seed_index)``
-        of the runs already finished there.  A directory holding another sweep is refused,
-        naming what differs, unless *fresh* (then the old sweep's files are deleted)."""
+    def check(self, meta: dict[str, Any], fresh: bool) -> None:
+        """Refuse a directory the sweep *meta* cannot use, changing nothing: a file, a
+        non-empty directory without metadata, or (unless *fresh*) another sweep, naming
+        what differs."""
         if self.root.exists() and not self.root.is_dir():
             raise ConfigurationError(f"sweep output {str(self.root)!r} is a file, not a directory")
         old = self.read_metadata()
@@ -97,8 +97,14 @@ class Store:
                     f"(stored {_describe(old.get(k))}, now {_describe(meta.get(k))})"
                     + (f"; also {', '.join(differ[1:])}" if differ[1:] else "")
                     + "; pass fresh=True (--fresh) to discard it, or choose another directory")
-            if fresh:
-                self.clear()
+
+    def open(self, meta: dict[str, Any], fresh: bool) -> set[tuple[int, int]]:
+        """Prepare the directory for the sweep *meta* (:meth:`check` first); returns the
+        ``(case, seed_index)`` of the runs already finished there.  With *fresh* the
+        sweep found there is deleted first."""
+        self.check(meta, fresh)
+        if fresh and self.read_metadata() is not None:
+            self.clear()
         self.root.mkdir(parents=True, exist_ok=True)
         self.parts.mkdir(exist_ok=True)
         self.tables.mkdir(exist_ok=True)

@@ -88,7 +88,7 @@ CASES = [
     # seeds and the other numbers
     Case(id="sweep-seeds-zero", call=lambda: sweep(seeds=0), exc=CE, names="got 0"),
     Case(id="sweep-seeds-negative", call=lambda: sweep(seeds=-3), exc=CE, names="-3"),
-    Case(id="sweep-seeds-fraction", call=lambda: sweep(seeds=2.5), exc=CTE, names="2.5"),
+    Case(id="sweep-seeds-fraction", call=lambda: sweep(seeds=2.5), exc=CE, names="2.5"),
     Case(id="sweep-seeds-text", call=lambda: sweep(seeds="20"), exc=CTE, names="'20'"),
     Case(id="sweep-seeds-bool", call=lambda: sweep(seeds=True), exc=CTE, names="True"),
     Case(id="sweep-seeds-empty-list", call=lambda: sweep(seeds=[]), exc=CE, names="[]"),
