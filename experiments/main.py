@@ -29,6 +29,7 @@ from netcosim.errors import ConfigurationError, ConfigurationTypeError
 #: (module in experiments/, what it reproduces).  A name with a dot is a full module
 #: name (its last component names the output folder).
 EXPERIMENTS = [
+    ("flycrane_network", "§4.6.1, Fig. 4.11, App. A: networked Fly-crane over lossy 802.11b, offline vs online"),
     ("servo", "TrueTime servo example: PID with 2 ms computational delay"),
     ("threeservos", "TrueTime three-servo overload: deadline monotonic vs EDF"),
     ("networked_servo", "TrueTime networked servo on CSMA/CD and CAN with an interfering node"),
