@@ -20,25 +20,28 @@
 Run: ``python -m benchmarks.sweep``.  No test depends on these numbers.
 
 Measured on the development machine: 2 cores, busy with other work at the same time
-(load average 8 to 9 during the run, i.e. about four other CPU-bound processes per
-core), so the parallel figures are far below what an idle 2-core machine gives and do
-not test the speed-up targets; the overheads are meaningful::
+(load average about 5 during the run below, i.e. two or three other CPU-bound
+processes per core), so the parallel figures are below what an idle 2-core machine
+gives and do not test the speed-up targets; the overheads are meaningful::
 
-    runs of the networked servo, 1.35 simulated s each
-      serial: 1.61 runs/s (mean run 0.61 s), speed-up 1.00x, utilisation 0.99
-      pool  : 1.07 runs/s (mean run 1.45 s), speed-up 0.66x, utilisation 0.77
-      dask  : 1.20 runs/s (mean run 1.33 s), speed-up 0.74x, utilisation 0.80
-    overhead per run against a direct call (0.2 us), one worker:
-      serial: 0.15 ms
-      pool  : 0.31 ms
-      dask  : 21.32 ms
+    runs of the networked servo, 5.39 simulated s each
+      serial: 0.95 runs/s (mean run 1.05 s), speed-up 1.00x, utilisation 0.99
+      pool  : 1.36 runs/s (mean run 1.33 s), speed-up 1.43x, utilisation 0.90
+      dask  : 0.84 runs/s (mean run 2.21 s), speed-up 0.88x, utilisation 0.93
+    overhead per run against a direct call (0.1 us), one worker:
+      serial: 0.07 ms
+      pool  : 0.10 ms
+      dask  : 7.81 ms
 
-Under that load one run took 0.61 s alone and 1.3 to 1.5 s on each of two workers: the
-other processes, not the executor, took the second core.  The utilisation (0.77, 0.80)
-is mostly worker start-up (spawning 2 interpreters that import netcosim and pandas,
-several seconds under this load) over a 20-run sweep.  The pool's own cost per run
-(0.31 ms) is well under its 5 ms target; Dask's (21 ms, about its scheduler round trip
-per task under this load; 8 to 18 ms in other runs) is at its 20 ms target.
+Under that load a run took 1.05 s alone but 1.3 s (pool) and 2.2 s (Dask) on each of
+two workers: the other processes, not the executor, took the second core (the Dask
+sweep ran while the load peaked).  The utilisation (0.90, 0.93) is what the executors
+lose, mostly worker start-up (spawning 2 interpreters that import netcosim and pandas)
+over a 20-run sweep.  An earlier run at load average 8 to 9 gave speed-ups 0.66x and
+0.74x, utilisation 0.77 and 0.80, overheads 0.31 ms (pool) and 21 ms (Dask).  The
+pool's own cost per run (0.1 to 0.3 ms) is well under its 5 ms target; Dask's (8 to
+21 ms, its scheduler round trip per task, which grows with the load) is around its
+20 ms target.
 """
 
 from __future__ import annotations

@@ -115,7 +115,9 @@ class SerialExecutor:
 
         The objects alive before the first run are frozen (:func:`gc.freeze`) for the
         duration, so the collection after each run skips them and stays cheap."""
-        gc.freeze()
+        own_freeze = gc.get_freeze_count() == 0        # a caller's own freeze is left as it is
+        if own_freeze:
+            gc.freeze()
         try:
             for index, params, seed in tasks:
                 if self.timeout is not None:
@@ -124,7 +126,8 @@ class SerialExecutor:
                 else:
                     yield index, run_one(self.fn, params, seed)
         finally:
-            gc.unfreeze()
+            if own_freeze:
+                gc.unfreeze()
 
 
 def _pool_worker(conn, ref: ScenarioRef) -> None:
