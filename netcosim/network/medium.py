@@ -169,17 +169,21 @@ class WirelessMedium:
             r.iface._state()
 
     # ------------------------------------------------------------------ events
-    def start(self, tx: Transmission) -> None:
-        """*tx* begins now; update every listener and tell each MAC to re-evaluate."""
-        now = self.env._now
-        src = tx.src
-        self.transmissions += 1
-        if src.rx is not None:                   # half duplex: stop receiving
+    def _stop_receiving(self, src) -> None:
+        """*src* starts sending: half duplex, the frame it was receiving fails there."""
+        if src.rx is not None:
             L = src.rx
             L.fail[src.index] = "half_duplex"
             if L.dst is src:
                 L.dst_reason = "half_duplex"
             self._unlock(src)
+
+    def start(self, tx: Transmission) -> None:
+        """*tx* begins now; update every listener and tell each MAC to re-evaluate."""
+        now = self.env._now
+        src = tx.src
+        self.transmissions += 1
+        self._stop_receiving(src)
         powers = tx.powers = self.powers_from(src)
         self.active.append(tx)
         cap = self.capture_ratio * _TOL

@@ -651,12 +651,7 @@ class WLAN80211b(RadioNetwork):
         now = self._env._now
         src = tx.src
         m.transmissions += 1
-        if src.rx is not None:                   # half duplex: stop receiving
-            L = src.rx
-            L.fail[src.index] = "half_duplex"
-            if L.dst is src:
-                L.dst_reason = "half_duplex"
-            m._unlock(src)
+        m._stop_receiving(src)
         c = self._clock
         dst = tx.dst
         bcast = dst is BROADCAST
@@ -791,29 +786,33 @@ class WLAN80211b(RadioNetwork):
                 if r.in_crowd:
                     continue
                 self._end_pos = i
-                r.n_active -= 1
-                if r.rx is tx:
-                    ok, reason = r.rx_ok, r.rx_reason
-                    m._unlock(r)
-                    locked = True
-                    if not ok:
-                        tx.fail[r.index] = reason
-                else:
-                    ok, locked = False, False
-                    reason = tx.fail.get(r.index, "collision")
-                r.audible -= 1
-                self._rx_end(r, tx, ok, reason, locked)
-                self._reeval(r)
+                self._listener_end(r, tx)
         finally:
             self._end_heap = None
             self._end_pre = None
             self._end_pos = -1
 
+    def _listener_end(self, r, tx) -> None:
+        """*tx* left the air at *r*, a station outside the crowd: its reception outcome,
+        then its own DCF step."""
+        r.n_active -= 1
+        if r.rx is tx:
+            ok, reason = r.rx_ok, r.rx_reason
+            self.medium._unlock(r)
+            locked = True
+            if not ok:
+                tx.fail[r.index] = reason
+        else:
+            ok, locked = False, False
+            reason = tx.fail.get(r.index, "collision")
+        r.audible -= 1
+        self._rx_end(r, tx, ok, reason, locked)
+        self._reeval(r)
+
     def _bcast_end(self, tx, src, c_ok, c_locked, c_reason) -> None:
         """End of a broadcast data frame with a crowd (already updated): every station in
         order delivers or loses it (the crowd's stations with the crowd's outcome), the
         others also do their own reception and DCF step."""
-        m = self.medium
         stations: list = self._stations
         f = tx.frame
         self._end_heap = []
@@ -835,19 +834,7 @@ class WLAN80211b(RadioNetwork):
                     if not r.in_crowd:          # it left (a callback made it send): its own re-evaluation
                         self._reeval(r)
                     continue
-                r.n_active -= 1
-                if r.rx is tx:
-                    ok, reason = r.rx_ok, r.rx_reason
-                    m._unlock(r)
-                    locked = True
-                    if not ok:
-                        tx.fail[r.index] = reason
-                else:
-                    ok, locked = False, False
-                    reason = tx.fail.get(r.index, "collision")
-                r.audible -= 1
-                self._rx_end(r, tx, ok, reason, locked)
-                self._reeval(r)
+                self._listener_end(r, tx)
         finally:
             self._end_heap = None
             self._end_pre = None

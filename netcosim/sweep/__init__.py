@@ -13,7 +13,8 @@ Modules: :mod:`~netcosim.sweep.grid` (cases), :mod:`~netcosim.sweep.seeds` (run 
 bands and counts across seeds; :func:`~netcosim.sweep.aggregate.plot_sweep`).
 """
 
+from .aggregate import plot_sweep, summarize
 from .result import SweepResult
 from .runner import load_sweep, run_sweep
 
-__all__ = ["run_sweep", "load_sweep", "SweepResult"]
+__all__ = ["run_sweep", "load_sweep", "SweepResult", "summarize", "plot_sweep"]

@@ -78,9 +78,7 @@ class SweepResult:
     def plot(self, y: str, x: str | None = None, hue: str | None = None, **kw):
         """``plot_sweep(self.runs, x, y, hue)``: median and band of *y* across seeds
         (:func:`netcosim.sweep.aggregate.plot_sweep`); *x* defaults to the first parameter."""
-        from importlib import import_module
-
-        plot_sweep = import_module("netcosim.sweep.aggregate").plot_sweep
+        from .aggregate import plot_sweep
         return plot_sweep(self.runs, x=x or self.params[0], y=y, hue=hue, **kw)
 
     def __repr__(self) -> str:
