@@ -19,29 +19,25 @@
 
 Run: ``python -m benchmarks.sweep``.  No test depends on these numbers.
 
-Measured on the development machine: 2 cores, busy with other work at the same time
-(load average about 5 during the run below, i.e. two or three other CPU-bound
-processes per core), so the parallel figures are below what an idle 2-core machine
-gives and do not test the speed-up targets; the overheads are meaningful::
+Measured on the development machine (2 cores, otherwise idle: load average below 2)::
 
     runs of the networked servo, 5.39 simulated s each
-      serial: 0.95 runs/s (mean run 1.05 s), speed-up 1.00x, utilisation 0.99
-      pool  : 1.36 runs/s (mean run 1.33 s), speed-up 1.43x, utilisation 0.90
-      dask  : 0.84 runs/s (mean run 2.21 s), speed-up 0.88x, utilisation 0.93
+      serial: 0.97 runs/s (mean run 1.03 s), speed-up 1.00x, utilisation 1.00
+      pool  : 1.79 runs/s (mean run 1.04 s), speed-up 1.84x, utilisation 0.93
+      dask  : 1.78 runs/s (mean run 1.06 s), speed-up 1.83x, utilisation 0.94
     overhead per run against a direct call (0.1 us), one worker:
-      serial: 0.07 ms
-      pool  : 0.10 ms
-      dask  : 7.81 ms
+      serial: 0.05 ms
+      pool  : 0.12 ms
+      dask  : 4.58 ms
 
-Under that load a run took 1.05 s alone but 1.3 s (pool) and 2.2 s (Dask) on each of
-two workers: the other processes, not the executor, took the second core (the Dask
-sweep ran while the load peaked).  The utilisation (0.90, 0.93) is what the executors
-lose, mostly worker start-up (spawning 2 interpreters that import netcosim and pandas)
-over a 20-run sweep.  An earlier run at load average 8 to 9 gave speed-ups 0.66x and
-0.74x, utilisation 0.77 and 0.80, overheads 0.31 ms (pool) and 21 ms (Dask).  The
-pool's own cost per run (0.1 to 0.3 ms) is well under its 5 ms target; Dask's (8 to
-21 ms, its scheduler round trip per task, which grows with the load) is around its
-20 ms target.
+Both parallel executors meet their speed-up targets (1.8x, 1.7x) and their overhead
+targets (5 ms, 20 ms).  The utilisation (0.93, 0.94) is what they lose, mostly starting
+the pool's two interpreters (the Dask cluster is started before the clock) and the last
+run's tail over a 20-run sweep.  With Dask's default worker settings each run was about
+10 % slower than on the pool (its profiler samples the worker's stack every 10 ms):
+1.67x; :func:`netcosim.sweep.executors.local_cluster` switches that off.  On a machine
+busy with other work (load average 5) the same command gave 1.43x and 0.88x, and Dask's
+overhead per run grew to 8-21 ms: other processes took the second core.
 """
 
 from __future__ import annotations
@@ -93,9 +89,10 @@ def calibrate() -> float:
 
 def main() -> dict:
     """Measure and print both parts (see the module docstring)."""
-    import logging
 
-    from distributed import Client, LocalCluster
+    from distributed import Client
+
+    from netcosim.sweep.executors import local_cluster
 
     horizon = calibrate()
     res: dict = {"horizon": horizon}
@@ -112,8 +109,7 @@ def main() -> dict:
 
     res["serial"] = throughput(SERIAL_RUNS, "serial", 1)
     res["pool"] = throughput(PARALLEL_RUNS, "pool", 2)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=logging.ERROR) as cluster, Client(cluster, set_as_default=False) as client:
+    with local_cluster(2) as cluster, Client(cluster, set_as_default=False) as client:
         res["dask"] = throughput(PARALLEL_RUNS, client, 2)
     print(f"runs of the networked servo, {horizon} simulated s each")
     for name in ("serial", "pool", "dask"):
@@ -137,8 +133,7 @@ def main() -> dict:
     over = {}
     for name in ("serial", "pool"):
         over[name] = per_run(name, 1)
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=logging.ERROR) as cluster, Client(cluster, set_as_default=False) as client:
+    with local_cluster(1) as cluster, Client(cluster, set_as_default=False) as client:
         _sweep(tiny, 10, client, None)               # warm-up: the worker imports the scenario
         name = "dask"
         over[name] = per_run(client, None)

@@ -22,10 +22,9 @@ GRID = {"a": [0, 1, 2, 3, 4], "b": [0.0, 0.5, 1.0, 1.5]}
 
 @pytest.fixture(scope="module")
 def client():
-    import logging
+    from netcosim.sweep.executors import local_cluster
 
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                       silence_logs=logging.ERROR)
+    cluster = local_cluster(2)
     c = distributed.Client(cluster, set_as_default=False)
     yield c
     c.close()

@@ -283,6 +283,31 @@ def _dask_task(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: flo
     return run_one(load(ref), params, seed)
 
 
+#: Dask settings of the clusters :func:`local_cluster` starts.  A worker samples its
+#: own stack every 10 ms for Dask's profiler and wakes its event loop every 20 ms; for
+#: CPU-bound runs of a second or more that made each run about 10 % slower than on the
+#: process pool (``python -m benchmarks.sweep``).  A sweep needs neither.
+LOCAL_CLUSTER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+
+
+def local_cluster(workers: int, cluster_class: Any = None) -> Any:
+    """A ``LocalCluster`` of *workers* single-threaded worker processes, dashboard on a
+    free port, logs at ERROR, with :data:`LOCAL_CLUSTER_CONFIG` (the caller closes it)."""
+    import logging
+
+    import dask
+    if cluster_class is None:
+        from dask.distributed import LocalCluster as cluster_class
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
+        return cluster_class(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                             silence_logs=logging.ERROR)
+
+
 class DaskExecutor:
     """Runs the tasks on a Dask cluster: a given ``Client``, a scheduler address, or a
     ``LocalCluster`` of *workers* single-threaded processes started and closed here."""
@@ -310,9 +335,7 @@ class DaskExecutor:
                                          f"{CONNECT_TIMEOUT:g} s: {type(exc).__name__}: {exc}") from None
             self._owned.append(self.client)
             return
-        import logging
-        cluster = LocalCluster(n_workers=self.n_workers or cpu_count(), threads_per_worker=1, processes=True,
-                               dashboard_address=":0", silence_logs=logging.ERROR)
+        cluster = local_cluster(self.n_workers or cpu_count(), LocalCluster)
         self.client = Client(cluster, set_as_default=False)
         self._owned += [self.client, cluster]
 
