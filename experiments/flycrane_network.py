@@ -57,7 +57,8 @@ def config_of(params: dict, seed: int) -> FlyCraneNetworkConfig:
         raise ConfigurationError(f"scenario parameters need 'loss' and 'strategy', got {sorted(params)}")
     kw = {k: (v.item() if hasattr(v, "item") else v) for k, v in params.items()}
     kw.setdefault("horizon", HORIZON)
-    return FlyCraneNetworkConfig(seed=int(seed), **kw)
+    # a sweep run keeps only the traces its metrics read (time series and frames)
+    return FlyCraneNetworkConfig(seed=int(seed), schedules=False, **kw)
 
 
 def metrics(r: FlyCraneRun) -> dict:

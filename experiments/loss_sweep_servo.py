@@ -117,6 +117,8 @@ def scenario(params: dict, seed: int) -> dict[str, Any]:
         raise ConfigurationError(f"params {params!r}: unknown key(s) {unknown}, missing {missing}; "
                                  f"expected {PARAMS}")
     sim, net, reference = build(params["loss"], params["mode"], seed)
+    for table in ("schedule", "jobs", "network_schedule"):     # only signals and frames are read
+        sim.trace.configure(table, mode="off")
     error = None
     try:
         sim.run(until=DURATION)

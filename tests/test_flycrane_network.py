@@ -285,3 +285,16 @@ def test_a_run_whose_plant_fails_is_returned_diverged_with_the_error():
     m = fn.metrics(r)
     assert m["iae"] == math.inf and m["t_settle"] == math.inf and m["diverged"]
     assert r.t[-1] == 0.0 and r.norm_e[-1] == pytest.approx(0.6981317007977319)
+
+
+def test_a_sweep_run_keeps_only_the_traces_its_metrics_read():
+    """``schedules=False`` (what the sweep's scenario uses) switches the schedule traces off
+    and changes none of the metrics: 4 kernels' schedules and the network schedule are
+    not kept, the frames table (message counts) is."""
+    cfg = FlyCraneNetworkConfig(strategy="online", loss=0.3, horizon=6.0, plant="kinematic", seed=2)
+    full, lean = run(cfg), run(cfg.replace(schedules=False))
+    assert len(full.schedule) > 0 and len(full.network_schedule) > 0 and len(full.jobs) > 0
+    assert len(lean.schedule) == 0 and len(lean.network_schedule) == 0 and len(lean.jobs) == 0
+    assert len(lean.frames) == len(full.frames) > 0
+    assert fn.metrics(lean) == fn.metrics(full)
+    assert fn.config_of({"loss": 0.3, "strategy": "online"}, 2).schedules is False

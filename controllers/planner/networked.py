@@ -117,6 +117,10 @@ class FlyCraneNetworkConfig:
     ``sample_dt`` (s): grid of the recorded time series.  ``k_offline`` (1/s): the
     offline gain; None designs it (:func:`offline_gain`, ``n_mu`` Monte-Carlo samples).
     ``seed``: root seed of the simulation (frame losses, backoffs).
+    ``schedules``: record the kernels' ``schedule`` and ``jobs`` tables and the
+    network's ``network_schedule`` (Figs. A.4/A.5); False switches those traces off
+    (``FlyCraneRun.schedule``, ``jobs`` and ``network_schedule`` are then empty), which
+    a sweep run does: its metrics read only the time series and the ``frames`` table.
     """
 
     strategy: str = "offline"
@@ -141,6 +145,7 @@ class FlyCraneNetworkConfig:
     k_offline: float | None = None
     n_mu: int = 200
     seed: int = 0
+    schedules: bool = True
 
     def __post_init__(self):
         _choice(self.strategy, "strategy", STRATEGIES)
@@ -165,6 +170,8 @@ class FlyCraneNetworkConfig:
             object.__setattr__(self, nm, validate.real(getattr(self, nm), nm, lo=0.0, hi=180.0, lo_open=True,
                                                        hi_open=True, kind="an angle in (0, 180) deg",
                                                        type_error=ConfigurationError))
+        if not isinstance(self.schedules, bool):
+            raise ConfigurationError(f"schedules must be True or False, got {self.schedules!r}")
         if self.k_offline is not None:
             validate.positive(self.k_offline, "k_offline (1/s)", kind="a positive number",
                               type_error=ConfigurationError)
@@ -260,6 +267,9 @@ def build(sim: Simulation, config: FlyCraneNetworkConfig, *, network: Any = None
     if network is None:
         network = WLAN80211b(sim, "wlan", data_rate=config.data_rate, retry_limit=config.retry_limit + 1,
                              loss=Bernoulli(config.loss) if config.loss > 0 else None)
+    if not config.schedules:
+        for table in ("schedule", "jobs", "network_schedule"):
+            sim.trace.configure(table, mode="off")
     online = config.strategy == "online"
     gain = OnlineGain() if online else OfflineGain(offline_gain(config))
     model = VelocityTrackingModel(config.alpha) if config.plant == "dynamic" else KinematicModel()
