@@ -20,7 +20,7 @@ Runs, on the simulation model with landers (1 cm, see
   wants their own machine's.
 
 Writes PNG figures and Parquet tables to *outdir* and returns the metrics table.
-Run ``python -m experiments.ch2_landing``.
+Also draws Fig. 2.5 (the sigmoid (2.11)).  Run ``python -m experiments.ch2_landing``.
 """
 
 from __future__ import annotations
@@ -32,7 +32,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from controllers.landing import SIM_PARAMS, LandingTiming, landing_metrics, run_landing  # noqa: E402
+from controllers.landing import (SIM_PARAMS, LandingConfig, LandingTiming, landing_metrics,  # noqa: E402
+                                 run_landing, sigmoid)
 from netcosim.cputime import RecordedCPUTime  # noqa: E402
 from netcosim.plot import plot_schedule  # noqa: E402
 
@@ -239,15 +240,34 @@ def _figure_delay(sweep: pd.DataFrame, path) -> None:
         d = sweep[(sweep["scheme"] == scheme) & sweep["wind"]]
         axes[1].plot(d["delay"] * 1e3, d["wind_deviation"], marker="o", color=color, label=label)
     axes[0].axhline(0.0, color="gold", lw=1.5)
-    axes[0].set_yscale("symlog", linthresh=10.0)
+    axes[0].set_yscale("symlog", linthresh=1.0)
     axes[0].set_ylabel("min propeller–ground distance $d_{PG}$ [mm]")
     axes[1].set_yscale("log")
     axes[1].set_ylabel("wind-induced deviation (RMS) [deg]")
     for ax in axes:
         ax.set_xlabel("NMPC computation delay [ms]")
         ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=7)
+        ax.legend(loc="best", fontsize=7, framealpha=0.6)
     fig.suptitle("Both 2LC schemes against the NMPC computation delay (fixed budget, one node)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _figure_sigmoid(path) -> None:
+    """Fig. 2.5: the weight h(φ) of (2.11) with the OCP's γ = 19 and φ_lim = -0.24 rad."""
+    cfg = LandingConfig()
+    phi = np.linspace(-math.radians(40.0), math.radians(10.0), 401)
+    h = np.array([float(sigmoid(p, cfg.gamma, cfg.phi_lim)) for p in phi])
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.plot(phi, h, color="tab:blue")
+    ax.axvline(cfg.phi_lim, color="gray", ls=":", label=f"$\\varphi_{{lim}}$ = {cfg.phi_lim} rad, h = 1/2")
+    ax.axvline(-SIM_PARAMS.alpha, color="gold", lw=1.5, label="$\\varphi^*$ = $-\\alpha$")
+    ax.set_xlabel("elevation φ [rad]")
+    ax.set_ylabel("h(φ)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(f"Sigmoid (2.11), γ = {cfg.gamma:g}, $\\varphi_{{lim}}$ = {cfg.phi_lim} rad (cf. Fig. 2.5)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -353,6 +373,7 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     windy = {c: runs[f"ideal_{c}_wind"] for c in ("nmpc", "2lc")}
     _figures(out, calm, windy, scheduled)
     _figure_delay(sweep, out / "delay_sweep.png")
+    _figure_sigmoid(out / "fig2_5_sigmoid.png")
     metrics = _metrics(runs)
     _write_tables(out, runs, scheduled, metrics, sweep)
     _print_summary(metrics, sweep)
