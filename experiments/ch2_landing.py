@@ -32,8 +32,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from controllers.landing import (SIM_PARAMS, LandingConfig, LandingTiming, landing_metrics,  # noqa: E402
-                                 run_landing, sigmoid)
+from controllers.landing import SIM_PARAMS, LandingConfig, LandingTiming, landing_metrics, run_landing, sigmoid
 from netcosim.cputime import RecordedCPUTime  # noqa: E402
 from netcosim.plot import plot_schedule  # noqa: E402
 
@@ -360,8 +359,9 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     duration = 1.0 if quick else 1.5
     runs = _ideal_runs(duration)
     print("  ch2_landing: delay sweep", flush=True)
+    names = (("measured", "2lc"), ("reference", "2lcref"), ("nmpc", "nmpc"))
     ideal = {(scheme, wind): runs[f"ideal_{c}_{'wind' if wind else 'calm'}"]
-             for scheme, c in (("measured", "2lc"), ("reference", "2lcref"), ("nmpc", "nmpc")) for wind in (False, True)}
+             for scheme, c in names for wind in (False, True)}
     sweep = delay_sweep((0.0, 0.005) if quick else DELAYS, duration,
                         ("measured", "reference") if quick else ("measured", "reference", "nmpc"), ideal)
     print("  ch2_landing: scheduled runs (recorded NMPC solve times)", flush=True)
@@ -383,7 +383,8 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
 if __name__ == "__main__":
     from experiments._cli import experiment_parser
     ap = experiment_parser(__doc__, "results/ch2",
-                           quick="1 s landings instead of 1.5 s; delays 0 and 5 ms (5 ms: 2LC schemes only); no two-node run")
+                           quick="1 s landings instead of 1.5 s; delays 0 and 5 ms (5 ms: 2LC schemes only); "
+                                 "no two-node run")
     ap.add_argument("--calibrate", action="store_true",
                     help=f"re-record the NMPC solve times on this host into {CALIBRATION} (wall clock: "
                          "run on a quiet machine) instead of running the experiment")

@@ -16,8 +16,8 @@ def test_ch2_landing_quick(quick):
     tmp_path, metrics = quick
     for name in ("fig2_8_angles.png", "fig2_9_inputs.png", "fig2_10_constraints.png", "fig2_11_wind_angles.png",
                  "fig2_12_wind_inputs.png", "fig2_13_wind_constraints.png", "schedule_2lc.png",
-                 "scheduled_landing.png", "delay_sweep.png", "fig2_5_sigmoid.png", "signals.parquet", "nmpc_steps.parquet",
-                 "jobs.parquet", "metrics.parquet", "delay_sweep.parquet"):
+                 "scheduled_landing.png", "delay_sweep.png", "fig2_5_sigmoid.png", "signals.parquet",
+                 "nmpc_steps.parquet", "jobs.parquet", "metrics.parquet", "delay_sweep.parquet"):
         assert (tmp_path / name).stat().st_size > 1000, name
     saved = pd.read_parquet(tmp_path / "metrics.parquet").set_index("run")
     assert set(saved.index) == set(metrics.index)
