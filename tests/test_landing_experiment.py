@@ -53,3 +53,18 @@ def test_ch2_delay_sweep_shows_where_the_reference_start_pays_off(quick):
     assert sweep.loc[(0.005, "measured", False), "d_PG_min"] == pytest.approx(-0.0158, abs=1e-3)
     assert sweep.loc[(0.005, "reference", False), "d_PG_min"] == pytest.approx(0.7e-3, abs=0.2e-3)
     assert sweep.loc[(0.005, "reference", False), "t_settle"] < 0.5
+
+
+@pytest.mark.slow
+def test_ch2_delay_sweep_full_grid():
+    """The delay figure's grid (0, 1, 2, 5 ms, 1.5 s runs): from 1 ms on the thesis's
+    scheme puts the propellers more than 1.5 cm into the slope; the reference start and
+    NMPC alone keep them above it at every delay."""
+    sweep = ch2_landing.delay_sweep().set_index(["delay", "scheme", "wind"])
+    for delay in (0.001, 0.002, 0.005):
+        for wind in (False, True):
+            assert sweep.loc[(delay, "measured", wind), "d_PG_min"] < -0.015
+            assert sweep.loc[(delay, "reference", wind), "d_PG_min"] > 0.5e-3
+            assert sweep.loc[(delay, "nmpc", wind), "d_PG_min"] > 6e-3
+    assert sweep.loc[(0.001, "measured", False), "d_PG_min"] == pytest.approx(-0.0432, abs=1e-3)
+    assert sweep.loc[(0.0, "measured", False), "d_PG_min"] == pytest.approx(1.7e-3, abs=0.2e-3)
