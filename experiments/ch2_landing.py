@@ -220,6 +220,28 @@ def delay_sweep(delays=DELAYS, duration: float = 1.5, schemes=("measured", "refe
     return pd.DataFrame(rows)
 
 
+def cable_stress_sweep(masses=(0.5, 0.7, 1.0, 1.3), lengths=(0.5, 1.0, 2.0),
+                       duration: float = 1.5) -> pd.DataFrame:
+    """Peak cable stress f_L of the 2LC (thesis scheme, zero delay) for vehicle masses
+    ``m_B`` [kg] and cable lengths ``l`` [m] the thesis leaves open (every other
+    parameter from :data:`SIM_PARAMS`).
+
+    One row per (``m_B``, ``l``): ``f_L_max_calm``, ``f_L_max_wind`` [N], ``d_PG_min``
+    [m] (calm), ``t_settle`` [s] (calm) and ``dphi_max`` [deg/s] (calm, peak |φ̇|).
+    """
+    import dataclasses
+    rows = []
+    for m_B in masses:
+        for length in lengths:
+            p = dataclasses.replace(SIM_PARAMS, m_B=float(m_B), l=float(length))
+            calm, windy = (run_landing("2lc", wind=w, duration=duration, params=p) for w in (False, True))
+            mc = landing_metrics(calm)
+            rows.append(dict(m_B=float(m_B), l=float(length), f_L_max_calm=mc["f_L_max"],
+                             f_L_max_wind=landing_metrics(windy)["f_L_max"], d_PG_min=mc["d_PG_min"],
+                             t_settle=mc["t_settle"], dphi_max=float(DEG * calm.signals["dphi"].abs().max())))
+    return pd.DataFrame(rows)
+
+
 def _wind_deviation(calm, windy) -> float:
     """RMS over the run of (run with wind - run without) in φ and ϑ [deg]."""
     a, b = calm.signals, windy.signals
@@ -388,8 +410,13 @@ if __name__ == "__main__":
     ap.add_argument("--calibrate", action="store_true",
                     help=f"re-record the NMPC solve times on this host into {CALIBRATION} (wall clock: "
                          "run on a quiet machine) instead of running the experiment")
+    ap.add_argument("--cable-sweep", action="store_true",
+                    help="print the 2LC's peak cable stress over vehicle mass and cable length "
+                         "(docs/nmpc.md) instead of running the experiment")
     a = ap.parse_args()
-    if a.calibrate:
+    if a.cable_sweep:
+        print(cable_stress_sweep().round(4).to_string(index=False))
+    elif a.calibrate:
         t = calibrate()
         print(t.groupby(["run", "phase"])["cpu"].describe()[["count", "50%", "max"]].to_string())
         print(f"-> {CALIBRATION}")
