@@ -3,19 +3,24 @@
 Runs, on the simulation model with landers (1 cm, see
 :data:`controllers.landing.SIM_PARAMS`) and optionally the wind of §2.6.1:
 
-* ``ideal``: NMPC alone and the two-layer controller (2LC), without and with wind,
-  with zero computation times (the thesis's Simulink setting) -- Fig. 2.8–2.13;
+* ``ideal``: NMPC alone and the two-layer controller (2LC) as the thesis built it
+  (the NMPC re-initialized from the measured state at every sample), without and
+  with wind, with zero computation times (the thesis's Simulink setting) -- Fig.
+  2.8–2.13; plus the reference-start variant of the 2LC (``nmpc_init="reference"``)
+  for comparison;
+* ``delay``: both 2LC schemes and NMPC alone with a fixed NMPC computation delay of
+  0, 1, 2 and 5 ms (calm and wind), to show where the reference start pays off;
 * ``scheduled``: the same controllers as netcosim tasks on one node whose NMPC job
   costs the RTI computation's solve times recorded once by a calibration run and
   replayed job by job (``experiments/data/ch2_nmpc_cpu_times.csv``; 100 µs per
-  low-level job, 20 µs context switches), plus the 2LC started from the measurement
-  (the thesis's initialization) to show its sensitivity to the computation delay,
-  and the 2LC on two nodes over a 1 Mbit/s link.  The replay makes every run give
-  the same numbers on any host; :func:`calibrate` re-records the table on this host
-  (wall-clock solve times, not reproducible) for whoever wants their own machine's.
+  low-level job, 20 µs context switches): NMPC alone, the 2LC in both schemes, and
+  (full run) the reference-start 2LC on two nodes over a 1 Mbit/s link.  The replay
+  makes every run give the same numbers on any host; :func:`calibrate` re-records
+  the table on this host (wall-clock solve times, not reproducible) for whoever
+  wants their own machine's.
 
 Writes PNG figures and Parquet tables to *outdir* and returns the metrics table.
-Run ``python -m experiments.ch2_landing``.
+Also draws Fig. 2.5 (the sigmoid (2.11)).  Run ``python -m experiments.ch2_landing``.
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from controllers.landing import SIM_PARAMS, LandingTiming, landing_metrics, run_landing  # noqa: E402
+from controllers.landing import SIM_PARAMS, LandingConfig, LandingTiming, landing_metrics, run_landing, sigmoid
 from netcosim.cputime import RecordedCPUTime  # noqa: E402
 from netcosim.plot import plot_schedule  # noqa: E402
 
@@ -39,19 +44,26 @@ LABELS = {"nmpc": "NMPC", "2lc": "2LC"}
 CALIBRATION = Path(__file__).resolve().parent / "data" / "ch2_nmpc_cpu_times.csv"
 #: Low-level job CPU time and context switch of the scheduled runs (s).
 FL_EXEC, CONTEXT_SWITCH = 1e-4, 2e-5
+#: The two ways the 2LC starts its NMPC (``nmpc_init``): the thesis's scheme, which the
+#: figures reproduce, and the reference-start variant.
+SCHEMES = {"measured": "2LC, NMPC from the measurement (thesis)",
+           "reference": "2LC, NMPC from the reference (variant)"}
+#: Fixed NMPC computation delays of the delay sweep (s): the feedback phase costs all of it.
+DELAYS = (0.0, 0.001, 0.002, 0.005)
 
 
 def _scheduled_runs(timing_for, duration: float, quick: bool) -> dict:
     """The scheduled runs, each with the timing ``timing_for(name)``."""
     runs = {
         "NMPC alone": lambda t: run_landing("nmpc", duration=duration, timing=t),
-        "2LC (NMPC from reference)": lambda t: run_landing("2lc", duration=duration, timing=t),
+        "2LC (NMPC from measurement)": lambda t: run_landing("2lc", duration=duration, timing=t,
+                                                             nmpc_init="measured"),
+        "2LC (NMPC from reference)": lambda t: run_landing("2lc", duration=duration, timing=t,
+                                                           nmpc_init="reference"),
     }
     if not quick:
-        runs["2LC (NMPC from measurement)"] = lambda t: run_landing("2lc", duration=duration, timing=t,
-                                                                    nmpc_init="measured")
         runs["2LC on two nodes (1 Mbit/s link)"] = lambda t: run_landing("2lc", duration=duration, timing=t,
-                                                                         topology="two_nodes")
+                                                                         topology="two_nodes", nmpc_init="reference")
     return {name: fn(timing_for(name)) for name, fn in runs.items()}
 
 
@@ -175,6 +187,113 @@ def _figure_scheduled(runs, path):
     plt.close(fig)
 
 
+def delay_sweep(delays=DELAYS, duration: float = 1.5, schemes=("measured", "reference", "nmpc"),
+                ideal: dict | None = None) -> pd.DataFrame:
+    """Both 2LC schemes and NMPC alone, calm and with wind, with a fixed NMPC
+    computation delay [s] (all of it in the feedback phase, so the plan reaches the
+    plant *delay* seconds after its sample).
+
+    One row per (``delay`` [s], ``scheme`` -- ``"measured"``, ``"reference"`` or
+    ``"nmpc"`` --, ``wind``) with :func:`landing_metrics`, plus ``wind_deviation``
+    [deg] (RMS over the run of the wind run minus the calm run, same delay and scheme)
+    on the wind rows.  *ideal* maps ``(scheme, wind)`` to a zero-delay run of the same
+    *duration* to reuse for delay 0 (the same run: zero CPU time is zero CPU time);
+    its schemes are always reported at delay 0.
+    """
+    rows = []
+    for delay in delays:
+        timing = LandingTiming(nmpc_exec=float(delay), feedback_share=1.0)
+        reuse = ideal if delay == 0 and ideal is not None else {}
+        for scheme in ("measured", "reference", "nmpc"):
+            if scheme not in schemes and (scheme, False) not in reuse:
+                continue
+            pair = {}
+            for wind in (False, True):
+                if (scheme, wind) in reuse:
+                    pair[wind] = reuse[(scheme, wind)]
+                elif scheme == "nmpc":
+                    pair[wind] = run_landing("nmpc", wind=wind, duration=duration, timing=timing)
+                else:
+                    pair[wind] = run_landing("2lc", wind=wind, duration=duration, timing=timing, nmpc_init=scheme)
+                rows.append(dict(landing_metrics(pair[wind]), delay=float(delay), scheme=scheme, wind=wind))
+            rows[-1]["wind_deviation"] = _wind_deviation(pair[False], pair[True])
+    return pd.DataFrame(rows)
+
+
+def cable_stress_sweep(masses=(0.5, 0.7, 1.0, 1.3), lengths=(0.5, 1.0, 2.0),
+                       duration: float = 1.5) -> pd.DataFrame:
+    """Peak cable stress f_L of the 2LC (thesis scheme, zero delay) for vehicle masses
+    ``m_B`` [kg] and cable lengths ``l`` [m] the thesis leaves open (every other
+    parameter from :data:`SIM_PARAMS`).
+
+    One row per (``m_B``, ``l``): ``f_L_max_calm``, ``f_L_max_wind`` [N], ``d_PG_min``
+    [m] (calm), ``t_settle`` [s] (calm) and ``dphi_max`` [deg/s] (calm, peak |φ̇|).
+    """
+    import dataclasses
+    rows = []
+    for m_B in masses:
+        for length in lengths:
+            p = dataclasses.replace(SIM_PARAMS, m_B=float(m_B), l=float(length))
+            calm, windy = (run_landing("2lc", wind=w, duration=duration, params=p) for w in (False, True))
+            mc = landing_metrics(calm)
+            rows.append(dict(m_B=float(m_B), l=float(length), f_L_max_calm=mc["f_L_max"],
+                             f_L_max_wind=landing_metrics(windy)["f_L_max"], d_PG_min=mc["d_PG_min"],
+                             t_settle=mc["t_settle"], dphi_max=float(DEG * calm.signals["dphi"].abs().max())))
+    return pd.DataFrame(rows)
+
+
+def _wind_deviation(calm, windy) -> float:
+    """RMS over the run of (run with wind - run without) in φ and ϑ [deg]."""
+    a, b = calm.signals, windy.signals
+    return float(DEG * np.sqrt(np.mean((a["phi"] - b["phi"]) ** 2 + (a["theta"] - b["theta"]) ** 2)))
+
+
+def _figure_delay(sweep: pd.DataFrame, path) -> None:
+    """d_PG min (calm and wind) and the wind-induced deviation against the NMPC delay."""
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    styles = {"measured": ("tab:red", SCHEMES["measured"]), "reference": ("tab:green", SCHEMES["reference"]),
+              "nmpc": ("tab:blue", "NMPC alone")}
+    for scheme, (color, label) in styles.items():
+        for wind, ls in ((False, "-"), (True, "--")):
+            d = sweep[(sweep["scheme"] == scheme) & (sweep["wind"] == wind)]
+            axes[0].plot(d["delay"] * 1e3, d["d_PG_min"] * 1e3, ls, marker="o", color=color,
+                         label=f"{label}, {'wind' if wind else 'calm'}")
+        d = sweep[(sweep["scheme"] == scheme) & sweep["wind"]]
+        axes[1].plot(d["delay"] * 1e3, d["wind_deviation"], marker="o", color=color, label=label)
+    axes[0].axhline(0.0, color="gold", lw=1.5)
+    axes[0].set_yscale("symlog", linthresh=1.0)
+    axes[0].set_ylabel("min propeller–ground distance $d_{PG}$ [mm]")
+    axes[1].set_yscale("log")
+    axes[1].set_ylabel("wind-induced deviation (RMS) [deg]")
+    for ax in axes:
+        ax.set_xlabel("NMPC computation delay [ms]")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=7, framealpha=0.6)
+    fig.suptitle("Both 2LC schemes against the NMPC computation delay (fixed budget, one node)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _figure_sigmoid(path) -> None:
+    """Fig. 2.5: the weight h(φ) of (2.11) with the OCP's γ = 19 and φ_lim = -0.24 rad."""
+    cfg = LandingConfig()
+    phi = np.linspace(-math.radians(40.0), math.radians(10.0), 401)
+    h = np.array([float(sigmoid(p, cfg.gamma, cfg.phi_lim)) for p in phi])
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.plot(phi, h, color="tab:blue")
+    ax.axvline(cfg.phi_lim, color="gray", ls=":", label=f"$\\varphi_{{lim}}$ = {cfg.phi_lim} rad, h = 1/2")
+    ax.axvline(-SIM_PARAMS.alpha, color="gold", lw=1.5, label="$\\varphi^*$ = $-\\alpha$")
+    ax.set_xlabel("elevation φ [rad]")
+    ax.set_ylabel("h(φ)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(f"Sigmoid (2.11), γ = {cfg.gamma:g}, $\\varphi_{{lim}}$ = {cfg.phi_lim} rad (cf. Fig. 2.5)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def _tidy(name, run):
     s = run.to_pandas()
     s.insert(0, "run", name)
@@ -182,13 +301,14 @@ def _tidy(name, run):
 
 
 def _ideal_runs(duration: float) -> dict:
-    """NMPC alone and the 2LC, without and with wind, zero computation times."""
+    """NMPC alone, the 2LC (thesis scheme) and the reference-start 2LC (``2lcref``),
+    without and with wind, zero computation times."""
     runs = {}
     for wind in (False, True):
-        for c in ("nmpc", "2lc"):
+        for c, kw in (("nmpc", {}), ("2lc", dict(nmpc_init="measured")), ("2lcref", dict(nmpc_init="reference"))):
             name = f"ideal_{c}_{'wind' if wind else 'calm'}"
             print(f"  ch2_landing: {name} ({duration} s simulated)", flush=True)
-            runs[name] = run_landing(c, wind=wind, duration=duration)
+            runs[name] = run_landing("nmpc" if c == "nmpc" else "2lc", wind=wind, duration=duration, **kw)
     return runs
 
 
@@ -201,32 +321,32 @@ def _figures(out: Path, calm: dict, windy: dict, scheduled: dict) -> None:
     _figure_inputs(windy, out / "fig2_12_wind_inputs.png", "Inputs under wind (cf. Fig. 2.12)")
     _figure_constraints(windy, out / "fig2_13_wind_constraints.png", "Constraints under wind (cf. Fig. 2.13)")
     _figure_scheduled(scheduled, out / "scheduled_landing.png")
-    plot_schedule(scheduled["2LC (NMPC from reference)"].schedule, node="onboard", tasks=["fl", "nmpc"],
+    plot_schedule(scheduled["2LC (NMPC from measurement)"].schedule, node="onboard", tasks=["fl", "nmpc"],
                   t_range=(0.0, 0.05), path=out / "schedule_2lc.png",
                   title="2LC on one node: 500 Hz FL (top) preempts the 100 Hz NMPC (recorded solve times)")
 
 
-def _metrics(runs: dict, calm: dict, windy: dict) -> pd.DataFrame:
+def _metrics(runs: dict) -> pd.DataFrame:
     """:func:`landing_metrics` of every run, plus the wind and response-time comparisons."""
     metrics = pd.DataFrame([dict(landing_metrics(run), run=name) for name, run in runs.items()]).set_index("run")
     # wind-induced deviation: RMS over the run of (run with wind - run without), degrees
-    for c in ("nmpc", "2lc"):
-        a, b = calm[c].signals, windy[c].signals
-        metrics.loc[f"ideal_{c}_wind", "wind_deviation"] = float(
-            DEG * np.sqrt(np.mean((a["phi"] - b["phi"]) ** 2 + (a["theta"] - b["theta"]) ** 2)))
-    metrics.loc["ideal_2lc_wind", "rms_ratio_2lc_over_nmpc"] = (metrics.loc["ideal_2lc_wind", "rms"]
-                                                                / metrics.loc["ideal_nmpc_wind", "rms"])
-    metrics.loc["ideal_2lc_wind", "wind_deviation_ratio"] = (metrics.loc["ideal_2lc_wind", "wind_deviation"]
-                                                             / metrics.loc["ideal_nmpc_wind", "wind_deviation"])
-    sched = "scheduled_2LC (NMPC from reference)"
-    jobs = runs[sched].jobs
-    nm = jobs[jobs["task"] == "nmpc"]
-    metrics.loc[sched, "nmpc_response_median"] = float(nm["response_time"].median())
-    metrics.loc[sched, "nmpc_response_max"] = float(nm["response_time"].max())
+    for c in ("nmpc", "2lc", "2lcref"):
+        metrics.loc[f"ideal_{c}_wind", "wind_deviation"] = _wind_deviation(runs[f"ideal_{c}_calm"],
+                                                                           runs[f"ideal_{c}_wind"])
+    for c in ("2lc", "2lcref"):
+        w = f"ideal_{c}_wind"
+        metrics.loc[w, "rms_ratio_2lc_over_nmpc"] = metrics.loc[w, "rms"] / metrics.loc["ideal_nmpc_wind", "rms"]
+        metrics.loc[w, "wind_deviation_ratio"] = (metrics.loc[w, "wind_deviation"]
+                                                  / metrics.loc["ideal_nmpc_wind", "wind_deviation"])
+    for sched in ("scheduled_2LC (NMPC from measurement)", "scheduled_2LC (NMPC from reference)"):
+        jobs = runs[sched].jobs
+        nm = jobs[jobs["task"] == "nmpc"]
+        metrics.loc[sched, "nmpc_response_median"] = float(nm["response_time"].median())
+        metrics.loc[sched, "nmpc_response_max"] = float(nm["response_time"].max())
     return metrics
 
 
-def _write_tables(out: Path, runs: dict, scheduled: dict, metrics: pd.DataFrame) -> None:
+def _write_tables(out: Path, runs: dict, scheduled: dict, metrics: pd.DataFrame, sweep: pd.DataFrame) -> None:
     pd.concat([_tidy(n, r) for n, r in runs.items()], ignore_index=True).to_parquet(out / "signals.parquet")
     pd.concat([r.steps.assign(run=n) for n, r in runs.items()],
               ignore_index=True).to_parquet(out / "nmpc_steps.parquet")
@@ -235,17 +355,23 @@ def _write_tables(out: Path, runs: dict, scheduled: dict, metrics: pd.DataFrame)
     pd.concat([r.cpu_times.assign(run=n) for n, r in scheduled.items()],
               ignore_index=True).to_parquet(out / "cpu_times.parquet")
     metrics.reset_index().to_parquet(out / "metrics.parquet")
+    sweep.to_parquet(out / "delay_sweep.parquet")
 
 
-def _print_summary(metrics: pd.DataFrame) -> None:
-    cols = ["t_settle", "phi_final", "theta_final", "rms", "f_L_min", "f_L_max", "d_PG_min", "n_fallback"]
+def _print_summary(metrics: pd.DataFrame, sweep: pd.DataFrame) -> None:
+    cols = ["t_settle", "phi_final", "theta_final", "rms", "f_R_max", "f_L_min", "f_L_max", "d_PG_min",
+            "n_fallback"]
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(metrics[cols].round(4).to_string())
-        w = metrics.loc["ideal_2lc_wind"]
-        print(f"\nwind: RMS (deg) NMPC {metrics.loc['ideal_nmpc_wind', 'rms']:.4f}, 2LC {w['rms']:.4f}, "
-              f"ratio {w['rms_ratio_2lc_over_nmpc']:.4f}; wind-induced deviation NMPC "
-              f"{metrics.loc['ideal_nmpc_wind', 'wind_deviation']:.4f}, 2LC {w['wind_deviation']:.4f}, "
-              f"ratio {w['wind_deviation_ratio']:.3f}")
+        for c in ("2lc", "2lcref"):
+            w = metrics.loc[f"ideal_{c}_wind"]
+            print(f"wind, {c}: RMS (deg) NMPC {metrics.loc['ideal_nmpc_wind', 'rms']:.4f}, 2LC {w['rms']:.4f}, "
+                  f"ratio {w['rms_ratio_2lc_over_nmpc']:.4f}; wind-induced deviation NMPC "
+                  f"{metrics.loc['ideal_nmpc_wind', 'wind_deviation']:.4f}, 2LC {w['wind_deviation']:.4f}, "
+                  f"ratio {w['wind_deviation_ratio']:.3f}")
+        print("\ndelay sweep (fixed NMPC computation delay):")
+        cols = ["delay", "scheme", "wind", "t_settle", "d_PG_min", "f_L_max", "wind_deviation"]
+        print(sweep[cols].round(4).to_string(index=False))
 
 
 def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFrame:
@@ -254,6 +380,12 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     out.mkdir(parents=True, exist_ok=True)
     duration = 1.0 if quick else 1.5
     runs = _ideal_runs(duration)
+    print("  ch2_landing: delay sweep", flush=True)
+    names = (("measured", "2lc"), ("reference", "2lcref"), ("nmpc", "nmpc"))
+    ideal = {(scheme, wind): runs[f"ideal_{c}_{'wind' if wind else 'calm'}"]
+             for scheme, c in names for wind in (False, True)}
+    sweep = delay_sweep((0.0, 0.005) if quick else DELAYS, duration,
+                        ("measured", "reference") if quick else ("measured", "reference", "nmpc"), ideal)
     print("  ch2_landing: scheduled runs (recorded NMPC solve times)", flush=True)
     scheduled = _scheduled_runs(recorded_timing, duration, quick)
     print("  ch2_landing: figures and tables", flush=True)
@@ -262,21 +394,29 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     calm = {c: runs[f"ideal_{c}_calm"] for c in ("nmpc", "2lc")}
     windy = {c: runs[f"ideal_{c}_wind"] for c in ("nmpc", "2lc")}
     _figures(out, calm, windy, scheduled)
-    metrics = _metrics(runs, calm, windy)
-    _write_tables(out, runs, scheduled, metrics)
-    _print_summary(metrics)
+    _figure_delay(sweep, out / "delay_sweep.png")
+    _figure_sigmoid(out / "fig2_5_sigmoid.png")
+    metrics = _metrics(runs)
+    _write_tables(out, runs, scheduled, metrics, sweep)
+    _print_summary(metrics, sweep)
     return metrics
 
 
 if __name__ == "__main__":
     from experiments._cli import experiment_parser
     ap = experiment_parser(__doc__, "results/ch2",
-                           quick="1 s landings instead of 1.5 s, without the two extra scheduled runs")
+                           quick="1 s landings instead of 1.5 s; delays 0 and 5 ms (5 ms: 2LC schemes only); "
+                                 "no two-node run")
     ap.add_argument("--calibrate", action="store_true",
                     help=f"re-record the NMPC solve times on this host into {CALIBRATION} (wall clock: "
                          "run on a quiet machine) instead of running the experiment")
+    ap.add_argument("--cable-sweep", action="store_true",
+                    help="print the 2LC's peak cable stress over vehicle mass and cable length "
+                         "(docs/nmpc.md) instead of running the experiment")
     a = ap.parse_args()
-    if a.calibrate:
+    if a.cable_sweep:
+        print(cable_stress_sweep().round(4).to_string(index=False))
+    elif a.calibrate:
         t = calibrate()
         print(t.groupby(["run", "phase"])["cpu"].describe()[["count", "50%", "max"]].to_string())
         print(f"-> {CALIBRATION}")

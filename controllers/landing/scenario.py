@@ -54,7 +54,9 @@ class LandingScenario:
     :data:`SIM_PARAMS`, ``config`` → ``LandingConfig()``, ``timing`` →
     ``LandingTiming()`` (ideal, zero CPU times), ``fl_gains`` →
     :data:`DEFAULT_FL_GAINS`, ``x0`` → hover at φ = ϑ = 0 (as an array
-    ``[φ, φ̇, ϑ, ϑ̇]``), ``nmpc_kw`` → ``{}``.  ``ff_lead=None`` stays ``None``:
+    ``[φ, φ̇, ϑ, ϑ̇]``), ``nmpc_kw`` → ``{}``.  ``nmpc_init`` defaults to
+    ``"measured"``, the thesis's scheme (§2.4: x₀ = x̂₀, the measured state);
+    ``"reference"`` is the reference-start variant for delayed plans.  ``ff_lead=None`` stays ``None``:
     :attr:`feedforward_lead` derives half the low-level period from it.  Vary one
     field with :func:`dataclasses.replace`.
     """
@@ -78,7 +80,7 @@ class LandingScenario:
     topology: str = "single"
     network: Callable | None = None
     ref_knots: int = 3
-    nmpc_init: str = "reference"
+    nmpc_init: str = "measured"
     reset_tol: tuple[float, float] = field(default=(math.radians(2.0), math.radians(20.0)))
 
     def __post_init__(self):

@@ -97,7 +97,7 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
                 integrator_dt: float = 1e-4, log_interval: float = 1e-3, seed: int = 0,
                 nmpc_kw: dict | None = None, actuator_state: str = "plan",
                 ff_lead: float | None = None, topology: str = "single", network=None,
-                ref_knots: int = 3, nmpc_init: str = "reference",
+                ref_knots: int = 3, nmpc_init: str = "measured",
                 reset_tol: tuple[float, float] = (math.radians(2.0), math.radians(20.0))) -> LandingRun:
     """Simulate the landing of §2.6.2 with *controller* ``"nmpc"`` or ``"2lc"``.
 
@@ -119,14 +119,16 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
     plan nodes (``x_1 .. x_K``) each NMPC solution hands to the interpolator, so that a
     late solution finds the reference still on the previous plan.
 
-    ``nmpc_init`` (2LC only): the angles and rates of the NMPC's initial state are the
-    measured ones (``"measured"``, the thesis's scheme) or those of the low-level
-    reference at the sampling instant (``"reference"``), falling back to the measured
-    ones whenever the tracking error exceeds ``reset_tol`` = (angle [rad], rate
-    [rad/s]).  Starting each plan where the reference is makes the new plan continue
-    the old one, so a late plan (computation or network delay) needs no catch-up by
-    the low-level loop; the measured variant degrades quickly with delay (see
-    ``docs/nmpc.md``).
+    ``nmpc_init`` (2LC only): where each plan starts.  ``"measured"`` (default, the
+    thesis's scheme, (2.13) with x₀ = x̂₀): the angles and rates of the NMPC's initial
+    state are the measured ones at every sample.  ``"reference"`` (the reference-start
+    variant): those of the low-level reference at the sampling instant, falling back to
+    the measured ones whenever the tracking error exceeds ``reset_tol`` = (angle [rad],
+    rate [rad/s]).  Starting each plan where the reference is makes the new plan
+    continue the old one, so a late plan (computation or network delay) needs no
+    catch-up by the low-level loop; without delay it leaves the NMPC open loop on the
+    plant (the fallback does not fire in the landings of §2.6.2).  See
+    ``docs/nmpc.md`` for both schemes against the computation delay.
 
     ``topology="two_nodes"`` (2LC only): the low-level task runs on node ``onboard``
     with the plant I/O; a 100 Hz sensor task there (priority 2) sends the measured
