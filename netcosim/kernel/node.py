@@ -14,12 +14,13 @@ with its next segment, or resumes when nothing else ran since it stopped, pays n
 from __future__ import annotations
 
 import math
+from heapq import heappop, heappush
 from typing import Any, Callable
 
 import simpy
 
 from .. import validate
-from ..clock import DISPATCH, Timer
+from ..clock import DISPATCH, NORMAL, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
@@ -65,6 +66,9 @@ class Node:
         self._dispatch_event._ok, self._dispatch_event._value = True, None
         self._dispatch_callbacks: list[Callable] = [self._dispatch]
         self._segment_cb = self._segment_done  # one bound method for every segment timer
+        # a segment timer that has fired (out of SimPy's queue), re-armed for the next segment
+        # instead of creating one; cancelled timers may still sit in the queue and are never kept
+        self._spare_timer: Timer | None = None
         self._sched: list[tuple] = sim.trace.schedule_rec.rows
         self._jobrec: list[tuple] = sim.trace.job_rec.rows
         sim.trace.job_rec.providers.append(self._unfinished_rows)
@@ -212,7 +216,16 @@ class Node:
         if task.state != "ready":
             task.state = "ready"
             self._sched.append((self._env._now, self.name, task.name, "ready"))
-        self._request_dispatch()
+        if not self._dispatch_pending:  # _request_dispatch, inlined
+            if not self.sim._stepping:
+                q = self._env._queue
+                if not q or q[0][0] > self._env._now:
+                    self._dispatch()
+                    return
+            self._dispatch_pending = True
+            ev = self._dispatch_event
+            ev.callbacks = self._dispatch_callbacks
+            self._env.schedule(ev, DISPATCH, 0)
 
     def _request_dispatch(self) -> None:
         if not self._dispatch_pending:
@@ -234,7 +247,9 @@ class Node:
         ready = self.ready
         if self._in_cs or not ready.live:
             return
-        best = ready.first()
+        best = ready._heap[0][4]  # ReadyQueue.first, inlined
+        if best is None:
+            best = ready.first()
         np_job = self._np_job
         if np_job is not None and best.cls != HANDLER:
             best = np_job  # resumes before any task once the handlers are done
@@ -245,9 +260,17 @@ class Node:
             self._preempt(r)
         if best is np_job:
             ready.discard(best)
-        else:
-            ready.pop_first()
-        self._switch_in(best)
+            self._switch_in(best)
+            return
+        heappop(ready._heap)  # ReadyQueue.pop_first, inlined
+        best.ready_entry = None
+        ready.live -= 1
+        self.running = best  # _switch_in, inlined (best is not the non-preemptible job)
+        if self._cs_ticks and self._loaded is not best:
+            self._in_cs = True
+            Timer(self._env, self._cs_ticks, self._cs_done, best)
+            return
+        self._run(best)
 
     def _preempt(self, job: Job) -> None:
         now = self.sim.env._now
@@ -300,8 +323,18 @@ class Node:
             self._sched.append((now, self.name, task.name, "running"))
         if job.remaining > 0:
             job.seg_start = now
-            job.seg_timer = Timer(self._env, job.remaining, self._segment_cb, job)
-            self._arm_budget(job)
+            t = self._spare_timer
+            if t is None:
+                job.seg_timer = Timer(self._env, job.remaining, self._segment_cb, job)
+            else:
+                self._spare_timer = None
+                t.arg = job
+                t.callbacks = [self._segment_cb]
+                env = self._env
+                heappush(env._queue, (now + job.remaining, NORMAL, next(env._eid), t))
+                job.seg_timer = t
+            if task.wcet_ticks is not None:
+                self._arm_budget(job)
         else:
             self._step(job)
 
@@ -311,6 +344,7 @@ class Node:
         job.exec_done += now - job.seg_start
         job.remaining = 0
         job.seg_timer = None
+        self._spare_timer = ev
         self._step(job)
 
     def _step(self, job: Job) -> None:
@@ -326,7 +360,9 @@ class Node:
         finished = False
         try:
             while True:
-                value, job.resume_value = job.resume_value, None
+                value = job.resume_value
+                if value is not None:
+                    job.resume_value = None
                 try:
                     cmd = gen.send(value)
                 except StopIteration:
@@ -342,8 +378,16 @@ class Node:
                     ctx._unyielded = None  # the execute request came back through the yield
                     if cmd > 0:
                         job.remaining = cmd
-                        job.seg_start = env._now
-                        job.seg_timer = Timer(env, cmd, self._segment_cb, job)
+                        now = job.seg_start = env._now
+                        t = self._spare_timer
+                        if t is None:
+                            job.seg_timer = Timer(env, cmd, self._segment_cb, job)
+                        else:
+                            self._spare_timer = None
+                            t.arg = job
+                            t.callbacks = [self._segment_cb]
+                            heappush(env._queue, (now + cmd, NORMAL, next(env._eid), t))
+                            job.seg_timer = t
                         if job.task.wcet_ticks is not None and job.budget_timer is None:
                             self._arm_budget(job)
                         break
@@ -417,8 +461,16 @@ class Node:
                 task.state = "idle"
                 self._sched.append((now, self.name, task.name, "idle"))
             task.ctx.job = None
-        if self.ready.live:
-            self._request_dispatch()
+        if self.ready.live and not self._dispatch_pending:  # _request_dispatch, inlined
+            if not self.sim._stepping:
+                q = self._env._queue
+                if not q or q[0][0] > now:
+                    self._dispatch()
+                    return
+            self._dispatch_pending = True
+            ev = self._dispatch_event
+            ev.callbacks = self._dispatch_callbacks
+            self._env.schedule(ev, DISPATCH, 0)
 
     def _kill(self, job: Job) -> None:
         if job.state == "done":

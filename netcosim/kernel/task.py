@@ -16,10 +16,11 @@ from __future__ import annotations
 import inspect
 import math
 from collections import deque
+from heapq import heappush
 from typing import Any, Callable
 
 from .. import validate
-from ..clock import Timer
+from ..clock import NORMAL, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, UnyieldedExecuteError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 
@@ -214,12 +215,16 @@ class Task:
         """Release a job now (aperiodic tasks and handlers; also allowed for periodic)."""
         return self.node._release(self, self.node.sim.env._now)
 
-    def _periodic_release(self, _event=None):
+    def _periodic_release(self, timer: Timer) -> None:
+        # The timer that fired is out of SimPy's queue (its callbacks are spent): re-arm
+        # it for the next release instead of creating a new one.  A cancelled timer is
+        # never re-armed (it may still sit in the queue): `stop` drops it.
         node = self.node
-        now = node._env._now
-        self._k += 1
-        nxt = self.offset_ticks + self._k * self.period_ticks
-        self._release_timer = Timer(node._env, nxt - now, self._release_cb, None)
+        env = node._env
+        now = env._now
+        self._k = k = self._k + 1
+        timer.callbacks = [self._release_cb]
+        heappush(env._queue, (self.offset_ticks + k * self.period_ticks, NORMAL, next(env._eid), timer))
         node._release(self, now)
 
     def stop(self) -> None:
