@@ -30,6 +30,7 @@ from .task import HANDLER, Blocking, Job, Task
 from .timers import KernelTimer, Trigger
 
 _INF = math.inf
+_DONE = object()  # what a job's generator gives when it has finished
 
 
 class Node:
@@ -361,19 +362,24 @@ class Node:
         try:
             while True:
                 value = job.resume_value
-                if value is not None:
-                    job.resume_value = None
                 try:
-                    cmd = gen.send(value)
+                    if value is None:
+                        # next() with a default ends the generator without a StopIteration object
+                        cmd = next(gen, _DONE)
+                    else:
+                        job.resume_value = None
+                        cmd = gen.send(value)
                 except StopIteration:
-                    if ctx._unyielded is not None:
-                        raise ctx._unyielded_error(f"finished at t = {sim.now:.9f} s") from None
-                    finished = True
-                    break
+                    cmd = _DONE
                 except Exception as exc:
                     exc.add_note(f"netcosim: in task {job.task.name!r} on node {self.name!r}, "
                                  f"job {job.index}, t = {sim.now:.9f} s")
                     raise
+                if cmd is _DONE:
+                    if ctx._unyielded is not None:
+                        raise ctx._unyielded_error(f"finished at t = {sim.now:.9f} s") from None
+                    finished = True
+                    break
                 if type(cmd) is int:
                     ctx._unyielded = None  # the execute request came back through the yield
                     if cmd > 0:
@@ -451,7 +457,14 @@ class Node:
             if not killed:
                 raise RuntimeError(f"task {task.name!r} on node {self.name!r} finished job {job.index} "
                                    f"while holding monitor(s) {names}")
-        self._record(job)
+        dl = job.abs_deadline  # _record, inlined
+        miss = job.missed or (dl is not None and now > dl)
+        if miss and not job.missed:
+            task.misses += 1
+            job.missed = True
+        wcet = task.wcet_ticks
+        self._jobrec.append((self.name, task.name, job.index, job.release, dl, job.start, now, job.exec_done, miss,
+                             job.budget_overrun or (wcet is not None and job.exec_done > wcet), job.killed))
         task.finished += 1
         task.active = None
         if task.pending:

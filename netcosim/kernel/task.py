@@ -73,27 +73,11 @@ class Sleep(Blocking):
 class Job:
     """One activation of a task."""
 
-    # Class-level defaults keep job creation cheap: an instance stores only what differs.
-    gen: Any = None  # the body's generator once started
-    state = "queued"
-    remaining = 0
-    seg_start = 0
-    exec_done = 0
-    start: int | None = None
-    finish: int | None = None
-    seq = 0
-    base_key: Any = 0  # the policy's ordering key (a number or a tuple)
-    key: Any = 0
-    resume_value: Any = None
-    seg_timer: Timer | None = None
-    deadline_timer: Timer | None = None
-    budget_timer: Timer | None = None
-    blocked_on: Blocking | None = None
-    ready_entry: list | None = None  # the job's live entry in its node's ready queue
-    killed = False
-    missed = False
-    budget_overrun = False
-    held: tuple | list = ()  # monitors held (a list once the job enters one)
+    # Slots: a job is created per release, and slot stores are cheaper than a dict's.
+    __slots__ = ("task", "node", "index", "release", "abs_deadline", "cls", "gen", "state", "remaining",
+                 "seg_start", "exec_done", "start", "finish", "seq", "base_key", "key", "resume_value",
+                 "seg_timer", "deadline_timer", "budget_timer", "blocked_on", "ready_entry", "killed",
+                 "missed", "budget_overrun", "held")
 
     def __init__(self, task: "Task", index: int, release: int):
         self.task = task
@@ -101,8 +85,28 @@ class Job:
         self.index = index
         self.release = release
         d = task.deadline_ticks
-        self.abs_deadline = None if d is None else release + d
-        self.cls = task.cls
+        self.abs_deadline: int | None = None if d is None else release + d
+        self.cls: int = task.cls
+        self.gen: Any = None  # the body's generator once started
+        self.state = "queued"
+        self.remaining = 0
+        self.seg_start = 0
+        self.exec_done = 0
+        self.start: int | None = None
+        self.finish: int | None = None
+        self.seq = 0
+        self.base_key: Any = 0  # the policy's ordering key (a number or a tuple)
+        self.key: Any = 0
+        self.resume_value: Any = None
+        self.seg_timer: Timer | None = None
+        self.deadline_timer: Timer | None = None
+        self.budget_timer: Timer | None = None
+        self.blocked_on: Blocking | None = None
+        self.ready_entry: list | None = None  # the job's live entry in its node's ready queue
+        self.killed = False
+        self.missed = False
+        self.budget_overrun = False
+        self.held: tuple | list = ()  # monitors held (a list once the job enters one)
 
     @property
     def release_time(self) -> float:
