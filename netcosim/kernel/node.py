@@ -213,7 +213,11 @@ class Node:
         else:
             job.base_key = job.key = self.policy.key(job)
         job.state = "ready"
-        self.ready.push(job)
+        ready = self.ready  # ReadyQueue.push, inlined
+        ready._pushes = n = ready._pushes + 1
+        job.ready_entry = entry = [job.cls, job.key, job.seq, n, job]
+        heappush(ready._heap, entry)
+        ready.live += 1
         if task.state != "ready":
             task.state = "ready"
             self._sched.append((self._env._now, self.name, task.name, "ready"))
@@ -271,7 +275,18 @@ class Node:
             self._in_cs = True
             Timer(self._env, self._cs_ticks, self._cs_done, best)
             return
-        self._run(best)
+        if best.remaining > 0:
+            self._run(best)
+            return
+        self._loaded = best  # _run of a job at the start of a segment, inlined
+        best.state = "running"
+        if best.start is None:
+            best.start = self._env._now
+        task = best.task
+        if task.state != "running":
+            task.state = "running"
+            self._sched.append((self._env._now, self.name, task.name, "running"))
+        self._step(best)
 
     def _preempt(self, job: Job) -> None:
         now = self.sim.env._now
