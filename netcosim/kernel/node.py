@@ -252,9 +252,9 @@ class Node:
         ready = self.ready
         if self._in_cs or not ready.live:
             return
-        best = ready._heap[0][4]  # ReadyQueue.first, inlined
+        best: Job = ready._heap[0][4]  # ReadyQueue.first, inlined
         if best is None:
-            best = ready.first()
+            best = ready.first()  # live > 0: a job is queued under the dead entries
         np_job = self._np_job
         if np_job is not None and best.cls != HANDLER:
             best = np_job  # resumes before any task once the handlers are done
