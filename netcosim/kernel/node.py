@@ -67,6 +67,8 @@ class Node:
         self._dispatch_event._ok, self._dispatch_event._value = True, None
         self._dispatch_callbacks: list[Callable] = [self._dispatch]
         self._segment_cb = self._segment_done  # one bound method for every segment timer
+        # ...and one callback list for a re-armed one: SimPy only replaces a fired event's list
+        self._segment_cbs: list[Callable[[Any], None]] = [self._segment_cb]
         # a segment timer that has fired (out of SimPy's queue), re-armed for the next segment
         # instead of creating one; cancelled timers may still sit in the queue and are never kept
         self._spare_timer: Timer | None = None
@@ -184,9 +186,9 @@ class Node:
             self._sched.append((self._env._now, self.name, task.name, state))
 
     def _release(self, task: Task, t: int) -> Job | None:
-        task.jobs_released += 1
-        job = Job(task, task.jobs_released - 1, t)
-        if job.abs_deadline is not None and task.on_deadline_miss is not None:
+        task.jobs_released = n = task.jobs_released + 1
+        job = Job(task, n - 1, t)
+        if task.on_deadline_miss is not None and job.abs_deadline is not None:
             job.deadline_timer = self.sim.call_at_ticks(job.abs_deadline, self._deadline_due, arg=job)
         if task.active is not None:
             if task.on_busy == "skip":
@@ -345,7 +347,7 @@ class Node:
             else:
                 self._spare_timer = None
                 t.arg = job
-                t.callbacks = [self._segment_cb]
+                t.callbacks = self._segment_cbs
                 env = self._env
                 heappush(env._queue, (now + job.remaining, NORMAL, next(env._eid), t))
                 job.seg_timer = t
@@ -406,7 +408,7 @@ class Node:
                         else:
                             self._spare_timer = None
                             t.arg = job
-                            t.callbacks = [self._segment_cb]
+                            t.callbacks = self._segment_cbs
                             heappush(env._queue, (now + cmd, NORMAL, next(env._eid), t))
                             job.seg_timer = t
                         if job.task.wcet_ticks is not None and job.budget_timer is None:

@@ -213,6 +213,8 @@ class Task:
         self._release_timer: Timer | None = None
         self._k = 0
         self._release_cb = self._periodic_release  # one bound method for every release timer
+        # ...and one callback list: SimPy only replaces a fired event's list, never mutates it
+        self._release_cbs: list[Callable[[Any], None]] = [self._release_cb]
 
     # Release ---------------------------------------------------------------
     def release(self) -> Job | None:
@@ -227,7 +229,7 @@ class Task:
         env = node._env
         now = env._now
         self._k = k = self._k + 1
-        timer.callbacks = [self._release_cb]
+        timer.callbacks = self._release_cbs
         heappush(env._queue, (self.offset_ticks + k * self.period_ticks, NORMAL, next(env._eid), timer))
         node._release(self, now)
 
