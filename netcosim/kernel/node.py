@@ -204,35 +204,39 @@ class Node:
     def _activate(self, job: Job) -> None:
         task = job.task
         task.active = job
-        task.ctx.job = job
-        job.gen = task.body(task.ctx)
-        self._seq += 1
-        job.seq = self._seq
-        if job.cls == HANDLER:
-            job.base_key = job.key = task.priority
+        ctx = task.ctx
+        ctx.job = job
+        job.gen = task.body(ctx)
+        self._seq = seq = self._seq + 1
+        job.seq = seq
+        cls = job.cls
+        if cls == HANDLER:
+            key = task.priority
         elif task.static_key is not None:
-            job.base_key = job.key = task.static_key
+            key = task.static_key
         else:
-            job.base_key = job.key = self.policy.key(job)
+            key = self.policy.key(job)
+        job.base_key = job.key = key
         job.state = "ready"
         ready = self.ready  # ReadyQueue.push, inlined
         ready._pushes = n = ready._pushes + 1
-        job.ready_entry = entry = [job.cls, job.key, job.seq, n, job]
+        job.ready_entry = entry = [cls, key, seq, n, job]
         heappush(ready._heap, entry)
         ready.live += 1
+        env = self._env
         if task.state != "ready":
             task.state = "ready"
-            self._sched.append((self._env._now, self.name, task.name, "ready"))
+            self._sched.append((env._now, self.name, task.name, "ready"))
         if not self._dispatch_pending:  # _request_dispatch, inlined
             if not self.sim._stepping:
-                q = self._env._queue
-                if not q or q[0][0] > self._env._now:
+                q = env._queue
+                if not q or q[0][0] > env._now:
                     self._dispatch()
                     return
             self._dispatch_pending = True
             ev = self._dispatch_event
             ev.callbacks = self._dispatch_callbacks
-            self._env.schedule(ev, DISPATCH, 0)
+            env.schedule(ev, DISPATCH, 0)
 
     def _request_dispatch(self) -> None:
         if not self._dispatch_pending:
