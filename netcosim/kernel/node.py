@@ -14,12 +14,13 @@ with its next segment, or resumes when nothing else ran since it stopped, pays n
 from __future__ import annotations
 
 import math
+from heapq import heappop, heappush
 from typing import Any, Callable
 
 import simpy
 
 from .. import validate
-from ..clock import DISPATCH, Timer
+from ..clock import DISPATCH, NORMAL, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .io import AnalogIn, AnalogOut
@@ -29,6 +30,7 @@ from .task import HANDLER, Blocking, Job, Task
 from .timers import KernelTimer, Trigger
 
 _INF = math.inf
+_DONE = object()  # what a job's generator gives when it has finished
 
 
 class Node:
@@ -65,6 +67,11 @@ class Node:
         self._dispatch_event._ok, self._dispatch_event._value = True, None
         self._dispatch_callbacks: list[Callable] = [self._dispatch]
         self._segment_cb = self._segment_done  # one bound method for every segment timer
+        # ...and one callback list for a re-armed one: SimPy only replaces a fired event's list
+        self._segment_cbs: list[Callable[[Any], None]] = [self._segment_cb]
+        # a segment timer that has fired (out of SimPy's queue), re-armed for the next segment
+        # instead of creating one; cancelled timers may still sit in the queue and are never kept
+        self._spare_timer: Timer | None = None
         self._sched: list[tuple] = sim.trace.schedule_rec.rows
         self._jobrec: list[tuple] = sim.trace.job_rec.rows
         sim.trace.job_rec.providers.append(self._unfinished_rows)
@@ -179,9 +186,9 @@ class Node:
             self._sched.append((self._env._now, self.name, task.name, state))
 
     def _release(self, task: Task, t: int) -> Job | None:
-        task.jobs_released += 1
-        job = Job(task, task.jobs_released - 1, t)
-        if job.abs_deadline is not None and task.on_deadline_miss is not None:
+        task.jobs_released = n = task.jobs_released + 1
+        job = Job(task, n - 1, t)
+        if task.on_deadline_miss is not None and job.abs_deadline is not None:
             job.deadline_timer = self.sim.call_at_ticks(job.abs_deadline, self._deadline_due, arg=job)
         if task.active is not None:
             if task.on_busy == "skip":
@@ -197,22 +204,39 @@ class Node:
     def _activate(self, job: Job) -> None:
         task = job.task
         task.active = job
-        task.ctx.job = job
-        job.gen = task.body(task.ctx)
-        self._seq += 1
-        job.seq = self._seq
-        if job.cls == HANDLER:
-            job.base_key = job.key = task.priority
+        ctx = task.ctx
+        ctx.job = job
+        job.gen = task.body(ctx)
+        self._seq = seq = self._seq + 1
+        job.seq = seq
+        cls = job.cls
+        if cls == HANDLER:
+            key = task.priority
         elif task.static_key is not None:
-            job.base_key = job.key = task.static_key
+            key = task.static_key
         else:
-            job.base_key = job.key = self.policy.key(job)
+            key = self.policy.key(job)
+        job.base_key = job.key = key
         job.state = "ready"
-        self.ready.push(job)
+        ready = self.ready  # ReadyQueue.push, inlined
+        ready._pushes = n = ready._pushes + 1
+        job.ready_entry = entry = [cls, key, seq, n, job]
+        heappush(ready._heap, entry)
+        ready.live += 1
+        env = self._env
         if task.state != "ready":
             task.state = "ready"
-            self._sched.append((self._env._now, self.name, task.name, "ready"))
-        self._request_dispatch()
+            self._sched.append((env._now, self.name, task.name, "ready"))
+        if not self._dispatch_pending:  # _request_dispatch, inlined
+            if not self.sim._stepping:
+                q = env._queue
+                if not q or q[0][0] > env._now:
+                    self._dispatch()
+                    return
+            self._dispatch_pending = True
+            ev = self._dispatch_event
+            ev.callbacks = self._dispatch_callbacks
+            env.schedule(ev, DISPATCH, 0)
 
     def _request_dispatch(self) -> None:
         if not self._dispatch_pending:
@@ -234,7 +258,9 @@ class Node:
         ready = self.ready
         if self._in_cs or not ready.live:
             return
-        best = ready.first()
+        best: Job = ready._heap[0][4]  # ReadyQueue.first, inlined
+        if best is None:
+            best = ready.first()  # live > 0: a job is queued under the dead entries
         np_job = self._np_job
         if np_job is not None and best.cls != HANDLER:
             best = np_job  # resumes before any task once the handlers are done
@@ -245,9 +271,28 @@ class Node:
             self._preempt(r)
         if best is np_job:
             ready.discard(best)
-        else:
-            ready.pop_first()
-        self._switch_in(best)
+            self._switch_in(best)
+            return
+        heappop(ready._heap)  # ReadyQueue.pop_first, inlined
+        best.ready_entry = None
+        ready.live -= 1
+        self.running = best  # _switch_in, inlined (best is not the non-preemptible job)
+        if self._cs_ticks and self._loaded is not best:
+            self._in_cs = True
+            Timer(self._env, self._cs_ticks, self._cs_done, best)
+            return
+        if best.remaining > 0:
+            self._run(best)
+            return
+        self._loaded = best  # _run of a job at the start of a segment, inlined
+        best.state = "running"
+        if best.start is None:
+            best.start = self._env._now
+        task = best.task
+        if task.state != "running":
+            task.state = "running"
+            self._sched.append((self._env._now, self.name, task.name, "running"))
+        self._step(best)
 
     def _preempt(self, job: Job) -> None:
         now = self.sim.env._now
@@ -300,8 +345,18 @@ class Node:
             self._sched.append((now, self.name, task.name, "running"))
         if job.remaining > 0:
             job.seg_start = now
-            job.seg_timer = Timer(self._env, job.remaining, self._segment_cb, job)
-            self._arm_budget(job)
+            t = self._spare_timer
+            if t is None:
+                job.seg_timer = Timer(self._env, job.remaining, self._segment_cb, job)
+            else:
+                self._spare_timer = None
+                t.arg = job
+                t.callbacks = self._segment_cbs
+                env = self._env
+                heappush(env._queue, (now + job.remaining, NORMAL, next(env._eid), t))
+                job.seg_timer = t
+            if task.wcet_ticks is not None:
+                self._arm_budget(job)
         else:
             self._step(job)
 
@@ -311,6 +366,7 @@ class Node:
         job.exec_done += now - job.seg_start
         job.remaining = 0
         job.seg_timer = None
+        self._spare_timer = ev
         self._step(job)
 
     def _step(self, job: Job) -> None:
@@ -326,24 +382,39 @@ class Node:
         finished = False
         try:
             while True:
-                value, job.resume_value = job.resume_value, None
+                value = job.resume_value
                 try:
-                    cmd = gen.send(value)
+                    if value is None:
+                        # next() with a default ends the generator without a StopIteration object
+                        cmd = next(gen, _DONE)
+                    else:
+                        job.resume_value = None
+                        cmd = gen.send(value)
                 except StopIteration:
-                    if ctx._unyielded is not None:
-                        raise ctx._unyielded_error(f"finished at t = {sim.now:.9f} s") from None
-                    finished = True
-                    break
+                    cmd = _DONE
                 except Exception as exc:
                     exc.add_note(f"netcosim: in task {job.task.name!r} on node {self.name!r}, "
                                  f"job {job.index}, t = {sim.now:.9f} s")
                     raise
+                if cmd is _DONE:
+                    if ctx._unyielded is not None:
+                        raise ctx._unyielded_error(f"finished at t = {sim.now:.9f} s") from None
+                    finished = True
+                    break
                 if type(cmd) is int:
                     ctx._unyielded = None  # the execute request came back through the yield
                     if cmd > 0:
                         job.remaining = cmd
-                        job.seg_start = env._now
-                        job.seg_timer = Timer(env, cmd, self._segment_cb, job)
+                        now = job.seg_start = env._now
+                        t = self._spare_timer
+                        if t is None:
+                            job.seg_timer = Timer(env, cmd, self._segment_cb, job)
+                        else:
+                            self._spare_timer = None
+                            t.arg = job
+                            t.callbacks = self._segment_cbs
+                            heappush(env._queue, (now + cmd, NORMAL, next(env._eid), t))
+                            job.seg_timer = t
                         if job.task.wcet_ticks is not None and job.budget_timer is None:
                             self._arm_budget(job)
                         break
@@ -407,7 +478,14 @@ class Node:
             if not killed:
                 raise RuntimeError(f"task {task.name!r} on node {self.name!r} finished job {job.index} "
                                    f"while holding monitor(s) {names}")
-        self._record(job)
+        dl = job.abs_deadline  # _record, inlined
+        miss = job.missed or (dl is not None and now > dl)
+        if miss and not job.missed:
+            task.misses += 1
+            job.missed = True
+        wcet = task.wcet_ticks
+        self._jobrec.append((self.name, task.name, job.index, job.release, dl, job.start, now, job.exec_done, miss,
+                             job.budget_overrun or (wcet is not None and job.exec_done > wcet), job.killed))
         task.finished += 1
         task.active = None
         if task.pending:
@@ -417,8 +495,16 @@ class Node:
                 task.state = "idle"
                 self._sched.append((now, self.name, task.name, "idle"))
             task.ctx.job = None
-        if self.ready.live:
-            self._request_dispatch()
+        if self.ready.live and not self._dispatch_pending:  # _request_dispatch, inlined
+            if not self.sim._stepping:
+                q = self._env._queue
+                if not q or q[0][0] > now:
+                    self._dispatch()
+                    return
+            self._dispatch_pending = True
+            ev = self._dispatch_event
+            ev.callbacks = self._dispatch_callbacks
+            self._env.schedule(ev, DISPATCH, 0)
 
     def _kill(self, job: Job) -> None:
         if job.state == "done":

@@ -16,10 +16,11 @@ from __future__ import annotations
 import inspect
 import math
 from collections import deque
+from heapq import heappush
 from typing import Any, Callable
 
 from .. import validate
-from ..clock import Timer
+from ..clock import NORMAL, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, UnyieldedExecuteError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 
@@ -72,27 +73,11 @@ class Sleep(Blocking):
 class Job:
     """One activation of a task."""
 
-    # Class-level defaults keep job creation cheap: an instance stores only what differs.
-    gen: Any = None  # the body's generator once started
-    state = "queued"
-    remaining = 0
-    seg_start = 0
-    exec_done = 0
-    start: int | None = None
-    finish: int | None = None
-    seq = 0
-    base_key: Any = 0  # the policy's ordering key (a number or a tuple)
-    key: Any = 0
-    resume_value: Any = None
-    seg_timer: Timer | None = None
-    deadline_timer: Timer | None = None
-    budget_timer: Timer | None = None
-    blocked_on: Blocking | None = None
-    ready_entry: list | None = None  # the job's live entry in its node's ready queue
-    killed = False
-    missed = False
-    budget_overrun = False
-    held: tuple | list = ()  # monitors held (a list once the job enters one)
+    # Slots: a job is created per release, and slot stores are cheaper than a dict's.
+    __slots__ = ("task", "node", "index", "release", "abs_deadline", "cls", "gen", "state", "remaining",
+                 "seg_start", "exec_done", "start", "finish", "seq", "base_key", "key", "resume_value",
+                 "seg_timer", "deadline_timer", "budget_timer", "blocked_on", "ready_entry", "killed",
+                 "missed", "budget_overrun", "held")
 
     def __init__(self, task: "Task", index: int, release: int):
         self.task = task
@@ -100,8 +85,28 @@ class Job:
         self.index = index
         self.release = release
         d = task.deadline_ticks
-        self.abs_deadline = None if d is None else release + d
-        self.cls = task.cls
+        self.abs_deadline: int | None = None if d is None else release + d
+        self.cls: int = task.cls
+        self.gen: Any = None  # the body's generator once started
+        self.state = "queued"
+        self.remaining = 0
+        self.seg_start = 0
+        self.exec_done = 0
+        self.start: int | None = None
+        self.finish: int | None = None
+        self.seq = 0
+        self.base_key: Any = 0  # the policy's ordering key (a number or a tuple)
+        self.key: Any = 0
+        self.resume_value: Any = None
+        self.seg_timer: Timer | None = None
+        self.deadline_timer: Timer | None = None
+        self.budget_timer: Timer | None = None
+        self.blocked_on: Blocking | None = None
+        self.ready_entry: list | None = None  # the job's live entry in its node's ready queue
+        self.killed = False
+        self.missed = False
+        self.budget_overrun = False
+        self.held: tuple | list = ()  # monitors held (a list once the job enters one)
 
     @property
     def release_time(self) -> float:
@@ -208,18 +213,24 @@ class Task:
         self._release_timer: Timer | None = None
         self._k = 0
         self._release_cb = self._periodic_release  # one bound method for every release timer
+        # ...and one callback list: SimPy only replaces a fired event's list, never mutates it
+        self._release_cbs: list[Callable[[Any], None]] = [self._release_cb]
 
     # Release ---------------------------------------------------------------
     def release(self) -> Job | None:
         """Release a job now (aperiodic tasks and handlers; also allowed for periodic)."""
         return self.node._release(self, self.node.sim.env._now)
 
-    def _periodic_release(self, _event=None):
+    def _periodic_release(self, timer: Timer) -> None:
+        # The timer that fired is out of SimPy's queue (its callbacks are spent): re-arm
+        # it for the next release instead of creating a new one.  A cancelled timer is
+        # never re-armed (it may still sit in the queue): `stop` drops it.
         node = self.node
-        now = node._env._now
-        self._k += 1
-        nxt = self.offset_ticks + self._k * self.period_ticks
-        self._release_timer = Timer(node._env, nxt - now, self._release_cb, None)
+        env = node._env
+        now = env._now
+        self._k = k = self._k + 1
+        timer.callbacks = self._release_cbs
+        heappush(env._queue, (self.offset_ticks + k * self.period_ticks, NORMAL, next(env._eid), timer))
         node._release(self, now)
 
     def stop(self) -> None:
