@@ -57,6 +57,22 @@ def test_ch4_fig4_8_9(tmp_path, quick):
         assert far[(p, "online")] < far[(p, "offline")]
 
 
+def test_ch4_fig4_8_9_under_the_other_reading_of_D():
+    # Sec. 4.6 prints D = diag(I4, 4 I6); (4.8)-(4.9) define D_V = I/d_V^2 with d >= 1, so the
+    # reading that keeps (4.9) is D = diag(I4, I6/16).  Under it the pose errors barely count,
+    # the Monte-Carlo mu_hat* (4.27) exceeds 1 in every case and the offline design of (4.29)
+    # is a crawl (rho > 0.99), while the online gain (4.30) still converges in a few samples.
+    from experiments import ch4_fig4_8_9 as ex
+    _, summary = ex.run(quick=True, d_reading="assumption")
+    assert (summary.mu_hat > 30).all() and (summary.rho > 0.99).all()
+    off = summary[summary.strategy == "offline"]
+    on = summary[summary.strategy == "online"]
+    assert (off.samples_to_tol == -1).all() and (off.k_offline < 0.01).all()
+    assert on.samples_to_tol.between(1, 5).all()
+    with pytest.raises(ValueError, match="d_reading"):
+        ex.run(quick=True, d_reading="pose x4")
+
+
 @QUICK
 def test_ch4_fig4_10(tmp_path, quick):
     from experiments import ch4_fig4_10 as ex
