@@ -188,16 +188,21 @@ class RealisticEnvironment:
         return samples, dense
 
     def interval_samples(self, system: Any, trajectory: Trajectory, pairs, starts, radius: float,
-                         n_per: int = 1, *, seed: int = 0, feedforward: str = "reference"):
+                         n_per: int = 1, *, seed: int = 0, feedforward: str = "reference",
+                         errors: str = "truth"):
         """One-period samples ``(k, T, ||e_h||, ||e_{h+1}||)`` of the QP (5.27) on the dynamic plant.
 
         As :func:`controllers.planner.sikm.collect_interval_samples`, but the platform starts
-        at ``q_r(t0) + e0`` moving with the reference (``q_dot(t0) = q_r_dot(t0)``), the law
-        is applied through the MoCap-rate hold and the velocity-tracking robots, and both
-        norms are taken on MoCap samples (noise ``noise_std``, seeded by ``seed``), as an
-        experimenter fitting theta on the rig would.  T must be a multiple of ``1/mocap_rate``.
+        at ``q_r(t0) + e0`` moving with the reference (``q_dot(t0) = q_r_dot(t0)``) and the
+        law is applied to a MoCap sample of ``q(t0)`` (noise ``noise_std``, seeded by
+        ``seed``) through the MoCap-rate hold and the velocity-tracking robots.
+        ``errors``: the two norms are taken on the true configuration ("truth", what a
+        simulator offers) or on MoCap samples ("mocap", what an experimenter on the rig
+        has).  T must be a multiple of ``1/mocap_rate``.
         """
         import pandas as pd
+
+        validate.choice(errors, "errors", ("truth", "mocap"))
 
         rng = np.random.default_rng(seed)
         nrm = WeightedNorm()
@@ -219,6 +224,7 @@ class RealisticEnvironment:
                         x = self._advance(plant, x, u, dt)
                     z1 = x[:m] + self.noise_std * rng.standard_normal(m)
                     qr1, _ = trajectory(t0 + per * dt)
-                    rows.append((float(k), T, float(t0), float(np.linalg.norm(z0 - qr0)),
-                                 float(np.linalg.norm(z1 - qr1))))
+                    y0, y1 = (qr0 + e0, x[:m]) if errors == "truth" else (z0, z1)
+                    rows.append((float(k), T, float(t0), float(np.linalg.norm(y0 - qr0)),
+                                 float(np.linalg.norm(y1 - qr1))))
         return pd.DataFrame(rows, columns=["k", "T", "t0", "e_h", "e_next"])
