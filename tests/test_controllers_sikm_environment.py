@@ -75,3 +75,5 @@ def test_bad_settings_are_named(setting):
         env.track(sys_, tr, q0, 4.0, 8.0, 2, k_off=0.25, params=SIKMParams(0.02, 0.13, 0.1, 0.2))
     with pytest.raises(ValueError, match="needs k_off"):
         env.track(sys_, tr, q0, 0.75, 1.5, 2)
+    with pytest.raises(ConfigurationError, match="errors.*'estimate'"):
+        env.interval_samples(sys_, tr, [(1.0, 0.75)], [0.0], 0.05, errors="estimate")
