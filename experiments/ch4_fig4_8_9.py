@@ -11,6 +11,12 @@ whose radius is 1.05 times the initial error, ``tau_o_bar`` and ``rho`` come fro
 numerical minimisation of ``g`` (4.29), the offline gain is ``tau_o_bar / T`` and the
 online gain ``tau_o(e_h) / T`` (4.30).
 
+D has two readings (:func:`controllers.planner.networked.d_weights`, docs/flycrane_network.md):
+``--d-reading literal`` (default) weighs pose errors 4 as printed, which under the
+definition ``D_V = I / d_V^2`` of (4.8) means ``d_V = 1/2`` and violates (4.9);
+``--d-reading assumption`` takes the d of (4.9) as (1, 1, 1, 1, 4, ..., 4), i.e.
+``D = diag(I_4, I_6 / 16)``.
+
 Run ``python -m experiments.ch4_fig4_8_9`` (``--quick`` for fewer Monte-Carlo samples).
 Writes ``fig4_8.png``, ``fig4_9.png``, ``samples.parquet``, ``summary.parquet``.
 """
@@ -26,6 +32,7 @@ import pandas as pd
 
 from controllers.planner import OfflineGain, OnlineGain, WeightedNorm, simulate_sampled
 from controllers.planner.gain_design import design_nonsquare, estimate_mu
+from controllers.planner.networked import D_READINGS, d_weights
 from plants.flycrane.configurations import four_robot_nonsquare
 
 T = 1.5
@@ -44,13 +51,14 @@ def setting():
     return sys_, q_ref, q0
 
 
-def run(quick: bool = False, n_mu: int | None = None, seed: int = 0):
-    """All four (norm, initial condition) pairs; returns ``(samples, summary)``."""
+def run(quick: bool = False, n_mu: int | None = None, seed: int = 0, d_reading: str = "literal"):
+    """All four (norm, initial condition) pairs with D read as *d_reading*; returns ``(samples, summary)``."""
     sys_, q_ref, q0s = setting()
+    weights = d_weights(d_reading)
     n_mu = n_mu or (30 if quick else 200)
     rows, summ = [], []
     for pname, p in (("2", 2), ("inf", math.inf)):
-        nrm = WeightedNorm(WEIGHTS, p)
+        nrm = WeightedNorm(weights, p)
         for ic, q0 in q0s.items():
             r = 1.05 * nrm(q0 - q_ref)
             est = estimate_mu(sys_, q_ref, r, n_samples=n_mu, kbar=KBAR, norm=nrm, seed=seed)
@@ -84,19 +92,22 @@ def plot(samples: pd.DataFrame, pname: str, path: str, title: str) -> None:
     plt.close(fig)
 
 
-def main(outdir: str = "results/ch4_fig4_8_9", quick: bool = False) -> pd.DataFrame:
-    """Run, save the figures and Parquet files; return the summary."""
+def main(outdir: str = "results/ch4_fig4_8_9", quick: bool = False, d_reading: str = "literal") -> pd.DataFrame:
+    """Run, save the figures and Parquet files; return the summary (D read as *d_reading*)."""
     os.makedirs(outdir, exist_ok=True)
-    samples, summary = run(quick)
+    samples, summary = run(quick, d_reading=d_reading)
     samples.to_parquet(os.path.join(outdir, "samples.parquet"))
     summary.to_parquet(os.path.join(outdir, "summary.parquet"))
-    plot(samples, "2", os.path.join(outdir, "fig4_8.png"), "Fig. 4.8: weighted 2-norm, K_bar = I, D = diag(I4, 4 I6)")
+    plot(samples, "2", os.path.join(outdir, "fig4_8.png"), f"Fig. 4.8: weighted 2-norm, K_bar = I, D ({d_reading})")
     plot(samples, "inf", os.path.join(outdir, "fig4_9.png"), "Fig. 4.9: weighted inf-norm")
     return summary
 
 
 if __name__ == "__main__":
     from experiments._cli import experiment_parser
-    a = experiment_parser(__doc__, "results/ch4_fig4_8_9").parse_args()
+    ap = experiment_parser(__doc__, "results/ch4_fig4_8_9")
+    ap.add_argument("--d-reading", choices=D_READINGS, default="literal",
+                    help="how D = diag(I4, 4 I6) is read (default: literal)")
+    a = ap.parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20):
-        print(main(a.outdir, a.quick))
+        print(main(a.outdir, a.quick, a.d_reading))
