@@ -91,7 +91,11 @@ class RealisticEnvironment:
         return sol.y[:, -1]
 
     def _filter(self, system, q0):
-        from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+        try:
+            from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+        except ImportError as exc:
+            raise ImportError("the realistic environment's UKF needs filterpy: pip install 'netcosim[filter]' "
+                              f"({exc})") from None
         m = system.m
         dt = 1.0 / self.mocap_rate
 
