@@ -1,0 +1,164 @@
+"""The library a real process uses to stand in for a remote node (stdlib and Zenoh only).
+
+It imports neither SimPy, NumPy nor CasADi, so it runs where only Python and
+``eclipse-zenoh`` are installed.  A process connects to the simulation's endpoint,
+declares its liveliness token, receives the frames the simulated network delivers to
+its node and publishes its own::
+
+    from netcosim.transport.client import RemoteProcess
+
+    with RemoteProcess("controller", run=RUN, connect=["tcp/127.0.0.1:PORT"]) as rp:
+        for msg in rp.messages():          # until the simulation's END message
+            t, y = msg.values
+            rp.reply(msg, (t, law(t, y)))  # to the sender, echoing its seq
+
+or a periodic loop with :meth:`RemoteProcess.periodic` (deadline misses counted).
+Message fields: :class:`netcosim.transport.wire.Message`.
+"""
+
+from __future__ import annotations
+
+import queue
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterator, Sequence
+
+from . import wire
+from .session import DEFAULT_LEASE, Session, key, open_session
+
+__all__ = ["RemoteProcess", "LoopStats"]
+
+
+@dataclass
+class LoopStats:
+    """Result of :meth:`RemoteProcess.periodic`: ``periods`` run, ``misses`` (a body that
+    ended after the start of the next period; that period starts late, none is skipped),
+    ``max_overrun`` (s, the largest lateness of a period start), ``period`` (s)."""
+
+    period: float
+    periods: int = 0
+    misses: int = 0
+    max_overrun: float = 0.0
+    overruns: list[float] = field(default_factory=list, repr=False)
+
+    @property
+    def miss_ratio(self) -> float:
+        """``misses / periods`` (0 for no period)."""
+        return self.misses / self.periods if self.periods else 0.0
+
+
+class RemoteProcess:
+    """The process side of a remote node called *node* of run *run*.
+
+    ``connect``: the simulation's endpoints (``Session.endpoints`` of its side, printed
+    by ``netcosim hil``); ``listen``: endpoints to listen on (default none); ``lease``:
+    seconds of silence after which the simulation declares this process gone.
+
+    Counters: ``received`` valid DATA messages, ``published`` messages sent,
+    ``rejected`` invalid messages by reason, ``ended`` True once the simulation's END
+    message arrived.
+    """
+
+    def __init__(self, node: str, *, run: str, connect: Sequence[str], listen: Sequence[str] = (),
+                 lease: float = DEFAULT_LEASE):
+        self.node = node
+        self.keys = {leaf: key(run, node, leaf) for leaf in ("rx", "tx", "alive")}
+        self.inbox: queue.SimpleQueue = queue.SimpleQueue()
+        self.received = 0
+        self.published = 0
+        self.rejected: dict[str, int] = {}
+        self.ended = False
+        self._seq = 0
+        self.session: Session = open_session(listen=listen, connect=connect, lease=lease)
+        try:
+            self._pub = self.session.publisher(self.keys["tx"])
+            self._sub = self.session.subscribe(self.keys["rx"], self.inbox.put)
+            self._token = self.session.token(self.keys["alive"])
+        except BaseException:
+            self.session.close()
+            raise
+
+    def receive(self, timeout: float | None = None) -> wire.Message | None:
+        """The next DATA message for this node, waiting up to *timeout* s (None: forever);
+        None on timeout or once the run has ended.  Invalid messages are counted and skipped."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not self.ended:
+            left = None if deadline is None else max(0.0, deadline - time.monotonic())
+            try:
+                data = self.inbox.get(timeout=left)
+            except queue.Empty:
+                return None
+            try:
+                m = wire.decode(data)
+            except wire.WireError as e:
+                self.rejected[e.reason] = self.rejected.get(e.reason, 0) + 1
+                continue
+            if m.kind == wire.END:
+                self.ended = True
+                return None
+            self.received += 1
+            return m
+        return None
+
+    def messages(self, timeout: float | None = None) -> Iterator[wire.Message]:
+        """Every DATA message until the run ends (or none arrives for *timeout* s)."""
+        while True:
+            m = self.receive(timeout)
+            if m is None:
+                return
+            yield m
+
+    def publish(self, dst: int, values: Sequence[float], *, seq: int | None = None, ticks: int = 0) -> None:
+        """Send *values* to the node with network index *dst* through the simulated network.
+        ``seq`` defaults to this process's own counter (pass a received ``seq`` to mark a
+        reply); ``ticks`` is informational (the simulation stamps the arrival itself)."""
+        if seq is None:
+            seq = self._seq
+            self._seq += 1
+        self._pub.put(wire.encode(wire.DATA, dst, seq, ticks, values))
+        self.published += 1
+
+    def reply(self, msg: wire.Message, values: Sequence[float]) -> None:
+        """Send *values* back to the sender of *msg*, echoing its ``seq`` (the simulation
+        logs the response time of the reply)."""
+        self.publish(msg.node, values, seq=msg.seq, ticks=msg.ticks)
+
+    def periodic(self, period: float, body: Callable[[int], bool | None], *, duration: float | None = None,
+                 clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep) -> LoopStats:
+        """Call ``body(k)`` every *period* s (k = 0, 1, ...) until it returns True, the run
+        ends or *duration* s have passed; count deadline misses (a body ending after the
+        next period's start).  ``clock``/``sleep`` are injectable for tests."""
+        if not period > 0:
+            raise ValueError(f"period must be a positive number of seconds, got {period!r}")
+        stats = LoopStats(float(period))
+        t0 = clock()
+        k = 0
+        while not self.ended and (duration is None or k * period < duration):
+            release = t0 + k * period
+            late = clock() - release
+            if late > 0:
+                stats.max_overrun = max(stats.max_overrun, late)
+            if body(k):
+                stats.periods += 1
+                break
+            stats.periods += 1
+            k += 1
+            wait = t0 + k * period - clock()
+            if wait > 0:
+                sleep(wait)
+            else:
+                stats.misses += 1
+                stats.overruns.append(-wait)
+                del stats.overruns[:-1000]
+        return stats
+
+    def close(self) -> None:
+        """Drop the liveliness token and close the session (idempotent)."""
+        self.session.close()
+
+    def __enter__(self) -> "RemoteProcess":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

@@ -1,0 +1,204 @@
+"""Remote nodes: a simulated node whose tasks run in another OS process, over Zenoh.
+
+The simulated network still carries the node's frames (delay, contention and loss apply
+as before).  A frame the network delivers to the remote node is published, at the
+instant of delivery, on ``netcosim/<run>/<node>/rx`` (wire format:
+:mod:`netcosim.transport.wire`; ``node`` = network index of the sender, ``ticks`` = the
+simulated delivery time, the payload's numbers as float64).  What the process publishes
+on ``netcosim/<run>/<node>/tx`` (``node`` = network index of the destination) enters
+the simulated network at the simulated instant matching its wall-clock arrival (the
+:class:`~netcosim.transport.realtime.RealtimeClock` injects it) and is sent by the
+node's interface like any message of that node.
+
+The process declares a liveliness token ``netcosim/<run>/<node>/alive``.  When the token
+goes (the process died, or was silent for its session's lease), the node's loss policy
+applies: ``"hold"`` sends nothing more (receivers keep the last command, zero-order
+hold), ``"zero"`` sends, once, a message of zeros of the last payload's length to every
+node it has sent to (the receivers' command becomes 0), a callable ``fn(remote)`` does
+what it wants.  Every such event is a row of the trace table ``hil``.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import Counter
+from typing import Any, Callable
+
+from .. import validate
+from ..errors import ConfigurationError
+from ..timebase import RESOLUTION
+from . import wire
+from .realtime import RealtimeClock
+from .session import Session, key
+
+__all__ = ["RemoteNode", "HIL_COLUMNS", "LOSS_POLICIES"]
+
+log = logging.getLogger("netcosim.transport")
+
+#: columns of the trace table ``hil``: simulated time (s), node, event, detail
+HIL_COLUMNS = ("time", "node", "event", "detail")
+#: built-in loss policies (or pass a callable ``fn(remote)``)
+LOSS_POLICIES = ("hold", "zero")
+
+
+def _hil_frame(df):
+    df["time"] = df["time"] * RESOLUTION
+    return df
+
+
+def _floats(payload: Any) -> tuple[float, ...]:
+    if payload is None:
+        return ()
+    if isinstance(payload, (int, float)):
+        return (float(payload),)
+    return tuple(float(v) for v in payload)
+
+
+class RemoteNode:
+    """Run the tasks of *node* in another process; the simulation keeps its network traffic.
+
+    Parameters
+    ----------
+    sim:
+        The simulation (a :class:`RealtimeClock` is attached if it has none; its
+        ``factor`` and ``max_lag`` come from *clock_options*).
+    node:
+        The kernel node (or its name) to make remote.  It must have exactly one network
+        interface; its receive handlers are replaced by publishing (its periodic tasks,
+        if any, keep running in the simulation: give a remote node none).
+    session:
+        An open :class:`~netcosim.transport.session.Session` (the caller closes it).
+    run:
+        The run id: keys live under ``netcosim/<run>/<node>/``.
+    size_bits:
+        Size (bits) of each message the process sends (the network adds its overhead).
+    loss_policy:
+        ``"hold"``, ``"zero"`` or ``fn(remote)`` (see the module docstring).
+
+    Counters (simulation thread): ``published`` messages sent to the process, ``received``
+    valid messages from it, ``rejected`` a :class:`collections.Counter` by reason of
+    invalid ones (see :class:`~netcosim.transport.wire.WireError`; unknown destination:
+    ``"destination"``), ``alive`` whether its token is present.  The simulated response
+    time of every reply (delivery of a message to the process to arrival of a reply
+    echoing its ``seq``) is logged as signal ``response`` (s) of source ``<node>.remote``.
+    """
+
+    def __init__(self, sim: Any, node: Any, session: Session, *, run: str, size_bits: int,
+                 loss_policy: str | Callable[["RemoteNode"], None] = "hold", **clock_options: Any):
+        name = node if isinstance(node, str) else getattr(node, "name", None)
+        if name not in sim.nodes:
+            raise ConfigurationError(f"no node {node!r} in this simulation")
+        self.sim = sim
+        self.name = name
+        ifaces = [n._ifaces[i] for n in sim.networks.values() for i in range(len(n._ifaces))
+                  if n._ifaces[i].name == name]
+        if len(ifaces) != 1:
+            raise ConfigurationError(f"remote node {name!r} must have exactly one network interface, "
+                                     f"has {len(ifaces)}")
+        self.iface = iface = ifaces[0]
+        self.network = iface.network
+        self.size_bits = validate.count(size_bits, "size_bits (bits)", minimum=1)
+        if not (callable(loss_policy) or loss_policy in LOSS_POLICIES):
+            raise ConfigurationError(f"loss_policy must be one of {LOSS_POLICIES} or a callable, "
+                                     f"got {loss_policy!r}")
+        self.loss_policy = loss_policy
+        self.clock = getattr(sim, "_realtime_clock", None) or RealtimeClock(sim, **clock_options)
+        self.run_id = run
+        self.keys = {leaf: key(run, name, leaf) for leaf in ("rx", "tx", "alive")}
+        self.published = 0
+        self.received = 0
+        self.rejected: Counter[str] = Counter()
+        self.alive = False
+        self.connected = threading.Event()   # set (from a Zenoh thread) when the token appears
+        self._seq = 0
+        self._sent_at: dict[int, int] = {}   # seq -> tick of delivery to the process
+        self._last: dict[str, int] = {}      # destination -> length of the last payload sent to it
+        self._rows = sim.trace.table("hil", HIL_COLUMNS, categorical=("node", "event"), transform=_hil_frame,
+                                     dtypes=("int", None, None, None))
+        self._signal = sim.trace.signal_rec
+        iface.handlers[:] = [self._deliver]
+        iface.use_mailbox = False
+        self._pub = session.publisher(self.keys["rx"])
+        self._subs = [session.subscribe(self.keys["tx"], self._on_tx),
+                      session.watch(self.keys["alive"], self._on_alive)]
+
+    # Zenoh threads: stamp and queue only ------------------------------------------
+    def _on_tx(self, data: bytes) -> None:
+        self.clock.post(self._receive, data)
+
+    def _on_alive(self, alive: bool) -> None:
+        if alive:
+            self.connected.set()
+        self.clock.post(self._liveliness, alive)
+
+    # simulation thread ---------------------------------------------------------------
+    def _record(self, event: str, detail: str = "") -> None:
+        self._rows.append((self.sim.now_ticks, self.name, event, detail))
+
+    def _deliver(self, msg: Any) -> None:
+        src = self.network.interface(msg.src)
+        seq = self._seq
+        self._seq = (seq + 1) & 0xFFFFFFFF
+        now = self.sim.now_ticks
+        self._sent_at[seq] = now
+        if len(self._sent_at) > 4096:      # replies that never came: keep memory bounded
+            self._sent_at.pop(next(iter(self._sent_at)))
+        self._pub.put(wire.encode(wire.DATA, src.index, seq, now, _floats(msg.payload)))
+        self.published += 1
+
+    def _reject(self, reason: str, detail: str) -> None:
+        self.rejected[reason] += 1
+        log.warning("remote node %r: %s", self.name, detail)
+        self._record("rejected", reason)
+
+    def _receive(self, data: bytes) -> None:
+        try:
+            m = wire.decode(data)
+        except wire.WireError as e:
+            self._reject(e.reason, str(e))
+            return
+        if m.kind != wire.DATA:
+            self._reject("kind", f"kind {m.kind} is not for the simulation")
+            return
+        ifaces = self.network._ifaces
+        if m.node >= len(ifaces) or ifaces[m.node] is self.iface:
+            self._reject("destination", f"no destination with network index {m.node}")
+            return
+        dst = ifaces[m.node].name
+        self.received += 1
+        sent = self._sent_at.pop(m.seq, None)
+        if sent is not None:
+            self._signal.append((self.sim.now, f"{self.name}.remote", "response",
+                                 (self.sim.now_ticks - sent) * RESOLUTION))
+        self._last[dst] = len(m.values)
+        self.iface.send(dst, m.values, self.size_bits)
+
+    def _liveliness(self, alive: bool) -> None:
+        if alive == self.alive:
+            return
+        self.alive = alive
+        if alive:
+            self._record("alive")
+            return
+        policy = self.loss_policy
+        self._record("lost", policy if isinstance(policy, str) else getattr(policy, "__name__", "callable"))
+        if policy == "zero":
+            for dst, n in self._last.items():
+                self.iface.send(dst, (0.0,) * n, self.size_bits)
+        elif callable(policy):
+            policy(self)
+
+    # any thread, outside the run -----------------------------------------------------
+    def wait_connected(self, timeout: float) -> bool:
+        """Block up to *timeout* s until the process's liveliness token is seen; True if it was."""
+        return self.connected.wait(timeout)
+
+    def finish(self) -> None:
+        """Tell the process the run is over (an ``END`` message on ``rx``); call after ``sim.run``."""
+        self._pub.put(wire.encode(wire.END, 0, self._seq, self.sim.now_ticks))
+
+    def events(self):
+        """The ``hil`` trace rows of this node (``time`` in s, ``event``: alive, lost, rejected)."""
+        df = self.sim.trace.frame("hil")
+        return df[df["node"] == self.name].reset_index(drop=True)
