@@ -76,13 +76,14 @@ def servo_output(sim) -> pd.DataFrame:
 def run_hil(until: float, *, spawn: bool = True, loss_policy: Any = "hold", kill_at: float | None = None,
             lease: float = 1.0, connect_timeout: float = 20.0, max_lag: float = 0.005,
             listen: Sequence[str] = (LOOPBACK,), connect: Sequence[str] = (), seed: int = 0,
-            stop_signal: int | None = None) -> HilRun:
+            stop_signal: int | None = None, before_run: Any = None) -> HilRun:
     """Run the networked servo for *until* s of real time with the controller remote.
 
     ``spawn``: start the controller process here (else print its command and wait up to
     ``connect_timeout`` s for it); ``kill_at``: simulated time (s) at which the process
     gets ``stop_signal`` (default SIGKILL), to exercise the ``loss_policy``; ``lease``:
-    liveliness lease (s) of both sessions; ``max_lag``: lateness (s) counted as an overrun.
+    liveliness lease (s) of both sessions; ``max_lag``: lateness (s) counted as an overrun;
+    ``before_run(session, remote)``: called once the process is connected, before the run.
     """
     import signal
     run = new_run_id()
@@ -99,6 +100,8 @@ def run_hil(until: float, *, spawn: bool = True, loss_policy: Any = "hold", kill
             print("start the remote side with:\n  " + shlex.join(cmd), flush=True)
         if not remote.wait_connected(connect_timeout):
             raise TimeoutError(f"the remote controller did not connect within {connect_timeout} s")
+        if before_run is not None:
+            before_run(session, remote)
         if kill_at is not None and child is not None:
             proc = child
             sig = signal.SIGKILL if stop_signal is None else stop_signal

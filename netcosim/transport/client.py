@@ -20,31 +20,62 @@ from __future__ import annotations
 
 import queue
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable, Iterator, Sequence
 
 from . import wire
 from .session import DEFAULT_LEASE, Session, key, open_session
 
-__all__ = ["RemoteProcess", "LoopStats"]
+__all__ = ["RemoteProcess", "LoopStats", "periodic"]
 
 
 @dataclass
 class LoopStats:
     """Result of :meth:`RemoteProcess.periodic`: ``periods`` run, ``misses`` (a body that
     ended after the start of the next period; that period starts late, none is skipped),
-    ``max_overrun`` (s, the largest lateness of a period start), ``period`` (s)."""
+    ``max_overrun`` (s, the largest lateness of a period's start), ``period`` (s)."""
 
     period: float
     periods: int = 0
     misses: int = 0
     max_overrun: float = 0.0
-    overruns: list[float] = field(default_factory=list, repr=False)
 
     @property
     def miss_ratio(self) -> float:
         """``misses / periods`` (0 for no period)."""
         return self.misses / self.periods if self.periods else 0.0
+
+
+def periodic(period: float, body: Callable[[int], bool | None], *, duration: float | None = None,
+             clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep,
+             stop: Callable[[], bool] = lambda: False) -> LoopStats:
+    """Call ``body(k)`` at ``t0 + k * period`` s (k = 0, 1, ...) until it returns True,
+    ``stop()`` is true or *duration* s have passed; count deadline misses.
+
+    A body that ends after the start of the next period is a miss: the next period
+    starts at once (late; none is skipped, so a transient overload is caught up).
+    ``clock``/``sleep`` (s) are injectable for tests.
+    """
+    if not (isinstance(period, (int, float)) and period > 0):
+        raise ValueError(f"period must be a positive number of seconds, got {period!r}")
+    stats = LoopStats(float(period))
+    t0 = clock()
+    k = 0
+    while not stop() and (duration is None or k * period < duration):
+        late = clock() - (t0 + k * period)
+        if late > stats.max_overrun:
+            stats.max_overrun = late
+        done = body(k)
+        stats.periods += 1
+        if done:
+            break
+        k += 1
+        wait = t0 + k * period - clock()
+        if wait > 0:
+            sleep(wait)
+        else:
+            stats.misses += 1
+    return stats
 
 
 class RemoteProcess:
@@ -126,32 +157,8 @@ class RemoteProcess:
     def periodic(self, period: float, body: Callable[[int], bool | None], *, duration: float | None = None,
                  clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep) -> LoopStats:
-        """Call ``body(k)`` every *period* s (k = 0, 1, ...) until it returns True, the run
-        ends or *duration* s have passed; count deadline misses (a body ending after the
-        next period's start).  ``clock``/``sleep`` are injectable for tests."""
-        if not period > 0:
-            raise ValueError(f"period must be a positive number of seconds, got {period!r}")
-        stats = LoopStats(float(period))
-        t0 = clock()
-        k = 0
-        while not self.ended and (duration is None or k * period < duration):
-            release = t0 + k * period
-            late = clock() - release
-            if late > 0:
-                stats.max_overrun = max(stats.max_overrun, late)
-            if body(k):
-                stats.periods += 1
-                break
-            stats.periods += 1
-            k += 1
-            wait = t0 + k * period - clock()
-            if wait > 0:
-                sleep(wait)
-            else:
-                stats.misses += 1
-                stats.overruns.append(-wait)
-                del stats.overruns[:-1000]
-        return stats
+        """:func:`periodic` that also stops when the run ends."""
+        return periodic(period, body, duration=duration, clock=clock, sleep=sleep, stop=lambda: self.ended)
 
     def close(self) -> None:
         """Drop the liveliness token and close the session (idempotent)."""
