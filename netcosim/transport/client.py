@@ -169,3 +169,29 @@ class RemoteProcess:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m netcosim.transport.client --run RUN --node NODE --connect ENDPOINT``: an
+    echo process (answers every message with its own values, to its sender); prints its
+    counters as JSON when the run ends.  Every remote process accepts these three options
+    (``netcosim hil`` prints them)."""
+    import argparse
+    import json
+    p = argparse.ArgumentParser(prog="python -m netcosim.transport.client", description=main.__doc__)
+    p.add_argument("--run", required=True, help="run id printed by the simulation side")
+    p.add_argument("--node", required=True, help="name of the remote node")
+    p.add_argument("--connect", action="append", required=True, help="endpoint, e.g. tcp/127.0.0.1:7447")
+    p.add_argument("--idle", type=float, default=10.0, help="give up after this many seconds without a message")
+    p.add_argument("--lease", type=float, default=DEFAULT_LEASE, help="liveliness lease of the session (s)")
+    a = p.parse_args(argv)
+    with RemoteProcess(a.node, run=a.run, connect=a.connect, lease=a.lease) as rp:
+        for msg in rp.messages(timeout=a.idle):
+            rp.reply(msg, msg.values)
+        print(json.dumps({"received": rp.received, "published": rp.published, "rejected": rp.rejected,
+                          "ended": rp.ended}), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
