@@ -157,7 +157,7 @@ class RemoteProcess:
     def periodic(self, period: float, body: Callable[[int], bool | None], *, duration: float | None = None,
                  clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep) -> LoopStats:
-        """:func:`periodic` that also stops when the run ends."""
+        """:func:`periodic` (``period`` in s) that also stops when the run ends."""
         return periodic(period, body, duration=duration, clock=clock, sleep=sleep, stop=lambda: self.ended)
 
     def close(self) -> None:

@@ -141,7 +141,7 @@ class RealtimeClock:
         self._steps = 0
         sim._realtime_clock = self
         sim.realtime = True
-        self.env.step = self._step  # type: ignore[method-assign]
+        self.env.step = self._step
 
     # any thread -----------------------------------------------------------------
     def post(self, fn: Callable[..., Any], arg: Any = None) -> None:

@@ -87,7 +87,7 @@ class RemoteNode:
     def __init__(self, sim: Any, node: Any, session: Session, *, run: str, size_bits: int,
                  loss_policy: str | Callable[["RemoteNode"], None] = "hold", **clock_options: Any):
         name = node if isinstance(node, str) else getattr(node, "name", None)
-        if name not in sim.nodes:
+        if not isinstance(name, str) or name not in sim.nodes:
             raise ConfigurationError(f"no node {node!r} in this simulation")
         self.sim = sim
         self.name = name

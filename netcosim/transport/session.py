@@ -61,7 +61,7 @@ def new_run_id() -> str:
 
 
 def _socket_inodes() -> set[str]:
-    inodes = set()
+    inodes: set[str] = set()
     try:
         fds = os.listdir("/proc/self/fd")
     except OSError:
