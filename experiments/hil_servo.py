@@ -113,6 +113,7 @@ def run_hil(until: float, *, spawn: bool = True, loss_policy: Any = "hold", kill
         counters = None
         if child is not None and kill_at is None:
             out, _ = child.communicate(timeout=10)
+            remote.drain()
             import json
             last = out.strip().splitlines()[-1] if out.strip() else ""
             counters = json.loads(last) if last.startswith("{") else None

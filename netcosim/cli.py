@@ -271,9 +271,10 @@ def _hil(args) -> int:
             return 1
         sim.run(until=args.until)
         remote.finish()
+        remote.drain()
         lat = remote.clock.lateness
-        print(f"messages to the remote: {remote.published}, from it: {remote.received}, "
-              f"rejected: {dict(remote.rejected)}")
+        print(f"messages to the remote: {remote.published}, from it: {remote.received} "
+              f"(+{remote.after_end} after the end), rejected: {dict(remote.rejected)}")
         print(f"lateness: median <= {lat.quantile(0.5) * 1e3:.3f} ms, p99 <= {lat.quantile(0.99) * 1e3:.3f} ms, "
               f"max {lat.max * 1e3:.3f} ms, overruns {lat.overruns} of {lat.events} events")
         print(remote.events().to_string(index=False))

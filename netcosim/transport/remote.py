@@ -21,7 +21,9 @@ what it wants.  Every such event is a row of the trace table ``hil``.
 from __future__ import annotations
 
 import logging
+import queue
 import threading
+import time
 from collections import Counter
 from typing import Any, Callable
 
@@ -79,7 +81,8 @@ class RemoteNode:
     Counters (simulation thread): ``published`` messages sent to the process, ``received``
     valid messages from it, ``rejected`` a :class:`collections.Counter` by reason of
     invalid ones (see :class:`~netcosim.transport.wire.WireError`; unknown destination:
-    ``"destination"``), ``alive`` whether its token is present.  The simulated response
+    ``"destination"``), ``alive`` whether its token is present, ``after_end`` messages
+    that arrived after the run (see :meth:`drain`).  The simulated response
     time of every reply (delivery of a message to the process to arrival of a reply
     echoing its ``seq``) is logged as signal ``response`` (s) of source ``<node>.remote``.
     """
@@ -110,6 +113,7 @@ class RemoteNode:
         self.received = 0
         self.rejected: Counter[str] = Counter()
         self.alive = False
+        self.after_end = 0
         self.connected = threading.Event()   # set (from a Zenoh thread) when the token appears
         self._seq = 0
         self._sent_at: dict[int, int] = {}   # seq -> tick of delivery to the process
@@ -197,6 +201,30 @@ class RemoteNode:
     def finish(self) -> None:
         """Tell the process the run is over (an ``END`` message on ``rx``); call after ``sim.run``."""
         self._pub.put(wire.encode(wire.END, 0, self._seq, self.sim.now_ticks))
+
+    def drain(self, timeout: float = 5.0) -> int:
+        """After the run and :meth:`finish`, once the process is ending: count the valid
+        messages it sent that arrived after the run (``after_end``; replies in flight at
+        the stop time), until its liveliness token goes or *timeout* s pass.  Nothing is
+        injected.  Returns ``after_end``."""
+        if not self.alive:
+            return self.after_end
+        inbox = self.clock.inbox
+        deadline = time.monotonic() + timeout
+        while (left := deadline - time.monotonic()) > 0:
+            try:
+                _, fn, arg = inbox.get(timeout=left)
+            except queue.Empty:
+                break
+            if fn == self._liveliness and arg is False:
+                break
+            if fn == self._receive:
+                try:
+                    if wire.decode(arg).kind == wire.DATA:
+                        self.after_end += 1
+                except wire.WireError:
+                    pass
+        return self.after_end
 
     def events(self):
         """The ``hil`` trace rows of this node (``time`` in s, ``event``: alive, lost, rejected)."""
