@@ -217,3 +217,13 @@ def test_cli_prints_the_remote_command_and_runs_with_it():
                 p.kill()
             if p is not None:
                 p.wait(timeout=10)
+
+
+@needs_zenoh
+def test_hil_servo_example_writes_its_results(tmp_path):
+    summary = _hil().main(outdir=str(tmp_path), quick=True)
+    row = summary.iloc[0]
+    assert row["until"] == 2.0 and row["published"] == 200
+    assert row["deviation"] <= row["tolerance"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hil_events.parquet", "lateness.parquet", "outputs.png",
+                                                         "summary.parquet"]
