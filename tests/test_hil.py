@@ -227,3 +227,69 @@ def test_hil_servo_example_writes_its_results(tmp_path):
     assert row["deviation"] <= row["tolerance"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["hil_events.parquet", "lateness.parquet", "outputs.png",
                                                          "summary.parquet"]
+
+
+LOCAL_LOOP = """
+import sys
+from netcosim.transport.client import RemoteProcess
+with RemoteProcess("servo", run=sys.argv[1], connect=[sys.argv[2]]) as rp:
+    for m in rp.messages(timeout=10):
+        rp.reply(m, (0.05 * (1.0 - m.values[0]),))
+print(rp.received, rp.published)
+"""
+
+
+def _servo_sim():
+    from netcosim import RK4, Simulation
+    from plants.dc_servo import DCServo
+    sim = Simulation()
+    plant = sim.plant(DCServo(), x0=[0.0, 0.0], name="servo", integrator=RK4(dt=1e-4), log_interval=1e-3)
+    return sim, plant
+
+
+@needs_zenoh
+def test_remote_plant_io_runs_a_fast_local_loop_against_the_simulated_plant():
+    from netcosim.transport.remote import RemotePlantIO
+    from netcosim.transport.session import new_run_id
+    h, until = 0.002, 1.0
+    sim, plant = _servo_sim()
+    run = new_run_id()
+    child = None
+    session = open_session()
+    try:
+        io = RemotePlantIO(sim, plant, session, run=run, period=h, outputs=0, inputs=0)
+        child = subprocess.Popen([sys.executable, "-c", LOCAL_LOOP, run, session.endpoints[0]], cwd=ROOT,
+                                 env=dict(os.environ, PYTHONPATH=str(ROOT)), stdout=subprocess.PIPE, text=True)
+        assert io.wait_connected(30)
+        sim.run(until=until)
+        io.finish()
+        out, _ = child.communicate(timeout=30)
+        io.drain()
+    finally:
+        if child is not None and child.poll() is None:
+            child.kill()
+            child.wait(timeout=10)
+        session.close()
+    samples = round(until / h)                      # 0, h, ..., until - h (the run stops before `until`)
+    assert io.published == samples
+    assert out.split() == [str(samples), str(samples)]
+    assert io.received + io.after_end == samples and not io.rejected
+    sig = sim.trace.signals()
+    resp = sig[(sig["source"] == "servo.remote") & (sig["signal"] == "response")]["value"].to_numpy()
+    assert len(resp) == io.received
+    # replayed all-simulated: sample every h, write u = 0.05 (1 - y) after the measured response time
+    ref, rplant = _servo_sim()
+    y_port, u_port, delays = rplant.output(0), rplant.input(0), iter(resp)
+
+    def sample():
+        u = 0.05 * (1.0 - y_port.read())
+        d = next(delays, None)
+        if d is not None:
+            ref.call_in(float(d), lambda: u_port.write(u))
+        ref.call_in(h, sample)
+    ref.call_at(0.0, sample)
+    ref.run(until=until)
+    y = sig[(sig["source"] == "servo") & (sig["signal"] == "y.y")]["value"].to_numpy()
+    rs = ref.trace.signals()
+    assert np.array_equal(y, rs[(rs["source"] == "servo") & (rs["signal"] == "y.y")]["value"].to_numpy())
+    assert y.max() > 0.5                            # the loop did move the servo towards 1
