@@ -14,6 +14,7 @@ import re
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -169,15 +170,24 @@ def test_malformed_messages_are_rejected_counted_and_the_run_goes_on():
            wire.HEADER.pack(b"NCSM", wire.VERSION, wire.DATA, 1, 0, 0, 100_000),
            wire.encode(wire.DATA, 60000, 0, 0, (1.0, 2.0))]
 
+    peers = []
+
     def inject(session, remote):
-        pub_tx = session.publisher(remote.keys["tx"])
-        pub_rx = session.publisher(remote.keys["rx"])
+        # on tx, a misbehaving peer: its own session, connected to the simulation's endpoint
+        peer = open_session(listen=(), connect=session.endpoints)
+        peers.append(peer)
+        pub = peer.publisher(remote.keys["tx"])
+        deadline = time.monotonic() + 10
+        while not pub.matching_status and time.monotonic() < deadline:
+            time.sleep(0.01)
         for b in bad:
-            pub_tx.put(b)
-            pub_rx.put(b)
-        pub_tx.undeclare()
-        pub_rx.undeclare()
-    run = hs.run_hil(0.5, before_run=inject)
+            pub.put(b)
+            remote._pub.put(b)     # on rx, through the simulation's own publisher
+    try:
+        run = hs.run_hil(0.5, before_run=inject)
+    finally:
+        for peer in peers:
+            peer.close()
     # the message for node 60000 arrives twice: sent on tx, and echoed by the process, which
     # answers every valid message it gets on rx (here to the sender index 60000)
     assert dict(run.remote.rejected) == {"short": 2, "magic": 1, "version": 1, "oversized": 1, "destination": 2}

@@ -87,7 +87,7 @@ class RemoteProcess:
 
     Counters: ``received`` valid DATA messages, ``published`` messages sent,
     ``rejected`` invalid messages by reason, ``ended`` True once the simulation's END
-    message arrived.
+    message arrived (the process answers it with its own END, after its last reply).
     """
 
     def __init__(self, node: str, *, run: str, connect: Sequence[str], listen: Sequence[str] = (),
@@ -125,6 +125,8 @@ class RemoteProcess:
                 self.rejected[e.reason] = self.rejected.get(e.reason, 0) + 1
                 continue
             if m.kind == wire.END:
+                # answer with our own END: the simulation then knows every reply has arrived
+                self._pub.put(wire.encode(wire.END, 0, self._seq, m.ticks))
                 self.ended = True
                 return None
             self.received += 1
@@ -160,8 +162,11 @@ class RemoteProcess:
         """:func:`periodic` (``period`` in s) that also stops when the run ends."""
         return periodic(period, body, duration=duration, clock=clock, sleep=sleep, stop=lambda: self.ended)
 
-    def close(self) -> None:
-        """Drop the liveliness token and close the session (idempotent)."""
+    def close(self, linger: float = 0.1) -> None:
+        """Drop the liveliness token and close the session (idempotent), after *linger* s
+        if anything was published (closing at once can drop messages still queued)."""
+        if self.published and not self.session.zenoh.is_closed():
+            time.sleep(linger)
         self.session.close()
 
     def __enter__(self) -> "RemoteProcess":

@@ -129,8 +129,8 @@ class _Remote:
         except wire.WireError as e:
             self._reject(e.reason, str(e))
             return
-        if m.kind != wire.DATA:
-            self._reject("kind", f"kind {m.kind} is not for the simulation")
+        if m.kind == wire.END:
+            self._record("ended")       # the process has answered everything it will answer
             return
         if not self._valid(m):
             return
@@ -173,32 +173,35 @@ class _Remote:
         """Tell the process the run is over (an ``END`` message on ``rx``); call after ``sim.run``."""
         self._pub.put(wire.encode(wire.END, 0, self._seq, self.sim.now_ticks))
 
-    def drain(self, timeout: float = 5.0) -> int:
+    def drain(self, timeout: float = 5.0, quiet: float = 0.5) -> int:
         """After the run and :meth:`finish`, once the process is ending: count the valid
         messages it sent that arrived after the run (``after_end``; replies in flight at
-        the stop time), until its liveliness token goes or *timeout* s pass.  Nothing is
-        injected.  Returns ``after_end``."""
-        if not self.alive:
-            return self.after_end
+        the stop time).  Waits for the process's own END message (it sends one after its
+        last reply), or else until its liveliness token has gone and then no message came
+        for *quiet* s (Zenoh may deliver the token's end before the last data), at most
+        *timeout* s.  Nothing is injected.  Returns ``after_end``."""
         inbox = self.clock.inbox
         deadline = time.monotonic() + timeout
+        gone = not self.alive
         while (left := deadline - time.monotonic()) > 0:
             try:
-                _, fn, arg = inbox.get(timeout=left)
+                _, fn, arg = inbox.get(timeout=min(left, quiet) if gone else left)
             except queue.Empty:
                 break
             if fn == self._liveliness and arg is False:
-                break
-            if fn == self._receive:
+                gone = True
+            elif fn == self._receive:
                 try:
-                    if wire.decode(arg).kind == wire.DATA:
-                        self.after_end += 1
+                    kind = wire.decode(arg).kind
                 except wire.WireError:
-                    pass
+                    continue
+                if kind == wire.END:
+                    break
+                self.after_end += 1
         return self.after_end
 
     def events(self):
-        """The ``hil`` trace rows of this remote (``time`` in s, ``event``: alive, lost, rejected)."""
+        """The ``hil`` trace rows of this remote (``time`` in s, ``event``: alive, lost, rejected, ended)."""
         df = self.sim.trace.frame("hil")
         return df[df["node"] == self.name].reset_index(drop=True)
 
