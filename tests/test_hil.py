@@ -102,7 +102,6 @@ def _check_servo(until):
     assert run.process == {"received": samples, "published": samples, "rejected": {}, "ended": True}
     # replies still in flight at the stop time arrive after the run: counted, not applied
     assert run.remote.received + run.remote.after_end == samples and len(resp) == run.remote.received
-    assert run.remote.received >= samples - 5
     assert not run.remote.rejected
     assert run.sim.now == until
     assert np.all(resp > 0)

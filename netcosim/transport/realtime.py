@@ -139,6 +139,7 @@ class RealtimeClock:
         self._events = self._overruns = self._injections = self._late_injections = 0
         self._max = 0.0
         self._steps = 0
+        self._pending: list = []        # injections scheduled ahead of now (timer, fn, arg)
         sim._realtime_clock = self
         sim.realtime = True
         self.env.step = self._step
@@ -175,7 +176,22 @@ class RealtimeClock:
         if ticks < now:
             self._late_injections += 1
             ticks = now
-        self.sim.call_at_ticks(ticks, fn, arg=arg)
+        timer = self.sim.call_at_ticks(ticks, fn, arg=arg)
+        if ticks > now:
+            pending = self._pending
+            pending.append((timer, fn, arg))
+            if len(pending) > 64:
+                self._pending = [p for p in pending if p[0].pending]
+
+    def take_pending(self) -> list[tuple[Callable[..., Any], Any]]:
+        """Injected messages scheduled after the current simulated time (a lagging
+        simulation schedules a message at the simulated time of its arrival, which may
+        lie beyond the stop time): withdraw them and return their ``(fn, arg)``."""
+        out = [(fn, arg) for timer, fn, arg in self._pending if timer.pending]
+        for timer, _, _ in self._pending:
+            timer.cancel()
+        self._pending = []
+        return out
 
     def _drain(self) -> None:
         inbox = self.inbox

@@ -176,10 +176,14 @@ class _Remote:
     def drain(self, timeout: float = 5.0, quiet: float = 0.5) -> int:
         """After the run and :meth:`finish`, once the process is ending: count the valid
         messages it sent that arrived after the run (``after_end``; replies in flight at
-        the stop time).  Waits for the process's own END message (it sends one after its
+        the stop time, or scheduled after it by a lagging simulation).  Waits for the
+        process's own END message (it sends one after its
         last reply), or else until its liveliness token has gone and then no message came
         for *quiet* s (Zenoh may deliver the token's end before the last data), at most
         *timeout* s.  Nothing is injected.  Returns ``after_end``."""
+        for fn, arg in self.clock.take_pending():     # arrived, due after the stop time
+            if fn == self._receive:
+                self._count_late(arg)
         inbox = self.clock.inbox
         deadline = time.monotonic() + timeout
         gone = not self.alive
@@ -190,15 +194,20 @@ class _Remote:
                 break
             if fn == self._liveliness and arg is False:
                 gone = True
-            elif fn == self._receive:
-                try:
-                    kind = wire.decode(arg).kind
-                except wire.WireError:
-                    continue
-                if kind == wire.END:
-                    break
-                self.after_end += 1
+            elif fn == self._receive and self._count_late(arg):
+                break
         return self.after_end
+
+    def _count_late(self, data: bytes) -> bool:
+        """Count a message that arrived after the run; True if it is the process's END."""
+        try:
+            m = wire.decode(data)
+        except wire.WireError:
+            return False
+        if m.kind == wire.END:
+            return True
+        self.after_end += 1
+        return False
 
     def events(self):
         """The ``hil`` trace rows of this remote (``time`` in s, ``event``: alive, lost, rejected, ended)."""
