@@ -159,3 +159,21 @@ def test_clock_rejects_bad_parameters_and_a_second_clock():
     RealtimeClock(sim)
     with pytest.raises(ValueError, match="already has a real-time clock"):
         RealtimeClock(sim)
+
+
+def test_messages_due_after_the_stop_are_withdrawn_not_lost():
+    sim = Simulation()
+    fake = FakeClock(0.0)
+    rt = RealtimeClock(sim, clock=fake, wait=fake.wait)
+    got: list[str] = []
+
+    def slow():
+        fake.t += 0.5                  # the simulation falls 0.5 s behind the wall clock
+        rt.post(got.append, "late")    # arrives at wall 1.4 s: simulated 1.4 s, after the stop
+    sim.call_at(0.9, slow)
+    sim.run(until=1.0)
+    assert got == [] and rt.lateness.injections == 1
+    assert rt.take_pending() == [(got.append, "late")]
+    assert rt.take_pending() == []
+    sim.run(until=2.0)
+    assert got == []                   # withdrawn: it never runs
