@@ -128,14 +128,9 @@ def run_hil(until: float, *, spawn: bool = True, loss_policy: Any = "hold", kill
         session.close()
 
 
-def run_simulated(until: float, *, control_exec: float = networked_servo.CONTROL_EXEC, seed: int = 0):
-    """The all-simulated networked servo (``control_exec``: the controller's CPU time, s)."""
-    saved = networked_servo.CONTROL_EXEC
-    networked_servo.CONTROL_EXEC = control_exec
-    try:
-        sim, _ = networked_servo.build("csma_cd", 0.0, seed=seed)
-    finally:
-        networked_servo.CONTROL_EXEC = saved
+def run_simulated(until: float, *, seed: int = 0):
+    """The all-simulated networked servo (the controller's 0.5 ms of CPU time simulated)."""
+    sim, _ = networked_servo.build("csma_cd", 0.0, seed=seed)
     sim.run(until=until)
     return sim
 
