@@ -39,47 +39,99 @@ Errors
     :class:`SimulationFailedError`, :class:`UnyieldedExecuteError`, :class:`IntegrationError`
 """
 
-from .continuous import RK4, ContinuousSystem, ExactZOH, HybridEvent, PlantInstance, SolveIVP
-from .cputime import CPUTimeModel, FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime
-from .errors import (
-    ConfigurationError,
-    ConfigurationTypeError,
-    IntegrationError,
-    NetcosimError,
-    NotConnectedError,
-    SimulationFailedError,
-    SingularConfigurationError,
-    UnyieldedExecuteError,
-)
-from .kernel import (
-    EDF,
-    ConditionVariable,
-    DeadlineMonotonic,
-    Event,
-    FixedPriority,
-    Mailbox,
-    Monitor,
-    RateMonotonic,
-    SchedulingPolicy,
-    Semaphore,
-)
-from .network import (
-    BROADCAST,
-    CAN,
-    CSMACD,
-    FDMA,
-    IEEE802154,
-    TDMA,
-    Bernoulli,
-    GilbertElliott,
-    IdealLink,
-    RoundRobin,
-    SwitchedEthernet,
-    TraceLoss,
-    WLAN80211b,
-)
-from .sim import Simulation
-from .timebase import RESOLUTION
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .continuous import RK4, ContinuousSystem, ExactZOH, HybridEvent, PlantInstance, SolveIVP
+    from .cputime import CPUTimeModel, FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime
+    from .errors import (
+        ConfigurationError,
+        ConfigurationTypeError,
+        IntegrationError,
+        NetcosimError,
+        NotConnectedError,
+        SimulationFailedError,
+        SingularConfigurationError,
+        UnyieldedExecuteError,
+    )
+    from .kernel import (
+        EDF,
+        ConditionVariable,
+        DeadlineMonotonic,
+        Event,
+        FixedPriority,
+        Mailbox,
+        Monitor,
+        RateMonotonic,
+        SchedulingPolicy,
+        Semaphore,
+    )
+    from .network import (
+        BROADCAST,
+        CAN,
+        CSMACD,
+        FDMA,
+        IEEE802154,
+        TDMA,
+        Bernoulli,
+        GilbertElliott,
+        IdealLink,
+        RoundRobin,
+        SwitchedEthernet,
+        TraceLoss,
+        WLAN80211b,
+    )
+    from .sim import Simulation
+    from .timebase import RESOLUTION
+
+# Names are imported on first use (PEP 562), so that importing a light submodule such as
+# netcosim.transport.client does not load SimPy, NumPy or CasADi.
+_LAZY = {
+    "RK4": "continuous",
+    "ContinuousSystem": "continuous",
+    "ExactZOH": "continuous",
+    "HybridEvent": "continuous",
+    "PlantInstance": "continuous",
+    "SolveIVP": "continuous",
+    "CPUTimeModel": "cputime",
+    "FixedCPUTime": "cputime",
+    "NonReproducibleWarning": "cputime",
+    "RecordedCPUTime": "cputime",
+    "WallClockCPUTime": "cputime",
+    "ConfigurationError": "errors",
+    "ConfigurationTypeError": "errors",
+    "IntegrationError": "errors",
+    "NetcosimError": "errors",
+    "NotConnectedError": "errors",
+    "SimulationFailedError": "errors",
+    "SingularConfigurationError": "errors",
+    "UnyieldedExecuteError": "errors",
+    "EDF": "kernel",
+    "ConditionVariable": "kernel",
+    "DeadlineMonotonic": "kernel",
+    "Event": "kernel",
+    "FixedPriority": "kernel",
+    "Mailbox": "kernel",
+    "Monitor": "kernel",
+    "RateMonotonic": "kernel",
+    "SchedulingPolicy": "kernel",
+    "Semaphore": "kernel",
+    "BROADCAST": "network",
+    "CAN": "network",
+    "CSMACD": "network",
+    "FDMA": "network",
+    "IEEE802154": "network",
+    "TDMA": "network",
+    "Bernoulli": "network",
+    "GilbertElliott": "network",
+    "IdealLink": "network",
+    "RoundRobin": "network",
+    "SwitchedEthernet": "network",
+    "TraceLoss": "network",
+    "WLAN80211b": "network",
+    "Simulation": "sim",
+    "RESOLUTION": "timebase",
+}
 
 __all__ = [
     # simulation
@@ -103,3 +155,17 @@ __all__ = [
 ]
 
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from importlib import import_module
+    value = getattr(import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

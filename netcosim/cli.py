@@ -1,4 +1,5 @@
-"""Command line: ``netcosim run EXPERIMENT``, ``netcosim sweep SCENARIO`` and ``netcosim plot schedule TRACE``.
+"""Command line: ``netcosim run EXPERIMENT``, ``netcosim sweep SCENARIO``, ``netcosim hil SCENARIO --remote NODE``
+and ``netcosim plot schedule TRACE``.
 
 ``run`` calls an experiment's entry point with ``outdir`` (and ``quick``) keyword
 arguments.  EXPERIMENT is one of
@@ -17,6 +18,10 @@ seeds (:func:`netcosim.sweep.run_sweep`) into a Parquet dataset: SCENARIO is
 a bool (``true``/``false``), else a string; ``--resume DIR`` continues the sweep stored in
 DIR.  Modules are also looked up in the current directory.  Exit status 1 if a run
 failed (error or timeout).
+
+``hil`` builds SCENARIO (``package.module:function`` returning a Simulation), makes node
+NODE remote (:class:`netcosim.transport.remote.RemoteNode`), prints the command that
+starts the remote side, waits for it and runs in real time (docs/hil.md).
 
 ``plot schedule`` draws a schedule table written by ``Trace.to_parquet``.
 
@@ -237,6 +242,47 @@ def _sweep(args) -> int:
     return 1 if s["error"] or s["timeout"] else 0
 
 
+def _hil(args) -> int:
+    import shlex
+
+    from .transport.remote import RemoteNode
+    from .transport.session import LOOPBACK, new_run_id, open_session
+
+    if ":" not in args.scenario:
+        raise UsageError(f"scenario {args.scenario!r}: give package.module:function or path/to/file.py:function")
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    built = resolve_experiment(args.scenario)()
+    sim = built[0] if isinstance(built, tuple) else built
+    if args.remote not in getattr(sim, "nodes", {}):
+        raise UsageError(f"scenario {args.scenario!r} has no node {args.remote!r}")
+    listen = args.listen or ([] if args.connect else [LOOPBACK])
+    run = new_run_id()
+    session = open_session(listen=listen, connect=args.connect, lease=args.lease)
+    try:
+        remote = RemoteNode(sim, args.remote, session, run=run, size_bits=args.size_bits,
+                            loss_policy=args.loss_policy)
+        cmd = shlex.split(args.remote_cmd) + ["--run", run, "--node", args.remote, "--lease", repr(args.lease)]
+        for e in args.connect or session.endpoints:
+            cmd += ["--connect", e]
+        print("start the remote side with:\n  " + shlex.join(cmd), flush=True)
+        if not remote.wait_connected(args.wait):
+            print(f"netcosim hil: the remote side did not connect within {args.wait} s", file=sys.stderr)
+            return 1
+        sim.run(until=args.until)
+        remote.finish()
+        remote.drain()
+        lat = remote.clock.lateness
+        print(f"messages to the remote: {remote.published}, from it: {remote.received} "
+              f"(+{remote.after_end} after the end), rejected: {dict(remote.rejected)}")
+        print(f"lateness: median <= {lat.quantile(0.5) * 1e3:.3f} ms, p99 <= {lat.quantile(0.99) * 1e3:.3f} ms, "
+              f"max {lat.max * 1e3:.3f} ms, overruns {lat.overruns} of {lat.events} events")
+        print(remote.events().to_string(index=False))
+        return 0
+    finally:
+        session.close()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``netcosim`` argument parser."""
     p = argparse.ArgumentParser(prog="netcosim", description=__doc__.splitlines()[0],
@@ -272,6 +318,25 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--fresh", action="store_true", help="discard a sweep found in --out and start over")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     sw.set_defaults(fn=_sweep)
+    h = sub.add_parser("hil", help="run a scenario in real time with one node in another process (Zenoh)",
+                       description="Build SCENARIO, make NODE remote, print the command that starts the remote "
+                                   "side, wait for it, run in real time (see docs/hil.md).")
+    h.add_argument("scenario", help="package.module:function or path/to/file.py:function returning a Simulation "
+                                    "(or a tuple starting with one)")
+    h.add_argument("--remote", required=True, metavar="NODE", help="the node whose tasks run in the remote process")
+    h.add_argument("--until", type=float, default=5.0, help="simulated (= real) seconds to run (default 5)")
+    h.add_argument("--connect", action="append", default=[], metavar="tcp/HOST:PORT",
+                   help="a Zenoh router (or peer) to connect to; then nothing listens unless --listen is given")
+    h.add_argument("--listen", action="append", default=[], metavar="tcp/HOST:PORT",
+                   help="endpoint to listen on (default tcp/127.0.0.1:0 without --connect)")
+    h.add_argument("--size-bits", type=int, default=80, help="size (bits) of each message the remote sends")
+    h.add_argument("--loss-policy", choices=["hold", "zero"], default="hold",
+                   help="when the remote process is lost: keep the last command (hold) or send zeros")
+    h.add_argument("--lease", type=float, default=1.0, help="liveliness lease (s): a silent remote is lost after it")
+    h.add_argument("--wait", type=float, default=60.0, help="seconds to wait for the remote side to connect")
+    h.add_argument("--remote-cmd", default="python -m netcosim.transport.client",
+                   help="the remote program, printed with --run/--node/--connect (default: the echo process)")
+    h.set_defaults(fn=_hil)
     pl = sub.add_parser("plot", help="plot a saved trace")
     pl.add_argument("kind", choices=["schedule"])
     pl.add_argument("trace", help="Parquet file written by Trace.to_parquet (schedule table)")

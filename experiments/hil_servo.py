@@ -1,0 +1,217 @@
+"""The networked servo with its controller in a real process, over Zenoh (hardware in the loop).
+
+The scenario of ``experiments.networked_servo`` (CSMA/CD at 80 kbit/s, no interferer):
+the plant, the sensor node and the network are simulated in real time; the
+``controller`` node is remote: ``experiments.hil_servo_controller`` runs its PID in a
+separate OS process, connected over a hermetic Zenoh session (loopback, port chosen by
+the OS, a fresh run id).  The script starts that process itself (``--no-spawn``: it
+prints the command and waits for you to start it, e.g. on a board), runs the
+simulation in real time, then the same scenario all-simulated, and writes both
+outputs (``outputs.png``), the comparison (``summary.parquet``), the ``hil`` trace
+table and the real-time lateness histogram.
+"""
+
+from __future__ import annotations
+
+import shlex
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import pandas as pd
+
+from netcosim.transport.remote import RemoteNode
+from netcosim.transport.session import LOOPBACK, new_run_id, open_session
+
+from . import networked_servo
+from .networked_servo import FRAME_BITS
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def controller_command(run: str, endpoints: Sequence[str], *, node: str = "controller", idle: float = 10.0,
+                       lease: float = 1.0, python: str = sys.executable) -> list[str]:
+    """The command that starts the remote controller process for run *run*."""
+    cmd = [python, "-m", "experiments.hil_servo_controller", "--run", run, "--node", node,
+           "--idle", repr(idle), "--lease", repr(lease)]
+    for e in endpoints:
+        cmd += ["--connect", e]
+    return cmd
+
+
+@dataclass
+class HilRun:
+    """One hardware-in-the-loop run: ``sim``, ``remote`` (the
+    :class:`~netcosim.transport.remote.RemoteNode`), ``lateness`` (the real-time
+    histogram), ``process`` (the remote side's counters from its last stdout line, or
+    None if it did not end cleanly), ``wall`` (s of wall-clock time of ``sim.run``)."""
+
+    sim: Any
+    remote: Any
+    lateness: Any
+    process: dict | None
+    wall: float
+
+    def output(self) -> pd.DataFrame:
+        """The servo angle: columns ``time`` (s) and ``value`` (rad)."""
+        return servo_output(self.sim)
+
+    def response_times(self) -> np.ndarray:
+        """Simulated response time (s) of every reply of the remote controller."""
+        sig = self.sim.trace.signals()
+        return sig[(sig["source"] == "controller.remote") & (sig["signal"] == "response")]["value"].to_numpy()
+
+
+def servo_output(sim) -> pd.DataFrame:
+    """The servo angle of a networked-servo simulation: ``time`` (s), ``value`` (rad)."""
+    sig = sim.trace.signals()
+    y = sig[(sig["source"] == "servo") & (sig["signal"] == "y.y")]
+    return y[["time", "value"]].reset_index(drop=True)
+
+
+def run_hil(until: float, *, spawn: bool = True, loss_policy: Any = "hold", kill_at: float | None = None,
+            lease: float = 1.0, connect_timeout: float = 20.0, max_lag: float = 0.005,
+            listen: Sequence[str] = (LOOPBACK,), connect: Sequence[str] = (), seed: int = 0,
+            stop_signal: int | None = None, before_run: Any = None) -> HilRun:
+    """Run the networked servo for *until* s of real time with the controller remote.
+
+    ``spawn``: start the controller process here (else print its command and wait up to
+    ``connect_timeout`` s for it); ``kill_at``: simulated time (s) at which the process
+    gets ``stop_signal`` (default SIGKILL), to exercise the ``loss_policy``; ``lease``:
+    liveliness lease (s) of both sessions; ``max_lag``: lateness (s) counted as an overrun;
+    ``before_run(session, remote)``: called once the process is connected, before the run.
+    """
+    import signal
+    run = new_run_id()
+    child: subprocess.Popen | None = None
+    session = open_session(listen=listen, connect=connect, lease=lease)
+    try:
+        sim, _net = networked_servo.build("csma_cd", 0.0, seed=seed)
+        remote = RemoteNode(sim, "controller", session, run=run, size_bits=FRAME_BITS, loss_policy=loss_policy,
+                            max_lag=max_lag)
+        cmd = controller_command(run, session.endpoints, lease=lease)
+        if spawn:
+            child = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True)
+        else:
+            print("start the remote side with:\n  " + shlex.join(cmd), flush=True)
+        if not remote.wait_connected(connect_timeout):
+            raise TimeoutError(f"the remote controller did not connect within {connect_timeout} s")
+        if before_run is not None:
+            before_run(session, remote)
+        if kill_at is not None and child is not None:
+            proc = child
+            sig = signal.SIGKILL if stop_signal is None else stop_signal
+            sim.call_at(kill_at, lambda: proc.send_signal(sig))
+        t0 = time.monotonic()
+        sim.run(until=until)
+        wall = time.monotonic() - t0
+        remote.finish()
+        counters = None
+        if child is not None and kill_at is None:
+            out, _ = child.communicate(timeout=10)
+            remote.drain()
+            import json
+            last = out.strip().splitlines()[-1] if out.strip() else ""
+            counters = json.loads(last) if last.startswith("{") else None
+        return HilRun(sim, remote, remote.clock.lateness, counters, wall)
+    finally:
+        if child is not None and child.poll() is None:
+            child.kill()
+        if child is not None:
+            child.wait(timeout=10)
+            if child.stdout is not None:
+                child.stdout.close()
+        session.close()
+
+
+def run_simulated(until: float, *, seed: int = 0):
+    """The all-simulated networked servo (the controller's 0.5 ms of CPU time simulated)."""
+    sim, _ = networked_servo.build("csma_cd", 0.0, seed=seed)
+    sim.run(until=until)
+    return sim
+
+
+def deviation(a: pd.DataFrame, b: pd.DataFrame) -> float:
+    """Largest ``|a - b|`` of two outputs on *a*'s time grid (b interpolated linearly)."""
+    return float(np.max(np.abs(a["value"].to_numpy() - np.interp(a["time"], b["time"], b["value"]))))
+
+
+def run_replay(until: float, responses: Sequence[float], *, seed: int = 0):
+    """The all-simulated networked servo with the controller answering each measurement
+    after the response time (s) measured for it in a HIL run (*responses*, in order)
+    instead of after its 0.5 ms of CPU time: what the HIL run must reproduce."""
+    from controllers.pid import PID
+
+    from .servo import square_wave
+    sim, net = networked_servo.build("csma_cd", 0.0, seed=seed)
+    iface = net.interface("controller")
+    pid, ref, delays = PID(h=networked_servo.PERIOD), square_wave(1.0, 1.0), iter(responses)
+
+    def answer(msg):
+        t_sample, y = msg.payload
+        u = pid.compute(ref(t_sample), y)
+        d = next(delays, None)
+        if d is not None:
+            sim.call_in(float(d), lambda: iface.send(msg.src, (t_sample, u), FRAME_BITS))
+
+    iface.handlers[:] = [answer]
+    iface.use_mailbox = False
+    sim.run(until=until)
+    return sim
+
+
+def tolerance(until: float, responses: Sequence[float]) -> float:
+    """How far the HIL output may lie from the all-simulated one (rad): 1.5 times the
+    deviation the measured response times alone explain (the all-simulated run replayed
+    with them, :func:`run_replay`, against the nominal one), plus 1e-4 rad."""
+    nominal = servo_output(run_simulated(until))
+    replay = servo_output(run_replay(until, responses))
+    return 1.5 * deviation(replay, nominal) + 1e-4
+
+
+def main(outdir: str = "results/hil_servo", quick: bool = False, spawn: bool = True) -> pd.DataFrame:
+    """Run 5 s (``quick``: 2 s) in real time with the remote controller, compare with the
+    all-simulated run; returns the one-row summary (also ``summary.parquet``)."""
+    import matplotlib.pyplot as plt
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    until = 2.0 if quick else 5.0
+    hil = run_hil(until, spawn=spawn)
+    ref = servo_output(run_simulated(until))
+    resp = hil.response_times()
+    tol = tolerance(until, resp)
+    dev = deviation(hil.output(), ref)
+    lat = hil.lateness
+    row = {"until": until, "deviation": dev, "tolerance": tol, "response_median": float(np.median(resp)),
+           "response_max": float(resp.max()), "published": hil.remote.published, "received": hil.remote.received,
+           "overruns": lat.overruns, "late_max": lat.max, "wall": hil.wall}
+    summary = pd.DataFrame([row])
+    summary.to_parquet(out / "summary.parquet", index=False)
+    lat.to_pandas().to_parquet(out / "lateness.parquet", index=False)
+    hil.sim.trace.frame("hil").to_parquet(out / "hil_events.parquet", index=False)
+    fig, ax = plt.subplots(figsize=(9, 4))
+    ax.plot(ref["time"], ref["value"], lw=1.0, label="all simulated")
+    y = hil.output()
+    ax.plot(y["time"], y["value"], "--", lw=1.0, label="controller in a real process (Zenoh)")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("angle [rad]")
+    ax.set_title(f"networked servo: max deviation {dev:.2e} rad (tolerance {tol:.2e})")
+    ax.legend(loc="lower right")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "outputs.png", dpi=120)
+    plt.close(fig)
+    print(summary.to_string(index=False))
+    return summary
+
+
+if __name__ == "__main__":
+    from experiments._cli import experiment_parser
+    p = experiment_parser(__doc__, "results/hil_servo", quick="2 s instead of 5 s of real time")
+    p.add_argument("--no-spawn", action="store_true", help="print the remote command instead of starting it")
+    a = p.parse_args()
+    main(a.outdir, a.quick, spawn=not a.no_spawn)

@@ -1,0 +1,22 @@
+"""Hardware-in-the-loop: real processes in place of simulated nodes, over Eclipse Zenoh.
+
+Modules (import them directly; this package imports none of them, so that the real
+process can load :mod:`netcosim.transport.client` without SimPy, NumPy or CasADi):
+
+:mod:`netcosim.transport.wire`
+    the versioned wire format (``struct``, float64 payloads; never pickle)
+:mod:`netcosim.transport.realtime`
+    :class:`~netcosim.transport.realtime.RealtimeClock`: wall-clock pacing with an inbox
+    other threads can post to, and the lateness histogram
+:mod:`netcosim.transport.session`
+    hermetic Zenoh sessions (peer mode, no scouting, loopback endpoints, per-run keys)
+:mod:`netcosim.transport.remote`
+    :class:`~netcosim.transport.remote.RemoteNode`: a simulated node whose tasks run in
+    another process
+:mod:`netcosim.transport.client`
+    the library the real process uses (stdlib and Zenoh only)
+
+Zenoh (the ``zenoh`` extra, ``eclipse-zenoh``) is imported only when a session is opened.
+"""
+
+__all__: list[str] = []

@@ -1,0 +1,305 @@
+"""Hardware in the loop over Zenoh: the networked servo with its controller in a real
+process (loopback only, bounded in time, every child killed and every session closed).
+
+The Zenoh tests skip when the ``zenoh`` extra is absent.  Tolerances come from what the
+run measured: the HIL output must equal, bit for bit, the all-simulated run replayed
+with the measured response time of every reply, and lie within 1.5 times the deviation
+those response times explain from the nominal all-simulated run.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from netcosim.transport import wire
+from netcosim.transport.client import periodic
+from netcosim.transport.session import key, open_session, zenoh_available
+
+ROOT = Path(__file__).resolve().parent.parent
+needs_zenoh = pytest.mark.skipif(not zenoh_available(), reason="the zenoh extra (eclipse-zenoh) is not installed")
+
+
+def test_client_and_controller_process_load_neither_simpy_nor_casadi():
+    code = ("import sys, netcosim.transport.client, experiments.hil_servo_controller; "
+            "print(sorted(m for m in ('simpy', 'casadi', 'numpy', 'pandas') if m in sys.modules))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
+                         timeout=60, check=True).stdout
+    assert out.strip() == "[]"
+
+
+class FakeClock:
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        return self.t
+
+    def sleep(self, dt):
+        self.t += dt
+
+
+def test_periodic_loop_counts_deadline_misses():
+    fake = FakeClock()
+    work = {3: 0.025, 7: 0.004}    # body k = 3 takes 25 ms (2.5 periods), k = 7 takes 4 ms
+
+    def body(k):
+        fake.t += work.get(k, 0.001)
+    stats = periodic(0.010, body, duration=0.1, clock=fake, sleep=fake.sleep)
+    assert stats.periods == 10
+    # k = 3 runs from 30 to 55 ms: misses the start of period 4 (40 ms); k = 4 starts at 55 ms
+    # (15 ms late) and ends at 56 ms: misses period 5 (50 ms); k = 5 ends at 57 ms < 60 ms: caught up
+    assert stats.misses == 2
+    assert stats.max_overrun == pytest.approx(0.015)
+    assert stats.miss_ratio == pytest.approx(0.2)
+    with pytest.raises(ValueError, match="period"):
+        periodic(0, body)
+
+
+def test_keys_are_namespaced_and_checked():
+    assert key("r1", "controller", "tx") == "netcosim/r1/controller/tx"
+    with pytest.raises(ValueError, match="node name"):
+        key("r1", "a/b", "tx")
+    with pytest.raises(ValueError, match="run id"):
+        key("*", "a", "tx")
+
+
+@needs_zenoh
+def test_session_listens_on_a_real_loopback_port_and_closes():
+    s = open_session()
+    try:
+        (endpoint,) = s.endpoints
+        host, port = endpoint.rsplit(":", 1)
+        assert host == "tcp/127.0.0.1" and 0 < int(port) < 65536
+        assert s.lease == 1.0
+    finally:
+        s.close()
+    assert s.zenoh.is_closed()
+    s.close()   # idempotent
+
+
+def _hil():
+    from experiments import hil_servo
+    return hil_servo
+
+
+def _check_servo(until):
+    hs = _hil()
+    run = hs.run_hil(until)
+    resp = run.response_times()
+    samples = round(until / 0.010)
+    # both sides count the same messages (loss 0): one measurement and one reply per sample
+    assert run.remote.published == samples
+    assert run.process == {"received": samples, "published": samples, "rejected": {}, "ended": True}
+    # replies still in flight at the stop time arrive after the run: counted, not applied
+    assert run.remote.received + run.remote.after_end == samples and len(resp) == run.remote.received
+    assert not run.remote.rejected
+    assert run.sim.now == until
+    assert np.all(resp > 0)
+    y = run.output()
+    # the HIL run is the all-simulated run with the measured response times, bit for bit
+    replay = hs.servo_output(hs.run_replay(until, resp))
+    assert np.array_equal(y["value"].to_numpy(), replay["value"].to_numpy())
+    nominal = hs.servo_output(hs.run_simulated(until))
+    tol = hs.tolerance(until, resp)
+    assert hs.deviation(y, nominal) <= tol
+    assert run.lateness.events > 10 * samples
+
+
+@needs_zenoh
+def test_servo_with_remote_controller_matches_the_simulated_run():
+    _check_servo(1.0)
+
+
+@needs_zenoh
+@pytest.mark.slow
+def test_servo_with_remote_controller_for_five_seconds():
+    _check_servo(5.0)
+
+
+def _actuations(sim):
+    sig = sim.trace.signals()
+    return sig[(sig["source"] == "sensor.actuate") & (sig["signal"] == "u")]
+
+
+@needs_zenoh
+def test_kill_of_the_remote_is_detected_and_the_zero_policy_applies():
+    hs = _hil()
+    run = hs.run_hil(1.5, loss_policy="zero", kill_at=0.5, lease=0.5)
+    assert run.sim.now == 1.5                      # the run finished
+    ev = run.remote.events()
+    assert list(ev["event"]) == ["alive", "lost"]
+    t_lost = ev["time"].iloc[1]
+    assert ev["detail"].iloc[1] == "zero"
+    assert 0.5 <= t_lost <= 0.5 + 0.5 + 0.5        # within the lease (plus scheduling slack)
+    u = _actuations(run.sim)
+    assert u["value"].iloc[-1] == 0.0             # the command was zeroed ...
+    assert u["time"].iloc[-1] > t_lost             # ... after the loss, through the network
+    assert (u["time"] > t_lost).sum() == 1         # and nothing came after
+
+
+@needs_zenoh
+def test_stopped_remote_is_detected_within_its_lease_and_hold_keeps_the_command():
+    hs = _hil()
+    lease = 0.5
+    run = hs.run_hil(2.5, loss_policy="hold", kill_at=0.3, lease=lease, stop_signal=signal.SIGSTOP)
+    ev = run.remote.events()
+    assert list(ev["event"]) == ["alive", "lost"]
+    t_lost = ev["time"].iloc[1]
+    # the lease runs from the last keep-alive (4 per lease) before the stop; plus scheduling slack
+    assert 0.3 + 0.5 * lease <= t_lost <= 0.3 + lease + 1.0
+    u = _actuations(run.sim)
+    assert (u["time"] > t_lost).sum() == 0         # hold: nothing more is sent
+    assert u["value"].iloc[-1] != 0.0
+
+
+@needs_zenoh
+def test_malformed_messages_are_rejected_counted_and_the_run_goes_on():
+    hs = _hil()
+    bad = [b"", b"NCSM", b"XXXX" + wire.encode(wire.DATA, 1, 0, 0, (1.0, 2.0))[4:],
+           b"NCSM\x07" + wire.encode(wire.DATA, 1, 0, 0, (1.0, 2.0))[5:],
+           wire.HEADER.pack(b"NCSM", wire.VERSION, wire.DATA, 1, 0, 0, 100_000),
+           wire.encode(wire.DATA, 60000, 0, 0, (1.0, 2.0))]
+
+    peers = []
+
+    def inject(session, remote):
+        # on tx, a misbehaving peer: its own session, connected to the simulation's endpoint
+        peer = open_session(listen=(), connect=session.endpoints)
+        peers.append(peer)
+        pub = peer.publisher(remote.keys["tx"])
+        deadline = time.monotonic() + 10
+        while not pub.matching_status and time.monotonic() < deadline:
+            time.sleep(0.01)
+        for b in bad:
+            pub.put(b)
+            remote._pub.put(b)     # on rx, through the simulation's own publisher
+    try:
+        run = hs.run_hil(0.5, before_run=inject)
+    finally:
+        for peer in peers:
+            peer.close()
+    # the message for node 60000 arrives twice: sent on tx, and echoed by the process, which
+    # answers every valid message it gets on rx (here to the sender index 60000)
+    assert dict(run.remote.rejected) == {"short": 2, "magic": 1, "version": 1, "oversized": 1, "destination": 2}
+    assert run.sim.now == 0.5 and run.remote.published == 50
+    assert run.remote.received + run.remote.after_end == 50
+    assert run.process == {"received": 51, "published": 51, "ended": True,
+                           "rejected": {"short": 2, "magic": 1, "version": 1, "oversized": 1}}
+    rows = run.remote.events()
+    assert (rows["event"] == "rejected").sum() == 7
+
+
+@needs_zenoh
+def test_cli_prints_the_remote_command_and_runs_with_it():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    sim_side = subprocess.Popen(
+        [sys.executable, "-m", "netcosim.cli", "hil", "experiments.networked_servo:build", "--remote", "controller",
+         "--until", "0.5", "--wait", "30", "--remote-cmd", f"{sys.executable} -m experiments.hil_servo_controller"],
+        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    remote = None
+    try:
+        assert sim_side.stdout is not None
+        assert sim_side.stdout.readline().strip() == "start the remote side with:"
+        cmd = sim_side.stdout.readline().split()
+        assert cmd[1:3] == ["-m", "experiments.hil_servo_controller"]
+        assert cmd[cmd.index("--node") + 1] == "controller"
+        assert cmd[cmd.index("--connect") + 1].startswith("tcp/127.0.0.1:")
+        remote = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, text=True)
+        out, err = sim_side.communicate(timeout=60)
+        assert sim_side.returncode == 0, err
+        m = re.search(r"messages to the remote: 50, from it: (\d+) \(\+(\d+) after the end\), rejected: \{\}", out)
+        assert m and int(m[1]) + int(m[2]) == 50, out
+        r_out, _ = remote.communicate(timeout=30)
+        assert '"received": 50, "published": 50' in r_out
+    finally:
+        for p in (sim_side, remote):
+            if p is not None and p.poll() is None:
+                p.kill()
+            if p is not None:
+                p.wait(timeout=10)
+
+
+@needs_zenoh
+def test_hil_servo_example_writes_its_results(tmp_path):
+    summary = _hil().main(outdir=str(tmp_path), quick=True)
+    row = summary.iloc[0]
+    assert row["until"] == 2.0 and row["published"] == 200
+    assert row["deviation"] <= row["tolerance"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hil_events.parquet", "lateness.parquet", "outputs.png",
+                                                         "summary.parquet"]
+
+
+LOCAL_LOOP = """
+import sys
+from netcosim.transport.client import RemoteProcess
+with RemoteProcess("servo", run=sys.argv[1], connect=[sys.argv[2]]) as rp:
+    for m in rp.messages(timeout=10):
+        rp.reply(m, (0.05 * (1.0 - m.values[0]),))
+print(rp.received, rp.published)
+"""
+
+
+def _servo_sim():
+    from netcosim import RK4, Simulation
+    from plants.dc_servo import DCServo
+    sim = Simulation()
+    plant = sim.plant(DCServo(), x0=[0.0, 0.0], name="servo", integrator=RK4(dt=1e-4), log_interval=1e-3)
+    return sim, plant
+
+
+@needs_zenoh
+def test_remote_plant_io_runs_a_fast_local_loop_against_the_simulated_plant():
+    from netcosim.transport.remote import RemotePlantIO
+    from netcosim.transport.session import new_run_id
+    h, until = 0.002, 1.0
+    sim, plant = _servo_sim()
+    run = new_run_id()
+    child = None
+    session = open_session()
+    try:
+        io = RemotePlantIO(sim, plant, session, run=run, period=h, outputs=0, inputs=0)
+        child = subprocess.Popen([sys.executable, "-c", LOCAL_LOOP, run, session.endpoints[0]], cwd=ROOT,
+                                 env=dict(os.environ, PYTHONPATH=str(ROOT)), stdout=subprocess.PIPE, text=True)
+        assert io.wait_connected(30)
+        sim.run(until=until)
+        io.finish()
+        out, _ = child.communicate(timeout=30)
+        io.drain()
+    finally:
+        if child is not None and child.poll() is None:
+            child.kill()
+            child.wait(timeout=10)
+        session.close()
+    samples = round(until / h)                      # 0, h, ..., until - h (the run stops before `until`)
+    assert io.published == samples
+    assert out.split() == [str(samples), str(samples)]
+    assert io.received + io.after_end == samples and not io.rejected
+    sig = sim.trace.signals()
+    resp = sig[(sig["source"] == "servo.remote") & (sig["signal"] == "response")]["value"].to_numpy()
+    assert len(resp) == io.received
+    # replayed all-simulated: sample every h, write u = 0.05 (1 - y) after the measured response time
+    ref, rplant = _servo_sim()
+    y_port, u_port, delays = rplant.output(0), rplant.input(0), iter(resp)
+
+    def sample():
+        u = 0.05 * (1.0 - y_port.read())
+        d = next(delays, None)
+        if d is not None:
+            ref.call_in(float(d), lambda: u_port.write(u))
+        ref.call_in(h, sample)
+    ref.call_at(0.0, sample)
+    ref.run(until=until)
+    y = sig[(sig["source"] == "servo") & (sig["signal"] == "y.y")]["value"].to_numpy()
+    rs = ref.trace.signals()
+    assert np.array_equal(y, rs[(rs["source"] == "servo") & (rs["signal"] == "y.y")]["value"].to_numpy())
+    assert y.max() > 0.5                            # the loop did move the servo towards 1

@@ -1,0 +1,179 @@
+"""The HIL wire format and the real-time clock, without Zenoh (fake clocks, threads)."""
+
+from __future__ import annotations
+
+import struct
+import threading
+
+import pytest
+
+from netcosim import Simulation
+from netcosim.transport import wire
+from netcosim.transport.realtime import LATENESS_EDGES, RealtimeClock
+
+
+def test_encode_layout_is_the_documented_one():
+    b = wire.encode(wire.DATA, 3, 7, 10_000_000_000, (1.5, -2.0))
+    assert len(b) == 24 + 16
+    assert b[:4] == b"NCSM" and b[4] == 1 and b[5] == wire.DATA
+    assert struct.unpack_from("<H", b, 6)[0] == 3
+    assert struct.unpack_from("<I", b, 8)[0] == 7
+    assert struct.unpack_from("<q", b, 12)[0] == 10_000_000_000
+    assert struct.unpack_from("<I", b, 20)[0] == 2
+    assert struct.unpack_from("<2d", b, 24) == (1.5, -2.0)
+
+
+def test_round_trip_keeps_every_field_bit_for_bit():
+    values = (0.1, -0.0, 1e308, 5e-324, float("inf"))
+    m = wire.decode(wire.encode(wire.DATA, 65535, 2**32 + 5, -42, values))
+    assert m == wire.Message(wire.DATA, 65535, 5, -42, values)
+    assert struct.pack("<5d", *m.values) == struct.pack("<5d", *values)
+    assert wire.decode(wire.encode(wire.END, 0, 0, 0)).values == ()
+
+
+@pytest.mark.parametrize("data, reason", [
+    (b"", "short"),
+    (b"NCSM\x01", "short"),
+    (b"XXXX" + wire.encode(wire.DATA, 0, 0, 0)[4:], "magic"),
+    (b"NCSM\x02" + wire.encode(wire.DATA, 0, 0, 0)[5:], "version"),
+    (b"NCSM\x01\x09" + wire.encode(wire.DATA, 0, 0, 0)[6:], "kind"),
+    (wire.HEADER.pack(b"NCSM", 1, wire.DATA, 0, 0, 0, wire.MAX_VALUES + 1), "oversized"),
+    (wire.encode(wire.DATA, 0, 0, 0, (1.0,))[:-1], "length"),
+    (wire.encode(wire.DATA, 0, 0, 0, (1.0,)) + b"\0", "length"),
+])
+def test_decode_rejects_with_a_reason(data, reason):
+    with pytest.raises(wire.WireError, match=reason) as e:
+        wire.decode(data)
+    assert e.value.reason == reason
+
+
+def test_encode_rejects_out_of_range_fields():
+    with pytest.raises(ValueError, match="kind"):
+        wire.encode(7, 0, 0, 0)
+    with pytest.raises(ValueError, match="node index"):
+        wire.encode(wire.DATA, 70000, 0, 0)
+    with pytest.raises(ValueError, match="at most 1024"):
+        wire.encode(wire.DATA, 0, 0, 0, [0.0] * 1025)
+
+
+class FakeClock:
+    """A wall clock that advances only when the simulation waits (never sleeps)."""
+
+    def __init__(self, t0: float = 100.0):
+        self.t = t0
+        self.waits: list[float] = []
+
+    def __call__(self) -> float:
+        return self.t
+
+    def wait(self, inbox, timeout):
+        self.waits.append(timeout)
+        self.t += timeout
+        return None
+
+
+def test_events_are_paced_to_the_wall_clock():
+    sim = Simulation()
+    fake = FakeClock()
+    rt = RealtimeClock(sim, factor=2.0, clock=fake, wait=fake.wait)
+    seen = []
+    for t in (0.25, 0.5, 1.0):
+        sim.call_at(t, lambda t=t: seen.append((t, fake())))
+    sim.run(until=1.5)
+    # factor 2: simulated t is due 2 t wall seconds after the start (100 s)
+    assert seen == [(0.25, pytest.approx(100.5)), (0.5, pytest.approx(101.0)), (1.0, pytest.approx(102.0))]
+    assert fake() == pytest.approx(103.0)
+    lat = rt.lateness
+    assert lat.events == 4 and lat.overruns == 0 and lat.counts[0] == 4  # every event on time
+    assert lat.to_pandas()["events"].sum() == 4
+
+
+def test_late_events_are_counted_as_overruns():
+    sim = Simulation()
+    fake = FakeClock(0.0)
+    rt = RealtimeClock(sim, max_lag=0.01, clock=fake, wait=fake.wait)
+
+    def slow():
+        fake.t += 0.05    # this callback takes 50 ms of wall time
+    sim.call_at(0.1, slow)
+    sim.call_at(0.12, lambda: None)    # due at 0.12, processed at 0.15: 30 ms late
+    sim.call_at(0.2, lambda: None)     # due at 0.2: on time again
+    sim.run(until=0.3)
+    lat = rt.lateness
+    assert lat.overruns == 1
+    assert lat.max == pytest.approx(0.03)
+    i = int((LATENESS_EDGES <= 0.03).sum()) - 1
+    assert lat.counts[i] == 1 and lat.counts[0] == 3
+    assert lat.quantile(1.0) == pytest.approx(LATENESS_EDGES[i + 1])
+
+
+def test_posted_messages_are_injected_at_their_arrival_time():
+    sim = Simulation()
+    fake = FakeClock(0.0)
+    pending = [0.0123, 0.5, 0.9]     # wall times (s) at which another thread posts
+    got = []
+
+    def wait(inbox, timeout):
+        # a message arrives during this wait if its wall time falls in the waited interval
+        if pending and fake.t + timeout >= pending[0]:
+            fake.t = pending.pop(0)
+            rt.post(lambda v: got.append((sim.now_ticks, v)), fake.t)
+            return inbox.get()
+        fake.t += timeout
+        return None
+
+    rt = RealtimeClock(sim, clock=fake, wait=wait)
+    sim.call_at(1.0, lambda: None)
+    sim.run(until=1.2)
+    assert got == [(12_300_000_000, 0.0123), (500_000_000_000, 0.5), (900_000_000_000, 0.9)]
+    assert rt.lateness.injections == 3 and rt.lateness.late_injections == 0
+
+
+def test_messages_from_another_thread_all_arrive_in_order():
+    sim = Simulation()
+    rt = RealtimeClock(sim)     # real monotonic clock: the sender is a real thread
+    got: list[tuple[int, int]] = []
+    n = 200
+
+    def sender():
+        for i in range(n):
+            rt.post(lambda i: got.append((sim.now_ticks, i)), i)
+
+    rt.start()
+    th = threading.Thread(target=sender)
+    th.start()
+    th.join(timeout=10)
+    sim.run(until=0.05)
+    assert [i for _, i in got] == list(range(n))
+    ticks = [t for t, _ in got]
+    assert ticks == sorted(ticks) and ticks[-1] <= 50_000_000_000
+    assert rt.lateness.injections == n
+
+
+def test_clock_rejects_bad_parameters_and_a_second_clock():
+    sim = Simulation()
+    with pytest.raises(ValueError, match="real-time factor"):
+        RealtimeClock(sim, factor=0)
+    with pytest.raises(ValueError, match="max_lag"):
+        RealtimeClock(sim, max_lag=-1)
+    RealtimeClock(sim)
+    with pytest.raises(ValueError, match="already has a real-time clock"):
+        RealtimeClock(sim)
+
+
+def test_messages_due_after_the_stop_are_withdrawn_not_lost():
+    sim = Simulation()
+    fake = FakeClock(0.0)
+    rt = RealtimeClock(sim, clock=fake, wait=fake.wait)
+    got: list[str] = []
+
+    def slow():
+        fake.t += 0.5                  # the simulation falls 0.5 s behind the wall clock
+        rt.post(got.append, "late")    # arrives at wall 1.4 s: simulated 1.4 s, after the stop
+    sim.call_at(0.9, slow)
+    sim.run(until=1.0)
+    assert got == [] and rt.lateness.injections == 1
+    assert rt.take_pending() == [(got.append, "late")]
+    assert rt.take_pending() == []
+    sim.run(until=2.0)
+    assert got == []                   # withdrawn: it never runs
