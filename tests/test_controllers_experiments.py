@@ -136,3 +136,19 @@ def test_ch5_fig5_8_9(tmp_path, quick):
     after = noise[noise.t > 3.0].groupby("sigma").err.mean()
     assert after[ex.SIGMA_1] > 1.3 * after[ex.SIGMA_2]
     assert noise.groupby("sigma").err.max().max() <= 0.05 + 1e-12       # never above ||e(0)||
+
+
+def test_fig5_5_plots_rates_only_where_they_contract():
+    """Fig. 5.5 (§5.4.2: "the convergence rate is always smaller than one"): beyond
+    tau_CR no gain stabilises and rho_o(tau) exceeds 1 (up to 22 here); those points are
+    not plotted, the rest are unchanged."""
+    from controllers.planner.sikm import tau_critical
+    from experiments.ch5_table5_2 import EXAMPLES, convergent, curves
+    for name, p in EXAMPLES.items():
+        c = curves(p, name)
+        assert c.rho_tau.max() > 20.0
+        cc = convergent(c)
+        assert cc.rho_tau.max() < 1.0 and cc.rho_k.max() < 1.0
+        kept = cc.rho_tau.notna()
+        assert (cc.tau[kept] < tau_critical(p)).all() and cc.tau[kept].max() > 0.98 * tau_critical(p)
+        assert (cc.rho_tau[kept] == c.rho_tau[kept]).all() and cc.rho_k.equals(c.rho_k)

@@ -25,7 +25,7 @@ def _env(**extra):
 
 
 def test_the_experiment_list_is_complete():
-    assert len(MODULES) == 12 and "experiments.flycrane_network" in MODULES
+    assert len(MODULES) == 13 and "experiments.flycrane_network" in MODULES
     assert "experiments.main" in MODULES and "experiments.servo" in MODULES
 
 
