@@ -24,7 +24,7 @@ def _files(tmp_path, names):
 def test_ch3_fig3_8(tmp_path, quick):
     from experiments import ch3_fig3_8 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
-    _files(tmp_path, ["fig3_8.png", "samples.parquet", "summary.parquet"])
+    _files(tmp_path, ["fig3_5.png", "fig3_6.png", "fig3_8.png", "samples.parquet", "summary.parquet"])
     s = summary.set_index(["case", "strategy"])
     # mu_hat* < 1/2 for r = 0.08 and > 1/2 for r = 0.5 (Sec. 3.5)
     assert s.loc[("small", "offline"), "mu_hat"] < 0.5 < s.loc[("large", "offline"), "mu_hat"]
@@ -42,6 +42,25 @@ def test_ch3_fig3_8(tmp_path, quick):
     near = err[:-1] < 0.05
     assert np.all(err[1:][near] <= 10.0 * err[:-1][near] ** 2)
     assert on.k.values[-2] == pytest.approx(1 / ex.T, rel=1e-3)
+
+
+def test_fig3_6_design_curves():
+    """Fig. 3.6 (Prop. 3.4.3-3.4.4): tau_s_bar = 2 and rho = 0 at mu = 0 (dead beat),
+    tau_o_bar = 1 and rho = mu below 1/2, tau_o_bar = 1/(2 mu) and rho = 1 - 1/(4 mu)
+    above, tau_s_bar = 1/mu from 1 on; rho < 1 everywhere ("Note that rho < 1")."""
+    from experiments.ch3_fig3_8 import design_curves
+    from controllers.planner.gain_design import g_square
+    c = design_curves(mu_max=3.0, n=301).set_index("mu")
+    assert c.loc[0.0].tolist() == [2.0, 1.0, 0.0]
+    assert c.loc[0.3, "tau_o_bar"] == 1.0 and c.loc[0.3, "rho"] == pytest.approx(0.3)
+    assert c.loc[2.0, "tau_o_bar"] == pytest.approx(0.25) and c.loc[2.0, "rho"] == pytest.approx(0.875)
+    assert c.loc[2.0, "tau_s_bar"] == pytest.approx(0.5)
+    assert (c.rho < 1).all() and (c.tau_o_bar < c.tau_s_bar).all()
+    # the marks of Fig. 3.5: g = 1 at tau_s_bar, g = rho at tau_o_bar
+    for mu in (0.3, 0.75, 1.5):
+        row = design_curves(mu_max=mu, n=2).iloc[-1]
+        assert g_square(row.tau_s_bar, mu) == pytest.approx(1.0)
+        assert g_square(row.tau_o_bar, mu) == pytest.approx(row.rho)
 
 
 @QUICK
