@@ -67,13 +67,30 @@ def test_fig3_6_design_curves():
 def test_ch4_fig4_8_9(tmp_path, quick):
     from experiments import ch4_fig4_8_9 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
-    _files(tmp_path, ["fig4_8.png", "fig4_9.png", "samples.parquet", "summary.parquet"])
+    _files(tmp_path, ["fig4_6.png", "fig4_7.png", "fig4_8.png", "fig4_9.png", "samples.parquet", "summary.parquet"])
     assert len(summary) == 8
     assert (summary.samples_to_tol > 0).all()                       # both strategies, both norms converge
     assert (summary.max_contraction <= summary.rho).all()            # never above the computed rho
     far = summary[summary.initial == "q2"].set_index(["norm", "strategy"]).samples_to_tol
     for p in ("2", "inf"):
         assert far[(p, "online")] < far[(p, "offline")]
+
+
+def test_fig4_6_4_7_pieces():
+    """Figs. 4.6/4.7, (4.29) as printed: each piece |1 - tau k_i| / d_i^2 vanishes at
+    tau = 1/k_i; g = max + mu tau^2 equals g_nonsquare(form="thesis"), is 1 at
+    tau_s_bar and rho at tau_o_bar of design_nonsquare."""
+    from controllers.planner.gain_design import design_nonsquare
+    from experiments.ch4_fig4_8_9 import D_EXAMPLE, KBAR_EXAMPLE, MU_EXAMPLE, g_pieces
+    df = g_pieces([0.0, 0.5, 1.0, 2.0])
+    assert df.loc[0, ["piece_0", "piece_1", "piece_2"]].tolist() == pytest.approx([1.0, 1 / 1.44, 1 / 2.25])
+    assert df.loc[3, "piece_0"] == 0.0 and df.loc[2, "piece_1"] == 0.0 and df.loc[1, "piece_2"] == 0.0
+    assert df["max"].tolist() == pytest.approx([1.0, 0.75, 0.5, 3 / 2.25])
+    assert df.g.tolist() == pytest.approx((df["max"] + MU_EXAMPLE * df.tau ** 2).tolist())
+    des = design_nonsquare(MU_EXAMPLE, KBAR_EXAMPLE, D_EXAMPLE, form="thesis")
+    at = g_pieces([des.tau_o, des.tau_s])
+    assert at.g.tolist() == pytest.approx([des.rho, 1.0])
+    assert 0 < des.rho < 1
 
 
 def test_ch4_fig4_8_9_under_the_other_reading_of_D():
