@@ -109,11 +109,25 @@ def test_ch4_fig4_8_9_under_the_other_reading_of_D():
         ex.run(quick=True, d_reading="pose x4")
 
 
+def test_fig4_4_robot_velocities_follow_the_projection():
+    """Fig. 4.4 (Sec. 4.3): u = A_q0 q_dot_0 is feasible at t = 0 and leaves Im A_q as
+    the angles grow (||u - u_q|| reaches 0.27 m/s at 2 s); the robot velocities
+    follow u_q, not u: ||p_dot - u_q|| stays under a fifth of ||p_dot - u|| from 0.2 s on
+    (alpha = 30 N s/m, velocity time constant m_i / alpha = 0.034 s)."""
+    from experiments.ch4_fig4_10 import projection_run
+    df = projection_run(n=41)
+    assert df.infeasible.iloc[0] < 1e-12 and df.dist_u.iloc[0] < 1e-12
+    assert df.infeasible.iloc[-1] == pytest.approx(0.271, abs=0.002)
+    late = df[df.t >= 0.2]
+    assert (late.dist_uq < 0.2 * late.dist_u).all()
+    assert (late.dist_u - late.infeasible).abs().max() < 0.01      # p_dot misses u by u's infeasible part
+
+
 @QUICK
 def test_ch4_fig4_10(tmp_path, quick):
     from experiments import ch4_fig4_10 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
-    _files(tmp_path, ["fig4_10.png", "samples.parquet", "summary.parquet"])
+    _files(tmp_path, ["fig4_4.png", "fig4_10.png", "samples.parquet", "summary.parquet"])
     s = summary.set_index(["alpha", "strategy"])
     for strategy in ("offline", "online"):
         # Theorem 4.4.1: large alpha behaves like the kinematic model (contraction <= rho)
