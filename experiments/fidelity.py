@@ -1,7 +1,7 @@
 """The thesis-fidelity table: every reproduced figure/table, the thesis's number, ours.
 
 ``python -m experiments.fidelity --measure`` reads the Parquet tables the experiments
-wrote under ``--results`` (default ``results/``; one folder per experiment, named after
+wrote under ``--outdir`` (default ``results/``, as for ``experiments.main``; one folder per experiment, named after
 its module as ``python -m experiments.main`` writes them, or its default output
 directory: ``ch2/`` for ``ch2_landing``),
 reduces them to the numbers the table quotes, stores those in
@@ -109,14 +109,14 @@ def _ch5_8_9(d: Path) -> dict[str, float]:
     th = pd.read_parquet(d / "theta.parquet").set_index("source")
     nz = pd.read_parquet(d / "noise.parquet", columns=["sigma", "t", "err"])
     out = {}
-    for (T, st), g in s.groupby(["T", "strategy"]):
+    for (T, st), g in s[s["feasible"]].groupby(["T", "strategy"]):
         out[f"T{T:g}.s{st}.mean_err"] = float(g["mean_err"].iloc[0])
         out[f"T{T:g}.s{st}.early_err"] = float(g["early_err"].iloc[0])
     fitted = th.loc["environment, true errors"]
     for k in ("mu", "alpha", "gamma1", "gamma2", "tau_CR"):
         out[f"theta.{k}"] = float(fitted[k])
     if (s["T"] == 4.0).any():
-        out["T4.s2.run"] = float(((s["T"] == 4.0) & (s["strategy"] == 2)).any())
+        out["T4.s2.run"] = float(s.loc[(s["T"] == 4.0) & (s["strategy"] == 2), "feasible"].any())
     common = s[s["T"].isin([0.5, 0.75, 1.5])]
     if common["T"].nunique() == 3:
         for st, g in common.groupby("strategy"):
@@ -331,15 +331,15 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m experiments.fidelity", description=lines[0],
                                  epilog="\n".join(lines[1:]).strip(),
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--results", default="results", help="root of the experiments' output directories "
-                    "(default: results)")
-    ap.add_argument("--measure", action="store_true", help="read the experiments' outputs under --results and "
+    ap.add_argument("--outdir", default="results", help="parent of the per-experiment folders the experiments "
+                    "wrote, as for experiments.main (default: results)")
+    ap.add_argument("--measure", action="store_true", help="read the experiments' outputs under --outdir and "
                     "store their numbers (default: use the stored numbers)")
     ap.add_argument("--check", action="store_true", help="only compare docs/fidelity.md with the stored numbers")
     a = ap.parse_args(argv)
     if a.measure:
         values = load() if REPRODUCED.exists() else {}
-        values.update(measure(a.results))
+        values.update(measure(a.outdir))
         save(values)
     text = with_table(DOC.read_text(), render(load()))
     if a.check:

@@ -87,4 +87,6 @@ def test_stored_numbers_are_the_full_runs(tmp_path):
         importlib.import_module(f"experiments.{n}").main(str(tmp_path / n), quick=False)
     stored = fidelity.load()
     got = fidelity.measure(tmp_path, names)
-    assert got == {k: stored[k] for k in got}
+    import pandas as pd
+    assert len(got) == 34
+    assert pd.Series(got).equals(pd.Series({k: stored[k] for k in got}))     # NaN equal to NaN
