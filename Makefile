@@ -25,6 +25,7 @@ run: $(STAMP)
 # Every experiment (TrueTime examples and thesis reproductions), each in its own process; see experiments/main.py.
 run-all: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m experiments.main --outdir results
+	$(BIN)/python -m experiments.fidelity --measure --outdir results
 
 # Style and types of the library (configured in pyproject.toml); a finding fails `make test`.
 lint: $(STAMP)

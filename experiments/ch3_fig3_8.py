@@ -6,9 +6,14 @@ Monte-Carlo sampling (3.19) of a small ball (r1 = 0.08) and a large one (r2 = 0.
 the offline gain ``k* = tau_o_bar(mu_hat)/T`` uses the ball that contains the initial
 condition: ``q_1(0)`` with ``||e|| < r1`` and ``q_2(0)`` with ``r1 < ||e|| < r2``.
 
+Also draws the gain design of Sec. 3.4.1 it uses: Fig. 3.5 (``g(tau; mu)`` of (3.20) in
+the three scenarios mu < 1/2, 1/2 <= mu < 1, mu >= 1, with ``tau_s_bar`` and
+``tau_o_bar``) and Fig. 3.6 (``tau_s_bar(mu)`` (3.21), ``tau_o_bar(mu)`` (3.23),
+``rho(mu)`` (3.24)).
+
 Run ``python -m experiments.ch3_fig3_8`` (``--quick`` for a fast check).  Writes
-``fig3_8.png``, ``samples.parquet`` (one row per sample, strategy and case) and
-``summary.parquet`` under *outdir*.
+``fig3_5.png``, ``fig3_6.png``, ``fig3_8.png``, ``samples.parquet`` (one row per sample,
+strategy and case) and ``summary.parquet`` under *outdir*.
 """
 
 from __future__ import annotations
@@ -20,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from controllers.planner import OfflineGain, OnlineGain, simulate_sampled
-from controllers.planner.gain_design import design, estimate_mu
+from controllers.planner.gain_design import design, estimate_mu, g_square, rho, tau_o_bar, tau_s_bar
 from plants.flycrane.configurations import thesis_flycrane
 
 T = 0.01
@@ -56,6 +61,51 @@ def run(quick: bool = False, n_mu: int | None = None, seed: int = 0):
     return pd.concat(rows, ignore_index=True), pd.DataFrame(summ)
 
 
+#: The three scenarios of Fig. 3.5, one value of mu each.
+SCENARIOS = {"mu < 1/2": 0.3, "1/2 <= mu < 1": 0.75, "mu >= 1": 1.5}
+
+
+def design_curves(mu_max: float = 3.0, n: int = 301) -> pd.DataFrame:
+    """Fig. 3.6: ``tau_s_bar``, ``tau_o_bar`` and ``rho`` (dimensionless flow times and
+    contraction) on a grid of ``mu`` from 0 to *mu_max*."""
+    mus = np.linspace(0.0, mu_max, n)
+    return pd.DataFrame(dict(mu=mus, tau_s_bar=[tau_s_bar(m) for m in mus],
+                             tau_o_bar=[tau_o_bar(m) for m in mus], rho=[rho(m) for m in mus]))
+
+
+def plot_design(path35: str, path36: str) -> None:
+    """Figs. 3.5 and 3.6 from the closed forms of Sec. 3.4.1."""
+    tau = np.linspace(0.0, 2.2, 441)
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), sharey=True)
+    for ax, (name, mu) in zip(axes, SCENARIOS.items()):
+        ax.plot(tau, g_square(tau, mu), "b", label="g(tau; mu)")
+        ax.axhline(1.0, color="k", lw=0.5)
+        ts, to = tau_s_bar(mu), tau_o_bar(mu)
+        ax.plot([ts], [1.0], "ro", label=f"tau_s_bar = {ts:.3f}")
+        ax.plot([to], [rho(mu)], "gs", label=f"tau_o_bar = {to:.3f}, rho = {rho(mu):.3f}")
+        ax.set_title(f"{name} (mu = {mu:g})")
+        ax.set_xlabel("tau")
+        ax.set_ylim(0, 2.0)
+        ax.legend(fontsize=8)
+    axes[0].set_ylabel("g(tau; mu) = |1 - tau| + mu tau^2")
+    fig.suptitle("Fig. 3.5: g(tau; mu) in the three scenarios")
+    fig.tight_layout()
+    fig.savefig(path35, dpi=120)
+    plt.close(fig)
+    c = design_curves()
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    ax.plot(c.mu, c.tau_s_bar, "r", label="tau_s_bar(mu) (3.21)")
+    ax.plot(c.mu, c.tau_o_bar, "g", label="tau_o_bar(mu) (3.23)")
+    ax.plot(c.mu, c.rho, "b", label="rho(mu) (3.24)")
+    ax.axhline(1.0, color="k", lw=0.5)
+    ax.set_xlabel("mu")
+    ax.set_title("Fig. 3.6: stability bound, optimal flow time, contraction")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path36, dpi=120)
+    plt.close(fig)
+
+
 def plot(samples: pd.DataFrame, summary: pd.DataFrame, path: str) -> None:
     fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex="col")
     for j, case in enumerate(RADII):
@@ -83,6 +133,7 @@ def main(outdir: str = "results/ch3_fig3_8", quick: bool = False) -> pd.DataFram
     samples.to_parquet(os.path.join(outdir, "samples.parquet"))
     summary.to_parquet(os.path.join(outdir, "summary.parquet"))
     plot(samples, summary, os.path.join(outdir, "fig3_8.png"))
+    plot_design(os.path.join(outdir, "fig3_5.png"), os.path.join(outdir, "fig3_6.png"))
     return summary
 
 

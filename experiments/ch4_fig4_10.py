@@ -15,8 +15,16 @@ plant is integrated with LSODA (rtol 1e-8, atol 1e-10) between samples; the smal
 cable tension at each sample is recorded (a negative value means the taut-cable model
 has become invalid).
 
+Also draws Fig. 4.4 (Sec. 4.3, the physical meaning of the projection (4.4)): from
+``q^r`` with the velocity ``q_dot_0`` of :data:`PROJECTION_QDOT0` (cable angles
+opening, platform rising and moving along x), the robots are given the constant
+``u = A_{q0} q_dot_0``; it is feasible at the start and leaves ``Im A_q`` as the angles
+grow, and the robot velocities ``p_dot = A_q q_dot`` then follow the projection
+``u_q = A_q A_q^+ u`` instead of ``u`` (alpha = 30 N s/m, 2 s, before the cable angles
+reach the singular configuration near 110 deg).
+
 Run ``python -m experiments.ch4_fig4_10`` (``--quick``: 10 samples, 16 Monte-Carlo
-samples).  Writes ``fig4_10.png``, ``samples.parquet``, ``summary.parquet``.
+samples).  Writes ``fig4_4.png``, ``fig4_10.png``, ``samples.parquet``, ``summary.parquet``.
 """
 
 from __future__ import annotations
@@ -87,6 +95,58 @@ def run(quick: bool = False, seed: int = 0):
     return pd.concat(rows, ignore_index=True), pd.DataFrame(summ)
 
 
+#: Fig. 4.4: initial q_dot (cable angles in rad/s, platform in m/s and rad/s).
+PROJECTION_QDOT0 = np.concatenate([np.radians([25.0, 15.0, 20.0, 10.0]), [0.1, 0.0, 0.2, 0.0, 0.0, 0.0]])
+
+
+def projection_run(alpha: float = 30.0, duration: float = 2.0, n: int = 201) -> pd.DataFrame:
+    """Fig. 4.4: constant ``u = A_{q0} q_dot_0`` [m/s] applied through (4.11) from
+    ``q^r`` moving at :data:`PROJECTION_QDOT0`; one row per instant (``n`` over
+    *duration* s): ``t``, the robot velocities ``pdot_i`` and ``uq_i`` (i over the
+    n = 12 coordinates, m/s), ``dist_u = ||p_dot - u||``, ``dist_uq = ||p_dot - u_q||``
+    and ``infeasible = ||u - u_q||`` (the part of u outside Im A_q), all in m/s."""
+    sys_, q_ref, _ = setting()
+    m = sys_.m
+    u = sys_.jacobian(q_ref) @ PROJECTION_QDOT0
+    plant = VelocityTrackingPlant(sys_, alpha)
+    ts = np.linspace(0.0, duration, n)
+    sol = solve_ivp(lambda t, y: plant.f(t, y, u, None), (0.0, duration), plant.initial_state(q_ref, PROJECTION_QDOT0),
+                    t_eval=ts, method="LSODA", rtol=1e-8, atol=1e-10)
+    if sol.status != 0:
+        raise RuntimeError(f"Fig. 4.4 integration failed: {sol.message}")
+    rows = []
+    for i, t in enumerate(sol.t):
+        q, qd = sol.y[:m, i], sol.y[m:, i]
+        A = sys_.jacobian(q)
+        pdot, uq = A @ qd, A @ (np.linalg.pinv(A) @ u)
+        rows.append(dict(t=float(t), **{f"pdot_{j}": v for j, v in enumerate(pdot)},
+                         **{f"uq_{j}": v for j, v in enumerate(uq)}, **{f"u_{j}": v for j, v in enumerate(u)},
+                         dist_u=float(np.linalg.norm(pdot - u)), dist_uq=float(np.linalg.norm(pdot - uq)),
+                         infeasible=float(np.linalg.norm(u - uq))))
+    return pd.DataFrame(rows)
+
+
+def plot_projection(df: pd.DataFrame, path: str) -> None:
+    """Fig. 4.4: robot 1's velocity against u and u_q, and the distances."""
+    fig, axes = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    for j, c in zip(range(3), ("C0", "C1", "C2")):
+        axes[0].plot(df.t, df[f"pdot_{j}"], c, label=f"p_dot_1,{'xyz'[j]}")
+        axes[0].plot(df.t, df[f"u_{j}"], c, ls=":", lw=1)
+        axes[0].plot(df.t, df[f"uq_{j}"], c, ls="--", lw=1)
+    axes[0].set_ylabel("robot 1 velocity [m/s]\n(dotted u, dashed u_q)")
+    axes[0].legend(fontsize=8)
+    axes[1].plot(df.t, df.dist_u, label="||p_dot - u||")
+    axes[1].plot(df.t, df.dist_uq, label="||p_dot - u_q||")
+    axes[1].plot(df.t, df.infeasible, "k:", label="||u - u_q|| (u outside Im A_q)")
+    axes[1].set_xlabel("t [s]")
+    axes[1].set_ylabel("[m/s]")
+    axes[1].legend(fontsize=8)
+    axes[0].set_title("Fig. 4.4: unfeasible u, p_dot -> u_q (alpha = 30 N s/m)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def main(outdir: str = "results/ch4_fig4_10", quick: bool = False) -> pd.DataFrame:
     """Run, save ``fig4_10.png`` and Parquet files; return the summary."""
     os.makedirs(outdir, exist_ok=True)
@@ -105,6 +165,7 @@ def main(outdir: str = "results/ch4_fig4_10", quick: bool = False) -> pd.DataFra
     fig.tight_layout()
     fig.savefig(os.path.join(outdir, "fig4_10.png"), dpi=120)
     plt.close(fig)
+    plot_projection(projection_run(), os.path.join(outdir, "fig4_4.png"))
     return summary
 
 

@@ -17,8 +17,16 @@ definition ``D_V = I / d_V^2`` of (4.8) means ``d_V = 1/2`` and violates (4.9);
 ``--d-reading assumption`` takes the d of (4.9) as (1, 1, 1, 1, 4, ..., 4), i.e.
 ``D = diag(I_4, I_6 / 16)``.
 
+Also draws the offline design of Sec. 4.5.1: Fig. 4.6 (the pieces
+``|1 - tau k_i| / d_i^2`` of (4.29) and their maximum) and Fig. 4.7 (the same plus
+``mu tau^2``, i.e. ``g(tau; mu)``, with ``tau_s_bar`` and ``tau_o_bar``).  With this
+experiment's ``K_bar = I`` every piece is the same line, so the figures use the
+illustrative :data:`KBAR_EXAMPLE`, :data:`D_EXAMPLE`, :data:`MU_EXAMPLE` (the thesis
+draws them without values).
+
 Run ``python -m experiments.ch4_fig4_8_9`` (``--quick`` for fewer Monte-Carlo samples).
-Writes ``fig4_8.png``, ``fig4_9.png``, ``samples.parquet``, ``summary.parquet``.
+Writes ``fig4_6.png``, ``fig4_7.png``, ``fig4_8.png``, ``fig4_9.png``,
+``samples.parquet``, ``summary.parquet``.
 """
 
 from __future__ import annotations
@@ -31,7 +39,7 @@ import numpy as np
 import pandas as pd
 
 from controllers.planner import OfflineGain, OnlineGain, WeightedNorm, simulate_sampled
-from controllers.planner.gain_design import design_nonsquare, estimate_mu
+from controllers.planner.gain_design import design_nonsquare, estimate_mu, g_nonsquare
 from controllers.planner.networked import D_READINGS, d_weights
 from plants.flycrane.configurations import four_robot_nonsquare
 
@@ -77,6 +85,54 @@ def run(quick: bool = False, n_mu: int | None = None, seed: int = 0, d_reading: 
     return pd.concat(rows, ignore_index=True), pd.DataFrame(summ)
 
 
+#: Figs. 4.6/4.7: diagonal of K_bar [1/s, per unit flow time], weights d_i >= 1 of (4.9), mu.
+KBAR_EXAMPLE = (0.5, 1.0, 2.0)
+D_EXAMPLE = (1.0, 1.2, 1.5)
+MU_EXAMPLE = 0.3
+
+
+def g_pieces(tau, mu: float = MU_EXAMPLE, kbar=KBAR_EXAMPLE, d=D_EXAMPLE) -> pd.DataFrame:
+    """Figs. 4.6/4.7 on the grid *tau* (flow time): columns ``tau``, ``piece_i`` =
+    ``|1 - tau k_i| / d_i^2``, ``max`` of the pieces and ``g = max + mu tau^2`` ((4.29)
+    as printed, ``form="thesis"``)."""
+    tau = np.asarray(tau, dtype=float)
+    k, dd = np.asarray(kbar, dtype=float), np.asarray(d, dtype=float)
+    pieces = np.abs(1.0 - np.multiply.outer(tau, k)) / dd ** 2
+    df = pd.DataFrame({f"piece_{i}": pieces[:, i] for i in range(k.size)})
+    df.insert(0, "tau", tau)
+    df["max"] = pieces.max(axis=1)
+    df["g"] = g_nonsquare(tau, mu, k, dd, form="thesis")
+    return df
+
+
+def plot_design(path46: str, path47: str) -> None:
+    """Figs. 4.6 and 4.7 for the illustrative K_bar, d and mu."""
+    tau = np.linspace(0.0, 2.5, 501)
+    df = g_pieces(tau)
+    des = design_nonsquare(MU_EXAMPLE, KBAR_EXAMPLE, D_EXAMPLE, form="thesis")
+    pieces = [c for c in df.columns if c.startswith("piece_")]
+    for path, fig_no, extra in ((path46, "4.6", 0.0), (path47, "4.7", 1.0)):
+        fig, ax = plt.subplots(figsize=(6.5, 4.2))
+        for i, c in enumerate(pieces):
+            ax.plot(tau, df[c] + extra * MU_EXAMPLE * tau ** 2, lw=0.8, ls="--",
+                    label=f"k = {KBAR_EXAMPLE[i]:g}, d = {D_EXAMPLE[i]:g}")
+        if extra:
+            ax.plot(tau, df.g, "k", lw=2, label=f"g(tau; mu = {MU_EXAMPLE:g}) (maximum)")
+            ax.plot([des.tau_o], [des.rho], "gs", label=f"tau_o_bar = {des.tau_o:.3f}, rho = {des.rho:.3f}")
+            ax.plot([des.tau_s], [1.0], "ro", label=f"tau_s_bar = {des.tau_s:.3f}")
+            ax.axhline(1.0, color="k", lw=0.5)
+            ax.set_title("Fig. 4.7: |1 - tau k_i| / d_i^2 + mu tau^2 and the maximum")
+        else:
+            ax.plot(tau, df["max"], "k", lw=2, label="maximum")
+            ax.set_title("Fig. 4.6: |1 - tau k_i| / d_i^2 and the maximum")
+        ax.set_xlabel("tau")
+        ax.set_ylim(0, 1.6)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+
+
 def plot(samples: pd.DataFrame, pname: str, path: str, title: str) -> None:
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for ic in INITIAL_DEG:
@@ -100,6 +156,7 @@ def main(outdir: str = "results/ch4_fig4_8_9", quick: bool = False, d_reading: s
     summary.to_parquet(os.path.join(outdir, "summary.parquet"))
     plot(samples, "2", os.path.join(outdir, "fig4_8.png"), f"Fig. 4.8: weighted 2-norm, K_bar = I, D ({d_reading})")
     plot(samples, "inf", os.path.join(outdir, "fig4_9.png"), "Fig. 4.9: weighted inf-norm")
+    plot_design(os.path.join(outdir, "fig4_6.png"), os.path.join(outdir, "fig4_7.png"))
     return summary
 
 

@@ -73,6 +73,16 @@ def curves(p: SIKMParams, name: str, k_max: float = 6.0, n: int = 600) -> pd.Dat
                              rho_k=[rho_of_k(k, p) for k in ks], tau=ts, k_o=ko, rho_tau=ro))
 
 
+def convergent(c: pd.DataFrame) -> pd.DataFrame:
+    """*c* (from :func:`curves`) with ``rho_k`` and ``rho_tau`` set to NaN where they
+    are not below 1: there the bound does not contract (no convergence guaranteed,
+    e.g. ``tau >= tau_CR``), so Fig. 5.5 plots the rate only where it is one."""
+    c = c.copy()
+    for col in ("rho_k", "rho_tau"):
+        c.loc[~(c[col] < 1.0), col] = math.nan
+    return c
+
+
 def _plot_region(ax, p, k_max=6.0, t_max=None):
     t_max = t_max or 2.5 * tau_critical(p)
     K, Tt = np.meshgrid(np.linspace(1e-3, k_max, 300), np.linspace(1e-3, t_max, 300))
@@ -113,16 +123,16 @@ def plot_all(outdir: str, tab: pd.DataFrame) -> None:
     # Fig. 5.5
     fig, axes = plt.subplots(2, 1, figsize=(7, 7))
     for name, p in EXAMPLES.items():
-        c = curves(p, name)
+        c = convergent(curves(p, name))
         axes[0].plot(c.k, c.rho_k, label=name)
-        axes[1].plot(c.tau, c.rho_tau, label=name)
+        line, = axes[1].plot(c.tau, c.rho_tau, label=name)
+        axes[1].axvline(tau_critical(p), color=line.get_color(), lw=0.8, ls=":")
     axes[0].set_xlabel("k [1/s]")
     axes[0].set_ylabel("rho_o(k)")
-    axes[1].set_xlabel("tau [s]")
+    axes[1].set_xlabel("tau [s] (dotted: tau_CR, no stabilising gain beyond)")
     axes[1].set_ylabel("rho_o(tau)")
-    axes[1].set_ylim(0, 1.5)
     for ax in axes:
-        ax.axhline(1.0, color="k", lw=0.5)
+        ax.set_ylim(0, 1.0)
         ax.legend()
     fig.tight_layout()
     fig.savefig(os.path.join(outdir, "fig5_5.png"), dpi=120)

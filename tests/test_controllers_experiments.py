@@ -24,7 +24,7 @@ def _files(tmp_path, names):
 def test_ch3_fig3_8(tmp_path, quick):
     from experiments import ch3_fig3_8 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
-    _files(tmp_path, ["fig3_8.png", "samples.parquet", "summary.parquet"])
+    _files(tmp_path, ["fig3_5.png", "fig3_6.png", "fig3_8.png", "samples.parquet", "summary.parquet"])
     s = summary.set_index(["case", "strategy"])
     # mu_hat* < 1/2 for r = 0.08 and > 1/2 for r = 0.5 (Sec. 3.5)
     assert s.loc[("small", "offline"), "mu_hat"] < 0.5 < s.loc[("large", "offline"), "mu_hat"]
@@ -44,17 +44,53 @@ def test_ch3_fig3_8(tmp_path, quick):
     assert on.k.values[-2] == pytest.approx(1 / ex.T, rel=1e-3)
 
 
+def test_fig3_6_design_curves():
+    """Fig. 3.6 (Prop. 3.4.3-3.4.4): tau_s_bar = 2 and rho = 0 at mu = 0 (dead beat),
+    tau_o_bar = 1 and rho = mu below 1/2, tau_o_bar = 1/(2 mu) and rho = 1 - 1/(4 mu)
+    above, tau_s_bar = 1/mu from 1 on; rho < 1 everywhere ("Note that rho < 1")."""
+    from experiments.ch3_fig3_8 import design_curves
+    from controllers.planner.gain_design import g_square
+    c = design_curves(mu_max=3.0, n=301).set_index("mu")
+    assert c.loc[0.0].tolist() == [2.0, 1.0, 0.0]
+    assert c.loc[0.3, "tau_o_bar"] == 1.0 and c.loc[0.3, "rho"] == pytest.approx(0.3)
+    assert c.loc[2.0, "tau_o_bar"] == pytest.approx(0.25) and c.loc[2.0, "rho"] == pytest.approx(0.875)
+    assert c.loc[2.0, "tau_s_bar"] == pytest.approx(0.5)
+    assert (c.rho < 1).all() and (c.tau_o_bar < c.tau_s_bar).all()
+    # the marks of Fig. 3.5: g = 1 at tau_s_bar, g = rho at tau_o_bar
+    for mu in (0.3, 0.75, 1.5):
+        row = design_curves(mu_max=mu, n=2).iloc[-1]
+        assert g_square(row.tau_s_bar, mu) == pytest.approx(1.0)
+        assert g_square(row.tau_o_bar, mu) == pytest.approx(row.rho)
+
+
 @QUICK
 def test_ch4_fig4_8_9(tmp_path, quick):
     from experiments import ch4_fig4_8_9 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
-    _files(tmp_path, ["fig4_8.png", "fig4_9.png", "samples.parquet", "summary.parquet"])
+    _files(tmp_path, ["fig4_6.png", "fig4_7.png", "fig4_8.png", "fig4_9.png", "samples.parquet", "summary.parquet"])
     assert len(summary) == 8
     assert (summary.samples_to_tol > 0).all()                       # both strategies, both norms converge
     assert (summary.max_contraction <= summary.rho).all()            # never above the computed rho
     far = summary[summary.initial == "q2"].set_index(["norm", "strategy"]).samples_to_tol
     for p in ("2", "inf"):
         assert far[(p, "online")] < far[(p, "offline")]
+
+
+def test_fig4_6_4_7_pieces():
+    """Figs. 4.6/4.7, (4.29) as printed: each piece |1 - tau k_i| / d_i^2 vanishes at
+    tau = 1/k_i; g = max + mu tau^2 equals g_nonsquare(form="thesis"), is 1 at
+    tau_s_bar and rho at tau_o_bar of design_nonsquare."""
+    from controllers.planner.gain_design import design_nonsquare
+    from experiments.ch4_fig4_8_9 import D_EXAMPLE, KBAR_EXAMPLE, MU_EXAMPLE, g_pieces
+    df = g_pieces([0.0, 0.5, 1.0, 2.0])
+    assert df.loc[0, ["piece_0", "piece_1", "piece_2"]].tolist() == pytest.approx([1.0, 1 / 1.44, 1 / 2.25])
+    assert df.loc[3, "piece_0"] == 0.0 and df.loc[2, "piece_1"] == 0.0 and df.loc[1, "piece_2"] == 0.0
+    assert df["max"].tolist() == pytest.approx([1.0, 0.75, 0.5, 3 / 2.25])
+    assert df.g.tolist() == pytest.approx((df["max"] + MU_EXAMPLE * df.tau ** 2).tolist())
+    des = design_nonsquare(MU_EXAMPLE, KBAR_EXAMPLE, D_EXAMPLE, form="thesis")
+    at = g_pieces([des.tau_o, des.tau_s])
+    assert at.g.tolist() == pytest.approx([des.rho, 1.0])
+    assert 0 < des.rho < 1
 
 
 def test_ch4_fig4_8_9_under_the_other_reading_of_D():
@@ -73,11 +109,25 @@ def test_ch4_fig4_8_9_under_the_other_reading_of_D():
         ex.run(quick=True, d_reading="pose x4")
 
 
+def test_fig4_4_robot_velocities_follow_the_projection():
+    """Fig. 4.4 (Sec. 4.3): u = A_q0 q_dot_0 is feasible at t = 0 and leaves Im A_q as
+    the angles grow (||u - u_q|| reaches 0.27 m/s at 2 s); the robot velocities
+    follow u_q, not u: ||p_dot - u_q|| stays under a fifth of ||p_dot - u|| from 0.2 s on
+    (alpha = 30 N s/m, velocity time constant m_i / alpha = 0.034 s)."""
+    from experiments.ch4_fig4_10 import projection_run
+    df = projection_run(n=41)
+    assert df.infeasible.iloc[0] < 1e-12 and df.dist_u.iloc[0] < 1e-12
+    assert df.infeasible.iloc[-1] == pytest.approx(0.271, abs=0.002)
+    late = df[df.t >= 0.2]
+    assert (late.dist_uq < 0.2 * late.dist_u).all()
+    assert (late.dist_u - late.infeasible).abs().max() < 0.01      # p_dot misses u by u's infeasible part
+
+
 @QUICK
 def test_ch4_fig4_10(tmp_path, quick):
     from experiments import ch4_fig4_10 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
-    _files(tmp_path, ["fig4_10.png", "samples.parquet", "summary.parquet"])
+    _files(tmp_path, ["fig4_4.png", "fig4_10.png", "samples.parquet", "summary.parquet"])
     s = summary.set_index(["alpha", "strategy"])
     for strategy in ("offline", "online"):
         # Theorem 4.4.1: large alpha behaves like the kinematic model (contraction <= rho)
@@ -136,3 +186,19 @@ def test_ch5_fig5_8_9(tmp_path, quick):
     after = noise[noise.t > 3.0].groupby("sigma").err.mean()
     assert after[ex.SIGMA_1] > 1.3 * after[ex.SIGMA_2]
     assert noise.groupby("sigma").err.max().max() <= 0.05 + 1e-12       # never above ||e(0)||
+
+
+def test_fig5_5_plots_rates_only_where_they_contract():
+    """Fig. 5.5 (§5.4.2: "the convergence rate is always smaller than one"): beyond
+    tau_CR no gain stabilises and rho_o(tau) exceeds 1 (up to 22 here); those points are
+    not plotted, the rest are unchanged."""
+    from controllers.planner.sikm import tau_critical
+    from experiments.ch5_table5_2 import EXAMPLES, convergent, curves
+    for name, p in EXAMPLES.items():
+        c = curves(p, name)
+        assert c.rho_tau.max() > 20.0
+        cc = convergent(c)
+        assert cc.rho_tau.max() < 1.0 and cc.rho_k.max() < 1.0
+        kept = cc.rho_tau.notna()
+        assert (cc.tau[kept] < tau_critical(p)).all() and cc.tau[kept].max() > 0.98 * tau_critical(p)
+        assert (cc.rho_tau[kept] == c.rho_tau[kept]).all() and cc.rho_k.equals(c.rho_k)

@@ -1,0 +1,355 @@
+"""The thesis-fidelity table: every reproduced figure/table, the thesis's number, ours.
+
+``python -m experiments.fidelity --measure`` reads the Parquet tables the experiments
+wrote under ``--outdir`` (default ``results/``, as for ``experiments.main``; one folder per experiment, named after
+its module as ``python -m experiments.main`` writes them, or its default output
+directory: ``ch2/`` for ``ch2_landing``),
+reduces them to the numbers the table quotes, stores those in
+``experiments/data/fidelity_reproduced.json`` and rewrites the table in
+``docs/fidelity.md`` (between its markers).  Without ``--measure`` the table is
+rewritten from the stored numbers; ``--check`` exits with status 1 when
+``docs/fidelity.md`` is not what the stored numbers give.
+
+The numbers come from the full runs (no ``--quick``): regenerate after running the
+experiments whose outputs changed.  Each row's status is computed from the numbers:
+``reproduced`` when the thesis's statement holds for them, otherwise ``departs`` with
+the document that measures why, or ``NOT REPRODUCED`` when no document explains it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import string
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parent.parent
+#: The stored reproduced numbers (written by ``--measure``).
+REPRODUCED = Path(__file__).with_name("data") / "fidelity_reproduced.json"
+#: The document holding the table.
+DOC = ROOT / "docs" / "fidelity.md"
+BEGIN, END = "<!-- fidelity table: begin (python -m experiments.fidelity) -->", "<!-- fidelity table: end -->"
+
+#: Experiment modules whose default output directory is not ``results/<module>``.
+DEFAULT_OUTDIRS = {"ch2_landing": "ch2"}
+
+
+# ---------------------------------------------------------------- measuring outputs
+def _ch2(d: Path) -> dict[str, float]:
+    m = pd.read_parquet(d / "metrics.parquet").set_index("run")
+    s = pd.read_parquet(d / "signals.parquet", columns=["run", "f_R", "dphi", "dtheta"])
+    out = {}
+    for run in ("ideal_nmpc_calm", "ideal_2lc_calm", "ideal_nmpc_wind", "ideal_2lc_wind"):
+        key = run.removeprefix("ideal_")
+        out[f"{key}.t_settle"] = float(m.loc[run, "t_settle"])
+        out[f"{key}.d_PG_min_mm"] = 1e3 * float(m.loc[run, "d_PG_min"])
+        out[f"{key}.f_L_max"] = float(m.loc[run, "f_L_max"])
+        r = s[s["run"] == run]
+        out[f"{key}.f_R_mean"] = float(r["f_R"].mean())
+        out[f"{key}.dphi_max_deg"] = math.degrees(float(r["dphi"].abs().max()))
+        out[f"{key}.dtheta_max_deg"] = math.degrees(float(r["dtheta"].abs().max()))
+    out["wind.deviation_ratio"] = float(m.loc["ideal_2lc_wind", "wind_deviation_ratio"])
+    return out
+
+
+def _ch3(d: Path) -> dict[str, float]:
+    s = pd.read_parquet(d / "summary.parquet").set_index(["case", "strategy"])
+    out = {}
+    for case in ("small", "large"):
+        out[f"{case}.mu_hat"] = float(s.loc[(case, "offline"), "mu_hat"])
+        for strat in ("offline", "online"):
+            out[f"{case}.{strat}.samples"] = float(s.loc[(case, strat), "samples_to_tol"])
+    return out
+
+
+def _ch4_8_9(d: Path) -> dict[str, float]:
+    s = pd.read_parquet(d / "summary.parquet").set_index(["norm", "initial", "strategy"])
+    return {f"{n}.{q}.{st}.samples": float(s.loc[(n, q, st), "samples_to_tol"])
+            for n in ("2", "inf") for q in ("q1", "q2") for st in ("offline", "online")}
+
+
+def _ch4_10(d: Path) -> dict[str, float]:
+    s = pd.read_parquet(d / "summary.parquet")
+    out = {"rho": float(s["rho"].iloc[0])}
+    for a, g in s.groupby("alpha"):
+        out[f"alpha{a:g}.max_contraction"] = float(g["max_contraction"].max())
+        out[f"alpha{a:g}.final_err"] = float(g["final_err"].max())
+    return out
+
+
+def _flycrane_network(d: Path) -> dict[str, float]:
+    s = pd.read_parquet(d / "summary.parquet").set_index(["strategy", "loss"])
+    out = {}
+    for st in ("offline", "online"):
+        for loss in (0.0, 0.2, 0.3, 0.7):
+            if (st, loss) in s.index:
+                out[f"{st}.{loss:g}.iae"] = float(s.loc[(st, loss), "iae_median"])
+                out[f"{st}.{loss:g}.t_settle"] = float(s.loc[(st, loss), "t_settle_median"])
+    return out
+
+
+def _table5_2(d: Path) -> dict[str, float]:
+    t = pd.read_parquet(d / "table5_2.parquet").set_index("T")
+    out = {"tau_CR": float(t["tau_CR"].iloc[0])}
+    for T, row in t.iterrows():
+        out[f"T{T:g}.k_o"] = float(row["k_o"])
+        out[f"T{T:g}.rho_o"] = float(row["rho_o"])
+        out[f"T{T:g}.stable"] = float(bool(row["stable"]))
+    return out
+
+
+def _ch5_8_9(d: Path) -> dict[str, float]:
+    s = pd.read_parquet(d / "summary.parquet")
+    th = pd.read_parquet(d / "theta.parquet").set_index("source")
+    nz = pd.read_parquet(d / "noise.parquet", columns=["sigma", "t", "err"])
+    out = {}
+    for (T, st), g in s[s["feasible"]].groupby(["T", "strategy"]):
+        out[f"T{T:g}.s{st}.mean_err"] = float(g["mean_err"].iloc[0])
+        out[f"T{T:g}.s{st}.early_err"] = float(g["early_err"].iloc[0])
+    fitted = th.loc["environment, true errors"]
+    for k in ("mu", "alpha", "gamma1", "gamma2", "tau_CR"):
+        out[f"theta.{k}"] = float(fitted[k])
+    if (s["T"] == 4.0).any():
+        out["T4.s2.run"] = float(s.loc[(s["T"] == 4.0) & (s["strategy"] == 2), "feasible"].any())
+    common = s[s["T"].isin([0.5, 0.75, 1.5])]
+    if common["T"].nunique() == 3:
+        for st, g in common.groupby("strategy"):
+            out[f"s{st}.mean_over_T"] = float(g["mean_err"].mean())
+    for sigma, g in nz[nz["t"] > 5.0].groupby("sigma"):
+        out[f"noise{sigma:g}.mean_err"] = float(g["err"].mean())
+    return out
+
+
+#: Experiment module -> function reading its output directory into named numbers.
+MEASURES: dict[str, Callable[[Path], dict[str, float]]] = {
+    "ch2_landing": _ch2, "ch3_fig3_8": _ch3, "ch4_fig4_8_9": _ch4_8_9, "ch4_fig4_10": _ch4_10,
+    "flycrane_network": _flycrane_network, "ch5_table5_2": _table5_2, "ch5_fig5_8_9": _ch5_8_9}
+
+
+def measure(results: str | Path, experiments: list[str] | None = None) -> dict[str, float]:
+    """The named numbers of every experiment (default: all of :data:`MEASURES`) whose
+    output directory exists under *results*: ``<results>/<module>`` as ``python -m
+    experiments.main`` writes it, else the experiment's default (``<results>/ch2`` for
+    ``ch2_landing``).  A missing directory is skipped; one without the expected tables
+    raises ``FileNotFoundError``.  Keys are ``"<experiment>.<quantity>"``; angles in degrees, distances in mm
+    where the key says ``_mm``, forces in N, times in s."""
+    out: dict[str, float] = {}
+    for name in experiments or list(MEASURES):
+        d = Path(results) / name
+        if not d.is_dir():
+            d = Path(results) / DEFAULT_OUTDIRS.get(name, name)
+        if d.is_dir():
+            out.update({f"{name}.{k}": v for k, v in MEASURES[name](d).items()})
+    return out
+
+
+# ---------------------------------------------------------------- the table
+@dataclass(frozen=True)
+class Claim:
+    """One row: what the thesis states at *figure* (section *source*), the experiment
+    reproducing it, the thesis's number (*thesis*), ours (*reproduced*: a format string
+    over the measured numbers, keys without the experiment prefix), and *holds*, the
+    thesis's statement as a test on those numbers.  *explained* names the document that
+    measures why the statement does not hold, if it does not."""
+
+    figure: str
+    source: str
+    experiment: str
+    thesis: str
+    reproduced: str
+    holds: Callable[[dict[str, float]], bool]
+    explained: str = ""
+
+
+def _v(values: dict[str, float], experiment: str) -> dict[str, float]:
+    p = experiment + "."
+    return {k[len(p):]: v for k, v in values.items() if k.startswith(p)}
+
+
+CLAIMS: list[Claim] = [
+    Claim("Fig. 2.8", "§2.6.2", "ch2_landing", "landing \"in almost 0.7 seconds\" (max rates > 100°/s)",
+          "settled within 1°: NMPC {nmpc_calm.t_settle:.3f} s, 2LC {2lc_calm.t_settle:.3f} s; "
+          "NMPC max |φ̇| {nmpc_calm.dphi_max_deg:.0f}°/s, |ϑ̇| {nmpc_calm.dtheta_max_deg:.0f}°/s",
+          lambda v: abs(v["nmpc_calm.t_settle"] - 0.7) < 0.1 and v["2lc_calm.t_settle"] < 0.8
+          and max(v["nmpc_calm.dphi_max_deg"], v["nmpc_calm.dtheta_max_deg"]) > 100),
+    Claim("Fig. 2.9", "§2.6.2", "ch2_landing", "2LC requires smaller inputs, smaller thrust at the end",
+          "mean thrust 2LC {2lc_calm.f_R_mean:.2f} N, NMPC {nmpc_calm.f_R_mean:.2f} N",
+          lambda v: v["2lc_calm.f_R_mean"] < v["nmpc_calm.f_R_mean"]),
+    Claim("Fig. 2.10", "§2.6.2", "ch2_landing", "d_PG > 0 (2.7) always; 2LC closer to the ground",
+          "min d_PG: NMPC {nmpc_calm.d_PG_min_mm:.1f} mm, 2LC {2lc_calm.d_PG_min_mm:.1f} mm",
+          lambda v: 0 < v["2lc_calm.d_PG_min_mm"] < v["nmpc_calm.d_PG_min_mm"]),
+    Claim("Fig. 2.10 (text)", "§2.6.2", "ch2_landing",
+          "0 ≤ f_L ≤ f_L,max, \"always far from the limits\" (≤ 6 N read as far)",
+          "peak f_L {2lc_calm.f_L_max:.2f} N (2LC), {nmpc_calm.f_L_max:.2f} N (NMPC)",
+          lambda v: max(v["2lc_calm.f_L_max"], v["nmpc_calm.f_L_max"]) <= 6.0,
+          "docs/nmpc.md, \"Cable stress\""),
+    Claim("Fig. 2.11", "§2.6.2", "ch2_landing", "2LC rejects the wind better than NMPC alone",
+          "wind-induced deviation 2LC / NMPC = {wind.deviation_ratio:.3f}",
+          lambda v: v["wind.deviation_ratio"] < 1.0),
+    Claim("Fig. 2.12", "§2.6.2", "ch2_landing", "under wind NMPC's thrust slightly greater than 2LC's",
+          "mean thrust NMPC {nmpc_wind.f_R_mean:.2f} N, 2LC {2lc_wind.f_R_mean:.2f} N",
+          lambda v: v["nmpc_wind.f_R_mean"] > v["2lc_wind.f_R_mean"]),
+    Claim("Fig. 2.13", "§2.6.2", "ch2_landing", "(2.8) satisfied under wind; ‖f_L‖ ≤ 6 N",
+          "min d_PG {2lc_wind.d_PG_min_mm:.1f} mm; peak f_L {2lc_wind.f_L_max:.2f} N",
+          lambda v: v["2lc_wind.d_PG_min_mm"] > 0 and v["2lc_wind.f_L_max"] <= 6.0,
+          "docs/nmpc.md, \"Cable stress\""),
+    Claim("Fig. 3.8", "§3.5", "ch3_fig3_8", "μ̂* < ½ for r₁ = 0.08, > ½ for r₂ = 0.5",
+          "μ̂* = {small.mu_hat:.3f} / {large.mu_hat:.3f}",
+          lambda v: v["small.mu_hat"] < 0.5 < v["large.mu_hat"]),
+    Claim("Fig. 3.8", "§3.5", "ch3_fig3_8", "μ < ½: strategies \"quite the same\"; μ > ½: online much faster",
+          "samples to 1e-6, offline / online: {small.offline.samples:.0f} / {small.online.samples:.0f} (small), "
+          "{large.offline.samples:.0f} / {large.online.samples:.0f} (large)",
+          lambda v: abs(v["small.offline.samples"] - v["small.online.samples"]) <= 1
+          and v["large.offline.samples"] > 3 * v["large.online.samples"]),
+    Claim("Fig. 4.8", "§4.6", "ch4_fig4_8_9", "2-norm: q₁ \"more or less the same\", q₂ difference evident",
+          "samples to 1e-8, offline / online: q₁ {2.q1.offline.samples:.0f} / {2.q1.online.samples:.0f}, "
+          "q₂ {2.q2.offline.samples:.0f} / {2.q2.online.samples:.0f}",
+          lambda v: abs(v["2.q1.offline.samples"] - v["2.q1.online.samples"]) <= 1
+          and v["2.q2.offline.samples"] > 3 * v["2.q2.online.samples"]),
+    Claim("Fig. 4.9", "§4.6", "ch4_fig4_8_9", "∞-norm: a similar result",
+          "samples to 1e-8, offline / online: q₁ {inf.q1.offline.samples:.0f} / {inf.q1.online.samples:.0f}, "
+          "q₂ {inf.q2.offline.samples:.0f} / {inf.q2.online.samples:.0f}",
+          lambda v: abs(v["inf.q1.offline.samples"] - v["inf.q1.online.samples"]) <= 1
+          and v["inf.q2.offline.samples"] > 3 * v["inf.q2.online.samples"]),
+    Claim("Fig. 4.10", "§4.6", "ch4_fig4_10", "large α converges (Thm 4.4.1); small α not guaranteed",
+          "max per-sample contraction: α = 30 {alpha30.max_contraction:.2f}, "
+          "α = 0.3 {alpha0.3.max_contraction:.2f} (ρ = {rho:.2f})",
+          lambda v: v["alpha30.max_contraction"] < 1.0 < v["alpha0.3.max_contraction"]),
+    Claim("Fig. 4.11", "§4.6.1", "flycrane_network", "performance worse as loss grows (0, 30, 70 %)",
+          "median IAE at 0 / 30 / 70 %: offline {offline.0.iae:.2f} / {offline.0.3.iae:.2f} / "
+          "{offline.0.7.iae:.2f}, online {online.0.iae:.2f} / {online.0.3.iae:.2f} / {online.0.7.iae:.2f}",
+          lambda v: all(v[f"{s}.0.iae"] < v[f"{s}.0.3.iae"] < v[f"{s}.0.7.iae"] for s in ("offline", "online"))),
+    Claim("Figs. A.2–A.6", "app. A.1", "flycrane_network", "20 % loss: online converges faster (bigger gain)",
+          "at 20 %: median settling {online.0.2.t_settle:.1f} s online, {offline.0.2.t_settle:.1f} s offline; "
+          "IAE {online.0.2.iae:.2f} / {offline.0.2.iae:.2f}",
+          lambda v: v["online.0.2.t_settle"] < v["offline.0.2.t_settle"]),
+    Claim("Table 5.2", "§5.5", "ch5_table5_2", "k_off = 2, 1.28, 0.67 at T = 0.5, 0.75, 1.5 s",
+          "k_o = {T0.5.k_o:.3f}, {T0.75.k_o:.3f}, {T1.5.k_o:.3f} (Prop. 5.4.4)",
+          lambda v: all(abs(v[f"T{T}.k_o"] - k) < 0.01 for T, k in (("0.5", 2.0), ("0.75", 1.28), ("1.5", 0.67))),
+          "docs/controllers.md, Table 5.2"),
+    Claim("Table 5.2", "§5.5", "ch5_table5_2", "T = 4 s: strategy 2 infeasible, T > τ_CR ≈ 1.71 s (θ of §5.5)",
+          "τ_CR = {tau_CR:.3f} s; ρ_o(4 s) = {T4.rho_o:.2f}",
+          lambda v: abs(v["tau_CR"] - 1.71) < 0.01 and v["T4.stable"] == 0.0),
+    Claim("Fig. 5.7", "§5.5", "ch5_fig5_8_9", "θ̂ = (μ, α, γ₁, γ₂) = (0.02, 0.13, 0.1, 0.2)",
+          "θ̂ = ({theta.mu:.3f}, {theta.alpha:.3f}, {theta.gamma1:.3f}, {theta.gamma2:.3f}), "
+          "τ_CR = {theta.tau_CR:.2f} s",
+          lambda v: abs(v["theta.mu"] - 0.02) < 0.01,
+          "docs/controllers.md, Figs. 5.8/5.9 (different plant)"),
+    Claim("Figs. 5.8/5.9a", "§5.5", "ch5_fig5_8_9", "T = 1.5 s: 4 lags; 1 and 2 slightly better than 3",
+          "mean error 1 / 2 / 3 / 4: {T1.5.s1.mean_err:.2e} / {T1.5.s2.mean_err:.2e} / "
+          "{T1.5.s3.mean_err:.2e} / {T1.5.s4.mean_err:.2e}",
+          lambda v: max(v["T1.5.s1.mean_err"], v["T1.5.s2.mean_err"]) < v["T1.5.s3.mean_err"]
+          < v["T1.5.s4.mean_err"]),
+    Claim("Fig. 5.9b", "§5.5", "ch5_fig5_8_9", "T = 4 s: strategy 2 not run (T > τ_CR)",
+          "fitted τ_CR = {theta.tau_CR:.2f} s; strategy 2 at T = 4 s run: {T4.s2.run:.0f}",
+          lambda v: v["theta.tau_CR"] < 4.0 and v["T4.s2.run"] == 0.0),
+    Claim("Fig. 5.9b", "§5.5", "ch5_fig5_8_9", "mean over T: 4 very much larger, 3 slower than 1 and 2",
+          "mean over T = 0.5, 0.75, 1.5 s, 1 / 2 / 3 / 4: {s1.mean_over_T:.2e} / {s2.mean_over_T:.2e} / "
+          "{s3.mean_over_T:.2e} / {s4.mean_over_T:.2e}",
+          lambda v: max(v["s1.mean_over_T"], v["s2.mean_over_T"]) < v["s3.mean_over_T"] < v["s4.mean_over_T"]),
+    Claim("Fig. 5.9b", "§5.5", "ch5_fig5_8_9", "1 slightly better than 2 in the first seconds",
+          "mean error over the first 6 s at T = 0.75 s, 1 / 2: {T0.75.s1.early_err:.4e} / {T0.75.s2.early_err:.4e}",
+          lambda v: all(v[f"T{T}.s1.early_err"] < v[f"T{T}.s2.early_err"] for T in ("0.5", "0.75", "1.5")),
+          "docs/controllers.md, Figs. 5.8/5.9 (noise-sized)"),
+    Claim("Fig. 5.9 (noise)", "§5.5", "ch5_fig5_8_9", "σ₁ = 0.01 worse than σ₂ = 0.003, still bounded",
+          "mean error after 5 s: {noise0.003.mean_err:.2e} (σ₂), {noise0.01.mean_err:.2e} (σ₁)",
+          lambda v: v["noise0.003.mean_err"] < v["noise0.01.mean_err"] < 0.05),
+]
+
+
+def _fmt(x) -> str:
+    return str(x).replace("|", "\\|")
+
+
+def rows(values: dict[str, float]) -> pd.DataFrame:
+    """The table as a DataFrame: columns ``figure, source, experiment, thesis,
+    reproduced, status``; one row per :data:`CLAIMS` entry (``not run`` where the
+    experiment's numbers are absent)."""
+    out = []
+    for c in CLAIMS:
+        v = _v(values, c.experiment)
+        try:
+            text = _DottedKeys().vformat(c.reproduced, (), v)
+            ok = bool(c.holds(v))
+        except KeyError:
+            text, status = "not run", "not run"
+        else:
+            status = "reproduced" if ok else (f"departs: {c.explained}" if c.explained else "NOT REPRODUCED")
+        out.append(dict(figure=c.figure, source=c.source, experiment=c.experiment, thesis=c.thesis,
+                        reproduced=text, status=status))
+    return pd.DataFrame(out)
+
+
+class _DottedKeys(string.Formatter):
+    """Formatting whose field names are whole keys, dots included (``{T0.5.k_o:.3f}``)."""
+
+    def get_field(self, field_name, args, kwargs):
+        return kwargs[field_name], field_name
+
+
+def render(values: dict[str, float]) -> str:
+    """The Markdown table (thesis figure/table → experiment → the thesis's number →
+    ours → status) for *values* as :func:`measure` returns them."""
+    df = rows(values)
+    lines = ["| thesis | where | experiment | the thesis states | reproduced | status |",
+             "|---|---|---|---|---|---|"]
+    for r in df.itertuples(index=False):
+        lines.append(f"| {r.figure} | {r.source} | `{r.experiment}` | {_fmt(r.thesis)} | {_fmt(r.reproduced)} "
+                     f"| {_fmt(r.status)} |")
+    return "\n".join(lines)
+
+
+def with_table(doc: str, table: str) -> str:
+    """*doc* with the text between :data:`BEGIN` and :data:`END` replaced by *table*."""
+    i, j = doc.find(BEGIN), doc.find(END)
+    if i < 0 or j < i:
+        from netcosim.errors import ConfigurationError
+        raise ConfigurationError(f"the document lacks the markers {BEGIN!r} ... {END!r}")
+    return doc[:i + len(BEGIN)] + "\n" + table + "\n" + doc[j:]
+
+
+def load(path: str | Path = REPRODUCED) -> dict[str, float]:
+    """The stored reproduced numbers (``inf``/``nan`` as JSON strings)."""
+    return {k: float(v) for k, v in json.loads(Path(path).read_text()).items()}
+
+
+def save(values: dict[str, float], path: str | Path = REPRODUCED) -> None:
+    """Store *values* (sorted keys; non-finite numbers as strings ``"inf"``/``"nan"``)."""
+    enc = {k: (v if math.isfinite(v) else str(v)) for k, v in sorted(values.items())}
+    Path(path).write_text(json.dumps(enc, indent=1) + "\n")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: see the module docstring."""
+    lines = __doc__.strip().splitlines()
+    ap = argparse.ArgumentParser(prog="python -m experiments.fidelity", description=lines[0],
+                                 epilog="\n".join(lines[1:]).strip(),
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--outdir", default="results", help="parent of the per-experiment folders the experiments "
+                    "wrote, as for experiments.main (default: results)")
+    ap.add_argument("--measure", action="store_true", help="read the experiments' outputs under --outdir and "
+                    "store their numbers (default: use the stored numbers)")
+    ap.add_argument("--check", action="store_true", help="only compare docs/fidelity.md with the stored numbers")
+    a = ap.parse_args(argv)
+    if a.measure:
+        values = load() if REPRODUCED.exists() else {}
+        values.update(measure(a.outdir))
+        save(values)
+    text = with_table(DOC.read_text(), render(load()))
+    if a.check:
+        same = text == DOC.read_text()
+        print("docs/fidelity.md is up to date" if same else "docs/fidelity.md differs from the stored numbers")
+        return 0 if same else 1
+    DOC.write_text(text)
+    print(render(load()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
