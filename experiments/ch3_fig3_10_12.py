@@ -40,7 +40,8 @@ from controllers.planner.networked import _GridRecorder
 from controllers.planner.plant_models import VelocityTrackingModel
 from controllers.planner.sikm import Trajectory
 from controllers.planner.tasks import DeploymentConfig, PlannerLaw, deploy
-from netcosim import Simulation
+from netcosim import Simulation, validate
+from netcosim.errors import ConfigurationError
 from plants.flycrane.configurations import experimental_flycrane
 
 T = 1.5
@@ -53,6 +54,7 @@ ALPHA = 30.0
 DATA_RATE = 1.2e6
 EXEC_POSE, EXEC_PLANNER, EXEC_ROBOT = 0.5e-3, 5e-3, 1e-3
 SAMPLE_DT = 0.1
+STRATEGIES = ("offline", "online")
 LABELS = ("alpha_1", "alpha_2", "alpha_3", "x_V", "y_V", "z_V", "roll_V", "pitch_V", "yaw_V")
 
 
@@ -85,8 +87,15 @@ def offline_gain(system, q0, wps, n_mu: int, seed: int = 0) -> tuple[float, floa
 
 
 def simulate(strategy: str, k_off: float, period: float, loss: float = LOSS, seed: int = 0):
-    """One run; returns ``(series, samples)`` DataFrames (grid and per-period)."""
+    """One run of *strategy* (``"offline"`` with gain *k_off* in 1/s, or ``"online"``),
+    waypoints switched every *period* s, per-receiver frame loss probability *loss*,
+    root seed *seed*; returns ``(series, samples)`` DataFrames (0.1 s grid, per period)."""
     from netcosim.network import Bernoulli, WLAN80211b
+    if strategy not in STRATEGIES:
+        raise ConfigurationError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
+    loss = validate.probability(loss, "loss (per-receiver frame loss probability)", type_error=ConfigurationError)
+    period = validate.positive(period, "waypoint period (s)", kind="a positive number of seconds",
+                               type_error=ConfigurationError)
     system = experimental_flycrane()
     q0, wps = system.q_nominal, waypoints(system)
     sim = Simulation(seed)
@@ -119,12 +128,13 @@ def simulate(strategy: str, k_off: float, period: float, loss: float = LOSS, see
 
 def run(quick: bool = False, loss: float = LOSS, seed: int = 0):
     """Both strategies; returns ``(series, samples, summary)``."""
+    loss = validate.probability(loss, "loss (per-receiver frame loss probability)", type_error=ConfigurationError)
     period = 5.0 if quick else WAYPOINT_PERIOD
     system = experimental_flycrane()
     wps = waypoints(system)
     k_off, mu, r = offline_gain(system, system.q_nominal, wps, n_mu=30 if quick else 150, seed=seed)
     series, samples, summ = [], [], []
-    for strategy in ("offline", "online"):
+    for strategy in STRATEGIES:
         s, h = simulate(strategy, k_off, period, loss, seed)
         if strategy == "offline":
             h["k"] = k_off
