@@ -36,6 +36,7 @@ EXPERIMENTS = [
     ("loss_sweep_servo", "Networked servo over 802.11b: loss sweep, broadcast vs unicast, frame vs message loss"),
     ("ch2_landing", "Ch. 2: tethered-UAV landing, NMPC alone vs two-layer controller, calm and wind"),
     ("ch3_fig3_8", "Fig. 3.8: offline vs online gain, Fly-crane, small and large ball"),
+    ("ch3_fig3_10_12", "Figs. 3.10-3.12: the LAAS rig's waypoint path, dynamic model over lossy 802.11b"),
     ("ch4_fig4_8_9", "Figs. 4.8/4.9: 4-robot non-square system, 2-norm and inf-norm"),
     ("ch4_fig4_10", "Fig. 4.10: dynamic model with velocity tracking, three alphas"),
     ("ch5_table5_2", "Table 5.2, Figs. 5.3-5.7: stability set, optimal gain and period"),

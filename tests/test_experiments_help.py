@@ -28,7 +28,7 @@ def _env(**extra):
 
 
 def test_the_experiment_list_is_complete():
-    assert len(MODULES) == 15 and "experiments.hil_servo" in MODULES and "experiments.flycrane_network" in MODULES
+    assert len(MODULES) == 16 and "experiments.hil_servo" in MODULES and "experiments.flycrane_network" in MODULES
     assert "experiments.fidelity" in MODULES
     assert "experiments.main" in MODULES and "experiments.servo" in MODULES
 
