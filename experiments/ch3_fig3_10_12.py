@@ -36,7 +36,7 @@ import pandas as pd
 
 from controllers.planner import OfflineGain, OnlineGain
 from controllers.planner.gain_design import design, estimate_mu
-from controllers.planner.networked import _GridRecorder
+from controllers.planner.networked import GridRecorder
 from controllers.planner.plant_models import VelocityTrackingModel
 from controllers.planner.sikm import Trajectory
 from controllers.planner.tasks import DeploymentConfig, PlannerLaw, deploy
@@ -107,7 +107,7 @@ def simulate(strategy: str, k_off: float, period: float, loss: float = LOSS, see
                            exec_pivot=EXEC_PLANNER if online else EXEC_POSE, exec_robot=EXEC_ROBOT,
                            on_loss="zero" if online else "hold", plant=model, messaging="broadcast",
                            log_interval=None)
-    rec = _GridRecorder(model.integrator(), SAMPLE_DT, system.m)
+    rec = GridRecorder(model.integrator(), SAMPLE_DT, system.m)
     dep = deploy(sim, system, q0, cfg, network=net, integrator=rec)
     rec.start(dep.plant)
     sim.run(len(wps) * period + 2 * T)
@@ -143,9 +143,10 @@ def run(quick: bool = False, loss: float = LOSS, seed: int = 0):
         samples.append(h)
         for j in range(len(wps)):
             seg = s[(s.t >= j * period) & (s.t < (j + 1) * period + (2 * T if j == len(wps) - 1 else 0))]
+            speed = float(np.abs(seg.filter(regex=r"^u\d+$").values).max())
             summ.append(dict(strategy=strategy, waypoint=j, t_switch=j * period, err_start=float(seg.err.iloc[0]),
-                             err_end=float(seg.err.iloc[-1]), max_speed=float(np.abs(seg.filter(like="u").values).max()),
-                             k_offline=k_off, mu_hat=mu, radius=r, loss=loss))
+                             err_end=float(seg.err.iloc[-1]), max_speed=speed, k_offline=k_off, mu_hat=mu, radius=r,
+                             loss=loss))
     return pd.concat(series, ignore_index=True), pd.concat(samples, ignore_index=True), pd.DataFrame(summ)
 
 

@@ -46,7 +46,7 @@ from .plant_models import KinematicModel, VelocityTrackingModel
 from .tasks import Deployment, DeploymentConfig, PlannerLaw, deploy
 
 __all__ = ["FlyCraneNetworkConfig", "FlyCraneRun", "build", "run", "offline_gain", "d_weights", "STRATEGIES",
-           "MESSAGINGS", "PLANTS", "D_READINGS", "PHY_RATE", "THESIS_RATE", "ROBOTS", "setting"]
+           "MESSAGINGS", "PLANTS", "D_READINGS", "PHY_RATE", "THESIS_RATE", "ROBOTS", "setting", "GridRecorder"]
 
 STRATEGIES = ("offline", "online")
 MESSAGINGS = ("broadcast", "unicast")
@@ -220,9 +220,12 @@ def offline_gain(config: FlyCraneNetworkConfig) -> float:
     return _offline_gain(config.T, config.q0_deg, config.qr_deg, config.d_reading, config.n_mu)[0]
 
 
-class _GridRecorder(SolveIVP):
-    """The plant integrator of the model, also reporting q and the held u every ``dt`` s
-    from the solver's dense output (the steps are those of the plain integrator)."""
+class GridRecorder(SolveIVP):
+    """The plant integrator *base* (a :class:`~netcosim.continuous.SolveIVP`), also
+    reporting q (the first *m* states, rad and m) and the held u (m/s) every ``dt`` s
+    from the solver's dense output (the steps are those of the plain integrator).
+    Pass it as ``integrator=`` to :func:`~controllers.planner.tasks.deploy`, call
+    :meth:`start` with the built plant, read :meth:`arrays` after the run."""
 
     def __init__(self, base: SolveIVP, dt: float, m: int):
         super().__init__(base.method, base.rtol, base.atol, base.max_step, base.max_evaluations)
@@ -279,7 +282,7 @@ def build(sim: Simulation, config: FlyCraneNetworkConfig, *, network: Any = None
         exec_pivot=config.exec_planner if online else config.exec_pose, exec_robot=config.exec_robot,
         exec_watchdog=config.exec_watchdog, size_bits=config.size_bits, on_loss="zero" if online else "hold",
         watchdog_period=config.watchdog_period, plant=model, messaging=config.messaging, log_interval=None)
-    recorder = _GridRecorder(model.integrator(), config.sample_dt, sys_.m)
+    recorder = GridRecorder(model.integrator(), config.sample_dt, sys_.m)
     dep = deploy(sim, sys_, q0, dcfg, network=network, integrator=recorder)
     recorder.start(dep.plant)
     return dep, recorder
@@ -348,7 +351,7 @@ class FlyCraneRun:
         return np.concatenate([self.q[:, 4:7], np.degrees(self.q[:, 7:10])], axis=1)
 
     @classmethod
-    def collect(cls, config, sim, dep: Deployment, recorder: _GridRecorder, failure) -> "FlyCraneRun":
+    def collect(cls, config, sim, dep: Deployment, recorder: GridRecorder, failure) -> "FlyCraneRun":
         import pandas as pd
 
         from .deployment import CommandRecord, PlannerRecord
