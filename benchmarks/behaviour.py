@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 #: Experiments fingerprinted (all run with quick=True).
-EXPERIMENTS = ["servo", "threeservos", "networked_servo", "ch2_landing", "ch3_fig3_8", "ch4_fig4_8_9",
+EXPERIMENTS = ["servo", "threeservos", "networked_servo", "ch2_landing", "ch3_fig3_8", "ch3_fig3_10_12", "ch4_fig4_8_9",
                "ch4_fig4_10", "ch5_table5_2", "ch5_fig5_8_9"]
 REFERENCE = Path(__file__).with_name("behaviour_reference.json")
 #: A comparison tool, not a timing: ``python -m benchmarks`` skips it.
