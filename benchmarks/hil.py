@@ -71,8 +71,9 @@ def _raw_ping(session, run: str, pings: int) -> np.ndarray:
     return np.asarray(out)
 
 
-def measure(duration: float = 10.0, baseline_pings: int = 2000) -> dict:
-    """Run the 500 Hz echo loop for *duration* s of real time; returns the statistics."""
+def measure(duration: float = 10.0, baseline_pings: int = 2000, spin: float | None = None) -> dict:
+    """Run *baseline_pings* raw pings, then the 500 Hz echo loop for *duration* s of real
+    time (``spin``: the real-time clock's busy-wait, s; None: its default); returns the statistics."""
     from netcosim import IdealLink, Simulation
     from netcosim.transport.remote import RemoteNode
     from netcosim.transport.session import new_run_id, open_session
@@ -92,7 +93,8 @@ def measure(duration: float = 10.0, baseline_pings: int = 2000) -> dict:
     session = open_session()
     child = None
     try:
-        remote = RemoteNode(sim, "echo", session, run=run, size_bits=FRAME_BITS, max_lag=0.001)
+        remote = RemoteNode(sim, "echo", session, run=run, size_bits=FRAME_BITS, max_lag=0.001,
+                            spin=spin)
         cmd = [sys.executable, "-m", "benchmarks.hil", "--echo", "--run", run, "--connect", session.endpoints[0]]
         child = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL)
         if not remote.wait_connected(30):
@@ -145,6 +147,8 @@ def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog="python -m benchmarks.hil", description=__doc__.splitlines()[0])
     p.add_argument("--duration", type=float, default=10.0, help="seconds of real time (default 10)")
     p.add_argument("--pings", type=int, default=2000, help="raw Zenoh pings of the baseline (default 2000)")
+    p.add_argument("--spin", type=float, default=None,
+                   help="busy-wait (s) of the real-time clock before each event (default: the clock's, 1e-4)")
     p.add_argument("--echo", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--run", help=argparse.SUPPRESS)
     p.add_argument("--connect", help=argparse.SUPPRESS)
@@ -152,7 +156,7 @@ def main(argv: list[str] | None = None) -> None:
     if a.echo:
         echo(a.run, a.connect)
         return
-    r = measure(a.duration, a.pings)
+    r = measure(a.duration, a.pings, a.spin)
     print(f"raw Zenoh ping-pong, same processes, {r['raw_replies']}/{r['raw_pings']} replies: "
           f"median {r['raw_median_ms']:.3f} ms, p99 {r['raw_p99_ms']:.3f} ms")
     print(f"500 Hz remote loop, {a.duration:g} s: {r['periods']} periods, {r['replies']} replies")
