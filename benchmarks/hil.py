@@ -135,8 +135,7 @@ def echo(run: str, connect: str) -> None:
         raw_pub = z.declare_publisher(f"netcosim/{run}/raw/tx", express=True)
         raw_sub = z.declare_subscriber(f"netcosim/{run}/raw/rx", lambda s: raw_pub.put(s.payload))
         try:
-            for msg in rp.messages(timeout=30.0):
-                rp.reply(msg, msg.values)
+            rp.serve(lambda msg: msg.values, timeout=30.0)
         finally:
             raw_sub.undeclare()
             raw_pub.undeclare()
