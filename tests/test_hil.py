@@ -309,6 +309,7 @@ def test_remote_plant_io_runs_a_fast_local_loop_against_the_simulated_plant():
 def test_serve_answers_from_the_receiving_thread_echoing_seq():
     import queue
     import threading
+
     from netcosim.transport.client import RemoteProcess
     sim_side = open_session()
     rp = None
