@@ -11,7 +11,11 @@ time, so simulated = wall-clock seconds plus the simulation's own lateness) give
 * the share of periods whose reply misses the next period (response > 2 ms; target
   <= 0.1 %);
 * the real-time lateness of the simulation's events (histogram quantiles, overruns
-  beyond 1 ms).
+  beyond 1 ms);
+* the same-run baseline: a raw Zenoh ping-pong between the same two processes, on the
+  same sessions, before the loop (no netcosim on the path: the echo process answers
+  from its Zenoh callback, the benchmark waits on a queue filled by its callback), paced
+  at the same period; netcosim's round trip is reported as a ratio to it.
 
 On a machine shared with other jobs the tails grow with the load: run it on an idle
 machine for numbers to compare.  Run: ``python -m benchmarks.hil [--duration S]``.
@@ -31,8 +35,45 @@ PERIOD = 0.002          # s: 500 Hz
 FRAME_BITS = 80
 
 
-def measure(duration: float = 10.0) -> dict:
-    """Run the 500 Hz echo loop for *duration* s of real time; returns the statistics."""
+def _raw_ping(session, run: str, pings: int) -> np.ndarray:
+    """Round trips (s) of *pings* raw Zenoh messages to the echo process, one per period."""
+    import queue
+    import time
+    inbox: queue.SimpleQueue = queue.SimpleQueue()
+    sub = session.zenoh.declare_subscriber(f"netcosim/{run}/raw/tx", lambda s: inbox.put(time.perf_counter()))
+    pub = session.publisher(f"netcosim/{run}/raw/rx")
+    payload = bytes(24 + 8)            # the size of a one-value netcosim message
+    out = []
+    try:
+        for _ in range(20):            # until the echo's subscriber is matched
+            pub.put(payload)
+            try:
+                inbox.get(timeout=0.25)
+                break
+            except queue.Empty:
+                continue
+        while not inbox.empty():
+            inbox.get_nowait()
+        t_next = time.perf_counter()
+        for _ in range(pings):
+            t_next += PERIOD
+            while (d := t_next - time.perf_counter()) > 0:
+                time.sleep(d)
+            t0 = time.perf_counter()
+            pub.put(payload)
+            try:
+                out.append(inbox.get(timeout=1.0) - t0)
+            except queue.Empty:
+                continue
+    finally:
+        sub.undeclare()
+        pub.undeclare()
+    return np.asarray(out)
+
+
+def measure(duration: float = 10.0, baseline_pings: int = 2000, spin: float | None = None) -> dict:
+    """Run *baseline_pings* raw pings, then the 500 Hz echo loop for *duration* s of real
+    time (``spin``: the real-time clock's busy-wait, s; None: its default); returns the statistics."""
     from netcosim import IdealLink, Simulation
     from netcosim.transport.remote import RemoteNode
     from netcosim.transport.session import new_run_id, open_session
@@ -52,12 +93,15 @@ def measure(duration: float = 10.0) -> dict:
     session = open_session()
     child = None
     try:
-        remote = RemoteNode(sim, "echo", session, run=run, size_bits=FRAME_BITS, max_lag=0.001)
-        cmd = [sys.executable, "-m", "netcosim.transport.client", "--run", run, "--node", "echo",
-               "--connect", session.endpoints[0]]
+        remote = RemoteNode(sim, "echo", session, run=run, size_bits=FRAME_BITS, max_lag=0.001,
+                            spin=spin)
+        cmd = [sys.executable, "-m", "benchmarks.hil", "--echo", "--run", run, "--connect", session.endpoints[0]]
         child = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL)
         if not remote.wait_connected(30):
             raise TimeoutError("the echo process did not connect within 30 s")
+        raw = _raw_ping(session, run, baseline_pings)
+        if len(raw) == 0:
+            raise TimeoutError("the echo process answered no raw Zenoh ping")
         sim.run(until=duration)
         remote.finish()
         child.wait(timeout=10)
@@ -70,22 +114,54 @@ def measure(duration: float = 10.0) -> dict:
     resp = sig[(sig["source"] == "echo.remote") & (sig["signal"] == "response")]["value"].to_numpy()
     lat = remote.clock.lateness
     sent = remote.published
-    return {"periods": sent, "replies": len(resp), "rtt_median_ms": float(np.median(resp)) * 1e3,
+    raw_median = float(np.median(raw))
+    return {"raw_pings": baseline_pings, "raw_replies": len(raw), "raw_median_ms": raw_median * 1e3,
+            "raw_p99_ms": float(np.quantile(raw, 0.99)) * 1e3,
+            "ratio_median": float(np.median(resp)) / raw_median,
+            "ratio_p99": float(np.quantile(resp, 0.99)) / float(np.quantile(raw, 0.99)),
+            "periods": sent, "replies": len(resp), "rtt_median_ms": float(np.median(resp)) * 1e3,
             "rtt_p99_ms": float(np.quantile(resp, 0.99)) * 1e3, "rtt_max_ms": float(resp.max()) * 1e3,
             "miss_share": float(((resp > PERIOD).sum() + sent - len(resp)) / sent),
             "lateness_p50_ms": lat.quantile(0.5) * 1e3, "lateness_p99_ms": lat.quantile(0.99) * 1e3,
             "lateness_max_ms": lat.max * 1e3, "overruns_1ms": lat.overruns, "events": lat.events}
 
 
+def echo(run: str, connect: str) -> None:
+    """The echo process: a raw Zenoh echo (answered from the callback) on
+    ``netcosim/<run>/raw/...`` and the netcosim echo of node ``echo`` until the run ends."""
+    from netcosim.transport.client import RemoteProcess
+    with RemoteProcess("echo", run=run, connect=[connect]) as rp:
+        z = rp.session.zenoh
+        raw_pub = z.declare_publisher(f"netcosim/{run}/raw/tx", express=True)
+        raw_sub = z.declare_subscriber(f"netcosim/{run}/raw/rx", lambda s: raw_pub.put(s.payload))
+        try:
+            rp.serve(lambda msg: msg.values, timeout=30.0)
+        finally:
+            raw_sub.undeclare()
+            raw_pub.undeclare()
+
+
 def main(argv: list[str] | None = None) -> None:
     """Print the statistics of one run (default 10 s)."""
     p = argparse.ArgumentParser(prog="python -m benchmarks.hil", description=__doc__.splitlines()[0])
     p.add_argument("--duration", type=float, default=10.0, help="seconds of real time (default 10)")
+    p.add_argument("--pings", type=int, default=2000, help="raw Zenoh pings of the baseline (default 2000)")
+    p.add_argument("--spin", type=float, default=None,
+                   help="busy-wait (s) of the real-time clock before each event (default: the clock's, 1e-4)")
+    p.add_argument("--echo", action="store_true", help=argparse.SUPPRESS)
+    p.add_argument("--run", help=argparse.SUPPRESS)
+    p.add_argument("--connect", help=argparse.SUPPRESS)
     a = p.parse_args([] if argv is None and __name__ != "__main__" else argv)
-    r = measure(a.duration)
+    if a.echo:
+        echo(a.run, a.connect)
+        return
+    r = measure(a.duration, a.pings, a.spin)
+    print(f"raw Zenoh ping-pong, same processes, {r['raw_replies']}/{r['raw_pings']} replies: "
+          f"median {r['raw_median_ms']:.3f} ms, p99 {r['raw_p99_ms']:.3f} ms")
     print(f"500 Hz remote loop, {a.duration:g} s: {r['periods']} periods, {r['replies']} replies")
     print(f"  round trip sim -> process -> sim: median {r['rtt_median_ms']:.3f} ms (target <= 0.5), "
           f"p99 {r['rtt_p99_ms']:.3f} ms (target <= 2), max {r['rtt_max_ms']:.3f} ms")
+    print(f"  ratio to raw Zenoh: median x{r['ratio_median']:.2f}, p99 x{r['ratio_p99']:.2f}")
     print(f"  replies missing the next period: {100 * r['miss_share']:.3f} % (target <= 0.1 %)")
     print(f"  lateness of {r['events']} events: p50 <= {r['lateness_p50_ms']:.3f} ms, "
           f"p99 <= {r['lateness_p99_ms']:.3f} ms, max {r['lateness_max_ms']:.3f} ms, "

@@ -303,3 +303,75 @@ def test_remote_plant_io_runs_a_fast_local_loop_against_the_simulated_plant():
     rs = ref.trace.signals()
     assert np.array_equal(y, rs[(rs["source"] == "servo") & (rs["signal"] == "y.y")]["value"].to_numpy())
     assert y.max() > 0.5                            # the loop did move the servo towards 1
+
+
+@needs_zenoh
+def test_serve_answers_from_the_receiving_thread_echoing_seq():
+    import queue
+    import threading
+
+    from netcosim.transport.client import RemoteProcess
+    sim_side = open_session()
+    rp = None
+    try:
+        run = "servetest"
+        got: queue.SimpleQueue = queue.SimpleQueue()
+        sub = sim_side.subscribe(key(run, "ctl", "tx"), got.put)
+        pub = sim_side.publisher(key(run, "ctl", "rx"))
+        rp = RemoteProcess("ctl", run=run, connect=sim_side.endpoints)
+        threads = set()
+
+        def law(m):
+            threads.add(threading.get_ident())
+            return (2.0 * m.values[0],) if m.seq != 3 else None     # seq 3: no answer
+
+        def feed():
+            time.sleep(0.5)        # the peers have met
+            for seq in range(5):
+                pub.put(wire.encode(wire.DATA, 1, seq, 1000 * seq, (seq + 0.5,)))
+            pub.put(b"garbage")
+            pub.put(wire.encode(wire.END, 0, 5, 5000))
+        feeder = threading.Thread(target=feed)
+        feeder.start()
+        rp.serve(law, timeout=10)
+        feeder.join(timeout=10)
+        replies = [wire.decode(got.get(timeout=5)) for _ in range(5)]     # 4 answers and END
+        sub.undeclare()
+        assert [(m.kind, m.node, m.seq, m.ticks, m.values) for m in replies] == [
+            (wire.DATA, 1, 0, 0, (1.0,)), (wire.DATA, 1, 1, 1000, (3.0,)), (wire.DATA, 1, 2, 2000, (5.0,)),
+            (wire.DATA, 1, 4, 4000, (9.0,)), (wire.END, 0, 0, 5000, ())]
+        assert threads and threading.get_ident() not in threads
+        assert rp.ended and rp.received == 5 and rp.published == 4 and rp.rejected == {"short": 1}
+    finally:
+        if rp is not None:
+            rp.close()
+        sim_side.close()
+
+
+@needs_zenoh
+def test_serve_reraises_the_handler_error():
+    from netcosim.transport.client import RemoteProcess
+    sim_side = open_session()
+    rp = None
+    try:
+        pub = sim_side.publisher(key("servefail", "ctl", "rx"))
+        rp = RemoteProcess("ctl", run="servefail", connect=sim_side.endpoints)
+        t0 = time.monotonic()
+
+        def law(m):
+            raise ZeroDivisionError("bad law")
+
+        def feed():
+            time.sleep(0.5)
+            pub.put(wire.encode(wire.DATA, 1, 0, 0, (1.0,)))
+        import threading
+        feeder = threading.Thread(target=feed)
+        feeder.start()
+        with pytest.raises(ZeroDivisionError, match="bad law"):
+            rp.serve(law, timeout=10)
+        feeder.join(timeout=10)
+        assert time.monotonic() - t0 < 5
+    finally:
+        if rp is not None:
+            rp.close()
+        sim_side.close()

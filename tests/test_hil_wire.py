@@ -177,3 +177,64 @@ def test_messages_due_after_the_stop_are_withdrawn_not_lost():
     assert rt.take_pending() == []
     sim.run(until=2.0)
     assert got == []                   # withdrawn: it never runs
+
+
+class TickingClock:
+    """A fake wall clock that advances *step* s on every reading (a polling loop ends)."""
+
+    def __init__(self, step: float):
+        self.t, self.step, self.waits = 0.0, step, []
+
+    def __call__(self) -> float:
+        self.t += self.step
+        return self.t
+
+    def wait(self, inbox, timeout):
+        self.waits.append(timeout)
+        self.t += timeout
+        return None
+
+
+def test_the_last_spin_seconds_before_an_event_are_polled_not_waited():
+    sim = Simulation()
+    fake = TickingClock(1e-6)
+    rt = RealtimeClock(sim, clock=fake, wait=fake.wait, spin=1e-3)
+    ran = []
+    sim.call_at(0.01, lambda: ran.append(fake.t))
+    sim.run(until=0.02)
+    # one blocking wait up to 1 ms before the due time (the clock started at 1 us and read
+    # 2 us before the wait), then polling in steps of the clock until due: the event runs
+    # within a few clock steps after 10 ms
+    assert fake.waits[0] == pytest.approx(0.01 - 1e-3 - 1e-6)
+    assert 0.01 + 1e-6 <= ran[0] <= 0.01 + 5e-6
+    assert rt.spin == 1e-3
+
+
+def test_spin_defaults_to_zero_with_an_injected_clock_and_rejects_bad_values():
+    from netcosim.transport.realtime import DEFAULT_SPIN
+    fake = FakeClock()
+    assert RealtimeClock(Simulation(), clock=fake, wait=fake.wait).spin == 0.0
+    assert RealtimeClock(Simulation()).spin == DEFAULT_SPIN == 100e-6
+    with pytest.raises(ValueError, match="spin"):
+        RealtimeClock(Simulation(), spin=-1e-6)
+
+
+def test_trace_maintenance_runs_in_the_slack_before_an_event(monkeypatch):
+    from netcosim.transport import realtime
+    monkeypatch.setattr(realtime, "MAINTAIN_EVERY", 10)
+    monkeypatch.setattr(realtime, "MAINTAIN_FORCE", 25)
+    sim = Simulation()
+    fake = FakeClock(0.0)
+    rt = RealtimeClock(sim, clock=fake, wait=fake.wait)
+    at = []
+    monkeypatch.setattr(sim.trace, "maintain", lambda: at.append(round(fake() * 1e4)))
+    for k in range(30):             # events 0.1 ms apart (slack < 1 ms), then 5 ms of slack
+        sim.call_at(k * 1e-4, lambda: None)
+    for k in range(12):
+        sim.call_at(0.01 + k * 1e-4, lambda: None)
+    sim.run(until=0.02)
+    # no slack for 25 events: forced right after the 25th (2.4 ms); in the slack before
+    # 10 ms only 5 more events had passed; the 10th came at 10.4 ms with no slack, so the
+    # next is in the slack after the last one (11.1 ms); then the end of the run (20 ms)
+    assert at == [24, 111, 200]
+    assert rt.lateness.overruns == 0

@@ -12,7 +12,9 @@ its node and publishes its own::
             t, y = msg.values
             rp.reply(msg, (t, law(t, y)))  # to the sender, echoing its seq
 
-or a periodic loop with :meth:`RemoteProcess.periodic` (deadline misses counted).
+or a periodic loop with :meth:`RemoteProcess.periodic` (deadline misses counted), or
+:meth:`RemoteProcess.serve` to answer every message from the receiving thread (no
+thread hop: the shortest round trip).
 Message fields: :class:`netcosim.transport.wire.Message`.
 """
 
@@ -100,14 +102,58 @@ class RemoteProcess:
         self.rejected: dict[str, int] = {}
         self.ended = False
         self._seq = 0
+        self._handler: Callable[[wire.Message], Sequence[float] | None] | None = None
+        self._error: BaseException | None = None
         self.session: Session = open_session(listen=listen, connect=connect, lease=lease)
         try:
             self._pub = self.session.publisher(self.keys["tx"])
-            self._sub = self.session.subscribe(self.keys["rx"], self.inbox.put)
+            self._sub = self.session.subscribe(self.keys["rx"], self._on_rx)
             self._token = self.session.token(self.keys["alive"])
         except BaseException:
             self.session.close()
             raise
+
+    def _on_rx(self, data: bytes) -> None:
+        handler = self._handler
+        if handler is None or self._error is not None:
+            self.inbox.put(data)
+            return
+        try:
+            m = wire.decode(data)
+        except wire.WireError as e:
+            self.rejected[e.reason] = self.rejected.get(e.reason, 0) + 1
+            return
+        if m.kind == wire.END:
+            self.inbox.put(data)        # the waiting thread answers it and ends serve()
+            return
+        self.received += 1
+        try:
+            out = handler(m)
+            if out is not None:
+                self.reply(m, out)
+        except BaseException as e:      # re-raised by serve() in its own thread
+            self._error = e
+            self.inbox.put(b"")
+
+    def serve(self, handler: Callable[[wire.Message], Sequence[float] | None], timeout: float | None = None) -> None:
+        """Answer every DATA message until the run ends: ``handler(msg)`` runs on the
+        receiving (Zenoh) thread as the message arrives and its result, if not None, is
+        sent back with :meth:`reply`.  Returns once the simulation's END message came (or
+        none for *timeout* s); an exception of *handler* stops serving and is re-raised
+        here.  Keep *handler* short: the next message waits for it."""
+        self._handler = handler
+        try:
+            while not self.ended:
+                got = self.receive(timeout)
+                if self._error is not None:
+                    raise self._error
+                if got is None:
+                    return
+                out = handler(got)          # a message that arrived before serving began
+                if out is not None:
+                    self.reply(got, out)
+        finally:
+            self._handler = None
 
     def receive(self, timeout: float | None = None) -> wire.Message | None:
         """The next DATA message for this node, waiting up to *timeout* s (None: forever);
@@ -118,6 +164,8 @@ class RemoteProcess:
             try:
                 data = self.inbox.get(timeout=left)
             except queue.Empty:
+                return None
+            if self._error is not None:     # a handler of serve() failed
                 return None
             try:
                 m = wire.decode(data)
@@ -191,8 +239,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--lease", type=float, default=DEFAULT_LEASE, help="liveliness lease of the session (s)")
     a = p.parse_args(argv)
     with RemoteProcess(a.node, run=a.run, connect=a.connect, lease=a.lease) as rp:
-        for msg in rp.messages(timeout=a.idle):
-            rp.reply(msg, msg.values)
+        rp.serve(lambda msg: msg.values, timeout=a.idle)
         print(json.dumps({"received": rp.received, "published": rp.published, "rejected": rp.rejected,
                           "ended": rp.ended}), flush=True)
     return 0
