@@ -113,7 +113,6 @@ def _tuple_store(sim) -> None:
         rec._buf = list(rec._buf)  # rows recorded while building (network attach) carry over
         rec.rows.append = rec._buf.append
         rec.rows.extend = rec._buf.extend
-        rec.rows._bind()  # labelled tables (the schedule): their fast path into the list too
 
 
 def _row_cost(tuples: bool, until: float) -> tuple[int, int]:

@@ -36,7 +36,7 @@ from __future__ import annotations
 from array import array
 from typing import Any, Iterable, Iterator, Sequence
 
-__all__ = ["ColumnStore", "CHUNK_ROWS", "Labels", "LabelStore"]
+__all__ = ["ColumnStore", "CHUNK_ROWS"]
 
 #: Rows encoded together; at most twice as many rows are held as tuples at any time.  Small
 #: chunks are encoded while their tuples are still in the CPU cache (1024 cost about 0.4 µs
@@ -264,85 +264,3 @@ class ColumnStore:
     def __repr__(self) -> str:
         return f"<ColumnStore {len(self)} rows: {self._n} encoded, {len(self._tail)} as tuples>"
 
-
-
-class Labels:
-    """Numbered label tuples: ``code(label)`` gives each distinct tuple a small integer, in order
-    of first appearance; ``labels[code]`` is the tuple (the first one seen with that value)."""
-
-    __slots__ = ("labels", "_codes")
-
-    def __init__(self):
-        self.labels: list[tuple] = []
-        self._codes: dict[tuple, int] = {}
-
-    def code(self, label: tuple) -> int:
-        """The code of *label* (a tuple of hashable values), assigned on first use."""
-        c = self._codes.get(label)
-        if c is None:
-            c = self._codes[label] = len(self.labels)
-            self.labels.append(label)
-        return c
-
-
-class LabelStore:
-    """Rows ``(time, *label)`` of a table whose label columns take few distinct combinations
-    (the schedule: node, task, state): an ``array('q')`` of integer times and an
-    ``array('I')`` of label codes from a :class:`Labels` table, 12 bytes a row.
-
-    Behaves like the list of rows appended (``len``, iteration, indexing, ``clear``,
-    ``append``, ``extend``); reading rebuilds the tuples.  The hot path appends a row as
-    two C-level calls, ``append_time(t)`` then ``append_code(labels.code(label))`` (the
-    producer keeps its codes), which allocates no tuple and needs no encoding later.
-    Times must be integers within 64 bits (``OverflowError`` or ``TypeError`` otherwise).
-    """
-
-    __slots__ = ("labels", "_times", "_codes", "append_time", "append_code")
-
-    def __init__(self, labels: Labels):
-        self.labels = labels
-        self._times = array("q")
-        self._codes = array("I")
-        self.append_time = self._times.append
-        self.append_code = self._codes.append
-
-    def append(self, row: tuple) -> None:
-        """Add one row ``(time, *label)``."""
-        code = self.labels.code(tuple(row[1:]))
-        self._times.append(row[0])  # first: a bad time leaves both arrays as they were
-        self._codes.append(code)
-
-    def extend(self, rows) -> None:
-        """Add several rows, as :meth:`append` would."""
-        for r in rows:
-            self.append(r)
-
-    def maintain(self) -> None:
-        """Nothing to encode: rows are stored encoded."""
-
-    def __len__(self) -> int:
-        return len(self._times)
-
-    def __iter__(self) -> Iterator[tuple]:
-        labels = self.labels.labels
-        return iter([(t, *labels[c]) for t, c in zip(self._times.tolist(), self._codes)])
-
-    def __getitem__(self, i: int) -> tuple:
-        if not isinstance(i, int):
-            raise TypeError(f"row index must be an integer, got {i!r}")
-        n = len(self._times)
-        if not -n <= i < n:
-            raise IndexError(f"row {i} out of range ({n} rows)")
-        return (self._times[i], *self.labels.labels[self._codes[i]])
-
-    def clear(self) -> None:
-        """Drop every row (the label table stays: codes remain valid)."""
-        del self._times[:]
-        del self._codes[:]
-
-    def replace(self, old: tuple, new: tuple) -> bool:
-        """Rows are not held as tuples, so *old* is never found: False."""
-        return False
-
-    def __repr__(self) -> str:
-        return f"<LabelStore {len(self)} rows, {len(self.labels.labels)} labels>"

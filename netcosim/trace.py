@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterable, Sequence
 
 from . import validate
-from .columns import ColumnStore, Labels, LabelStore
+from .columns import ColumnStore
 from .errors import ConfigurationError, ConfigurationTypeError
 from .timebase import TICKS_PER_SECOND
 
@@ -110,42 +110,13 @@ class Sink:
     small function in ``window``/``stream`` mode or with decimation.
     """
 
-    __slots__ = ("append", "extend", "append_time", "append_code", "_rec", "_pending")
+    __slots__ = ("append", "extend", "_rec")
 
     def __init__(self, rec: "Recorder"):
         self._rec = rec
         self.append: Callable[[tuple], object] = rec._buf.append
         #: ``extend(rows)``: append several rows (an iterable of tuples) at once, as ``append`` would
         self.extend: Callable[[list], object] = rec._buf.extend
-        #: tables of labelled rows ``(time, *label)`` only: ``append_time(t)`` then
-        #: ``append_code(self.label(...))`` is ``append((t, *label))``, without building the tuple
-        #: when the table keeps every row (two C-level appends into its :class:`LabelStore`)
-        self.append_time: Callable[[int], object] | None = None
-        self.append_code: Callable[[int], object] | None = None
-        self._pending: list = []
-
-    def label(self, *values) -> int:
-        """The code of the label ``values`` (a labelled table's columns after the time), for
-        :attr:`append_code`; the same for the whole life of the table, whatever its mode."""
-        labels = self._rec.labels
-        assert labels is not None, "label() is for tables created with labelled=True"
-        return labels.code(values)
-
-    def _bind(self) -> None:
-        """Point the labelled fast path at the current store (called on every mode change)."""
-        rec = self._rec
-        if rec.labels is None:
-            return
-        buf = rec._buf
-        if type(buf) is LabelStore and self.append == buf.append:
-            self.append_time, self.append_code = buf.append_time, buf.append_code
-            return
-        pending, labels, sink = self._pending, rec.labels.labels, self
-        pending.clear()
-
-        def append_code(code: int) -> None:
-            sink.append((pending.pop(), *labels[code]))
-        self.append_time, self.append_code = pending.append, append_code
 
     def replace(self, old: tuple, new: tuple) -> None:
         """Overwrite the row *old* (the very object appended earlier) with *new*.
@@ -185,18 +156,15 @@ class Recorder:
     columns that identify one signal, for decimation (``every``).
     """
 
-    __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index", "labels",
+    __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index",
                  "time_scale", "key_index", "mode", "options", "_buf", "_clock", "_window", "_stream",
                  "_counts", "_latest")
 
     def __init__(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
                  transform=None, *, time: str | None = "time", time_unit: str = "ticks",
                  key: Sequence[str] = (), clock: Callable[[], int] | None = None,
-                 dtypes: Sequence[str | None] | None = None, labelled: bool = False):
+                 dtypes: Sequence[str | None] | None = None):
         self.name = name
-        #: labelled tables (rows ``(integer time, *label)`` with few distinct labels): the
-        #: label codes, kept for the life of the table; None otherwise
-        self.labels: Labels | None = Labels() if labelled else None
         self.columns = tuple(columns)
         #: the producers' promise of column types for the columnar store (see
         #: :class:`~netcosim.columns.ColumnStore`); None: found from the values
@@ -213,7 +181,7 @@ class Recorder:
         self.time_scale = TICKS_PER_SECOND if time_unit == "ticks" else 1.0
         self.key_index = tuple(self.columns.index(k) for k in key) if key else ()
         self._clock = clock
-        self._buf: list | deque | ColumnStore | LabelStore = self._column_store()
+        self._buf: list | deque | ColumnStore = self._column_store()
         self._window: int | float | None = None      # stored-unit width of the window
         self._stream: _Stream | None = None      # _Stream in stream mode
         self._counts: dict = {}  # decimation counters per key
@@ -221,11 +189,8 @@ class Recorder:
         self.mode = "keep"
         self.options: dict = {}
         self.rows = Sink(self)
-        self.rows._bind()
 
-    def _column_store(self) -> ColumnStore | LabelStore:
-        if self.labels is not None:
-            return LabelStore(self.labels)
+    def _column_store(self) -> ColumnStore:
         return ColumnStore(len(self.columns), categorical=[self.columns.index(c) for c in self.categorical],
                            dtypes=self.dtypes)
 
@@ -308,7 +273,6 @@ class Recorder:
         if mode != "off":
             for r in old:
                 store(r)
-        self.rows._bind()
 
     def _make_store(self) -> Callable[[tuple], object]:
         mode, buf = self.mode, self._buf
@@ -488,14 +452,13 @@ class Trace:
         # stored in ticks, reported in seconds
         self.schedule_rec = self.table("schedule", ("time", "node", "task", "state"),
                                        categorical=("node", "task", "state"), transform=_schedule_frame,
-                                       dtypes=("int", None, None, None), labelled=True)
+                                       dtypes=("int", None, None, None))
         self.job_rec = self.table("jobs", JOB_RAW, categorical=("node", "task"), transform=_jobs_frame,
                                   time="release", dtypes=(None, None) + ("int",) * 6 + ("bool",) * 3)
 
     def table(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
               transform=None, *, time: str | None = "time", time_unit: str = "ticks",
-              key: Sequence[str] = (), dtypes: Sequence[str | None] | None = None,
-              labelled: bool = False) -> Recorder:
+              key: Sequence[str] = (), dtypes: Sequence[str | None] | None = None) -> Recorder:
         """Create (or return the existing) recorder called *name*.
 
         ``columns`` are the stored columns; ``transform(df) -> df`` (optional) derives
@@ -505,17 +468,12 @@ class Trace:
         after :meth:`configure_all` starts in that configuration.  ``dtypes`` (optional, one
         per column: None, ``"int"``, ``"float"`` or ``"bool"``) promises the producers'
         value types, which spares the columnar store checking them (see
-        :class:`~netcosim.columns.ColumnStore`).  ``labelled=True``: every row is an integer
-        time (ticks, within 64 bits) followed by a label that takes few distinct values (the
-        schedule's node, task, state); kept rows are stored as a time and a label code
-        (:class:`~netcosim.columns.LabelStore`), and producers may append through
-        :attr:`Sink.append_time` / :attr:`Sink.append_code` without building a tuple.
+        :class:`~netcosim.columns.ColumnStore`).
         """
         rec = self._tables.get(name)
         if rec is None:
             rec = self._tables[name] = Recorder(name, columns, categorical, transform, time=time,
-                                                time_unit=time_unit, key=key, clock=self._clock, dtypes=dtypes,
-                                                labelled=labelled)
+                                                time_unit=time_unit, key=key, clock=self._clock, dtypes=dtypes)
             if self._default is not None:
                 self._apply_default(rec)
         elif rec.columns != tuple(columns):

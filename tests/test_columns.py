@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from netcosim import Simulation
-from netcosim.columns import ColumnStore, Labels, LabelStore
+from netcosim.columns import ColumnStore
 from netcosim.trace import Trace
 
 
@@ -153,7 +153,7 @@ def test_frames_equal_those_built_from_tuples():
     trace = sim.trace
     for name in ("signals", "schedule", "jobs"):
         rec = trace._tables[name]
-        assert (rec._buf._n > 0) if name != "schedule" else type(rec._buf) is LabelStore
+        assert rec._buf._n > 0
         got = rec.frame()
         tuples = Trace()
         ref = tuples.table(name, rec.columns, rec.categorical, rec.transform,
@@ -166,22 +166,19 @@ def test_frames_equal_those_built_from_tuples():
 
 def test_a_run_encodes_as_it_goes_and_at_its_end():
     sim = logging_sim(100)
-    store = sim.trace._tables["jobs"]._buf
-    # 100 rows: fewer than two chunks stay tuples after the run's final maintain()
-    assert len(store) == 100 and store._n == 0
+    store = sim.trace._tables["schedule"]._buf
+    # 300 rows: fewer than two chunks stay tuples after the run's final maintain()
+    assert len(store) == 300 and store._n == 0
     sim = Simulation()
     cpu = sim.node("cpu")
     cpu.periodic(lambda ctx: None, period=1e-3, priority=1, name="t")
-    store = sim.trace._tables["signals"]._buf
-    sim.trace.signal_rec.rows.append((0.0, "x", "y", 0.0))
-    cpu.periodic(lambda ctx: [ctx.log("a", 1.0), ctx.log("b", 2.0), ctx.log("c", 3.0)], period=1e-3,
-                 priority=3, name="logger")
+    store = sim.trace._tables["schedule"]._buf
     seen = []
     cpu.periodic(lambda ctx: seen.append(len(store._tail)), period=1e-3, offset=5e-4, priority=2, name="probe")
     sim.run(1.0)
     # every 256 events at most: the tuple tail never holds much more than two chunks
     assert store._n > 0 and max(seen) < 2 * store.chunk_rows + 256 * 3
-    assert len(store) == 1 + 3 * 1000
+    assert len(store) == 6 * 1000
 
 
 def plant_logging_sim(**configure):
@@ -224,52 +221,3 @@ def test_plant_logs_written_several_rows_at_once_obey_every_mode(configure, pick
     else:
         want = pick(keep)
     pd.testing.assert_frame_equal(got.reset_index(drop=True), want.reset_index(drop=True), check_categorical=False)
-
-
-def test_label_store_keeps_times_and_label_codes_and_reads_back_the_rows():
-    labels = Labels()
-    store = LabelStore(labels)
-    store.append((5, "cpu", "t", "ready"))
-    ready = labels.code(("cpu", "t", "ready"))
-    store.append_time(7)                      # the kernel's path: no tuple built
-    store.append_code(labels.code(("cpu", "t", "running")))
-    store.extend([(2**62, "cpu", "t", "ready")])
-    assert ready == 0 and labels.code(("cpu", "t", "running")) == 1 and len(labels.labels) == 2
-    assert list(store) == [(5, "cpu", "t", "ready"), (7, "cpu", "t", "running"), (2**62, "cpu", "t", "ready")]
-    assert store[1] == (7, "cpu", "t", "running") and store[-1][0] == 2**62
-    with pytest.raises(IndexError):
-        store[3]
-    with pytest.raises(TypeError):           # schedule times are integer ticks
-        store.append((1.5, "cpu", "t", "ready"))
-    assert len(store) == 3                     # a refused row leaves nothing behind
-    assert not store.replace(store[0], (6, "cpu", "t", "idle"))
-    store.clear()
-    store.append((9, "cpu", "t", "running"))
-    assert list(store) == [(9, "cpu", "t", "running")] and len(labels.labels) == 2
-
-
-@pytest.mark.parametrize("mode, options", [("keep", {}), ("ring", {"rows": 3}), ("window", {"seconds": 0.0025}),
-                                           ("off", {})])
-def test_the_schedule_fast_path_follows_every_mode_change(mode, options):
-    """The kernel appends schedule rows as (time, label code); every mode, switched mid-run,
-    gets the same rows as tuples would give."""
-    def run(switch_at):
-        sim = Simulation()
-        cpu = sim.node("cpu")
-        cpu.periodic(lambda ctx: (yield ctx.execute(2e-4)), period=1e-3, priority=1, name="a")
-        cpu.periodic(lambda ctx: (yield ctx.execute(3e-4)), period=2e-3, priority=2, name="b")
-        if switch_at is not None:
-            sim.run(switch_at)
-            sim.trace.configure("schedule", mode, **options)
-        sim.run(0.01)
-        return sim.trace.schedule()
-    full = run(None)
-    got = run(0.004)
-    if mode == "off":
-        assert len(got) == 0
-        return
-    want = {"keep": full, "ring": full.iloc[-3:],
-            "window": full[full["time"] >= 0.01 - 0.0025]}[mode].reset_index(drop=True)
-    assert len(want) > 0
-    plain = {"node": str, "task": str, "state": str}
-    pd.testing.assert_frame_equal(got.reset_index(drop=True).astype(plain), want.astype(plain), check_exact=True)

@@ -72,7 +72,7 @@ class Node:
         # a segment timer that has fired (out of SimPy's queue), re-armed for the next segment
         # instead of creating one; cancelled timers may still sit in the queue and are never kept
         self._spare_timer: Timer | None = None
-        self._sched = sim.trace.schedule_rec.rows  # labelled: append_time(t), then append_code(label code)
+        self._sched: list[tuple] = sim.trace.schedule_rec.rows
         self._jobrec: list[tuple] = sim.trace.job_rec.rows
         sim.trace.job_rec.providers.append(self._unfinished_rows)
 
@@ -87,11 +87,6 @@ class Node:
             self.policy.validate(task)
         if kind != "handler" and self.policy.static:
             task.static_key = self.policy.key(Job(task, -1, 0))
-        # the task's schedule-trace label codes, one per state
-        task._label = {state: self._sched.label(self.name, task.name, state)
-                       for state in ("idle", "ready", "running", "blocked")}
-        task._label_idle, task._label_ready, task._label_running = (
-            task._label["idle"], task._label["ready"], task._label["running"])
         self.tasks[task.name] = task
         self._trace(task, "idle")
         return task
@@ -188,9 +183,7 @@ class Node:
     def _trace(self, task: Task, state: str) -> None:
         if task.state != state:
             task.state = state
-            sched = self._sched
-            sched.append_time(self._env._now)
-            sched.append_code(task._label[state])
+            self._sched.append((self._env._now, self.name, task.name, state))
 
     def _release(self, task: Task, t: int) -> Job | None:
         task.jobs_released = n = task.jobs_released + 1
@@ -233,9 +226,7 @@ class Node:
         env = self._env
         if task.state != "ready":
             task.state = "ready"
-            sched = self._sched
-            sched.append_time(env._now)
-            sched.append_code(task._label_ready)
+            self._sched.append((env._now, self.name, task.name, "ready"))
         if not self._dispatch_pending:  # _request_dispatch, inlined
             if not self.sim._stepping:
                 q = env._queue
@@ -300,9 +291,7 @@ class Node:
         task = best.task
         if task.state != "running":
             task.state = "running"
-            sched = self._sched
-            sched.append_time(self._env._now)
-            sched.append_code(task._label_running)
+            self._sched.append((self._env._now, self.name, task.name, "running"))
         self._step(best)
 
     def _preempt(self, job: Job) -> None:
@@ -353,9 +342,7 @@ class Node:
         task = job.task
         if task.state != "running":
             task.state = "running"
-            sched = self._sched
-            sched.append_time(now)
-            sched.append_code(task._label_running)
+            self._sched.append((now, self.name, task.name, "running"))
         if job.remaining > 0:
             job.seg_start = now
             t = self._spare_timer
@@ -506,9 +493,7 @@ class Node:
         else:
             if task.state != "idle":
                 task.state = "idle"
-                sched = self._sched
-                sched.append_time(now)
-                sched.append_code(task._label_idle)
+                self._sched.append((now, self.name, task.name, "idle"))
             task.ctx.job = None
         if self.ready.live and not self._dispatch_pending:  # _request_dispatch, inlined
             if not self.sim._stepping:

@@ -209,9 +209,6 @@ class Task:
         self.finished = 0
         self.state = "idle"
         self.static_key: Any = None  # set by the node when the policy key depends on the task only
-        # codes of the schedule-trace labels (node, task, state), set by the node
-        self._label: dict[str, int] = {}
-        self._label_idle = self._label_ready = self._label_running = -1
         self.ctx = TaskContext(self)
         self._release_timer: Timer | None = None
         self._k = 0
