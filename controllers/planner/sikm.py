@@ -41,7 +41,7 @@ __all__ = [
     "SIKMParams", "z", "k_bar", "k_barbar", "tau_s", "tau_o", "rho_of_k", "k_o", "rho_of_tau",
     "tau_critical", "in_stability_set", "optimal_offline_gain", "check_offline_gain",
     "estimate_parameters", "Trajectory", "sikm_velocity", "Strategy", "TABLE_5_1",
-    "simulate_tracking", "collect_interval_samples",
+    "simulate_tracking", "checked_tracking_run", "collect_interval_samples",
 ]
 
 
@@ -60,7 +60,8 @@ class SIKMParams:
 
     def __post_init__(self):
         for nm in ("mu", "alpha", "gamma1", "gamma2"):
-            v = validate.non_negative(getattr(self, nm), f"SIKM parameter {nm}", kind="finite and >= 0", type_error=ConfigurationError)
+            v = validate.non_negative(getattr(self, nm), f"SIKM parameter {nm}", kind="finite and >= 0",
+                                      type_error=ConfigurationError)
             object.__setattr__(self, nm, v)
 
     def Q(self, k):
@@ -330,6 +331,26 @@ TABLE_5_1 = {
 }
 
 
+def checked_tracking_run(strategy, T: float, duration: float, k_off, params) -> tuple:
+    """The validated ``(strategy, T, duration)`` of a tracking run: *strategy* a Table 5.1
+    number (1-4) or a strategy object, *T* and *duration* in s; an offline strategy needs
+    a positive ``k_off`` (1/s), checked against *params* (the stability set) when given.
+    Raises ``ValueError`` naming the bad value."""
+    T = check_period(T)
+    duration = check_period(duration, "duration")
+    if isinstance(strategy, int):
+        if strategy not in TABLE_5_1:
+            raise ValueError(f"strategy number must be 1-4 (Table 5.1), got {strategy}")
+        strategy = TABLE_5_1[strategy]
+    if strategy.gain == "offline":
+        if k_off is None:
+            raise ValueError("an offline strategy needs k_off")
+        check_period(k_off, "offline gain k_off")
+        if params is not None:
+            check_offline_gain(k_off, T, params)
+    return strategy, T, duration
+
+
 def simulate_tracking(system: Any, trajectory: Trajectory, q0: Any, T: float, duration: float,
                       strategy: Strategy | int, *, k_off: float | None = None,
                       params: SIKMParams | None = None, n_dense: int = 10,
@@ -349,18 +370,7 @@ def simulate_tracking(system: Any, trajectory: Trajectory, q0: Any, T: float, du
     import pandas as pd
 
     check_system(system)
-    T = check_period(T)
-    duration = check_period(duration, "duration")
-    if isinstance(strategy, int):
-        if strategy not in TABLE_5_1:
-            raise ValueError(f"strategy number must be 1-4 (Table 5.1), got {strategy}")
-        strategy = TABLE_5_1[strategy]
-    if strategy.gain == "offline":
-        if k_off is None:
-            raise ValueError("an offline strategy needs k_off")
-        check_period(k_off, "offline gain k_off")
-        if params is not None:
-            check_offline_gain(k_off, T, params)
+    strategy, T, duration = checked_tracking_run(strategy, T, duration, k_off, params)
     m = system.m
     q = as_vector(q0, m, "q0")
     n_steps = int(math.floor(duration / T + 1e-9))

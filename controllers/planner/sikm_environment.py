@@ -40,7 +40,7 @@ from netcosim.errors import ConfigurationError
 from .flow import online_gain
 from .kinematics import as_vector, check_period
 from .norms import WeightedNorm
-from .sikm import TABLE_5_1, SIKMParams, Strategy, Trajectory, check_offline_gain, sikm_velocity
+from .sikm import SIKMParams, Strategy, Trajectory, checked_tracking_run, sikm_velocity
 
 __all__ = ["RealisticEnvironment"]
 
@@ -129,18 +129,7 @@ class RealisticEnvironment:
         """
         import pandas as pd
 
-        T = check_period(T)
-        duration = check_period(duration, "duration")
-        if isinstance(strategy, int):
-            if strategy not in TABLE_5_1:
-                raise ValueError(f"strategy number must be 1-4 (Table 5.1), got {strategy}")
-            strategy = TABLE_5_1[strategy]
-        if strategy.gain == "offline":
-            if k_off is None:
-                raise ValueError("an offline strategy needs k_off")
-            check_period(k_off, "offline gain k_off")
-            if params is not None:
-                check_offline_gain(k_off, T, params)
+        strategy, T, duration = checked_tracking_run(strategy, T, duration, k_off, params)
         m = system.m
         q0 = as_vector(q0, m, "q0")
         plant = self.plant(system)
