@@ -34,7 +34,7 @@ whole batches, which is what the chunks are, but would be imported by every simu
 from __future__ import annotations
 
 from array import array
-from typing import Any, Iterable, Iterator, Sequence
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
 __all__ = ["ColumnStore", "CHUNK_ROWS"]
 
@@ -96,11 +96,21 @@ class ColumnStore:
         self.append = self._tail.append
         self.extend = self._tail.extend
 
-    def maintain(self) -> None:
+    def maintain(self, more: Callable[[], bool] | None = None) -> bool:
         """Encode the tuples appended so far, ``chunk_rows`` at a time, until fewer than
-        ``2 * chunk_rows`` are left (the newest stay tuples, for :meth:`replace`)."""
-        while len(self._tail) >= 2 * self.chunk_rows:
+        ``2 * chunk_rows`` are left (the newest stay tuples, for :meth:`replace`).
+
+        ``more()``, when given, is asked before each chunk after the first; encoding
+        stops when it returns False (a real-time caller's time budget).  Returns True
+        when nothing is left to encode."""
+        k2 = 2 * self.chunk_rows
+        first = True
+        while len(self._tail) >= k2:
+            if not first and more is not None and not more():
+                return False
             self._compact()
+            first = False
+        return True
 
     # -- encoding ------------------------------------------------------------------
     def _compact(self) -> None:

@@ -580,15 +580,20 @@ class Trace:
         else:
             self._rec(name).clear()
 
-    def maintain(self) -> None:
+    def maintain(self, more: Callable[[], bool] | None = None) -> bool:
         """Encode the rows appended to ``keep``-mode tables into their columnar chunks
         (:meth:`ColumnStore.maintain <netcosim.columns.ColumnStore.maintain>`); the
         simulation calls it every :data:`~netcosim.sim.MAINTAIN_EVERY` events and at
-        the end of a run.  Reading is the same before and after."""
+        the end of a run.  Reading is the same before and after.
+
+        ``more()``, when given, is asked between two chunks and stops the work when it
+        returns False (the real-time clock's budget: one chunk of 256 rows takes some
+        tens of microseconds); returns True when everything was encoded."""
         for rec in self._tables.values():
             buf = rec._buf
-            if type(buf) is ColumnStore:
-                buf.maintain()
+            if type(buf) is ColumnStore and not buf.maintain(more):
+                return False
+        return True
 
     def flush(self) -> None:
         """Write the in-memory rows of every streamed table to Parquet now."""

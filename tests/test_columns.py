@@ -221,3 +221,34 @@ def test_plant_logs_written_several_rows_at_once_obey_every_mode(configure, pick
     else:
         want = pick(keep)
     pd.testing.assert_frame_equal(got.reset_index(drop=True), want.reset_index(drop=True), check_categorical=False)
+
+
+def test_maintain_with_a_budget_encodes_chunk_by_chunk_and_resumes():
+    store = ColumnStore(2, chunk_rows=4)
+    rows = [(float(i), i) for i in range(20)]
+    store.extend(rows)
+    asked = []
+
+    def once():                     # the budget runs out after the first chunk
+        asked.append(1)
+        return False
+    assert store.maintain(once) is False
+    assert store._n == 4 and len(asked) == 1      # one chunk, then asked before the second
+    assert store.maintain(lambda: True) is True
+    assert store._n == 16 and len(store._tail) == 4    # fewer than 2 * chunk_rows stay tuples
+    assert list(store) == rows
+
+
+def test_trace_maintain_stops_when_the_budget_is_spent():
+    from netcosim.trace import Trace
+    trace = Trace(clock=lambda: 0)
+    a = trace.table("a", ("x",))
+    b = trace.table("b", ("y",))
+    for i in range(3 * 256):
+        a.append((i,))
+        b.append((float(i),))
+    assert trace.maintain(lambda: False) is False        # one chunk of table a only
+    assert (a._buf._n, b._buf._n) == (256, 0)
+    assert trace.maintain() is True
+    assert (a._buf._n, b._buf._n) == (512, 512)
+    assert list(trace.frame("a")["x"]) == list(range(768))

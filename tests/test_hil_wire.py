@@ -227,7 +227,7 @@ def test_trace_maintenance_runs_in_the_slack_before_an_event(monkeypatch):
     fake = FakeClock(0.0)
     rt = RealtimeClock(sim, clock=fake, wait=fake.wait)
     at = []
-    monkeypatch.setattr(sim.trace, "maintain", lambda: at.append(round(fake() * 1e4)))
+    monkeypatch.setattr(sim.trace, "maintain", lambda more=None: at.append(round(fake() * 1e4)) or True)
     for k in range(30):             # events 0.1 ms apart (slack < 1 ms), then 5 ms of slack
         sim.call_at(k * 1e-4, lambda: None)
     for k in range(12):
@@ -238,3 +238,74 @@ def test_trace_maintenance_runs_in_the_slack_before_an_event(monkeypatch):
     # next is in the slack after the last one (11.1 ms); then the end of the run (20 ms)
     assert at == [24, 111, 200]
     assert rt.lateness.overruns == 0
+
+
+def test_housekeeping_waits_for_an_announced_reply(monkeypatch):
+    """After expect_reply(), the slack is left alone until reply_arrived() (or reply_window)."""
+    from netcosim.transport import realtime
+    monkeypatch.setattr(realtime, "MAINTAIN_EVERY", 3)
+    sim = Simulation()
+    fake = FakeClock(0.0)
+    rt = RealtimeClock(sim, clock=fake, wait=fake.wait, reply_window=0.004)
+    at = []
+    monkeypatch.setattr(sim.trace, "maintain", lambda more=None: at.append(round(fake() * 1e4)) or True)
+    for k in range(3):
+        sim.call_at(k * 1e-4, lambda: None)
+    sim.call_at(2e-4, rt.expect_reply)            # a message out at 0.2 ms, its answer at 1.5 ms
+    sim.call_at(1.5e-3, rt.reply_arrived)
+    sim.call_at(1.6e-3, lambda: None)
+    sim.call_at(1e-2, lambda: None)
+    for k in range(4):                              # again, and no answer: the window (4 ms) ends it
+        sim.call_at(0.02 + k * 1e-4, lambda: None)
+    sim.call_at(0.0203, rt.expect_reply)
+    sim.call_at(0.03, lambda: None)
+    sim.run(until=0.05)
+    # not in the slack after 0.2 ms (the answer is awaited), right after it at 1.6 ms;
+    # after the unanswered message of 20.3 ms, once the window has passed (24.3 ms)
+    assert at == [16, 243, 500]
+    with pytest.raises(ValueError, match="reply_window"):
+        RealtimeClock(Simulation(), reply_window=-1.0)
+
+
+def test_automatic_garbage_collection_is_off_during_a_run_and_done_in_the_slack():
+    import gc
+
+    class Cycle:
+        def __init__(self):
+            self.me = self
+    sim = Simulation()
+    fake = FakeClock(0.0)
+    rt = RealtimeClock(sim, clock=fake, wait=fake.wait)
+    seen = []
+
+    def garbage():
+        seen.append(gc.isenabled())
+        for _ in range(2000):       # cycles: only the collector frees them
+            Cycle()
+    for k in range(20):
+        sim.call_at(k * 0.01, garbage)
+    assert gc.isenabled()
+    sim.run(until=0.5)
+    assert seen == [False] * 20 and gc.isenabled() and not gc.get_freeze_count()
+    assert rt.collections[0] >= 19 and sum(rt.collections) <= 40       # one per 2000 cycles
+    gc.disable()                    # the state before the run is what comes back
+    try:
+        sim.call_at(0.6, garbage)
+        sim.run(until=0.7)
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
+
+
+def test_automatic_garbage_collection_comes_back_after_a_failed_run():
+    import gc
+    sim = Simulation()
+    fake = FakeClock(0.0)
+    RealtimeClock(sim, clock=fake, wait=fake.wait)
+
+    def boom():
+        raise RuntimeError("boom")
+    sim.call_at(0.01, boom)
+    with pytest.raises(RuntimeError, match="boom"):
+        sim.run(until=0.1)
+    assert gc.isenabled() and not gc.get_freeze_count()

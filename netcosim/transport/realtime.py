@@ -20,6 +20,7 @@ keeps its meaning (finalizers, failure handling) unchanged.
 
 from __future__ import annotations
 
+import gc
 import math
 import queue
 import time
@@ -34,7 +35,7 @@ from .. import validate
 from ..errors import ConfigurationError
 from ..timebase import RESOLUTION
 
-__all__ = ["RealtimeClock", "Lateness", "LATENESS_EDGES", "DEFAULT_SPIN"]
+__all__ = ["RealtimeClock", "Lateness", "LATENESS_EDGES", "DEFAULT_SPIN", "DEFAULT_REPLY_WINDOW"]
 
 #: bin edges (s) of the lateness histogram: 0, then 1 us to 10 s, 10 bins per decade;
 #: the last bin also holds everything later than 10 s
@@ -43,10 +44,17 @@ LATENESS_EDGES = np.concatenate(([0.0], np.logspace(-6, 1, 71)))
 #: default busy-wait (s) before an event's due time (see :class:`RealtimeClock`)
 DEFAULT_SPIN = 100e-6
 
-#: the trace's rows are encoded (``sim.trace.maintain()``) once at least MAINTAIN_EVERY
-#: events have passed, while the next event is due more than MAINTAIN_SLACK s (wall
-#: clock) away; after MAINTAIN_FORCE events without such slack, right after an event
+#: housekeeping -- encoding the trace's rows (``sim.trace.maintain``) once at least
+#: MAINTAIN_EVERY events have passed, and the garbage collector -- runs while the next
+#: event is due more than MAINTAIN_SLACK s (wall clock) away, and stops HOUSEKEEPING_MARGIN
+#: s (plus the busy-wait) before it is due; after MAINTAIN_FORCE events without such
+#: slack it runs in full right after an event (memory first)
 MAINTAIN_EVERY, MAINTAIN_SLACK, MAINTAIN_FORCE = 256, 1e-3, 8192
+HOUSEKEEPING_MARGIN = 200e-6
+
+#: default wait (s, wall clock) for the answer to a published message before housekeeping
+#: may run anyway (see :meth:`RealtimeClock.expect_reply`)
+DEFAULT_REPLY_WINDOW = 5e-3
 
 _Inbox = "queue.SimpleQueue[tuple[float, Callable[..., Any], Any]]"
 
@@ -129,11 +137,25 @@ class RealtimeClock:
         up some 50-100 us late, and that lateness adds to every message published at
         the event.  0 disables it; default (None): 100e-6 s with the default ``clock``
         and ``wait``, 0 with injected ones (a fake clock does not advance while polled).
+    reply_window:
+        Housekeeping waits up to this long (s, wall clock) for the answers announced
+        with :meth:`expect_reply` (default 5 ms).
+
+    Housekeeping.  Python work that holds the interpreter lock for a millisecond --
+    encoding the trace's rows, a garbage collection -- also holds up the Zenoh threads
+    that stamp an arriving message and that send one just published (measured: a reply
+    in flight during it arrived 2-3 ms late).  So while the clock runs, the automatic
+    garbage collector is off (objects that exist when the run starts are collected once
+    and frozen, :func:`gc.freeze`; the state is restored after the run), and both jobs
+    run in budgeted slices in the slack before an event, never while an announced
+    answer is still awaited: collections follow CPython's own thresholds
+    (:func:`gc.get_threshold`), generation by generation.
     """
 
     def __init__(self, sim: Any, *, factor: float = 1.0, max_lag: float = 0.01,
                  clock: Callable[[], float] = time.monotonic,
-                 wait: Callable[[queue.SimpleQueue, float], Any] | None = None, spin: float | None = None):
+                 wait: Callable[[queue.SimpleQueue, float], Any] | None = None, spin: float | None = None,
+                 reply_window: float = DEFAULT_REPLY_WINDOW):
         validate.positive(factor, "real-time factor", kind="a positive number", type_error=ConfigurationError)
         validate.non_negative(max_lag, "max_lag", kind="a non-negative number of seconds",
                               type_error=ConfigurationError)
@@ -149,6 +171,9 @@ class RealtimeClock:
             spin = DEFAULT_SPIN if wait is None and clock is time.monotonic else 0.0
         self.spin = validate.non_negative(spin, "spin", kind="a non-negative number of seconds",
                                           type_error=ConfigurationError)
+        self.reply_window = validate.non_negative(reply_window, "reply_window",
+                                                  kind="a non-negative number of seconds",
+                                                  type_error=ConfigurationError)
         self.inbox: queue.SimpleQueue = queue.SimpleQueue()
         self._scale = RESOLUTION * self.factor      # wall seconds per tick
         self._start: float | None = None            # wall time of tick self._env_start
@@ -158,7 +183,12 @@ class RealtimeClock:
         self._max = 0.0
         self._steps = self._maintained = 0
         self._pending: list = []        # injections scheduled ahead of now (timer, fn, arg)
+        self._awaiting = 0              # announced answers not yet arrived
+        self._quiet_at = -math.inf      # wall time after which housekeeping stops waiting for them
+        self._gc_was_enabled: bool | None = None    # set while a run holds the collector
+        self.collections = [0, 0, 0]    # garbage collections run in the slack, per generation
         sim._realtime_clock = self
+        sim._finalizers.append(self._end_run)
         sim.realtime = True
         self.env.step = self._step
 
@@ -169,6 +199,17 @@ class RealtimeClock:
         self.inbox.put((self.clock(), fn, arg))
 
     # simulation thread ---------------------------------------------------------
+    def expect_reply(self) -> None:
+        """A message that may be answered was just published (simulation thread): hold
+        housekeeping back until :meth:`reply_arrived` or ``reply_window`` s have passed."""
+        self._awaiting += 1
+        self._quiet_at = self.clock() + self.reply_window
+
+    def reply_arrived(self) -> None:
+        """An answer announced with :meth:`expect_reply` was injected (simulation thread)."""
+        if self._awaiting:
+            self._awaiting -= 1
+
     def start(self) -> None:
         """Pin simulated time *now* to wall-clock time *now* (called by the first event
         if not before; call it yourself to start the clock before the run)."""
@@ -220,7 +261,24 @@ class RealtimeClock:
                 return
             self._inject(item)
 
+    def _begin_run(self) -> None:
+        if self._gc_was_enabled is None:
+            self._gc_was_enabled = gc.isenabled()
+            gc.disable()
+            gc.collect()
+            gc.freeze()
+
+    def _end_run(self) -> None:
+        """After a run (a finalizer of the simulation): the collector as it was."""
+        if self._gc_was_enabled is not None:
+            gc.unfreeze()
+            if self._gc_was_enabled:
+                gc.enable()
+            self._gc_was_enabled = None
+
     def _step(self) -> None:
+        if self._gc_was_enabled is None:
+            self._begin_run()
         if self._start is None:
             self.start()
         env = self.env
@@ -233,11 +291,14 @@ class RealtimeClock:
             delta = due - self.clock()
             if delta <= 0:
                 break
-            if delta > MAINTAIN_SLACK and self._steps - self._maintained >= MAINTAIN_EVERY:
-                self._maintain()        # in the slack before a due event, not at a fixed step count
-                continue
-            if delta > self.spin:
-                item = self._wait(self.inbox, delta - self.spin)
+            wait = delta - self.spin
+            if delta > MAINTAIN_SLACK and self._housekeeping_due():
+                if self._quiet():
+                    self._housekeep(due - self.spin - HOUSEKEEPING_MARGIN)
+                    continue
+                wait = min(wait, self._quiet_at - (due - delta))    # wake when the reply window ends
+            if wait > 0:
+                item = self._wait(self.inbox, wait)
                 if item is not None:
                     self._inject(item)
             # else: poll (the drain at the top of the loop) until due
@@ -252,11 +313,35 @@ class RealtimeClock:
         simpy.Environment.step(env)
         self._steps += 1
         if self._steps - self._maintained >= MAINTAIN_FORCE:    # no slack for long: memory first
-            self._maintain()
+            self._housekeep(math.inf)
 
-    def _maintain(self) -> None:
-        self._maintained = self._steps
-        self.sim.trace.maintain()
+    def _housekeeping_due(self) -> bool:
+        return self._steps - self._maintained >= MAINTAIN_EVERY or gc.get_count()[0] >= gc.get_threshold()[0]
+
+    def _quiet(self) -> bool:
+        if self._awaiting and self.clock() < self._quiet_at:
+            return False
+        self._awaiting = 0
+        return True
+
+    def _housekeep(self, stop_at: float) -> None:
+        """Encode trace rows and collect garbage until wall time *stop_at* (at least one
+        chunk of rows and one collection when due)."""
+        clock = self.clock
+
+        def more() -> bool:
+            return clock() < stop_at
+        if self._steps - self._maintained >= MAINTAIN_EVERY:
+            if self.sim.trace.maintain(more):
+                self._maintained = self._steps
+        if self._gc_was_enabled is None or not more():
+            return
+        counts, thresholds = gc.get_count(), gc.get_threshold()
+        if thresholds[0] and counts[0] >= thresholds[0]:
+            # CPython's rule: the oldest generation whose count passed its threshold
+            gen = 2 if counts[2] >= thresholds[2] else 1 if counts[1] >= thresholds[1] else 0
+            gc.collect(gen)
+            self.collections[gen] += 1
 
     @property
     def lateness(self) -> Lateness:

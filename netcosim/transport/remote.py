@@ -117,6 +117,7 @@ class _Remote:
             self._sent_at.pop(next(iter(self._sent_at)))
         self._pub.put(wire.encode(wire.DATA, node, seq, now, values))
         self.published += 1
+        self.clock.expect_reply()
 
     def _reject(self, reason: str, detail: str) -> None:
         self.rejected[reason] += 1
@@ -137,6 +138,7 @@ class _Remote:
         self.received += 1
         sent = self._sent_at.pop(m.seq, None)
         if sent is not None:
+            self.clock.reply_arrived()
             self._signal.append((self.sim.now, f"{self.name}.remote", "response",
                                  (self.sim.now_ticks - sent) * RESOLUTION))
         self._apply(m)
