@@ -38,7 +38,7 @@ class _Realtime(simpy.rt.RealtimeEnvironment):
         self.max_lag = max_lag
         self.lags: list[tuple[float, float]] = []  # (sim time s, lag s) when lagging
         self.steps = 0
-        self.maintain: Callable[[], None] | None = None  # the trace's, set by the Simulation
+        self.maintain: Callable[[], object] | None = None  # the trace's, set by the Simulation
 
     def step(self) -> None:
         evt_time = cast(int, self.peek())  # SimPy types time as int | float; here it is integer ticks
@@ -70,7 +70,7 @@ class _Realtime(simpy.rt.RealtimeEnvironment):
 MAINTAIN_EVERY = 256
 
 
-def _run_until(env: simpy.Environment, stop: int, maintain: Callable[[], None]) -> None:
+def _run_until(env: simpy.Environment, stop: int, maintain: Callable[[], object]) -> None:
     """``env.run(until=stop)`` for ``stop > now`` with SimPy's ``Environment.step`` inlined,
     calling ``maintain()`` every :data:`MAINTAIN_EVERY` events.
 
