@@ -74,29 +74,26 @@ class Job:
     """One activation of a task."""
 
     # Slots: a job is created per release, and slot stores are cheaper than a dict's.
-    __slots__ = ("task", "node", "index", "release", "abs_deadline", "cls", "gen", "state", "remaining",
+    __slots__ = ("task", "index", "release", "abs_deadline", "cls", "gen", "state", "remaining",
                  "seg_start", "exec_done", "start", "finish", "seq", "base_key", "key", "resume_value",
                  "seg_timer", "deadline_timer", "budget_timer", "blocked_on", "ready_entry", "killed",
                  "missed", "budget_overrun", "held")
 
+    # A job is created per release: only what a queued job needs is set here; ``gen``,
+    # ``seq``, ``base_key`` and ``key`` are set when it is activated, ``seg_start`` when a
+    # segment starts.
     def __init__(self, task: "Task", index: int, release: int):
         self.task = task
-        self.node = task.node
         self.index = index
         self.release = release
         d = task.deadline_ticks
         self.abs_deadline: int | None = None if d is None else release + d
         self.cls: int = task.cls
-        self.gen: Any = None  # the body's generator once started
         self.state = "queued"
         self.remaining = 0
-        self.seg_start = 0
         self.exec_done = 0
         self.start: int | None = None
         self.finish: int | None = None
-        self.seq = 0
-        self.base_key: Any = 0  # the policy's ordering key (a number or a tuple)
-        self.key: Any = 0
         self.resume_value: Any = None
         self.seg_timer: Timer | None = None
         self.deadline_timer: Timer | None = None
@@ -107,6 +104,17 @@ class Job:
         self.missed = False
         self.budget_overrun = False
         self.held: tuple | list = ()  # monitors held (a list once the job enters one)
+
+    gen: Any            # the body's generator (set on activation)
+    seq: int            # activation order on the node (FIFO among equal keys)
+    base_key: Any       # the policy's ordering key (a number or a tuple)
+    key: Any            # the effective key (base_key, or an inherited better one)
+    seg_start: int      # tick at which the running segment started
+
+    @property
+    def node(self):
+        """The node the job runs on (its task's)."""
+        return self.task.node
 
     @property
     def release_time(self) -> float:
