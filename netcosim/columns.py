@@ -11,6 +11,7 @@ column values        stored as
 all ``float``        ``array('d')`` (8 bytes a row; every bit kept, NaN and -0.0 too)
 all ``int``          ``array('q')`` (8 bytes a row) when they fit in 64 bits
 all ``bool``         ``bytes`` (1 byte a row)
+declared ``uint8``   ``bytes`` (1 byte a row): small codes such as the schedule's states
 all ``str``          codes into the column's category table (``bytes`` or ``array`` of
                      1, 2 or 4 bytes a row); each distinct string is stored once per table
 all ``None``         nothing but the row count
@@ -67,7 +68,8 @@ class ColumnStore:
     ``1.0`` and ``True`` would; names never are).  Other columns are coded as strings
     only when every value of the chunk is a ``str``.
 
-    *dtypes* (one per column: ``None``, ``"int"``, ``"float"`` or ``"bool"``) is the
+    *dtypes* (one per column: ``None``, ``"int"``, ``"float"``, ``"bool"`` or ``"uint8"``,
+    integers 0..255 stored one byte each) is the
     producer's promise about a column's values, for the hot-path tables whose producers
     are known: the column is stored as declared without checking every value's type (a
     value that cannot be stored so, e.g. None, makes the chunk's column checked as
@@ -84,8 +86,8 @@ class ColumnStore:
         self.chunk_rows = chunk_rows
         self.categorical = frozenset(categorical)
         self.dtypes = tuple(dtypes) if dtypes is not None else (None,) * ncols
-        if len(self.dtypes) != ncols or not set(self.dtypes) <= {None, "int", "float", "bool"}:
-            raise ValueError(f"dtypes must be {ncols} of None, 'int', 'float', 'bool'; got {dtypes!r}")
+        if len(self.dtypes) != ncols or not set(self.dtypes) <= {None, "int", "float", "bool", "uint8"}:
+            raise ValueError(f"dtypes must be {ncols} of None, 'int', 'float', 'bool', 'uint8'; got {dtypes!r}")
         self._tail: list[tuple] = []
         #: encoded chunks: (number of rows, list of encoded columns) or (n, list of rows)
         self._chunks: list[tuple[int, Any]] = []
@@ -144,6 +146,8 @@ class ColumnStore:
                         cols.append(("q", array("q", col)))
                     elif declared == "float":
                         cols.append(("d", array("d", col)))
+                    elif declared == "uint8":
+                        cols.append(("u8", bytes(col)))
                     else:
                         cols.append(("bool", bytes(col)))
                     continue
@@ -208,6 +212,8 @@ class ColumnStore:
                 cols.append(v.tolist())
             elif codec == "str":
                 cols.append(list(map(self._names[c].__getitem__, v)))
+            elif codec == "u8":
+                cols.append(list(v))
             elif codec == "bool":
                 cols.append([b != 0 for b in v])
             elif codec == "none":

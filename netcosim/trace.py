@@ -9,7 +9,8 @@ convert when the frame is built (``transform``).
 Standard tables:
 
 ``signals``   ``time, source, signal, value``  -- plant logs and ``ctx.log``
-``schedule``  ``time, node, task, state``       -- every task state change
+``schedule``  ``time, node, task, state``       -- every task state change (stored as
+              :data:`SCHEDULE_RAW`)
 ``jobs``      one row per finished (or killed) job with its statistics
 
 Other components (networks, for instance) register their own tables with
@@ -50,6 +51,13 @@ if TYPE_CHECKING:  # pandas is imported on first use: a simulation does not need
 
 #: Task states in the schedule trace, with TrueTime's plotting level offsets.
 TASK_STATES = {"idle": 0.0, "blocked": 0.125, "ready": 0.25, "running": 0.5}
+#: Code of each task state in the schedule table's stored rows (its position in TASK_STATES).
+STATE_CODES = {state: code for code, state in enumerate(TASK_STATES)}
+
+#: Columns of the schedule table as stored by the kernel: time in integer ticks, the
+#: kernel's task object (its node and name are read when the table is), the state's code
+#: (:data:`STATE_CODES`).  Reported as ``time`` (s), ``node``, ``task``, ``state``.
+SCHEDULE_RAW = ("time", "task", "state")
 
 #: Columns of the jobs table as reported (times in seconds; NaN where not applicable).
 JOB_COLUMNS = (
@@ -77,7 +85,19 @@ def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
 
 
 def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
-    return _ticks_to_seconds(df, ("time",))
+    """Stored schedule rows (:data:`SCHEDULE_RAW`) as reported: time (s), node, task and
+    state names, each name column categorical."""
+    import numpy as np
+    import pandas as pd
+    tasks = df["task"]
+    unique = pd.unique(tasks)
+    states = np.asarray(list(TASK_STATES), dtype=object)
+    return pd.DataFrame({
+        "time": pd.to_numeric(df["time"], errors="coerce").astype(float) / TICKS_PER_SECOND,
+        "node": tasks.map({t: t.node.name for t in unique}).astype(object).astype("category"),
+        "task": tasks.map({t: t.name for t in unique}).astype(object).astype("category"),
+        "state": pd.Series(states[df["state"].to_numpy(dtype=np.int64)], dtype=object).astype("category"),
+    })
 
 
 def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
@@ -450,9 +470,9 @@ class Trace:
                                      categorical=("source", "signal"), time_unit="s", key=("source", "signal"),
                                      dtypes=("float", None, None, "float"))
         # stored in ticks, reported in seconds
-        self.schedule_rec = self.table("schedule", ("time", "node", "task", "state"),
-                                       categorical=("node", "task", "state"), transform=_schedule_frame,
-                                       dtypes=("int", None, None, None))
+        # the task column holds the kernel's task objects: coded like names, by identity
+        self.schedule_rec = self.table("schedule", SCHEDULE_RAW, categorical=("task",),
+                                       transform=_schedule_frame, dtypes=("int", None, "uint8"))
         self.job_rec = self.table("jobs", JOB_RAW, categorical=("node", "task"), transform=_jobs_frame,
                                   time="release", dtypes=(None, None) + ("int",) * 6 + ("bool",) * 3)
 

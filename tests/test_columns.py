@@ -252,3 +252,31 @@ def test_trace_maintain_stops_when_the_budget_is_spent():
     assert trace.maintain() is True
     assert (a._buf._n, b._buf._n) == (512, 512)
     assert list(trace.frame("a")["x"]) == list(range(768))
+
+
+def test_uint8_columns_store_one_byte_a_row_and_read_back_as_ints():
+    store = ColumnStore(2, chunk_rows=4, dtypes=("int", "uint8"))
+    rows = [(10 * i, i % 4) for i in range(12)]
+    store.extend(rows)
+    store.maintain()
+    assert store._chunks[0][1][1][1] == ("u8", bytes([0, 1, 2, 3]))
+    assert_same_rows(list(store), rows)
+    bad = ColumnStore(1, chunk_rows=1, dtypes=("uint8",))   # 300 does not fit: checked by type
+    bad.extend([(300,), (1,), (2,)])
+    bad.maintain()
+    assert_same_rows(list(bad), [(300,), (1,), (2,)])
+
+
+def test_schedule_rows_hold_the_task_and_a_state_code_and_read_as_names():
+    from netcosim.trace import SCHEDULE_RAW, STATE_CODES
+    sim = Simulation()
+    cpu = sim.node("cpu")
+    task = cpu.periodic(lambda ctx: None, period=0.01, priority=1, name="a")
+    sim.run(until=0.015)
+    assert sim.trace.schedule_rec.columns == SCHEDULE_RAW
+    assert list(sim.trace.schedule_rec._buf)[:2] == [(0, task, STATE_CODES["ready"]),
+                                                     (0, task, STATE_CODES["running"])]
+    df = sim.trace.frame("schedule")
+    assert list(df.columns) == ["time", "node", "task", "state"]
+    assert list(df["state"]) == ["ready", "running", "idle"] * 2
+    assert list(df["node"].cat.categories) == ["cpu"] and all(df["task"] == "a")

@@ -23,6 +23,7 @@ from .. import validate
 from ..clock import DISPATCH, NORMAL, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+from ..trace import STATE_CODES
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
 from .ready import ReadyQueue
@@ -31,6 +32,8 @@ from .timers import KernelTimer, Trigger
 
 _INF = math.inf
 _DONE = object()  # what a job's generator gives when it has finished
+# state codes of the schedule table's rows (netcosim.trace.SCHEDULE_RAW)
+_READY, _RUNNING, _IDLE = STATE_CODES["ready"], STATE_CODES["running"], STATE_CODES["idle"]
 
 
 class Node:
@@ -183,7 +186,7 @@ class Node:
     def _trace(self, task: Task, state: str) -> None:
         if task.state != state:
             task.state = state
-            self._sched.append((self._env._now, self.name, task.name, state))
+            self._sched.append((self._env._now, task, STATE_CODES[state]))
 
     def _release(self, task: Task, t: int) -> Job | None:
         task.jobs_released = n = task.jobs_released + 1
@@ -226,7 +229,7 @@ class Node:
         env = self._env
         if task.state != "ready":
             task.state = "ready"
-            self._sched.append((env._now, self.name, task.name, "ready"))
+            self._sched.append((env._now, task, _READY))
         if not self._dispatch_pending:  # _request_dispatch, inlined
             if not self.sim._stepping:
                 q = env._queue
@@ -291,7 +294,7 @@ class Node:
         task = best.task
         if task.state != "running":
             task.state = "running"
-            self._sched.append((self._env._now, self.name, task.name, "running"))
+            self._sched.append((self._env._now, task, _RUNNING))
         self._step(best)
 
     def _preempt(self, job: Job) -> None:
@@ -342,7 +345,7 @@ class Node:
         task = job.task
         if task.state != "running":
             task.state = "running"
-            self._sched.append((now, self.name, task.name, "running"))
+            self._sched.append((now, task, _RUNNING))
         if job.remaining > 0:
             job.seg_start = now
             t = self._spare_timer
@@ -493,7 +496,7 @@ class Node:
         else:
             if task.state != "idle":
                 task.state = "idle"
-                self._sched.append((now, self.name, task.name, "idle"))
+                self._sched.append((now, task, _IDLE))
             task.ctx.job = None
         if self.ready.live and not self._dispatch_pending:  # _request_dispatch, inlined
             if not self.sim._stepping:
