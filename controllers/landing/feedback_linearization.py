@@ -35,7 +35,7 @@ import numpy as np
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError
-from plants.tethered_uav import TetheredUAVParams
+from plants.tethered_uav_params import TetheredUAVParams
 
 __all__ = ["FeedbackLinearization", "PIDGains", "SingularityError"]
 
