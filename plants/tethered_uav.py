@@ -29,13 +29,12 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
-from netcosim.continuous import ContinuousSystem, HybridEvent
 from netcosim import validate
+from netcosim.continuous import ContinuousSystem, HybridEvent
 
 from .tethered_uav_params import TetheredUAVParams
 

@@ -4,8 +4,8 @@
 builds (:func:`build_landing`) the simulation, the plant and node ``onboard``, the shared
 :class:`~controllers.landing.tasks.LandingLoop`, calls the wiring function of the
 scenario's topology (:data:`WIRINGS`), adds the low-level task of the 2LC, runs it
-and collects a :class:`~controllers.landing.LandingRun` (:func:`landing_result`).  :func:`run_landing` is the
-keyword interface to it.
+and collects a :class:`~controllers.landing.LandingRun` (:func:`landing_result`).
+:func:`run_landing` is the keyword interface to it.
 
 Times in seconds.
 """
@@ -26,7 +26,8 @@ from .scenario import LandingScenario
 from .tasks import LandingLoop, fl_task, ground_nmpc_task, nmpc_task, sensor_task
 from .timing import LandingTiming
 
-__all__ = ["run_landing", "simulate_landing", "build_landing", "landing_result", "wire_single_node", "wire_two_nodes", "WIRINGS"]
+__all__ = ["run_landing", "simulate_landing", "build_landing", "landing_result", "wire_single_node",
+           "wire_two_nodes", "WIRINGS"]
 
 #: MAC priority (CAN identifier) of the messages each node sends in the two-node
 #: variant: the references from ``ground`` beat the measurements from ``onboard``.
