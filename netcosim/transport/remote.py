@@ -68,6 +68,13 @@ def _floats(payload: Any) -> tuple[float, ...]:
     return tuple(float(v) for v in payload)
 
 
+def _flat(x: Any) -> tuple[float, ...]:
+    """A number, or a sequence of numbers and arrays, as one flat tuple of floats (in order)."""
+    if isinstance(x, (int, float, np.number)) or (isinstance(x, np.ndarray) and x.ndim == 0):
+        return (float(x),)
+    return tuple(v for part in x for v in np.ravel(np.asarray(part, dtype=float)).tolist())
+
+
 class _Remote:
     """What a remote node and remote plant I/O share: keys, liveliness, loss policy,
     counters, validation of incoming messages, the ``hil`` trace rows."""
@@ -308,10 +315,11 @@ class RemotePlantIO(_Remote):
     extra:
         None, or ``extra(t)``: called on the simulation thread at every sampling instant
         ``t`` (s of simulated time), right after the outputs are read, returning a number
-        or a sequence of numbers (the caller's units) -- values the simulation computes
-        for the process, e.g. a reference.  What a sample carries, in this order, as
-        float64: the selected outputs (selection order, the plant's units), then the
-        values of ``extra(t)`` (their order).  An exception of ``extra`` ends the run
+        or a sequence of numbers and arrays (the caller's units) -- values the simulation
+        computes for the process, e.g. a reference.  What a sample carries, in this
+        order, as float64: the selected outputs (selection order, the plant's units),
+        then the values of ``extra(t)`` flattened in order (element by element, each
+        array row by row).  An exception of ``extra`` ends the run
         like any exception of a simulated component.
 
     The response time of every write (sample published to the reply echoing its
@@ -337,7 +345,7 @@ class RemotePlantIO(_Remote):
     def _sample(self) -> None:
         values = _floats(np.atleast_1d(self.y.read()))
         if self.extra is not None:
-            values += tuple(np.asarray(self.extra(self.sim.now), dtype=float).ravel().tolist())
+            values += _flat(self.extra(self.sim.now))
         self._publish(0, values)
         self._k += 1
         self.sim.call_in_ticks(self.period_ticks, self._sample)
