@@ -13,9 +13,9 @@ hold) at the simulated instant of its arrival.
 
 Real time: simulating the plant (RK4 at 0.1 ms, landers) and solving the NMPC take
 about 2 s of this machine's time per simulated second, so the run is paced at a
-real-time factor (``--factor``, default 4: one simulated second takes 4 s of wall
-clock; the process then answers 125 samples per wall-clock second, each sample still
-2 ms apart in simulated time).  The script starts the process itself (``--no-spawn``:
+real-time factor (``--factor``, default 10: one simulated second takes 10 s of wall
+clock; the process then answers 50 samples per wall-clock second, each sample still
+2 ms apart in simulated time, and its round trip counts a tenth in simulated time).  The script starts the process itself (``--no-spawn``:
 prints its command and waits), runs the landing, then the all-simulated 2LC, and
 writes ``outputs.png``, ``summary.parquet`` (deviation and its tolerance, response
 times, lateness), ``hil_events.parquet`` and ``lateness.parquet`` to the output
@@ -210,7 +210,7 @@ def main(outdir: str = "results/hil_landing_llc", quick: bool = False, spawn: bo
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     until = 0.5 if quick else 1.5
-    hil = run_hil(until, factor=factor, spawn=spawn)
+    hil = run_hil(until, factor=factor, spawn=spawn, connect_timeout=30.0 if spawn else 600.0)
     nominal = landing_output(run_simulated(until))
     resp = hil.response_times()
     tol = tolerance(until, resp)
