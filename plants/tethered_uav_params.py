@@ -34,7 +34,7 @@ class TetheredUAVParams:
     J_B: float = 0.01
     #: Cable length [m]: a short tether as in laboratory rigs; with l = 1 m the
     #: centripetal load at the ~100 °/s of §2.6.2 is m l φ̇² ≈ 3 N, inside f_L ≤ 10 N.
-    l: float = 1.0
+    l: float = 1.0  # noqa: E741 (the thesis's name)
     #: Distance propeller–CoM [m]: with each propeller limited to f_R,max/2 = 7.5 N,
     #: (2.1) gives |τ_R| ≤ d · 7.5 N = 1.2 N·m, the torque bound of Table 2.1.
     d: float = 0.16
