@@ -17,9 +17,9 @@ real-time factor (``--factor``, default 10: one simulated second takes 10 s of w
 clock; the process then answers 50 samples per wall-clock second, each sample still
 2 ms apart in simulated time, and its round trip counts a tenth in simulated time).
 The script starts the process itself (``--no-spawn``: prints its command and waits up
-to 10 minutes), runs the landing, then the all-simulated 2LC, and writes ``outputs.png``, ``summary.parquet`` (deviation and its tolerance, response
-times, lateness), ``hil_events.parquet`` and ``lateness.parquet`` to the output
-directory.
+to 10 minutes), runs the landing, then the all-simulated 2LC, and writes
+``outputs.png``, ``summary.parquet`` (deviation and its tolerance, response times,
+lateness), ``hil_events.parquet`` and ``lateness.parquet`` to the output directory.
 """
 
 from __future__ import annotations
