@@ -84,6 +84,20 @@ def attach_remote_llc(sim, uav, loop, session, *, run: str, factor: float = FACT
                          factor=factor, max_lag=max_lag)
 
 
+def build(until: float = 1.5):
+    """The landing for ``netcosim hil`` (``experiments.hil_landing_llc:build``): ``(sim,
+    uav, loop)`` of :func:`scenario` without the low-level task, to be driven by the
+    process through plant ``uav``; pair with ``--extra experiments.hil_landing_llc:reference``."""
+    import scipy.optimize  # noqa: F401  (see run_hil)
+    return build_landing(scenario(until), low_level=False)
+
+
+def reference(built) -> Any:
+    """``extra(t)`` for ``netcosim hil``: the low-level reference of the landing *built*
+    by :func:`build` (``loop.low_level_reference``)."""
+    return built[2].low_level_reference
+
+
 @dataclass
 class HilLandingRun:
     """One run with the remote low-level controller: ``sim``, ``io`` (the

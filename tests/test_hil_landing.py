@@ -121,3 +121,51 @@ def test_hil_landing_example_writes_its_results(tmp_path):
     assert row["deviation"] <= row["tolerance"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["hil_events.parquet", "lateness.parquet", "outputs.png",
                                                          "summary.parquet"]
+
+
+@needs_zenoh
+def test_cli_runs_the_landing_with_a_remote_plant():
+    import os
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=str(root))
+    sim_side = subprocess.Popen(
+        [sys.executable, "-m", "netcosim.cli", "hil", "experiments.hil_landing_llc:build", "--remote", "uav",
+         "--period", "0.002", "--outputs", "phi,dphi,theta,dtheta", "--extra", "experiments.hil_landing_llc:reference",
+         "--factor", "10", "--until", "0.2", "--wait", "60",
+         "--remote-cmd", f"{sys.executable} -m experiments.hil_landing_llc_controller"],
+        cwd=root, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    remote = None
+    try:
+        assert sim_side.stdout is not None
+        assert sim_side.stdout.readline().strip() == "start the remote side with:"
+        cmd = sim_side.stdout.readline().split()
+        assert cmd[1:3] == ["-m", "experiments.hil_landing_llc_controller"]
+        assert cmd[cmd.index("--node") + 1] == "uav"
+        remote = subprocess.Popen(cmd, cwd=root, env=env, stdout=subprocess.PIPE, text=True)
+        out, err = sim_side.communicate(timeout=120)
+        assert sim_side.returncode == 0, err
+        m = re.search(r"messages to the remote: 100, from it: (\d+) \(\+(\d+) after the end\), rejected: \{\}", out)
+        assert m and int(m[1]) + int(m[2]) == 100, out
+        r_out, _ = remote.communicate(timeout=30)
+        assert '"received": 100, "published": 100, "rejected": {}, "ended": true' in r_out
+    finally:
+        for p in (sim_side, remote):
+            if p is not None and p.poll() is None:
+                p.kill()
+            if p is not None:
+                p.wait(timeout=10)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--remote", "nothing"], "has no node or plant 'nothing'"),
+    (["--remote", "uav"], "'uav' is a plant: give its sampling period with --period"),
+    (["--remote", "onboard", "--period", "0.002"], "'onboard' is a node, not a plant: --period given"),
+])
+def test_cli_names_a_bad_remote(args, message, capsys):
+    from netcosim.cli import main
+    assert main(["hil", "experiments.hil_landing_llc:build", *args]) == 2
+    assert message in capsys.readouterr().err
