@@ -276,6 +276,7 @@ def _hil(args) -> int:
     run = new_run_id()
     session = open_session(listen=listen, connect=args.connect, lease=args.lease)
     try:
+        remote: RemoteNode | RemotePlantIO
         if is_node:
             remote = RemoteNode(sim, args.remote, session, run=run, size_bits=args.size_bits,
                                 loss_policy=args.loss_policy, factor=args.factor)
