@@ -20,8 +20,11 @@ DIR.  Modules are also looked up in the current directory.  Exit status 1 if a r
 failed (error or timeout).
 
 ``hil`` builds SCENARIO (``package.module:function`` returning a Simulation), makes node
-NODE remote (:class:`netcosim.transport.remote.RemoteNode`), prints the command that
-starts the remote side, waits for it and runs in real time (docs/hil.md).
+NAME remote (:class:`netcosim.transport.remote.RemoteNode`) -- or, if NAME is a plant,
+gives a process its outputs every ``--period`` s and its inputs
+(:class:`netcosim.transport.remote.RemotePlantIO`) --, prints the command that starts
+the remote side, waits for it and runs in real time, or ``--factor`` times slower
+(docs/hil.md).
 
 ``plot schedule`` draws a schedule table written by ``Trace.to_parquet``.
 
@@ -242,10 +245,15 @@ def _sweep(args) -> int:
     return 1 if s["error"] or s["timeout"] else 0
 
 
+def _names(csv: str | None) -> list[str] | None:
+    """``"a,b"`` -> ``["a", "b"]`` (None stays None: all)."""
+    return None if csv is None else [n.strip() for n in csv.split(",") if n.strip()]
+
+
 def _hil(args) -> int:
     import shlex
 
-    from .transport.remote import RemoteNode
+    from .transport.remote import RemoteNode, RemotePlantIO
     from .transport.session import LOOPBACK, new_run_id, open_session
 
     if ":" not in args.scenario:
@@ -254,14 +262,28 @@ def _hil(args) -> int:
         sys.path.insert(0, os.getcwd())
     built = resolve_experiment(args.scenario)()
     sim = built[0] if isinstance(built, tuple) else built
-    if args.remote not in getattr(sim, "nodes", {}):
-        raise UsageError(f"scenario {args.scenario!r} has no node {args.remote!r}")
+    is_node = args.remote in getattr(sim, "nodes", {})
+    if not is_node and args.remote not in getattr(sim, "plants", {}):
+        raise UsageError(f"scenario {args.scenario!r} has no node or plant {args.remote!r}")
+    plant_options = [o for o, v in (("--period", args.period), ("--outputs", args.outputs),
+                                    ("--inputs", args.inputs), ("--extra", args.extra)) if v is not None]
+    if is_node and plant_options:
+        raise UsageError(f"{args.remote!r} is a node, not a plant: {', '.join(plant_options)} given")
+    if not is_node and args.period is None:
+        raise UsageError(f"{args.remote!r} is a plant: give its sampling period with --period SECONDS")
+    extra = None if args.extra is None else resolve_experiment(args.extra)(built)
     listen = args.listen or ([] if args.connect else [LOOPBACK])
     run = new_run_id()
     session = open_session(listen=listen, connect=args.connect, lease=args.lease)
     try:
-        remote = RemoteNode(sim, args.remote, session, run=run, size_bits=args.size_bits,
-                            loss_policy=args.loss_policy)
+        remote: RemoteNode | RemotePlantIO
+        if is_node:
+            remote = RemoteNode(sim, args.remote, session, run=run, size_bits=args.size_bits,
+                                loss_policy=args.loss_policy, factor=args.factor)
+        else:
+            remote = RemotePlantIO(sim, sim.plants[args.remote], session, run=run, period=args.period,
+                                   outputs=_names(args.outputs), inputs=_names(args.inputs), extra=extra,
+                                   loss_policy=args.loss_policy, factor=args.factor)
         cmd = shlex.split(args.remote_cmd) + ["--run", run, "--node", args.remote, "--lease", repr(args.lease)]
         for e in args.connect or session.endpoints:
             cmd += ["--connect", e]
@@ -323,8 +345,19 @@ def build_parser() -> argparse.ArgumentParser:
                                    "side, wait for it, run in real time (see docs/hil.md).")
     h.add_argument("scenario", help="package.module:function or path/to/file.py:function returning a Simulation "
                                     "(or a tuple starting with one)")
-    h.add_argument("--remote", required=True, metavar="NODE", help="the node whose tasks run in the remote process")
-    h.add_argument("--until", type=float, default=5.0, help="simulated (= real) seconds to run (default 5)")
+    h.add_argument("--remote", required=True, metavar="NAME",
+                   help="the node whose tasks run in the remote process, or a plant the process reads and drives "
+                        "(remote plant I/O: give --period)")
+    h.add_argument("--until", type=float, default=5.0, help="simulated seconds to run (default 5)")
+    h.add_argument("--factor", type=float, default=1.0,
+                   help="wall-clock seconds per simulated second (default 1: real time)")
+    h.add_argument("--period", type=float, metavar="SECONDS",
+                   help="remote plant: sampling period (s) of the outputs sent to the process")
+    h.add_argument("--outputs", metavar="A,B", help="remote plant: the outputs sent, by name (default all)")
+    h.add_argument("--inputs", metavar="A,B", help="remote plant: the inputs the process writes (default all)")
+    h.add_argument("--extra", metavar="MODULE:FUNCTION",
+                   help="remote plant: FUNCTION(what SCENARIO returned) gives extra(t), whose values follow the "
+                        "outputs in every sample (e.g. a reference)")
     h.add_argument("--connect", action="append", default=[], metavar="tcp/HOST:PORT",
                    help="a Zenoh router (or peer) to connect to; then nothing listens unless --listen is given")
     h.add_argument("--listen", action="append", default=[], metavar="tcp/HOST:PORT",

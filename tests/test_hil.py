@@ -28,13 +28,18 @@ ROOT = Path(__file__).resolve().parent.parent
 needs_zenoh = pytest.mark.skipif(not zenoh_available(), reason="the zenoh extra (eclipse-zenoh) is not installed")
 
 
-def test_client_and_controller_process_load_neither_simpy_nor_casadi():
-    code = ("import sys, netcosim.transport.client, experiments.hil_servo_controller; "
-            "print(sorted(m for m in ('simpy', 'casadi', 'numpy', 'pandas') if m in sys.modules))")
+@pytest.mark.parametrize("process, loaded", [
+    ("experiments.hil_servo_controller", []),
+    # the ch. 2 low-level controller computes with NumPy, still without SimPy or CasADi
+    ("experiments.hil_landing_llc_controller", ["numpy"]),
+])
+def test_client_and_controller_processes_load_neither_simpy_nor_casadi(process, loaded):
+    code = (f"import sys, netcosim.transport.client, {process}; "
+            "print(sorted(m for m in ('simpy', 'casadi', 'numpy', 'pandas', 'scipy') if m in sys.modules))")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
                          timeout=60, check=True).stdout
-    assert out.strip() == "[]"
+    assert out.strip() == str(loaded)
 
 
 class FakeClock:
@@ -371,6 +376,38 @@ def test_serve_reraises_the_handler_error():
             rp.serve(law, timeout=10)
         feeder.join(timeout=10)
         assert time.monotonic() - t0 < 5
+    finally:
+        if rp is not None:
+            rp.close()
+        sim_side.close()
+
+
+@needs_zenoh
+def test_serve_times_out_after_the_last_message_not_after_it_began():
+    import threading
+
+    from netcosim.transport.client import RemoteProcess
+    sim_side = open_session()
+    rp = None
+    try:
+        pub = sim_side.publisher(key("serveidle", "ctl", "rx"))
+        rp = RemoteProcess("ctl", run="serveidle", connect=sim_side.endpoints)
+        sent = []
+
+        def feed():
+            time.sleep(0.5)            # the peers have met
+            for seq in range(12):      # a message every 0.1 s for 1.2 s: longer than the 0.4 s timeout
+                pub.put(wire.encode(wire.DATA, 1, seq, 0, (1.0,)))
+                sent.append(time.monotonic())
+                time.sleep(0.1)
+        feeder = threading.Thread(target=feed)
+        feeder.start()
+        rp.serve(lambda m: m.values, timeout=0.4 + 0.5)      # the first message comes 0.5 s after serving began
+        ended = time.monotonic()
+        feeder.join(timeout=10)
+        assert rp.received == 12 and not rp.ended
+        # it returned once 0.9 s had passed without a message (scheduling slack: 1 s)
+        assert 0.9 - 0.05 <= ended - sent[-1] <= 0.9 + 1.0
     finally:
         if rp is not None:
             rp.close()

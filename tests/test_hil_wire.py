@@ -309,3 +309,89 @@ def test_automatic_garbage_collection_comes_back_after_a_failed_run():
     with pytest.raises(RuntimeError, match="boom"):
         sim.run(until=0.1)
     assert gc.isenabled() and not gc.get_freeze_count()
+
+
+class FakeSession:
+    """Stands in for a Zenoh session: records what is published, keeps the callbacks."""
+
+    def __init__(self):
+        self.sent: list[bytes] = []
+        self.callbacks: dict[str, object] = {}
+
+    def publisher(self, key_expr):
+        session = self
+
+        class Pub:
+            def put(self, data):
+                session.sent.append(bytes(data))
+        return Pub()
+
+    def subscribe(self, key_expr, callback):
+        self.callbacks[key_expr] = callback
+        return object()
+
+    def watch(self, key_expr, callback):
+        self.callbacks[key_expr] = callback
+        return object()
+
+
+def _plant_io(extra, reply_after=0.0003, factor=1.0):
+    """A DC servo sampled every 10 ms by RemotePlantIO over a fake session; a fake process
+    answers every sample *reply_after* s (wall clock) later with u = 2 * (last value)."""
+    from netcosim import RK4
+    from netcosim.transport.remote import RemotePlantIO
+    from plants.dc_servo import DCServo
+    sim = Simulation()
+    plant = sim.plant(DCServo(), x0=[0.5, 0.0], name="servo", integrator=RK4(dt=1e-3), log_interval=None)
+    fake = FakeClock(0.0)
+    session = FakeSession()
+    answered = [0]
+
+    def wait(inbox, timeout):
+        # the process answers each new sample reply_after s after it was published
+        if len(session.sent) > answered[0] and timeout >= reply_after:
+            m = wire.decode(session.sent[answered[0]])
+            answered[0] += 1
+            fake.t += reply_after
+            session.callbacks["netcosim/r1/servo/tx"](wire.encode(wire.DATA, 0, m.seq, m.ticks, (2.0 * m.values[-1],)))
+            return inbox.get()
+        fake.t += timeout
+        return None
+    io = RemotePlantIO(sim, plant, session, run="r1", period=0.01, outputs=0, inputs=0, extra=extra,
+                       factor=factor, clock=fake, wait=wait)
+    return sim, plant, io, session
+
+
+def test_remote_plant_io_sends_the_outputs_then_the_extra_values():
+    calls = []
+
+    def extra(t):
+        calls.append(t)
+        return (t, [10.0 * t, -1.0])        # any nesting: flattened in order
+    sim, plant, io, session = _plant_io(extra)
+    sim.run(until=0.035)
+    msgs = [wire.decode(b) for b in session.sent]
+    assert calls == [0.0, 0.01, 0.02, 0.03]
+    assert [m.ticks for m in msgs] == [0, 10_000_000_000, 20_000_000_000, 30_000_000_000]
+    assert [m.seq for m in msgs] == [0, 1, 2, 3]
+    # first the selected output (the servo angle, 0.5 rad at t = 0), then extra(t)'s values
+    assert msgs[0].values == (0.5, 0.0, 0.0, -1.0)
+    assert msgs[1].values[1:] == (0.01, 0.1, -1.0)
+    assert io.published == 4 and io.received == 4 and not io.rejected
+    # every reply (u = 2 * last value = -2) was written to the input 0.3 ms after its sample
+    assert plant.u[0] == -2.0
+    sig = sim.trace.signals()
+    resp = sig[(sig["source"] == "servo.remote") & (sig["signal"] == "response")]["value"].to_numpy()
+    assert resp == pytest.approx([0.0003] * 4, abs=1e-12)
+
+
+def test_remote_plant_io_without_extra_sends_the_outputs_only():
+    sim, plant, io, session = _plant_io(None)
+    sim.run(until=0.005)
+    assert [wire.decode(b).values for b in session.sent] == [(0.5,)]
+
+
+def test_remote_plant_io_extra_must_be_callable():
+    from netcosim.errors import ConfigurationTypeError
+    with pytest.raises(ConfigurationTypeError, match=r"extra must be None or a callable .* got \[1\.0\]"):
+        _plant_io([1.0])

@@ -16,17 +16,46 @@ Modules, from the problem to the scenario:
 Every public name is re-exported here, so ``from controllers.landing import
 LandingConfig, landing_nmpc, run_landing`` works whatever module holds it.  The
 former modules ``controllers.landing_tasks`` and ``controllers.feedback_linearization``
-remain as aliases.
+remain as aliases.  Names are imported on first use, so that importing one module
+(e.g. the low-level controller) does not load the others.
 """
 
-from .feedback_linearization import FeedbackLinearization, PIDGains, SingularityError
-from .interpolation import C2Interpolator, quintic_coefficients
-from .ocp import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
-from .result import LandingRun, landing_metrics
-from .scenario import DEFAULT_FL_GAINS, SIM_PARAMS, LandingScenario
-from .tasks import LandingLoop
-from .timing import LandingTiming
-from .topology import run_landing, simulate_landing
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .feedback_linearization import FeedbackLinearization, PIDGains, SingularityError
+    from .interpolation import C2Interpolator, quintic_coefficients
+    from .ocp import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
+    from .result import LandingRun, landing_metrics
+    from .scenario import DEFAULT_FL_GAINS, SIM_PARAMS, LandingScenario
+    from .tasks import LandingLoop
+    from .timing import LandingTiming
+    from .topology import run_landing, simulate_landing
+
+# Names are imported on first use (PEP 562): importing a light module such as
+# controllers.landing.feedback_linearization (the low-level controller, which runs in a
+# process without SimPy or CasADi) does not load the NMPC or the simulation.
+_LAZY = {
+    "FeedbackLinearization": "feedback_linearization",
+    "PIDGains": "feedback_linearization",
+    "SingularityError": "feedback_linearization",
+    "C2Interpolator": "interpolation",
+    "quintic_coefficients": "interpolation",
+    "LandingConfig": "ocp",
+    "initial_state": "ocp",
+    "landing_nmpc": "ocp",
+    "landing_ocp": "ocp",
+    "sigmoid": "ocp",
+    "LandingRun": "result",
+    "landing_metrics": "result",
+    "DEFAULT_FL_GAINS": "scenario",
+    "SIM_PARAMS": "scenario",
+    "LandingScenario": "scenario",
+    "LandingLoop": "tasks",
+    "LandingTiming": "timing",
+    "run_landing": "topology",
+    "simulate_landing": "topology",
+}
 
 __all__ = [
     # the optimal control problem
@@ -37,3 +66,17 @@ __all__ = [
     "LandingTiming", "LandingScenario", "LandingLoop", "LandingRun", "run_landing", "simulate_landing",
     "landing_metrics", "SIM_PARAMS", "DEFAULT_FL_GAINS",
 ]
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from importlib import import_module
+    value = getattr(import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -35,9 +35,9 @@ import numpy as np
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError
-from plants.tethered_uav import TetheredUAVParams
+from plants.tethered_uav_params import TetheredUAVParams
 
-__all__ = ["FeedbackLinearization", "PIDGains", "SingularityError"]
+__all__ = ["FeedbackLinearization", "PIDGains", "SingularityError", "DEFAULT_FL_GAINS"]
 
 
 class SingularityError(ArithmeticError):
@@ -63,6 +63,14 @@ class PIDGains:
         ``(s + ω)³ = s³ + 3ω s² + 3ω² s + ω³``."""
         validate.positive(omega, "omega", kind="a positive number of rad/s", type_error=ConfigurationError)
         return cls(kp=3.0 * omega ** 2, kd=3.0 * omega, ki=omega ** 3)
+
+
+#: Gains of the low-level PID loops of the landing (the 2LC's default, also the remote
+#: low-level process's, ``experiments/hil_landing_llc_controller.py``): triple pole at
+#: -60 rad/s (K_P = 10800 s⁻², K_D = 180 s⁻¹, K_I = 216000 s⁻³), ~10 times slower than
+#: the 500 Hz sampling (ω T = 0.12) and fast enough to keep the tracking error below
+#: 0.01° during the landing (the "aggressive PID action" of §2.6.2).
+DEFAULT_FL_GAINS = PIDGains.triple_pole(60.0)
 
 
 def _check_sampling(dt, cos_min, on_singular) -> None:

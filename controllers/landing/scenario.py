@@ -19,7 +19,7 @@ from netcosim import validate
 from netcosim.errors import ConfigurationError
 from plants.tethered_uav import TetheredUAVParams
 
-from .feedback_linearization import PIDGains
+from .feedback_linearization import DEFAULT_FL_GAINS, PIDGains
 from .ocp import LandingConfig, initial_state
 from .timing import LandingTiming
 
@@ -29,11 +29,6 @@ __all__ = ["LandingScenario", "SIM_PARAMS", "DEFAULT_FL_GAINS", "CONTROLLERS", "
 #: landers, which stop the CoM within 1° of φ* = -α as in Fig. 2.8).
 SIM_PARAMS = TetheredUAVParams()
 
-#: Gains of the low-level PID loops: triple pole at -60 rad/s (K_P = 10800 s⁻²,
-#: K_D = 180 s⁻¹, K_I = 216000 s⁻³), ~10 times slower than the 500 Hz sampling
-#: (ω T = 0.12) and fast enough to keep the tracking error below 0.01° during the
-#: landing (the "aggressive PID action" of §2.6.2).
-DEFAULT_FL_GAINS = PIDGains.triple_pole(60.0)
 
 #: The controllers: NMPC alone on the rate-input plant, or the two-layer controller.
 CONTROLLERS = ("nmpc", "2lc")

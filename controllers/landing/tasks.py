@@ -158,17 +158,30 @@ class LandingLoop:
 
     # -- the low-level job ---------------------------------------------------
 
-    def fl_job(self, ctx):
-        """One 500 Hz job: reference at the sampling instant (acceleration ``ff_lead``
-        seconds later), feedback linearization, command ``(f_R, τ_R)`` to the plant."""
-        y = ctx.read(self.out_port)
-        t = ctx.now
+    def low_level_reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What the low-level controller tracks at sampling instant *t* [s]: the
+        interpolated positions ``(φ_d, ϑ_d)`` [rad] and velocities [rad/s] at *t*, and
+        the accelerations [rad/s²] ``ff_lead`` seconds later (the feed-forward)."""
         pos, vel, acc = self.interp.evaluate(t)
         lead = self.scenario.feedforward_lead
         if lead:
             acc = self.interp.evaluate(t + lead)[2]
+        return pos, vel, acc
+
+    def low_level_command(self, t: float, y, reference=None) -> np.ndarray:
+        """One low-level sample at *t* [s] on the measurement *y* (``[φ, φ̇, ϑ, ϑ̇, ...]``):
+        feedback linearization of *reference* (default :meth:`low_level_reference` at
+        *t*), logged in :attr:`ref_rows`; returns ``(f_R, τ_R)`` [N, N·m]."""
+        pos, vel, acc = self.low_level_reference(t) if reference is None else reference
         u = self.fl(y[:4], pos, vel, acc)
         self.ref_rows.append((t, pos[0], pos[1], vel[0], vel[1], acc[0], acc[1], u[0], u[1]))
+        return u
+
+    def fl_job(self, ctx):
+        """One 500 Hz job: reference at the sampling instant (acceleration ``ff_lead``
+        seconds later), feedback linearization, command ``(f_R, τ_R)`` to the plant."""
+        y = ctx.read(self.out_port)
+        u = self.low_level_command(ctx.now, y)
         yield ctx.execute(self.scenario.timing.fl_exec)
         ctx.write(self.in_port, u)
 

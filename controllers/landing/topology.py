@@ -1,11 +1,11 @@
 """Wiring of the landing tasks onto nodes, one function per topology, and the runner.
 
 :func:`simulate_landing` runs a :class:`~controllers.landing.LandingScenario`: it
-builds the simulation, the plant and node ``onboard``, the shared
+builds (:func:`build_landing`) the simulation, the plant and node ``onboard``, the shared
 :class:`~controllers.landing.tasks.LandingLoop`, calls the wiring function of the
-scenario's topology (:data:`WIRINGS`), adds the low-level task of the 2LC and
-collects a :class:`~controllers.landing.LandingRun`.  :func:`run_landing` is the
-keyword interface to it.
+scenario's topology (:data:`WIRINGS`), adds the low-level task of the 2LC, runs it
+and collects a :class:`~controllers.landing.LandingRun` (:func:`landing_result`).
+:func:`run_landing` is the keyword interface to it.
 
 Times in seconds.
 """
@@ -26,7 +26,8 @@ from .scenario import LandingScenario
 from .tasks import LandingLoop, fl_task, ground_nmpc_task, nmpc_task, sensor_task
 from .timing import LandingTiming
 
-__all__ = ["run_landing", "simulate_landing", "wire_single_node", "wire_two_nodes", "WIRINGS"]
+__all__ = ["run_landing", "simulate_landing", "build_landing", "landing_result", "wire_single_node",
+           "wire_two_nodes", "WIRINGS"]
 
 #: MAC priority (CAN identifier) of the messages each node sends in the two-node
 #: variant: the references from ``ground`` beat the measurements from ``onboard``.
@@ -70,8 +71,13 @@ def _add_plant(sim: Simulation, sc: LandingScenario, xs0):
     return uav
 
 
-def simulate_landing(scenario: LandingScenario) -> LandingRun:
-    """Simulate *scenario* for ``scenario.duration`` seconds and collect the result."""
+def build_landing(scenario: LandingScenario, *, low_level: bool = True):
+    """The simulation of *scenario*, ready to run: ``(sim, uav, loop)`` -- the
+    :class:`~netcosim.Simulation`, the plant, the shared
+    :class:`~controllers.landing.tasks.LandingLoop` with the tasks of the scenario's
+    topology.  ``low_level=False`` leaves out the 2LC's 500 Hz task (priority 1 on node
+    ``onboard``): something else then drives the force inputs, e.g. the low-level
+    controller in a separate process (``experiments/hil_landing_llc.py``)."""
     sc = scenario
     xs0 = sc.initial_state()
     sim = Simulation(seed=sc.seed)
@@ -79,15 +85,28 @@ def simulate_landing(scenario: LandingScenario) -> LandingRun:
     onboard = sim.node("onboard", scheduler="fixed_priority", context_switch=sc.timing.context_switch)
     loop = LandingLoop(sc, uav.inputs, uav.outputs, xs0)
     WIRINGS[sc.topology](sim, onboard, loop)
-    if loop.fl is not None:
+    if loop.fl is not None and low_level:
         onboard.periodic(fl_task(loop), period=sc.fl_period, priority=1, name="fl")
-    sim.run(until=sc.duration)
+    return sim, uav, loop
+
+
+def landing_result(sim: Simulation, loop: LandingLoop) -> LandingRun:
+    """The :class:`~controllers.landing.LandingRun` of a simulation built by
+    :func:`build_landing` (after ``sim.run``)."""
+    sc = loop.scenario
     return LandingRun(controller=sc.controller, wind=sc.wind, signals=plant_signals(sim, "uav", sc.wind, sc.params),
                       steps=pd.DataFrame(loop.steps), reference=loop.reference_table(), jobs=sim.trace.jobs(),
                       schedule=sim.trace.schedule(), sim=sim, nmpc=loop.nmpc, fl=loop.fl,
                       meta=dict(params=sc.params, config=sc.config, timing=sc.timing, topology=sc.topology,
                                 nmpc_init=sc.nmpc_init, n_reset=loop.n_reset),
                       cpu_times=loop.cpu_model.record(), reproducible=loop.cpu_model.reproducible, scenario=sc)
+
+
+def simulate_landing(scenario: LandingScenario) -> LandingRun:
+    """Simulate *scenario* for ``scenario.duration`` seconds and collect the result."""
+    sim, _uav, loop = build_landing(scenario)
+    sim.run(until=scenario.duration)
+    return landing_result(sim, loop)
 
 
 def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float = 1.5,

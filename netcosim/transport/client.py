@@ -104,6 +104,7 @@ class RemoteProcess:
         self._seq = 0
         self._handler: Callable[[wire.Message], Sequence[float] | None] | None = None
         self._error: BaseException | None = None
+        self._last_rx = 0.0             # monotonic time of the last message served (serve)
         self.session: Session = open_session(listen=listen, connect=connect, lease=lease)
         try:
             self._pub = self.session.publisher(self.keys["tx"])
@@ -127,6 +128,7 @@ class RemoteProcess:
             self.inbox.put(data)        # the waiting thread answers it and ends serve()
             return
         self.received += 1
+        self._last_rx = time.monotonic()
         try:
             out = handler(m)
             if out is not None:
@@ -138,17 +140,24 @@ class RemoteProcess:
     def serve(self, handler: Callable[[wire.Message], Sequence[float] | None], timeout: float | None = None) -> None:
         """Answer every DATA message until the run ends: ``handler(msg)`` runs on the
         receiving (Zenoh) thread as the message arrives and its result, if not None, is
-        sent back with :meth:`reply`.  Returns once the simulation's END message came (or
-        none for *timeout* s); an exception of *handler* stops serving and is re-raised
-        here.  Keep *handler* short: the next message waits for it."""
+        sent back with :meth:`reply`.  Returns once the simulation's END message came, or
+        once no message has arrived for *timeout* s (None: wait forever); an exception
+        of *handler* stops serving and is re-raised here.  Keep *handler* short: the
+        next message waits for it."""
         self._handler = handler
+        self._last_rx = time.monotonic()
         try:
             while not self.ended:
-                got = self.receive(timeout)
+                # messages answered on the receiving thread count as activity: wait for the
+                # rest of *timeout* after the last one, not *timeout* after serving began
+                wait = None if timeout is None else max(0.0, self._last_rx + timeout - time.monotonic())
+                got = self.receive(wait)
                 if self._error is not None:
                     raise self._error
                 if got is None:
-                    return
+                    if self.ended or timeout is None or time.monotonic() - self._last_rx >= timeout:
+                        return
+                    continue
                 out = handler(got)          # a message that arrived before serving began
                 if out is not None:
                     self.reply(got, out)

@@ -20,9 +20,11 @@ what it wants.  Every such event is a row of the trace table ``hil``.
 Remote plant I/O (:class:`RemotePlantIO`): for a fast local loop (e.g. a 500 Hz
 low-level controller) against a simulated plant, without a simulated network in
 between: every ``period`` s the plant's outputs are published on
-``netcosim/<run>/<name>/rx``; what the process publishes on ``.../tx`` is written to the
-plant's inputs (zero-order hold) at the simulated instant matching its arrival.  Loss
-policies as above (``"zero"`` writes zeros to the inputs).
+``netcosim/<run>/<name>/rx``, followed by any values the simulation computes for the
+process at that instant (``extra``, e.g. a reference the simulation generates); what
+the process publishes on ``.../tx`` is written to the plant's inputs (zero-order hold)
+at the simulated instant matching its arrival.  Loss policies as above (``"zero"``
+writes zeros to the inputs).
 """
 
 from __future__ import annotations
@@ -64,6 +66,13 @@ def _floats(payload: Any) -> tuple[float, ...]:
     if isinstance(payload, (int, float)):
         return (float(payload),)
     return tuple(float(v) for v in payload)
+
+
+def _flat(x: Any) -> tuple[float, ...]:
+    """A number, or a sequence of numbers and arrays, as one flat tuple of floats (in order)."""
+    if isinstance(x, (int, float, np.number)) or (isinstance(x, np.ndarray) and x.ndim == 0):
+        return (float(x),)
+    return tuple(v for part in x for v in np.ravel(np.asarray(part, dtype=float)).tolist())
 
 
 class _Remote:
@@ -294,15 +303,24 @@ class RemotePlantIO(_Remote):
     plant:
         The :class:`~netcosim.continuous.PlantInstance`.
     period:
-        Sampling period (s): the outputs are published at ``0, period, 2 period, ...``
-        s of simulated time (values: the selected outputs in the plant's units; ``node``
-        field 0).
+        Sampling period (s): a sample is published at ``t0, t0 + period, t0 + 2 period,
+        ...`` s of simulated time (``t0``: the simulated time at construction; ``node``
+        field 0, ``ticks`` the sampling instant).
     outputs, inputs:
         Output and input selectors as for ``plant.output(...)`` / ``plant.input(...)``
         (None: all).  A message from the process carries one value per selected input;
         another length is rejected (reason ``"length"``).
     name:
         The key name (default: the plant's name): keys ``netcosim/<run>/<name>/...``.
+    extra:
+        None, or ``extra(t)``: called on the simulation thread at every sampling instant
+        ``t`` (s of simulated time), right after the outputs are read, returning a number
+        or a sequence of numbers and arrays (the caller's units) -- values the simulation
+        computes for the process, e.g. a reference.  What a sample carries, in this
+        order, as float64: the selected outputs (selection order, the plant's units),
+        then the values of ``extra(t)`` flattened in order (element by element, each
+        array row by row).  An exception of ``extra`` ends the run
+        like any exception of a simulated component.
 
     The response time of every write (sample published to the reply echoing its
     ``seq``) is logged as signal ``response`` (s) of source ``<name>.remote``.
@@ -310,7 +328,11 @@ class RemotePlantIO(_Remote):
 
     def __init__(self, sim: Any, plant: Any, session: Session, *, run: str, period: float,
                  outputs: Any = None, inputs: Any = None, name: str | None = None,
-                 loss_policy: str | Callable[["RemotePlantIO"], None] = "hold", **clock_options: Any):
+                 loss_policy: str | Callable[["RemotePlantIO"], None] = "hold",
+                 extra: Callable[[float], Any] | None = None, **clock_options: Any):
+        if extra is not None:
+            validate.callable_(extra, "extra", kind="None or a callable extra(t) returning numbers")
+        self.extra = extra
         self.period_ticks = to_ticks(validate.positive(period, "period (s)"), "period (s)")
         self.plant = plant
         self.y = plant.output(outputs)
@@ -321,7 +343,10 @@ class RemotePlantIO(_Remote):
         sim.call_at_ticks(int(sim.now_ticks), self._sample)
 
     def _sample(self) -> None:
-        self._publish(0, _floats(np.atleast_1d(self.y.read())))
+        values = _floats(np.atleast_1d(self.y.read()))
+        if self.extra is not None:
+            values += _flat(self.extra(self.sim.now))
+        self._publish(0, values)
         self._k += 1
         self.sim.call_in_ticks(self.period_ticks, self._sample)
 

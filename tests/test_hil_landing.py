@@ -1,0 +1,171 @@
+"""The ch. 2 landing with its low-level controller in a real process over Zenoh
+(``experiments.hil_landing_llc``): loopback only, bounded in time, every child killed and
+every session closed.
+
+The process's law is the simulated one (same code, same numbers); the HIL landing must
+equal, bit for bit, the all-simulated landing replayed with the measured response time
+of every reply, and lie within 1.5 times the deviation those response times explain
+from the nominal all-simulated 2LC.  The Zenoh tests skip without the ``zenoh`` extra.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from netcosim.transport.session import zenoh_available
+
+needs_zenoh = pytest.mark.skipif(not zenoh_available(), reason="the zenoh extra (eclipse-zenoh) is not installed")
+
+
+def _h():
+    from experiments import hil_landing_llc
+    return hil_landing_llc
+
+
+def _states_equal(a, b) -> bool:
+    return all(np.array_equal(a[c].to_numpy(), b[c].to_numpy()) for c in _h().STATES)
+
+
+def test_replay_without_delay_is_the_simulated_two_layer_controller():
+    # the replay samples like the remote loop (RemotePlantIO's schedule) and writes each
+    # command after the given response time: with zero it is the 2LC's 500 Hz task, bit for bit
+    h = _h()
+    until = 0.1
+    nominal = h.landing_output(h.run_simulated(until))
+    zero = h.landing_output(h.run_replay(until, np.zeros(50)))
+    assert len(nominal) == 100 and _states_equal(zero, nominal)
+    late = h.landing_output(h.run_replay(until, np.full(50, 1e-4)))
+    assert not _states_equal(late, nominal)
+    assert 0 < h.deviation(late, nominal) < 0.01
+
+
+def test_the_process_computes_the_simulated_low_level_command_bit_for_bit():
+    from controllers.landing.topology import build_landing
+    from experiments.hil_landing_llc_controller import SAMPLE_VALUES, command, controller
+    h = _h()
+    sc = h.scenario(0.1)
+    sim, uav, loop = build_landing(sc, low_level=False)
+    y = uav.output(h.OUTPUTS).read()
+    y = y + np.array([1e-4, -1e-3, 2e-3, 1e-2])         # off the reference, unsaturated: every PID term acts
+    fl = controller(sc.fl_period, sc.fl_gains)
+    for t in (0.0, 0.002, 0.004):
+        pos, vel, acc = loop.low_level_reference(t)
+        values = tuple(y.tolist()) + tuple(pos) + tuple(vel) + tuple(acc)    # what a sample carries
+        assert len(values) == SAMPLE_VALUES
+        u = command(fl, values)
+        assert u == tuple(loop.low_level_command(t, y).tolist())
+    assert fl.integral.tolist() == loop.fl.integral.tolist() and np.any(fl.integral != 0)
+    with pytest.raises(ValueError, match="10 values .* got 4"):
+        command(fl, values[:4])
+
+
+def test_controller_command_carries_the_scenario_gains_and_period():
+    from dataclasses import replace
+
+    from controllers.landing import PIDGains
+    h = _h()
+    sc = replace(h.scenario(0.1), fl_gains=PIDGains(1.5, 2.25, 0.1))
+    cmd = h.controller_command("abc", ["tcp/127.0.0.1:7447"], sc, python="py")
+    assert cmd[:3] == ["py", "-m", "experiments.hil_landing_llc_controller"]
+    i = cmd.index("--gains")
+    assert cmd[i + 1:i + 4] == ["1.5", "2.25", "0.1"] and cmd[cmd.index("--period") + 1] == "0.002"
+    assert cmd[cmd.index("--node") + 1] == "uav" and cmd[cmd.index("--connect") + 1] == "tcp/127.0.0.1:7447"
+    from controllers.landing import SIM_PARAMS
+    with pytest.raises(ValueError, match="default TetheredUAVParams"):
+        h.controller_command("abc", [], replace(sc, params=replace(SIM_PARAMS, m_B=2.0)))
+
+
+def _check_landing(until, factor):
+    h = _h()
+    run = h.run_hil(until, factor=factor)
+    samples = round(until / 0.002)
+    resp = run.response_times()
+    # both sides count the same samples and replies (loss 0)
+    assert run.io.published == samples
+    assert run.process is not None
+    assert {k: run.process[k] for k in ("received", "published", "rejected", "ended", "singular")} == {
+        "received": samples, "published": samples, "rejected": {}, "ended": True, "singular": 0}
+    assert run.io.received + run.io.after_end == samples and len(resp) == run.io.received
+    assert not run.io.rejected and run.sim.now == until
+    assert np.all(resp > 0)
+    y = run.output()
+    # the HIL landing is the all-simulated one with the measured response times, bit for bit
+    replay = h.landing_output(h.run_replay(until, resp))
+    assert _states_equal(y, replay)
+    nominal = h.landing_output(h.run_simulated(until))
+    assert h.deviation(y, nominal) <= h.tolerance(until, resp)
+    assert list(run.io.events()["event"]) == ["alive"]
+    return run
+
+
+@needs_zenoh
+def test_landing_with_the_low_level_controller_in_a_process():
+    _check_landing(0.3, 10.0)
+
+
+@needs_zenoh
+@pytest.mark.slow
+def test_whole_landing_with_the_low_level_controller_in_a_process():
+    run = _check_landing(1.5, 10.0)
+    y = run.output()
+    assert np.degrees(y["theta"].iloc[-1]) == pytest.approx(30.0, abs=1.0)     # landed on the 30° slope
+
+
+@needs_zenoh
+def test_hil_landing_example_writes_its_results(tmp_path):
+    summary = _h().main(outdir=str(tmp_path), quick=True)
+    row = summary.iloc[0]
+    assert row["until"] == 0.5 and row["published"] == 250
+    assert row["received"] + row["after_end"] == 250
+    assert row["deviation"] <= row["tolerance"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hil_events.parquet", "lateness.parquet", "outputs.png",
+                                                         "summary.parquet"]
+
+
+@needs_zenoh
+def test_cli_runs_the_landing_with_a_remote_plant():
+    import os
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=str(root))
+    sim_side = subprocess.Popen(
+        [sys.executable, "-m", "netcosim.cli", "hil", "experiments.hil_landing_llc:build", "--remote", "uav",
+         "--period", "0.002", "--outputs", "phi,dphi,theta,dtheta", "--extra", "experiments.hil_landing_llc:reference",
+         "--factor", "10", "--until", "0.2", "--wait", "60",
+         "--remote-cmd", f"{sys.executable} -m experiments.hil_landing_llc_controller"],
+        cwd=root, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    remote = None
+    try:
+        assert sim_side.stdout is not None
+        assert sim_side.stdout.readline().strip() == "start the remote side with:"
+        cmd = sim_side.stdout.readline().split()
+        assert cmd[1:3] == ["-m", "experiments.hil_landing_llc_controller"]
+        assert cmd[cmd.index("--node") + 1] == "uav"
+        remote = subprocess.Popen(cmd, cwd=root, env=env, stdout=subprocess.PIPE, text=True)
+        out, err = sim_side.communicate(timeout=120)
+        assert sim_side.returncode == 0, err
+        m = re.search(r"messages to the remote: 100, from it: (\d+) \(\+(\d+) after the end\), rejected: \{\}", out)
+        assert m and int(m[1]) + int(m[2]) == 100, out
+        r_out, _ = remote.communicate(timeout=30)
+        assert '"received": 100, "published": 100, "rejected": {}, "ended": true' in r_out
+    finally:
+        for p in (sim_side, remote):
+            if p is not None and p.poll() is None:
+                p.kill()
+            if p is not None:
+                p.wait(timeout=10)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--remote", "nothing"], "has no node or plant 'nothing'"),
+    (["--remote", "uav"], "'uav' is a plant: give its sampling period with --period"),
+    (["--remote", "onboard", "--period", "0.002"], "'onboard' is a node, not a plant: --period given"),
+])
+def test_cli_names_a_bad_remote(args, message, capsys):
+    from netcosim.cli import main
+    assert main(["hil", "experiments.hil_landing_llc:build", *args]) == 2
+    assert message in capsys.readouterr().err
