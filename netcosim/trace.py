@@ -65,9 +65,11 @@ JOB_COLUMNS = (
     "response_time", "release_latency", "start_latency", "execution_time",
     "lateness", "deadline_miss", "budget_overrun", "killed",
 )
-#: Columns of the jobs table as stored by the kernel (times in integer ticks, None if unset).
-JOB_RAW = ("node", "task", "job", "release", "deadline", "start", "finish", "execution_time",
-           "deadline_miss", "budget_overrun", "killed")
+#: Columns of the jobs table as stored by the kernel: the kernel's task object (its node,
+#: name and relative deadline are read when the table is), times in integer ticks (None
+#: if unset).  The deadline is not stored: it is the release plus the task's deadline.
+JOB_RAW = ("task", "job", "release", "start", "finish", "execution_time", "deadline_miss", "budget_overrun",
+           "killed")
 
 #: Storage modes of a table (see :meth:`Trace.configure`).
 MODES = ("keep", "off", "ring", "window", "stream")
@@ -86,7 +88,7 @@ def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
 
 def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
     """Stored schedule rows (:data:`SCHEDULE_RAW`) as reported: time (s), node, task and
-    state names, each name column categorical."""
+    state names."""
     import numpy as np
     import pandas as pd
     tasks = df["task"]
@@ -94,14 +96,33 @@ def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
     states = np.asarray(list(TASK_STATES), dtype=object)
     return pd.DataFrame({
         "time": pd.to_numeric(df["time"], errors="coerce").astype(float) / TICKS_PER_SECOND,
-        "node": tasks.map({t: t.node.name for t in unique}).astype(object).astype("category"),
-        "task": tasks.map({t: t.name for t in unique}).astype(object).astype("category"),
-        "state": pd.Series(states[df["state"].to_numpy(dtype=np.int64)], dtype=object).astype("category"),
+        "node": tasks.map({t: t.node.name for t in unique}).astype(object),
+        "task": tasks.map({t: t.name for t in unique}).astype(object),
+        "state": pd.Series(states[df["state"].to_numpy(dtype=np.int64)], dtype=object),
     })
 
 
 def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
-    df = _ticks_to_seconds(df, ("release", "deadline", "start", "finish", "execution_time"))
+    """Stored job rows (:data:`JOB_RAW`) as reported (:data:`JOB_COLUMNS`, times in s)."""
+    import numpy as np
+    import pandas as pd
+    tasks = df["task"]
+    unique = pd.unique(tasks)
+    release = pd.to_numeric(df["release"], errors="coerce")
+    relative = tasks.map({t: np.nan if t.deadline_ticks is None else t.deadline_ticks for t in unique})
+    if len(df) and relative.notna().all() and release.notna().all():
+        deadline = (release.astype("int64") + relative.astype("int64")).astype(float)   # exact in ticks
+    else:
+        deadline = release.astype(float) + relative.astype(float)
+    df = pd.DataFrame({
+        "node": tasks.map({t: t.node.name for t in unique}).astype(object),
+        "task": tasks.map({t: t.name for t in unique}).astype(object),
+        "job": df["job"],
+        "release": release.astype(float) / TICKS_PER_SECOND,
+        "deadline": deadline / TICKS_PER_SECOND,
+        "start": df["start"], "finish": df["finish"], "execution_time": df["execution_time"],
+        "deadline_miss": df["deadline_miss"], "budget_overrun": df["budget_overrun"], "killed": df["killed"]})
+    df = _ticks_to_seconds(df, ("start", "finish", "execution_time"))
     df["response_time"] = df["finish"] - df["release"]
     df["release_latency"] = 0.0
     df["start_latency"] = df["start"] - df["release"]
@@ -189,7 +210,9 @@ class Recorder:
         #: the producers' promise of column types for the columnar store (see
         #: :class:`~netcosim.columns.ColumnStore`); None: found from the values
         self.dtypes = tuple(dtypes) if dtypes is not None else None
-        self.categorical = tuple(c for c in categorical if c in self.columns)
+        #: categorical columns: a stored one without a declared dtype is coded in the store,
+        #: and every one in the reported frame is a pandas ``category``
+        self.categorical = tuple(categorical)
         #: callables returning rows that describe the current state (e.g. unfinished
         #: jobs); evaluated each time the table is read, never stored.
         self.providers: list = []
@@ -211,8 +234,9 @@ class Recorder:
         self.rows = Sink(self)
 
     def _column_store(self) -> ColumnStore:
-        return ColumnStore(len(self.columns), categorical=[self.columns.index(c) for c in self.categorical],
-                           dtypes=self.dtypes)
+        coded = [i for i, c in enumerate(self.columns)
+                 if c in self.categorical and (self.dtypes is None or self.dtypes[i] is None)]
+        return ColumnStore(len(self.columns), categorical=coded, dtypes=self.dtypes)
 
     def append(self, row: tuple) -> None:
         """Add one *row* (a tuple in the table's column order; times in the table's stored unit) under
@@ -378,7 +402,8 @@ class Recorder:
             written = self._stream.read()
             df = pd.concat([written, df], ignore_index=True) if len(df) else written
         for c in self.categorical:
-            df[c] = df[c].astype("category")
+            if c in df.columns:
+                df[c] = df[c].astype("category")
         return df
 
     def _stored_frame(self, rows) -> pd.DataFrame:
@@ -471,10 +496,10 @@ class Trace:
                                      dtypes=("float", None, None, "float"))
         # stored in ticks, reported in seconds
         # the task column holds the kernel's task objects: coded like names, by identity
-        self.schedule_rec = self.table("schedule", SCHEDULE_RAW, categorical=("task",),
+        self.schedule_rec = self.table("schedule", SCHEDULE_RAW, categorical=("node", "task", "state"),
                                        transform=_schedule_frame, dtypes=("int", None, "uint8"))
         self.job_rec = self.table("jobs", JOB_RAW, categorical=("node", "task"), transform=_jobs_frame,
-                                  time="release", dtypes=(None, None) + ("int",) * 6 + ("bool",) * 3)
+                                  time="release", dtypes=(None,) + ("int",) * 5 + ("bool",) * 3)
 
     def table(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
               transform=None, *, time: str | None = "time", time_unit: str = "ticks",

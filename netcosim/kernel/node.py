@@ -27,6 +27,7 @@ from ..trace import STATE_CODES
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
 from .ready import ReadyQueue
+from .releases import arm_periodic
 from .task import HANDLER, Blocking, Job, Task
 from .timers import KernelTimer, Trigger
 
@@ -76,6 +77,9 @@ class Node:
         # instead of creating one; cancelled timers may still sit in the queue and are never kept
         self._spare_timer: Timer | None = None
         self._sched: list[tuple] = sim.trace.schedule_rec.rows
+        # the periodic task created last and the event id taken after it (releases.arm_periodic)
+        self._last_periodic: Task | None = None
+        self._periodic_mark = -1
         self._jobrec: list[tuple] = sim.trace.job_rec.rows
         sim.trace.job_rec.providers.append(self._unfinished_rows)
 
@@ -107,9 +111,7 @@ class Node:
             task = self._add_task(fn, "periodic", name, priority=priority, period=period, offset=offset,
                                   deadline=deadline, wcet=wcet, preemptible=preemptible, on_busy=on_busy,
                                   on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun)
-            task._release_timer = Timer(self._env, task.offset_ticks, task._periodic_release, None)
-            task._k = 0
-            task.offset_ticks += self.sim.env._now
+            arm_periodic(self, task)
             return task
         return make if body is None else make(body)
 
@@ -487,7 +489,7 @@ class Node:
             task.misses += 1
             job.missed = True
         wcet = task.wcet_ticks
-        self._jobrec.append((self.name, task.name, job.index, job.release, dl, job.start, now, job.exec_done, miss,
+        self._jobrec.append((task, job.index, job.release, job.start, now, job.exec_done, miss,
                              job.budget_overrun or (wcet is not None and job.exec_done > wcet), job.killed))
         task.finished += 1
         task.active = None
@@ -601,8 +603,7 @@ class Node:
             job.task.misses += 1
             job.missed = True
         wcet = job.task.wcet_ticks
-        self._jobrec.append((self.name, job.task.name, job.index, job.release, dl, job.start, job.finish,
-                             job.exec_done, miss,
+        self._jobrec.append((job.task, job.index, job.release, job.start, job.finish, job.exec_done, miss,
                              job.budget_overrun or (wcet is not None and job.exec_done > wcet), job.killed))
 
     def _unfinished_rows(self) -> list[tuple]:
@@ -615,9 +616,8 @@ class Node:
                 done = job.exec_done
                 if job.state == "running" and job.seg_timer is not None:
                     done += now - job.seg_start
-                rows.append((self.name, task.name, job.index, job.release, job.abs_deadline, job.start, None,
-                             done, job.abs_deadline is not None and now > job.abs_deadline,
-                             job.budget_overrun, False))
+                rows.append((task, job.index, job.release, job.start, None, done,
+                             job.abs_deadline is not None and now > job.abs_deadline, job.budget_overrun, False))
         return rows
 
     def __repr__(self):

@@ -186,7 +186,7 @@ class Task:
     __slots__ = ("node", "name", "kind", "cls", "body", "priority", "period_ticks", "offset_ticks",
                  "deadline_ticks", "wcet_ticks", "preemptible", "on_busy", "on_deadline_miss",
                  "on_budget_overrun", "active", "pending", "jobs_released", "skipped", "misses", "finished",
-                 "state", "static_key", "ctx", "_release_timer", "_k", "_release_cb", "_release_cbs",
+                 "state", "static_key", "ctx", "_release_timer", "_k", "_group", "_release_cb", "_release_cbs",
                  "__dict__", "__weakref__")
 
     def __init__(self, node, body: Callable, *, name: str | None, kind: str, priority=None,
@@ -228,6 +228,7 @@ class Task:
         self.ctx = TaskContext(self)
         self._release_timer: Timer | None = None
         self._k = 0
+        self._group: Any = None     # the ReleaseGroup releasing this task, if any (kernel.releases)
         self._release_cb = self._periodic_release  # one bound method for every release timer
         # ...and one callback list: SimPy only replaces a fired event's list, never mutates it
         self._release_cbs: list[Callable[[Any], None]] = [self._release_cb]
@@ -251,7 +252,10 @@ class Task:
 
     def stop(self) -> None:
         """Stop future periodic releases (jobs already released continue)."""
-        if self._release_timer is not None:
+        if self._group is not None:
+            self._group.remove(self)
+            self._release_timer = None
+        elif self._release_timer is not None:
             self._release_timer.cancel()
             self._release_timer = None
 
