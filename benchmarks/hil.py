@@ -110,8 +110,7 @@ def measure(duration: float = 10.0, baseline_pings: int = 5000, spin: float | No
             child.kill()
             child.wait(timeout=10)
         session.close()
-    sig = sim.trace.signals()
-    resp = sig[(sig["source"] == "echo.remote") & (sig["signal"] == "response")]["value"].to_numpy()
+    resp = remote.response_times()
     lat = remote.clock.lateness
     sent = remote.published
     raw_median = float(np.median(raw))

@@ -120,8 +120,7 @@ class HilLandingRun:
 
     def response_times(self) -> np.ndarray:
         """Simulated response time (s) of every reply (sample published to reply injected)."""
-        sig = self.sim.trace.signals()
-        return sig[(sig["source"] == "uav.remote") & (sig["signal"] == "response")]["value"].to_numpy()
+        return self.io.response_times()
 
 
 def landing_output(sim) -> pd.DataFrame:

@@ -62,8 +62,7 @@ class HilRun:
 
     def response_times(self) -> np.ndarray:
         """Simulated response time (s) of every reply of the remote controller."""
-        sig = self.sim.trace.signals()
-        return sig[(sig["source"] == "controller.remote") & (sig["signal"] == "response")]["value"].to_numpy()
+        return self.remote.response_times()
 
 
 def servo_output(sim) -> pd.DataFrame:

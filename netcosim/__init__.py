@@ -41,6 +41,8 @@ Errors
 
 from typing import TYPE_CHECKING
 
+from .lazy import lazy_exports
+
 if TYPE_CHECKING:
     from .continuous import RK4, ContinuousSystem, ExactZOH, HybridEvent, PlantInstance, SolveIVP
     from .cputime import CPUTimeModel, FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime
@@ -157,15 +159,4 @@ __all__ = [
 __version__ = "0.1.0"
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    from importlib import import_module
-    value = getattr(import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

@@ -22,6 +22,8 @@ remain as aliases.  Names are imported on first use, so that importing one modul
 
 from typing import TYPE_CHECKING
 
+from netcosim.lazy import lazy_exports
+
 if TYPE_CHECKING:
     from .feedback_linearization import FeedbackLinearization, PIDGains, SingularityError
     from .interpolation import C2Interpolator, quintic_coefficients
@@ -68,15 +70,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    from importlib import import_module
-    value = getattr(import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

@@ -176,6 +176,14 @@ class _Remote:
             policy(self)
 
     # any thread, outside the run -----------------------------------------------------
+    def response_times(self) -> np.ndarray:
+        """The response time (s, simulated) of every reply so far, in arrival order: from
+        the publication of the message it answers to its injection (signal ``response``
+        of source ``<name>.remote``)."""
+        sig = self.sim.trace.signals()
+        sel = (sig["source"] == f"{self.name}.remote") & (sig["signal"] == "response")
+        return sig.loc[sel, "value"].to_numpy()
+
     def wait_connected(self, timeout: float) -> bool:
         """Block up to *timeout* s until the process's liveliness token is seen; True if it was."""
         return self.connected.wait(timeout)
