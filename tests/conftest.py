@@ -53,3 +53,42 @@ class SteppingClock:
             self.t += next(self.durations)
         self.inside = not self.inside
         return self.t
+
+
+def run_hil_cli(args, *, module, node, messages, timeout=120):
+    """Run ``netcosim hil ARGS --remote-cmd 'python -m MODULE'`` and the remote command it
+    prints, as two real processes; check that the printed command starts *module* for
+    *node* and that both sides counted *messages* messages each way (replies in flight
+    at the end count as ``after the end``).  Returns the process's last stdout."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=str(root))
+    sim_side = subprocess.Popen(
+        [sys.executable, "-m", "netcosim.cli", "hil", *args, "--remote-cmd", f"{sys.executable} -m {module}"],
+        cwd=root, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    remote = None
+    try:
+        assert sim_side.stdout is not None
+        assert sim_side.stdout.readline().strip() == "start the remote side with:"
+        cmd = sim_side.stdout.readline().split()
+        assert cmd[1:3] == ["-m", module]
+        assert cmd[cmd.index("--node") + 1] == node
+        assert cmd[cmd.index("--connect") + 1].startswith("tcp/127.0.0.1:")
+        remote = subprocess.Popen(cmd, cwd=root, env=env, stdout=subprocess.PIPE, text=True)
+        out, err = sim_side.communicate(timeout=timeout)
+        assert sim_side.returncode == 0, err
+        m = re.search(rf"messages to the remote: {messages}, from it: (\d+) \(\+(\d+) after the end\), "
+                      r"rejected: \{\}", out)
+        assert m and int(m[1]) + int(m[2]) == messages, out
+        r_out, _ = remote.communicate(timeout=30)
+        assert f'"received": {messages}, "published": {messages}' in r_out
+        return r_out
+    finally:
+        for p in (sim_side, remote):
+            if p is not None and p.poll() is None:
+                p.kill()
+            if p is not None:
+                p.wait(timeout=10)

@@ -10,7 +10,6 @@ those response times explain from the nominal all-simulated run.
 from __future__ import annotations
 
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -20,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import run_hil_cli
 from netcosim.transport import wire
 from netcosim.transport.client import periodic
 from netcosim.transport.session import key, open_session, zenoh_available
@@ -206,32 +206,8 @@ def test_malformed_messages_are_rejected_counted_and_the_run_goes_on():
 
 @needs_zenoh
 def test_cli_prints_the_remote_command_and_runs_with_it():
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    sim_side = subprocess.Popen(
-        [sys.executable, "-m", "netcosim.cli", "hil", "experiments.networked_servo:build", "--remote", "controller",
-         "--until", "0.5", "--wait", "30", "--remote-cmd", f"{sys.executable} -m experiments.hil_servo_controller"],
-        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    remote = None
-    try:
-        assert sim_side.stdout is not None
-        assert sim_side.stdout.readline().strip() == "start the remote side with:"
-        cmd = sim_side.stdout.readline().split()
-        assert cmd[1:3] == ["-m", "experiments.hil_servo_controller"]
-        assert cmd[cmd.index("--node") + 1] == "controller"
-        assert cmd[cmd.index("--connect") + 1].startswith("tcp/127.0.0.1:")
-        remote = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, text=True)
-        out, err = sim_side.communicate(timeout=60)
-        assert sim_side.returncode == 0, err
-        m = re.search(r"messages to the remote: 50, from it: (\d+) \(\+(\d+) after the end\), rejected: \{\}", out)
-        assert m and int(m[1]) + int(m[2]) == 50, out
-        r_out, _ = remote.communicate(timeout=30)
-        assert '"received": 50, "published": 50' in r_out
-    finally:
-        for p in (sim_side, remote):
-            if p is not None and p.poll() is None:
-                p.kill()
-            if p is not None:
-                p.wait(timeout=10)
+    run_hil_cli(["experiments.networked_servo:build", "--remote", "controller", "--until", "0.5", "--wait", "30"],
+                module="experiments.hil_servo_controller", node="controller", messages=50, timeout=60)
 
 
 @needs_zenoh

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from conftest import run_hil_cli
 from netcosim.transport.session import zenoh_available
 
 needs_zenoh = pytest.mark.skipif(not zenoh_available(), reason="the zenoh extra (eclipse-zenoh) is not installed")
@@ -125,39 +126,12 @@ def test_hil_landing_example_writes_its_results(tmp_path):
 
 @needs_zenoh
 def test_cli_runs_the_landing_with_a_remote_plant():
-    import os
-    import re
-    import subprocess
-    import sys
-    from pathlib import Path
-    root = Path(__file__).resolve().parent.parent
-    env = dict(os.environ, PYTHONPATH=str(root))
-    sim_side = subprocess.Popen(
-        [sys.executable, "-m", "netcosim.cli", "hil", "experiments.hil_landing_llc:build", "--remote", "uav",
-         "--period", "0.002", "--outputs", "phi,dphi,theta,dtheta", "--extra", "experiments.hil_landing_llc:reference",
-         "--factor", "10", "--until", "0.2", "--wait", "60",
-         "--remote-cmd", f"{sys.executable} -m experiments.hil_landing_llc_controller"],
-        cwd=root, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    remote = None
-    try:
-        assert sim_side.stdout is not None
-        assert sim_side.stdout.readline().strip() == "start the remote side with:"
-        cmd = sim_side.stdout.readline().split()
-        assert cmd[1:3] == ["-m", "experiments.hil_landing_llc_controller"]
-        assert cmd[cmd.index("--node") + 1] == "uav"
-        remote = subprocess.Popen(cmd, cwd=root, env=env, stdout=subprocess.PIPE, text=True)
-        out, err = sim_side.communicate(timeout=120)
-        assert sim_side.returncode == 0, err
-        m = re.search(r"messages to the remote: 100, from it: (\d+) \(\+(\d+) after the end\), rejected: \{\}", out)
-        assert m and int(m[1]) + int(m[2]) == 100, out
-        r_out, _ = remote.communicate(timeout=30)
-        assert '"received": 100, "published": 100, "rejected": {}, "ended": true' in r_out
-    finally:
-        for p in (sim_side, remote):
-            if p is not None and p.poll() is None:
-                p.kill()
-            if p is not None:
-                p.wait(timeout=10)
+    r_out = run_hil_cli(
+        ["experiments.hil_landing_llc:build", "--remote", "uav", "--period", "0.002",
+         "--outputs", "phi,dphi,theta,dtheta", "--extra", "experiments.hil_landing_llc:reference",
+         "--factor", "10", "--until", "0.2", "--wait", "60"],
+        module="experiments.hil_landing_llc_controller", node="uav", messages=100)
+    assert '"rejected": {}, "ended": true' in r_out
 
 
 @pytest.mark.parametrize("args, message", [
