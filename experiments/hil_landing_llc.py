@@ -24,11 +24,7 @@ lateness), ``hil_events.parquet`` and ``lateness.parquet`` to the output directo
 
 from __future__ import annotations
 
-import json
-import shlex
-import subprocess
 import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -40,6 +36,7 @@ from controllers.landing import LandingScenario
 from controllers.landing.result import plant_signals
 from controllers.landing.topology import build_landing, simulate_landing
 from netcosim.timebase import RESOLUTION, to_ticks
+from netcosim.transport.harness import remote_command, run_with_remote
 from netcosim.transport.remote import RemotePlantIO
 from netcosim.transport.session import LOOPBACK, new_run_id, open_session
 from plants.tethered_uav_params import TetheredUAVParams
@@ -66,12 +63,9 @@ def controller_command(run: str, endpoints: Sequence[str], sc: LandingScenario, 
         raise ValueError("the low-level process uses the default TetheredUAVParams; "
                          f"the scenario has {sc.params!r}")
     g = sc.fl_gains
-    cmd = [python, "-m", "experiments.hil_landing_llc_controller", "--run", run, "--node", node,
-           "--period", repr(sc.fl_period), "--gains", repr(g.kp), repr(g.kd), repr(g.ki),
-           "--idle", repr(idle), "--lease", repr(lease)]
-    for e in endpoints:
-        cmd += ["--connect", e]
-    return cmd
+    return remote_command([python, "-m", "experiments.hil_landing_llc_controller", "--period", repr(sc.fl_period),
+                           "--gains", repr(g.kp), repr(g.kd), repr(g.ki), "--idle", repr(idle)],
+                          run=run, node=node, endpoints=endpoints, lease=lease)
 
 
 def attach_remote_llc(sim, uav, loop, session, *, run: str, factor: float = FACTOR, max_lag: float = 0.005,
@@ -137,40 +131,16 @@ def run_hil(until: float, *, factor: float = FACTOR, spawn: bool = True, lease: 
     # the plant's first event location imports SciPy (0.3-0.5 s): not in the middle of a real-time run
     import scipy.optimize  # noqa: F401
     run = new_run_id()
-    child: subprocess.Popen | None = None
     session = open_session(listen=listen, connect=connect, lease=lease)
     try:
         sc = scenario(until)
         sim, uav, loop = build_landing(sc, low_level=False)
         io = attach_remote_llc(sim, uav, loop, session, run=run, factor=factor, max_lag=max_lag,
                                loss_policy=loss_policy)
-        cmd = controller_command(run, session.endpoints, sc, lease=lease)
-        if spawn:
-            child = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True)
-        else:
-            print("start the remote side with:\n  " + shlex.join(cmd), flush=True)
-        if not io.wait_connected(connect_timeout):
-            raise TimeoutError(f"the low-level controller did not connect within {connect_timeout} s")
-        t0 = time.monotonic()
-        sim.run(until=until)
-        wall = time.monotonic() - t0
-        io.finish()
-        counters = None
-        if child is not None:
-            out, _ = child.communicate(timeout=30)
-            io.drain()
-            last = out.strip().splitlines()[-1] if out.strip() else ""
-            counters = json.loads(last) if last.startswith("{") else None
-        else:
-            io.drain()
-        return HilLandingRun(sim, io, loop, io.clock.lateness, counters, wall, factor)
+        info = run_with_remote(sim, io, until, controller_command(run, session.endpoints, sc, lease=lease),
+                               spawn=spawn, connect_timeout=connect_timeout, cwd=ROOT)
+        return HilLandingRun(sim, io, loop, io.clock.lateness, info.counters, info.wall, factor)
     finally:
-        if child is not None and child.poll() is None:
-            child.kill()
-        if child is not None:
-            child.wait(timeout=10)
-            if child.stdout is not None:
-                child.stdout.close()
         session.close()
 
 

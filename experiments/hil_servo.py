@@ -13,10 +13,7 @@ table and the real-time lateness histogram.
 
 from __future__ import annotations
 
-import shlex
-import subprocess
 import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -24,6 +21,7 @@ from typing import Any, Sequence
 import numpy as np
 import pandas as pd
 
+from netcosim.transport.harness import remote_command, run_with_remote
 from netcosim.transport.remote import RemoteNode
 from netcosim.transport.session import LOOPBACK, new_run_id, open_session
 
@@ -36,11 +34,8 @@ ROOT = Path(__file__).resolve().parent.parent
 def controller_command(run: str, endpoints: Sequence[str], *, node: str = "controller", idle: float = 10.0,
                        lease: float = 1.0, python: str = sys.executable) -> list[str]:
     """The command that starts the remote controller process for run *run*."""
-    cmd = [python, "-m", "experiments.hil_servo_controller", "--run", run, "--node", node,
-           "--idle", repr(idle), "--lease", repr(lease)]
-    for e in endpoints:
-        cmd += ["--connect", e]
-    return cmd
+    return remote_command([python, "-m", "experiments.hil_servo_controller", "--idle", repr(idle)],
+                          run=run, node=node, endpoints=endpoints, lease=lease)
 
 
 @dataclass
@@ -86,44 +81,18 @@ def run_hil(until: float, *, spawn: bool = True, loss_policy: Any = "hold", kill
     """
     import signal
     run = new_run_id()
-    child: subprocess.Popen | None = None
     session = open_session(listen=listen, connect=connect, lease=lease)
     try:
         sim, _net = networked_servo.build("csma_cd", 0.0, seed=seed)
         remote = RemoteNode(sim, "controller", session, run=run, size_bits=FRAME_BITS, loss_policy=loss_policy,
                             max_lag=max_lag)
-        cmd = controller_command(run, session.endpoints, lease=lease)
-        if spawn:
-            child = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True)
-        else:
-            print("start the remote side with:\n  " + shlex.join(cmd), flush=True)
-        if not remote.wait_connected(connect_timeout):
-            raise TimeoutError(f"the remote controller did not connect within {connect_timeout} s")
-        if before_run is not None:
-            before_run(session, remote)
-        if kill_at is not None and child is not None:
-            proc = child
-            sig = signal.SIGKILL if stop_signal is None else stop_signal
-            sim.call_at(kill_at, lambda: proc.send_signal(sig))
-        t0 = time.monotonic()
-        sim.run(until=until)
-        wall = time.monotonic() - t0
-        remote.finish()
-        counters = None
-        if child is not None and kill_at is None:
-            out, _ = child.communicate(timeout=10)
-            remote.drain()
-            import json
-            last = out.strip().splitlines()[-1] if out.strip() else ""
-            counters = json.loads(last) if last.startswith("{") else None
-        return HilRun(sim, remote, remote.clock.lateness, counters, wall)
+        info = run_with_remote(
+            sim, remote, until, controller_command(run, session.endpoints, lease=lease), spawn=spawn,
+            connect_timeout=connect_timeout, cwd=ROOT,
+            before_run=None if before_run is None else lambda: before_run(session, remote),
+            signal_at=None if kill_at is None else (kill_at, signal.SIGKILL if stop_signal is None else stop_signal))
+        return HilRun(sim, remote, remote.clock.lateness, info.counters, info.wall)
     finally:
-        if child is not None and child.poll() is None:
-            child.kill()
-        if child is not None:
-            child.wait(timeout=10)
-            if child.stdout is not None:
-                child.stdout.close()
         session.close()
 
 

@@ -253,6 +253,7 @@ def _names(csv: str | None) -> list[str] | None:
 def _hil(args) -> int:
     import shlex
 
+    from .transport.harness import remote_command, run_with_remote
     from .transport.remote import RemoteNode, RemotePlantIO
     from .transport.session import LOOPBACK, new_run_id, open_session
 
@@ -284,16 +285,13 @@ def _hil(args) -> int:
             remote = RemotePlantIO(sim, sim.plants[args.remote], session, run=run, period=args.period,
                                    outputs=_names(args.outputs), inputs=_names(args.inputs), extra=extra,
                                    loss_policy=args.loss_policy, factor=args.factor)
-        cmd = shlex.split(args.remote_cmd) + ["--run", run, "--node", args.remote, "--lease", repr(args.lease)]
-        for e in args.connect or session.endpoints:
-            cmd += ["--connect", e]
-        print("start the remote side with:\n  " + shlex.join(cmd), flush=True)
-        if not remote.wait_connected(args.wait):
-            print(f"netcosim hil: the remote side did not connect within {args.wait} s", file=sys.stderr)
+        cmd = remote_command(shlex.split(args.remote_cmd), run=run, node=args.remote,
+                             endpoints=args.connect or session.endpoints, lease=args.lease)
+        try:
+            run_with_remote(sim, remote, args.until, cmd, spawn=False, connect_timeout=args.wait)
+        except TimeoutError as e:
+            print(f"netcosim hil: {e}", file=sys.stderr)
             return 1
-        sim.run(until=args.until)
-        remote.finish()
-        remote.drain()
         lat = remote.clock.lateness
         print(f"messages to the remote: {remote.published}, from it: {remote.received} "
               f"(+{remote.after_end} after the end), rejected: {dict(remote.rejected)}")

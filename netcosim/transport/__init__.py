@@ -12,7 +12,11 @@ process can load :mod:`netcosim.transport.client` without SimPy, NumPy or CasADi
     hermetic Zenoh sessions (peer mode, no scouting, loopback endpoints, per-run keys)
 :mod:`netcosim.transport.remote`
     :class:`~netcosim.transport.remote.RemoteNode`: a simulated node whose tasks run in
-    another process
+    another process; :class:`~netcosim.transport.remote.RemotePlantIO`: a process reading
+    a simulated plant's outputs and writing its inputs
+:mod:`netcosim.transport.harness`
+    the remote program's command line and one run with it, from connection to the last
+    reply (:func:`~netcosim.transport.harness.run_with_remote`)
 :mod:`netcosim.transport.client`
     the library the real process uses (stdlib and Zenoh only)
 

@@ -1,0 +1,94 @@
+"""Running a simulation with its remote side: the command that starts the process, and
+one run from connection to the last reply.
+
+:func:`remote_command` builds the command line every remote program accepts
+(``--run``, ``--node``, ``--lease``, ``--connect`` once per endpoint, after the program's
+own arguments).  :func:`run_with_remote` starts that process (or prints the command for
+someone to start it by hand, on another machine), waits for its liveliness token, runs
+the simulation, ends the run (:meth:`finish`), reads the process's counters from the
+last line of its stdout (a JSON object, the convention of the example processes) and
+counts the replies that arrived after the stop time (:meth:`drain`).  The process is
+killed and reaped in every case, also when the run fails.
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+import signal as _signal
+import subprocess
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+__all__ = ["remote_command", "run_with_remote", "RemoteRunInfo"]
+
+
+def remote_command(program: Sequence[str], *, run: str, node: str, endpoints: Sequence[str],
+                   lease: float) -> list[str]:
+    """``program`` (e.g. ``[sys.executable, "-m", "my.controller", "--gain", "2"]``) followed
+    by ``--run RUN --node NODE --lease LEASE`` and ``--connect E`` for each endpoint."""
+    cmd = [*program, "--run", run, "--node", node, "--lease", repr(float(lease))]
+    for e in endpoints:
+        cmd += ["--connect", e]
+    return cmd
+
+
+@dataclass
+class RemoteRunInfo:
+    """What :func:`run_with_remote` measured: ``wall`` (s of wall clock of ``sim.run``) and
+    ``counters`` (the process's last stdout line as a dict; None when it was not started
+    here, was signalled, or printed none)."""
+
+    wall: float
+    counters: dict | None
+
+
+def run_with_remote(sim: Any, remote: Any, until: float, command: Sequence[str], *, spawn: bool = True,
+                    connect_timeout: float = 30.0, cwd: Any = None,
+                    before_run: Callable[[], None] | None = None,
+                    signal_at: tuple[float, int] | None = None) -> RemoteRunInfo:
+    """Run *sim* until *until* (s) with *remote*'s process on the other side.
+
+    ``spawn``: start *command* here (stdout captured); else print it and wait for someone
+    to start it.  ``connect_timeout``: seconds to wait for the process's liveliness token
+    (:class:`TimeoutError` naming the node after that).
+    ``before_run()``: called once it is connected.  ``signal_at=(t, sig)``: send signal
+    *sig* (e.g. ``signal.SIGKILL``, ``signal.SIGSTOP``) to the spawned process at simulated
+    time *t* (s), to exercise the loss policy; its counters are then not read.
+    """
+    child: subprocess.Popen | None = None
+    try:
+        if spawn:
+            child = subprocess.Popen(list(command), cwd=cwd, stdout=subprocess.PIPE, text=True)
+        else:
+            print("start the remote side with:\n  " + shlex.join(command), flush=True)
+        if not remote.wait_connected(connect_timeout):
+            raise TimeoutError(f"the remote side of {remote.name!r} did not connect within "
+                                    f"{connect_timeout} s")
+        if before_run is not None:
+            before_run()
+        if signal_at is not None and child is not None:
+            proc, (t, sig) = child, signal_at
+            sim.call_at(t, lambda: proc.send_signal(sig))
+        t0 = time.monotonic()
+        sim.run(until=until)
+        wall = time.monotonic() - t0
+        remote.finish()
+        counters = None
+        if child is not None and signal_at is None:
+            out, _ = child.communicate(timeout=30)
+            last = out.strip().splitlines()[-1] if out.strip() else ""
+            counters = json.loads(last) if last.startswith("{") else None
+        if signal_at is None:
+            remote.drain()
+        return RemoteRunInfo(wall, counters)
+    finally:
+        if child is not None:
+            if child.poll() is None:
+                if signal_at is not None and signal_at[1] == _signal.SIGSTOP:
+                    child.send_signal(_signal.SIGCONT)
+                child.kill()
+            child.wait(timeout=10)
+            if child.stdout is not None:
+                child.stdout.close()
