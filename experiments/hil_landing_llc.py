@@ -36,7 +36,7 @@ from controllers.landing import LandingScenario
 from controllers.landing.result import plant_signals
 from controllers.landing.topology import build_landing, simulate_landing
 from netcosim.timebase import RESOLUTION, to_ticks
-from netcosim.transport.harness import remote_command, run_with_remote
+from netcosim.transport.harness import RemoteRun, remote_command, run_with_remote
 from netcosim.transport.remote import RemotePlantIO
 from netcosim.transport.session import LOOPBACK, new_run_id, open_session
 from plants.tethered_uav_params import TetheredUAVParams
@@ -93,28 +93,18 @@ def reference(built) -> Any:
 
 
 @dataclass
-class HilLandingRun:
-    """One run with the remote low-level controller: ``sim``, ``io`` (the
+class HilLandingRun(RemoteRun):
+    """One landing with the remote low-level controller: the fields of
+    :class:`~netcosim.transport.harness.RemoteRun` (``remote``: the
     :class:`~netcosim.transport.remote.RemotePlantIO`), ``loop`` (the simulated NMPC's
-    :class:`~controllers.landing.tasks.LandingLoop`), ``lateness`` (the real-time
-    histogram), ``process`` (the process's counters from its last stdout line, or None),
-    ``wall`` (s of wall clock for ``sim.run``), ``factor`` (the real-time factor)."""
+    :class:`~controllers.landing.tasks.LandingLoop`) and ``factor`` (the real-time factor)."""
 
-    sim: Any
-    io: Any
-    loop: Any
-    lateness: Any
-    process: dict | None
-    wall: float
-    factor: float
+    loop: Any = None
+    factor: float = 1.0
 
     def output(self) -> pd.DataFrame:
         """The plant's logged outputs (``plant_signals``: ``time`` s, ``phi`` rad, ...)."""
         return landing_output(self.sim)
-
-    def response_times(self) -> np.ndarray:
-        """Simulated response time (s) of every reply (sample published to reply injected)."""
-        return self.io.response_times()
 
 
 def landing_output(sim) -> pd.DataFrame:
@@ -139,7 +129,7 @@ def run_hil(until: float, *, factor: float = FACTOR, spawn: bool = True, lease: 
                                loss_policy=loss_policy)
         info = run_with_remote(sim, io, until, controller_command(run, session.endpoints, sc, lease=lease),
                                spawn=spawn, connect_timeout=connect_timeout, cwd=ROOT)
-        return HilLandingRun(sim, io, loop, io.clock.lateness, info.counters, info.wall, factor)
+        return HilLandingRun(info.sim, info.remote, info.lateness, info.process, info.wall, loop, factor)
     finally:
         session.close()
 
@@ -202,8 +192,8 @@ def main(outdir: str = "results/hil_landing_llc", quick: bool = False, spawn: bo
     lat = hil.lateness
     row = {"until": until, "factor": factor, "deviation": dev, "tolerance": tol,
            "response_median": float(np.median(resp)), "response_p99": float(np.quantile(resp, 0.99)),
-           "response_max": float(resp.max()), "published": hil.io.published, "received": hil.io.received,
-           "after_end": hil.io.after_end, "late_median": lat.quantile(0.5), "late_p99": lat.quantile(0.99),
+           "response_max": float(resp.max()), "published": hil.remote.published, "received": hil.remote.received,
+           "after_end": hil.remote.after_end, "late_median": lat.quantile(0.5), "late_p99": lat.quantile(0.99),
            "late_max": lat.max, "overruns": lat.overruns, "events": lat.events,
            "late_injections": lat.late_injections, "wall": hil.wall}
     summary = pd.DataFrame([row])

@@ -14,14 +14,13 @@ table and the real-time lateness histogram.
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 import pandas as pd
 
-from netcosim.transport.harness import remote_command, run_with_remote
+from netcosim.transport.harness import RemoteRun, remote_command, run_with_remote
 from netcosim.transport.remote import RemoteNode
 from netcosim.transport.session import LOOPBACK, new_run_id, open_session
 
@@ -38,26 +37,14 @@ def controller_command(run: str, endpoints: Sequence[str], *, node: str = "contr
                           run=run, node=node, endpoints=endpoints, lease=lease)
 
 
-@dataclass
-class HilRun:
-    """One hardware-in-the-loop run: ``sim``, ``remote`` (the
-    :class:`~netcosim.transport.remote.RemoteNode`), ``lateness`` (the real-time
-    histogram), ``process`` (the remote side's counters from its last stdout line, or
-    None if it did not end cleanly), ``wall`` (s of wall-clock time of ``sim.run``)."""
-
-    sim: Any
-    remote: Any
-    lateness: Any
-    process: dict | None
-    wall: float
+class HilRun(RemoteRun):
+    """One hardware-in-the-loop run of the networked servo (``remote``: the
+    :class:`~netcosim.transport.remote.RemoteNode` of the controller; the fields of
+    :class:`~netcosim.transport.harness.RemoteRun`)."""
 
     def output(self) -> pd.DataFrame:
         """The servo angle: columns ``time`` (s) and ``value`` (rad)."""
         return servo_output(self.sim)
-
-    def response_times(self) -> np.ndarray:
-        """Simulated response time (s) of every reply of the remote controller."""
-        return self.remote.response_times()
 
 
 def servo_output(sim) -> pd.DataFrame:
@@ -91,7 +78,7 @@ def run_hil(until: float, *, spawn: bool = True, loss_policy: Any = "hold", kill
             connect_timeout=connect_timeout, cwd=ROOT,
             before_run=None if before_run is None else lambda: before_run(session, remote),
             signal_at=None if kill_at is None else (kill_at, signal.SIGKILL if stop_signal is None else stop_signal))
-        return HilRun(sim, remote, remote.clock.lateness, info.counters, info.wall)
+        return HilRun(info.sim, info.remote, info.lateness, info.process, info.wall)
     finally:
         session.close()
 

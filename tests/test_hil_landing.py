@@ -83,12 +83,12 @@ def _check_landing(until, factor):
     samples = round(until / 0.002)
     resp = run.response_times()
     # both sides count the same samples and replies (loss 0)
-    assert run.io.published == samples
+    assert run.remote.published == samples
     assert run.process is not None
     assert {k: run.process[k] for k in ("received", "published", "rejected", "ended", "singular")} == {
         "received": samples, "published": samples, "rejected": {}, "ended": True, "singular": 0}
-    assert run.io.received + run.io.after_end == samples and len(resp) == run.io.received
-    assert not run.io.rejected and run.sim.now == until
+    assert run.remote.received + run.remote.after_end == samples and len(resp) == run.remote.received
+    assert not run.remote.rejected and run.sim.now == until
     assert np.all(resp > 0)
     y = run.output()
     # the HIL landing is the all-simulated one with the measured response times, bit for bit
@@ -96,7 +96,7 @@ def _check_landing(until, factor):
     assert _states_equal(y, replay)
     nominal = h.landing_output(h.run_simulated(until))
     assert h.deviation(y, nominal) <= h.tolerance(until, resp)
-    assert list(run.io.events()["event"]) == ["alive"]
+    assert list(run.remote.events()["event"]) == ["alive"]
     return run
 
 

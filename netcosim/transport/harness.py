@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
-__all__ = ["remote_command", "run_with_remote", "RemoteRunInfo"]
+__all__ = ["remote_command", "run_with_remote", "RemoteRun"]
 
 
 def remote_command(program: Sequence[str], *, run: str, node: str, endpoints: Sequence[str],
@@ -35,19 +35,30 @@ def remote_command(program: Sequence[str], *, run: str, node: str, endpoints: Se
 
 
 @dataclass
-class RemoteRunInfo:
-    """What :func:`run_with_remote` measured: ``wall`` (s of wall clock of ``sim.run``) and
-    ``counters`` (the process's last stdout line as a dict; None when it was not started
-    here, was signalled, or printed none)."""
+class RemoteRun:
+    """One run with a remote side (what :func:`run_with_remote` returns): ``sim``,
+    ``remote`` (the :class:`~netcosim.transport.remote.RemoteNode` or
+    :class:`~netcosim.transport.remote.RemotePlantIO`), ``lateness`` (the real-time
+    clock's histogram, :class:`~netcosim.transport.realtime.Lateness`), ``process`` (the
+    process's counters from the last line of its stdout, a dict; None when it was not
+    started here, was signalled, or printed none), ``wall`` (s of wall clock of
+    ``sim.run``)."""
 
+    sim: Any
+    remote: Any
+    lateness: Any
+    process: dict | None
     wall: float
-    counters: dict | None
+
+    def response_times(self) -> Any:
+        """Simulated response time (s) of every reply (``remote.response_times()``)."""
+        return self.remote.response_times()
 
 
 def run_with_remote(sim: Any, remote: Any, until: float, command: Sequence[str], *, spawn: bool = True,
                     connect_timeout: float = 30.0, cwd: Any = None,
                     before_run: Callable[[], None] | None = None,
-                    signal_at: tuple[float, int] | None = None) -> RemoteRunInfo:
+                    signal_at: tuple[float, int] | None = None) -> RemoteRun:
     """Run *sim* until *until* (s) with *remote*'s process on the other side.
 
     ``spawn``: start *command* here (stdout captured); else print it and wait for someone
@@ -82,7 +93,7 @@ def run_with_remote(sim: Any, remote: Any, until: float, command: Sequence[str],
             counters = json.loads(last) if last.startswith("{") else None
         if signal_at is None:
             remote.drain()
-        return RemoteRunInfo(wall, counters)
+        return RemoteRun(sim, remote, remote.clock.lateness, counters, wall)
     finally:
         if child is not None:
             if child.poll() is None:
