@@ -189,17 +189,10 @@ def main(outdir: str = "results/hil_landing_llc", quick: bool = False, spawn: bo
     tol = tolerance(until, resp)
     y = hil.output()
     dev = deviation(y, nominal)
-    lat = hil.lateness
-    row = {"until": until, "factor": factor, "deviation": dev, "tolerance": tol,
-           "response_median": float(np.median(resp)), "response_p99": float(np.quantile(resp, 0.99)),
-           "response_max": float(resp.max()), "published": hil.remote.published, "received": hil.remote.received,
-           "after_end": hil.remote.after_end, "late_median": lat.quantile(0.5), "late_p99": lat.quantile(0.99),
-           "late_max": lat.max, "overruns": lat.overruns, "events": lat.events,
-           "late_injections": lat.late_injections, "wall": hil.wall}
-    summary = pd.DataFrame([row])
+    summary = pd.DataFrame([{"until": until, "factor": factor, "deviation": dev, "tolerance": tol,
+                             **hil.summary()}])
     summary.to_parquet(out / "summary.parquet", index=False)
-    lat.to_pandas().to_parquet(out / "lateness.parquet", index=False)
-    hil.sim.trace.frame("hil").to_parquet(out / "hil_events.parquet", index=False)
+    hil.save(out)
     fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     for ax, c, label in ((axes[0], "phi", "elevation φ [deg]"), (axes[1], "theta", "attitude ϑ [deg]")):
         ax.plot(nominal["time"], np.degrees(nominal[c]), lw=1.0, label="all simulated")

@@ -140,14 +140,9 @@ def main(outdir: str = "results/hil_servo", quick: bool = False, spawn: bool = T
     resp = hil.response_times()
     tol = tolerance(until, resp)
     dev = deviation(hil.output(), ref)
-    lat = hil.lateness
-    row = {"until": until, "deviation": dev, "tolerance": tol, "response_median": float(np.median(resp)),
-           "response_max": float(resp.max()), "published": hil.remote.published, "received": hil.remote.received,
-           "overruns": lat.overruns, "late_max": lat.max, "wall": hil.wall}
-    summary = pd.DataFrame([row])
+    summary = pd.DataFrame([{"until": until, "deviation": dev, "tolerance": tol, **hil.summary()}])
     summary.to_parquet(out / "summary.parquet", index=False)
-    lat.to_pandas().to_parquet(out / "lateness.parquet", index=False)
-    hil.sim.trace.frame("hil").to_parquet(out / "hil_events.parquet", index=False)
+    hil.save(out)
     fig, ax = plt.subplots(figsize=(9, 4))
     ax.plot(ref["time"], ref["value"], lw=1.0, label="all simulated")
     y = hil.output()

@@ -54,6 +54,30 @@ class RemoteRun:
         """Simulated response time (s) of every reply (``remote.response_times()``)."""
         return self.remote.response_times()
 
+    def summary(self) -> dict:
+        """The run in numbers (times in s): response times (median, p99, max; NaN without
+        replies), messages published to the process, received from it and arrived after
+        the end, the lateness histogram's median, p99 and max, overruns, events, late
+        injections, and the wall-clock time of the run."""
+        import numpy as np
+        resp, lat, r = self.response_times(), self.lateness, self.remote
+        some = len(resp) > 0
+        return {"response_median": float(np.median(resp)) if some else float("nan"),
+                "response_p99": float(np.quantile(resp, 0.99)) if some else float("nan"),
+                "response_max": float(np.max(resp)) if some else float("nan"),
+                "published": r.published, "received": r.received, "after_end": r.after_end,
+                "late_median": lat.quantile(0.5), "late_p99": lat.quantile(0.99), "late_max": lat.max,
+                "overruns": lat.overruns, "events": lat.events, "late_injections": lat.late_injections,
+                "wall": self.wall}
+
+    def save(self, out: Any) -> None:
+        """Write the lateness histogram (``lateness.parquet``) and the trace table ``hil``
+        (``hil_events.parquet``) into the existing directory *out*."""
+        from pathlib import Path
+        out = Path(out)
+        self.lateness.to_pandas().to_parquet(out / "lateness.parquet", index=False)
+        self.sim.trace.frame("hil").to_parquet(out / "hil_events.parquet", index=False)
+
 
 def run_with_remote(sim: Any, remote: Any, until: float, command: Sequence[str], *, spawn: bool = True,
                     connect_timeout: float = 30.0, cwd: Any = None,
