@@ -59,7 +59,7 @@ def tables(sim: Simulation) -> dict[str, pd.DataFrame]:
     return {name: sim.trace.frame(name) for name in ("schedule", "jobs")}
 
 
-@pytest.mark.parametrize("seed", range(48))
+@pytest.mark.parametrize("seed", [*range(48), *(pytest.param(s, marks=pytest.mark.slow) for s in range(48, 448))])
 def test_grouped_release_timers_give_the_schedule_of_one_timer_per_task(seed, monkeypatch):
     grouped = build(seed)
     grouped.run(until=0.03)
