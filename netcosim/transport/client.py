@@ -114,15 +114,21 @@ class RemoteProcess:
             self.session.close()
             raise
 
+    def _decode(self, data: bytes) -> wire.Message | None:
+        """The message in *data*, or None when it is invalid (counted in ``rejected`` by reason)."""
+        try:
+            return wire.decode(data)
+        except wire.WireError as e:
+            self.rejected[e.reason] = self.rejected.get(e.reason, 0) + 1
+            return None
+
     def _on_rx(self, data: bytes) -> None:
         handler = self._handler
         if handler is None or self._error is not None:
             self.inbox.put(data)
             return
-        try:
-            m = wire.decode(data)
-        except wire.WireError as e:
-            self.rejected[e.reason] = self.rejected.get(e.reason, 0) + 1
+        m = self._decode(data)
+        if m is None:
             return
         if m.kind == wire.END:
             self.inbox.put(data)        # the waiting thread answers it and ends serve()
@@ -176,10 +182,8 @@ class RemoteProcess:
                 return None
             if self._error is not None:     # a handler of serve() failed
                 return None
-            try:
-                m = wire.decode(data)
-            except wire.WireError as e:
-                self.rejected[e.reason] = self.rejected.get(e.reason, 0) + 1
+            m = self._decode(data)
+            if m is None:
                 continue
             if m.kind == wire.END:
                 # answer with our own END: the simulation then knows every reply has arrived
