@@ -86,18 +86,24 @@ def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
     return df
 
 
+def _task_names(tasks: pd.Series) -> tuple[pd.Series, pd.Series]:
+    """The node name and task name of each kernel task object in *tasks* (object columns)."""
+    import pandas as pd
+    unique = pd.unique(tasks)
+    return (tasks.map({t: t.node.name for t in unique}).astype(object),
+            tasks.map({t: t.name for t in unique}).astype(object))
+
+
 def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
     """Stored schedule rows (:data:`SCHEDULE_RAW`) as reported: time (s), node, task and
     state names."""
     import numpy as np
     import pandas as pd
-    tasks = df["task"]
-    unique = pd.unique(tasks)
+    node, task = _task_names(df["task"])
     states = np.asarray(list(TASK_STATES), dtype=object)
     return pd.DataFrame({
         "time": pd.to_numeric(df["time"], errors="coerce").astype(float) / TICKS_PER_SECOND,
-        "node": tasks.map({t: t.node.name for t in unique}).astype(object),
-        "task": tasks.map({t: t.name for t in unique}).astype(object),
+        "node": node, "task": task,
         "state": pd.Series(states[df["state"].to_numpy(dtype=np.int64)], dtype=object),
     })
 
@@ -107,16 +113,16 @@ def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
     import numpy as np
     import pandas as pd
     tasks = df["task"]
-    unique = pd.unique(tasks)
+    node, name = _task_names(tasks)
     release = pd.to_numeric(df["release"], errors="coerce")
+    unique = pd.unique(tasks)
     relative = tasks.map({t: np.nan if t.deadline_ticks is None else t.deadline_ticks for t in unique})
     if len(df) and relative.notna().all() and release.notna().all():
         deadline = (release.astype("int64") + relative.astype("int64")).astype(float)   # exact in ticks
     else:
         deadline = release.astype(float) + relative.astype(float)
     df = pd.DataFrame({
-        "node": tasks.map({t: t.node.name for t in unique}).astype(object),
-        "task": tasks.map({t: t.name for t in unique}).astype(object),
+        "node": node, "task": name,
         "job": df["job"],
         "release": release.astype(float) / TICKS_PER_SECOND,
         "deadline": deadline / TICKS_PER_SECOND,
