@@ -30,11 +30,25 @@ from .networked_servo import FRAME_BITS
 ROOT = Path(__file__).resolve().parent.parent
 
 
+#: what the remote controller exchanges (handed to the process by the info query)
+SCHEMA = {"request": ["t_sample [s]", "y [rad]"], "reply": ["t_sample [s]", "u [V]"]}
+
+
 def controller_command(run: str, endpoints: Sequence[str], *, node: str = "controller", idle: float = 10.0,
-                       lease: float = 1.0, python: str = sys.executable) -> list[str]:
-    """The command that starts the remote controller process for run *run*."""
+                       lease: float = 1.0, session: int | None = None, python: str = sys.executable) -> list[str]:
+    """The command that starts the remote controller process for run *run* (and session
+    *session*, if given)."""
     return remote_command([python, "-m", "experiments.hil_servo_controller", "--idle", repr(idle)],
-                          run=run, node=node, endpoints=endpoints, lease=lease)
+                          run=run, node=node, endpoints=endpoints, lease=lease, session=session)
+
+
+def attach_controller(sim, session, run: str, **options: Any) -> RemoteNode:
+    """Make node ``controller`` of a networked-servo *sim* remote: requests every 10 ms
+    (the sensor's period, the default deadline), replies of 2 values; *options* go to
+    :class:`~netcosim.transport.remote.RemoteNode` (``loss_policy``, ``deadline``,
+    ``abort_on``, ``max_lag``, ...)."""
+    return RemoteNode(sim, "controller", session, run=run, size_bits=FRAME_BITS, period=networked_servo.PERIOD,
+                      reply_values=2, schema=SCHEMA, **options)
 
 
 class HilRun(RemoteRun):
@@ -57,28 +71,39 @@ def servo_output(sim) -> pd.DataFrame:
 def run_hil(until: float, *, spawn: bool = True, loss_policy: Any = "hold", kill_at: float | None = None,
             lease: float = 1.0, connect_timeout: float = 20.0, max_lag: float = 0.005,
             listen: Sequence[str] = (LOOPBACK,), connect: Sequence[str] = (), seed: int = 0,
-            stop_signal: int | None = None, before_run: Any = None) -> HilRun:
+            stop_signal: int | None = None, before_run: Any = None, program: Sequence[str] | None = None,
+            zenoh_config: str | None = None, **remote_options: Any) -> HilRun:
     """Run the networked servo for *until* s of real time with the controller remote.
 
     ``spawn``: start the controller process here (else print its command and wait up to
     ``connect_timeout`` s for it); ``kill_at``: simulated time (s) at which the process
     gets ``stop_signal`` (default SIGKILL), to exercise the ``loss_policy``; ``lease``:
     liveliness lease (s) of both sessions; ``max_lag``: lateness (s) counted as an overrun;
-    ``before_run(session, remote)``: called once the process is connected, before the run.
+    ``before_run(session, remote)``: called once the process is connected, before the run;
+    ``program``: another controller program (its command line without the options
+    :func:`~netcosim.transport.harness.remote_command` appends); ``zenoh_config``: a Zenoh
+    configuration file for both sides; *remote_options*: more
+    :class:`~netcosim.transport.remote.RemoteNode` options (``deadline``, ``abort_on``, ...).
     """
     import signal
     run = new_run_id()
-    session = open_session(listen=listen, connect=connect, lease=lease)
+    kw = {} if zenoh_config is None else {"config": zenoh_config}
+    session = open_session(listen=listen, connect=connect, lease=lease, **kw)
     try:
         sim, _net = networked_servo.build("csma_cd", 0.0, seed=seed)
-        remote = RemoteNode(sim, "controller", session, run=run, size_bits=FRAME_BITS, loss_policy=loss_policy,
-                            max_lag=max_lag)
+        remote = attach_controller(sim, session, run, loss_policy=loss_policy, max_lag=max_lag, **remote_options)
+        if program is None:
+            cmd = controller_command(run, session.endpoints, lease=lease, session=remote.session_id)
+        else:
+            cmd = remote_command(program, run=run, node="controller", endpoints=session.endpoints, lease=lease,
+                                 session=remote.session_id)
+        if zenoh_config is not None:
+            cmd += ["--zenoh-config", str(zenoh_config)]
         info = run_with_remote(
-            sim, remote, until, controller_command(run, session.endpoints, lease=lease), spawn=spawn,
-            connect_timeout=connect_timeout, cwd=ROOT,
+            sim, remote, until, cmd, spawn=spawn, connect_timeout=connect_timeout, cwd=ROOT,
             before_run=None if before_run is None else lambda: before_run(session, remote),
             signal_at=None if kill_at is None else (kill_at, signal.SIGKILL if stop_signal is None else stop_signal))
-        return HilRun(info.sim, info.remote, info.lateness, info.process, info.wall)
+        return HilRun.of(info)
     finally:
         session.close()
 
@@ -95,23 +120,36 @@ def deviation(a: pd.DataFrame, b: pd.DataFrame) -> float:
     return float(np.max(np.abs(a["value"].to_numpy() - np.interp(a["time"], b["time"], b["value"]))))
 
 
-def run_replay(until: float, responses: Sequence[float], *, seed: int = 0):
-    """The all-simulated networked servo with the controller answering each measurement
-    after the response time (s) measured for it in a HIL run (*responses*, in order)
-    instead of after its 0.5 ms of CPU time: what the HIL run must reproduce."""
+def _by_seq(replies: Any) -> dict[int, float]:
+    """``{seq: response (s)}`` of a :meth:`RemoteNode.replies` frame (or such a dict, or
+    a sequence of response times, one per request in order)."""
+    if isinstance(replies, pd.DataFrame):
+        return dict(zip(replies["seq"].astype(int).tolist(), replies["response"].astype(float).tolist()))
+    if isinstance(replies, dict):
+        return {int(k): float(v) for k, v in replies.items()}
+    return {i: float(d) for i, d in enumerate(replies)}
+
+
+def run_replay(until: float, replies: Any, *, seed: int = 0):
+    """The all-simulated networked servo with the controller answering the *k*-th
+    measurement it receives after the response time (s) measured for request ``seq == k``
+    in a HIL run (*replies*: the remote's :meth:`~netcosim.transport.remote.RemoteNode.replies`
+    frame, a ``{seq: response}`` dict, or response times in request order), and not at all
+    when that request got no reply: what the HIL run must reproduce."""
     from controllers.pid import PID
 
     from .servo import square_wave
     sim, net = networked_servo.build("csma_cd", 0.0, seed=seed)
     iface = net.interface("controller")
-    pid, ref, delays = PID(h=networked_servo.PERIOD), square_wave(1.0, 1.0), iter(responses)
+    pid, ref, delays = PID(h=networked_servo.PERIOD), square_wave(1.0, 1.0), _by_seq(replies)
+    k = iter(range(1 << 62))
 
     def answer(msg):
         t_sample, y = msg.payload
         u = pid.compute(ref(t_sample), y)
-        d = next(delays, None)
+        d = delays.get(next(k))
         if d is not None:
-            sim.call_in(float(d), lambda: iface.send(msg.src, (t_sample, u), FRAME_BITS))
+            sim.call_in(d, lambda: iface.send(msg.src, (t_sample, u), FRAME_BITS))
 
     iface.handlers[:] = [answer]
     iface.use_mailbox = False
@@ -119,12 +157,12 @@ def run_replay(until: float, responses: Sequence[float], *, seed: int = 0):
     return sim
 
 
-def tolerance(until: float, responses: Sequence[float]) -> float:
+def tolerance(until: float, replies: Any) -> float:
     """How far the HIL output may lie from the all-simulated one (rad): 1.5 times the
     deviation the measured response times alone explain (the all-simulated run replayed
     with them, :func:`run_replay`, against the nominal one), plus 1e-4 rad."""
     nominal = servo_output(run_simulated(until))
-    replay = servo_output(run_replay(until, responses))
+    replay = servo_output(run_replay(until, replies))
     return 1.5 * deviation(replay, nominal) + 1e-4
 
 
@@ -137,8 +175,7 @@ def main(outdir: str = "results/hil_servo", quick: bool = False, spawn: bool = T
     until = 2.0 if quick else 5.0
     hil = run_hil(until, spawn=spawn)
     ref = servo_output(run_simulated(until))
-    resp = hil.response_times()
-    tol = tolerance(until, resp)
+    tol = tolerance(until, hil.remote.replies())
     dev = deviation(hil.output(), ref)
     summary = pd.DataFrame([{"until": until, "deviation": dev, "tolerance": tol, **hil.summary()}])
     summary.to_parquet(out / "summary.parquet", index=False)

@@ -5,8 +5,13 @@ prints this command with its endpoint and run id, and answers every measurement
 ``(t_sample, y)`` the simulated network delivers with ``(t_sample, u)``: TrueTime's PID
 (K = 0.96, Ti = 0.12, Td = 0.049, beta = 0.5, N = 10, h = 10 ms) on the reference of
 the networked servo (square wave, amplitude 1, period 1 s).  It stops at the
-simulation's END message, or after ``--idle`` seconds without a message.  Its last line
-on stdout is a JSON object of its counters (received, published, rejected).
+simulation's END message (exit status 0), when the simulation is gone without one (3),
+when another process already serves the node (4), or after ``--idle`` seconds without a
+message (5); the reason goes to stderr.  Its last line on stdout is a JSON object of its
+counters (received, published, dropped by reason, status).
+
+Payload schema: a request carries ``(t_sample, y)`` (s, rad) from the sensor (network
+index 0); the reply ``(t_sample, u)`` (s, V) goes back to it.
 
 Imports: the client library (stdlib and Zenoh) and the PID; no SimPy, no CasADi.
 """
@@ -14,12 +19,11 @@ Imports: the client library (stdlib and Zenoh) and the PID; no SimPy, no CasADi.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 
 from controllers.pid import PID
-from netcosim.transport.client import RemoteProcess
+from netcosim.transport.client import add_arguments, connect, finish
 
 PERIOD = 0.010      # the sensor's sampling period (s): the PID's h
 
@@ -30,31 +34,23 @@ def reference(t: float) -> float:
     return 1.0 if int(math.floor(t / 0.5 + 1e-12)) % 2 == 0 else -1.0
 
 
-def serve(run: str, connect: list[str], *, node: str = "controller", idle: float = 10.0,
-          lease: float = 1.0) -> dict:
-    """Answer measurements until the run ends; returns the counters."""
+def serve(args: argparse.Namespace) -> int:
+    """Answer measurements until the run is over; returns the exit status."""
     pid = PID(h=PERIOD)
-    with RemoteProcess(node, run=run, connect=connect, lease=lease) as rp:
+    with connect(args) as rp:
         print("ready", flush=True)
-        for msg in rp.messages(timeout=idle):
+        for msg in rp.messages(timeout=args.idle):
             t_sample, y = msg.values
             rp.reply(msg, (t_sample, pid.compute(reference(t_sample), y)))
-        return {"received": rp.received, "published": rp.published, "rejected": rp.rejected, "ended": rp.ended}
+        return finish(rp)
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m experiments.hil_servo_controller", description=__doc__.splitlines()[0],
                                 epilog="\n".join(__doc__.splitlines()[1:]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--run", required=True, help="run id printed by the simulation side")
-    p.add_argument("--connect", action="append", required=True, help="simulation endpoint, e.g. tcp/127.0.0.1:7447")
-    p.add_argument("--node", default="controller", help="name of the remote node (default: controller)")
-    p.add_argument("--idle", type=float, default=10.0, help="give up after this many seconds without a message")
-    p.add_argument("--lease", type=float, default=1.0, help="liveliness lease of the session (s)")
-    a = p.parse_args(argv)
-    counters = serve(a.run, a.connect, node=a.node, idle=a.idle, lease=a.lease)
-    print(json.dumps(counters), flush=True)
-    return 0
+    add_arguments(p)
+    return serve(p.parse_args(argv))
 
 
 if __name__ == "__main__":

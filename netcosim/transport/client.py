@@ -21,14 +21,15 @@ Message fields: :class:`netcosim.transport.wire.Message`.
 from __future__ import annotations
 
 import queue
+import secrets
 import time
 from dataclasses import dataclass
-from typing import Callable, Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 from . import wire
 from .session import DEFAULT_LEASE, Session, key, open_session
 
-__all__ = ["RemoteProcess", "LoopStats", "periodic"]
+__all__ = ["RemoteProcess", "LoopStats", "periodic", "add_arguments", "connect", "finish"]
 
 
 @dataclass
@@ -85,49 +86,114 @@ class RemoteProcess:
 
     ``connect``: the simulation's endpoints (``Session.endpoints`` of its side, printed
     by ``netcosim hil``); ``listen``: endpoints to listen on (default none); ``lease``:
-    seconds of silence after which the simulation declares this process gone.
+    seconds of silence after which the simulation declares this process gone (and this
+    process the simulation); ``session``: serve only this session id (an int, or 16 hex
+    digits as printed; default: the first simulation of run *run* seen, through its
+    liveliness token or the first request addressed to this process); ``config``: a
+    Zenoh configuration file (authentication, TLS; see ``docs/hil_security.md``).
 
-    Counters: ``received`` valid DATA messages, ``published`` messages sent,
-    ``rejected`` invalid messages by reason, ``ended`` True once the simulation's END
-    message arrived (the process answers it with its own END, after its last reply).
+    The process draws a random id (``peer``), declares the liveliness token
+    ``netcosim/<run>/<node>/alive/<peer>`` and watches the simulation's token
+    ``netcosim/<run>/<node>/sim/<session>``.  It serves one session: messages of another
+    session or addressed to another process are dropped and counted.  The run is over
+    when the simulation's END arrives (``status == "ended"``, answered with this
+    process's own END after its last reply), when the simulation's token goes without an
+    END (``"gone"``: it died, or hung for a lease), or when the simulation refused this
+    process because another one serves the node (``"refused"``); ``reason`` says it in
+    one line and :attr:`exit_code` gives the exit status a program should return.
+
+    Counters: ``received`` DATA messages of this session, ``published`` replies sent,
+    ``dropped`` invalid or foreign messages by reason.
     """
 
     def __init__(self, node: str, *, run: str, connect: Sequence[str], listen: Sequence[str] = (),
-                 lease: float = DEFAULT_LEASE):
+                 lease: float = DEFAULT_LEASE, session: int | str | None = None, config: str | None = None):
         self.node = node
-        self.keys = {leaf: key(run, node, leaf) for leaf in ("rx", "tx", "alive")}
+        self.run = run
+        self.keys = {leaf: key(run, node, leaf) for leaf in ("rx", "tx", "alive", "sim", "info")}
+        self.peer = secrets.randbits(64) or 1
+        self.session_id: int | None = None if session is None else (
+            int(session, 16) if isinstance(session, str) else int(session))
+        self._fixed_session = session is not None
         self.inbox: queue.SimpleQueue = queue.SimpleQueue()
         self.received = 0
         self.published = 0
-        self.rejected: dict[str, int] = {}
-        self.ended = False
-        self._seq = 0
+        self.dropped: dict[str, int] = {}
+        self.status = "running"
+        self.reason = ""
         self._handler: Callable[[wire.Message], Sequence[float] | None] | None = None
         self._error: BaseException | None = None
         self._last_rx = 0.0             # monotonic time of the last message served (serve)
-        self.session: Session = open_session(listen=listen, connect=connect, lease=lease)
+        kw = {} if config is None else {"config": config}
+        self.session: Session = open_session(listen=listen, connect=connect, lease=lease, **kw)
         try:
-            self._pub = self.session.publisher(self.keys["tx"])
+            self._pub = self.session.publisher(self.keys["tx"], encoding=wire.ENCODING)
             self._sub = self.session.subscribe(self.keys["rx"], self._on_rx)
-            self._token = self.session.token(self.keys["alive"])
+            self._sim = self.session.watch_keys(self.keys["sim"] + "/*", self._on_sim)
+            self._token = self.session.token(f"{self.keys['alive']}/{self.peer:016x}")
         except BaseException:
             self.session.close()
             raise
 
-    def _decode(self, data: bytes) -> wire.Message | None:
-        """The message in *data*, or None when it is invalid (counted in ``rejected`` by reason)."""
+    @property
+    def ended(self) -> bool:
+        """True once the simulation's END message arrived."""
+        return self.status == "ended"
+
+    @property
+    def exit_code(self) -> int:
+        """What a remote program returns: 0 after the simulation's END, 3 when the
+        simulation is gone without one, 4 when refused, 5 when no message came for the
+        idle timeout, 1 while still running."""
+        return {"ended": 0, "gone": 3, "refused": 4, "idle": 5}.get(self.status, 1)
+
+    def _drop(self, reason: str) -> None:
+        self.dropped[reason] = self.dropped.get(reason, 0) + 1
+
+    def _stop(self, status: str, reason: str) -> None:
+        if self.status == "running":
+            self.status, self.reason = status, reason
+        self.inbox.put(None)            # wake a waiting receive()
+
+    def _on_sim(self, key_expr: str, alive: bool) -> None:
         try:
-            return wire.decode(data)
+            sid = int(key_expr.rsplit("/", 1)[1], 16)
+        except ValueError:
+            return
+        if alive:
+            if self.session_id is None:
+                self.session_id = sid
+        elif sid == self.session_id and self.status == "running":
+            self._stop("gone", f"the simulation of run {self.run} (session {sid:016x}) is gone without ending "
+                               "the run (killed, or silent for the lease)")
+
+    def _accept(self, data: bytes) -> wire.Message | None:
+        """The message in *data* if it is for this process, else None (counted)."""
+        try:
+            m = wire.decode(data)
         except wire.WireError as e:
-            self.rejected[e.reason] = self.rejected.get(e.reason, 0) + 1
+            self._drop(e.reason)
             return None
+        if m.peer != self.peer and m.peer != 0:
+            self._drop("peer")          # addressed to another process (or refusing it)
+            return None
+        if self.session_id is None and not self._fixed_session and m.kind == wire.DATA and m.peer == self.peer:
+            self.session_id = m.session     # addressed to us: the simulation that accepted our claim
+        if m.session != self.session_id:
+            self._drop("session")
+            return None
+        if m.kind == wire.REFUSED:
+            self._stop("refused", f"node {self.node!r} of run {self.run} is already served by another process; "
+                                  "this one was refused")
+            return None
+        return m
 
     def _on_rx(self, data: bytes) -> None:
         handler = self._handler
         if handler is None or self._error is not None:
             self.inbox.put(data)
             return
-        m = self._decode(data)
+        m = self._accept(data)
         if m is None:
             return
         if m.kind == wire.END:
@@ -141,27 +207,31 @@ class RemoteProcess:
                 self.reply(m, out)
         except BaseException as e:      # re-raised by serve() in its own thread
             self._error = e
-            self.inbox.put(b"")
+            self.inbox.put(None)
 
     def serve(self, handler: Callable[[wire.Message], Sequence[float] | None], timeout: float | None = None) -> None:
-        """Answer every DATA message until the run ends: ``handler(msg)`` runs on the
+        """Answer every request until the run ends: ``handler(msg)`` runs on the
         receiving (Zenoh) thread as the message arrives and its result, if not None, is
-        sent back with :meth:`reply`.  Returns once the simulation's END message came, or
-        once no message has arrived for *timeout* s (None: wait forever); an exception
-        of *handler* stops serving and is re-raised here.  Keep *handler* short: the
-        next message waits for it."""
+        sent back with :meth:`reply`.  Returns once the run is over (see the class
+        docstring: ``status``), or once no message has arrived for *timeout* s (None:
+        wait forever; then ``status == "idle"``); an exception of *handler* stops
+        serving and is re-raised here.  Keep *handler* short: the next message waits
+        for it."""
         self._handler = handler
         self._last_rx = time.monotonic()
         try:
-            while not self.ended:
+            while self.status == "running":
                 # messages answered on the receiving thread count as activity: wait for the
                 # rest of *timeout* after the last one, not *timeout* after serving began
                 wait = None if timeout is None else max(0.0, self._last_rx + timeout - time.monotonic())
-                got = self.receive(wait)
+                got = self.receive(wait, _idle=False)
                 if self._error is not None:
                     raise self._error
                 if got is None:
-                    if self.ended or timeout is None or time.monotonic() - self._last_rx >= timeout:
+                    if self.status != "running":
+                        return
+                    if timeout is not None and time.monotonic() - self._last_rx >= timeout:
+                        self._stop("idle", f"no message for {timeout} s")
                         return
                     continue
                 out = handler(got)          # a message that arrived before serving began
@@ -170,58 +240,76 @@ class RemoteProcess:
         finally:
             self._handler = None
 
-    def receive(self, timeout: float | None = None) -> wire.Message | None:
-        """The next DATA message for this node, waiting up to *timeout* s (None: forever);
-        None on timeout or once the run has ended.  Invalid messages are counted and skipped."""
+    def receive(self, timeout: float | None = None, *, _idle: bool = True) -> wire.Message | None:
+        """The next request for this process, waiting up to *timeout* s (None: forever);
+        None on timeout (``status`` becomes ``"idle"``) or once the run is over.  Invalid
+        and foreign messages are counted and skipped."""
         deadline = None if timeout is None else time.monotonic() + timeout
-        while not self.ended:
+        while self.status == "running":
             left = None if deadline is None else max(0.0, deadline - time.monotonic())
             try:
                 data = self.inbox.get(timeout=left)
             except queue.Empty:
+                if _idle:
+                    self._stop("idle", f"no message for {timeout} s")
                 return None
             if self._error is not None:     # a handler of serve() failed
                 return None
-            m = self._decode(data)
+            if data is None:                # stopped (the loop condition says so)
+                continue
+            m = self._accept(data)
             if m is None:
                 continue
             if m.kind == wire.END:
                 # answer with our own END: the simulation then knows every reply has arrived
-                self._pub.put(wire.encode(wire.END, 0, self._seq, m.ticks))
-                self.ended = True
+                self._pub.put(wire.encode(wire.END, 0, m.session, self.peer, m.ticks, m.seq))
+                self.status, self.reason = "ended", "the simulation ended the run"
                 return None
             self.received += 1
             return m
         return None
 
     def messages(self, timeout: float | None = None) -> Iterator[wire.Message]:
-        """Every DATA message until the run ends (or none arrives for *timeout* s)."""
+        """Every request until the run is over (or none arrives for *timeout* s)."""
         while True:
             m = self.receive(timeout)
             if m is None:
                 return
             yield m
 
-    def publish(self, dst: int, values: Sequence[float], *, seq: int | None = None, ticks: int = 0) -> None:
-        """Send *values* to the node with network index *dst* through the simulated network.
-        ``seq`` defaults to this process's own counter (pass a received ``seq`` to mark a
-        reply); ``ticks`` is informational (the simulation stamps the arrival itself)."""
-        if seq is None:
-            seq = self._seq
-            self._seq += 1
-        self._pub.put(wire.encode(wire.DATA, dst, seq, ticks, values))
+    def reply(self, msg: wire.Message, values: Sequence[float], *, to: int | None = None) -> None:
+        """Answer request *msg* with *values*: echoes its ``seq`` and ``ticks``; sent to
+        its sender (``to=None``: the network index it came from, or LOCAL for a sample),
+        or to network index *to* (:data:`~netcosim.transport.wire.BROADCAST`: every node;
+        :data:`~netcosim.transport.wire.LOCAL`: the node's plant inputs).  One reply per
+        request: the simulation drops any further one (``duplicate``)."""
+        session = self.session_id if self.session_id is not None else msg.session
+        self._pub.put(wire.encode(wire.DATA, msg.node if to is None else to, session, self.peer, msg.ticks,
+                                  msg.seq, values))
         self.published += 1
 
-    def reply(self, msg: wire.Message, values: Sequence[float]) -> None:
-        """Send *values* back to the sender of *msg*, echoing its ``seq`` (the simulation
-        logs the response time of the reply)."""
-        self.publish(msg.node, values, seq=msg.seq, ticks=msg.ticks)
+    def info(self, timeout: float = 5.0) -> dict:
+        """The run's parameters the simulation answers on ``netcosim/<run>/<node>/info``
+        (JSON: session, the network's name -> index table, period, deadline, schema)."""
+        import json
+        for reply in self.session.zenoh.get(self.keys["info"], timeout=timeout):
+            ok = getattr(reply, "ok", None)
+            if ok is not None:
+                return json.loads(ok.payload.to_bytes())
+        raise TimeoutError(f"no simulation answered {self.keys['info']!r} within {timeout} s")
 
     def periodic(self, period: float, body: Callable[[int], bool | None], *, duration: float | None = None,
                  clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep) -> LoopStats:
-        """:func:`periodic` (``period`` in s) that also stops when the run ends."""
-        return periodic(period, body, duration=duration, clock=clock, sleep=sleep, stop=lambda: self.ended)
+        """:func:`periodic` (``period`` in s) that also stops when the run is over."""
+        return periodic(period, body, duration=duration, clock=clock, sleep=sleep,
+                        stop=lambda: self.status != "running")
+
+    def counters(self) -> dict:
+        """``received``, ``published``, ``dropped`` (by reason), ``status``: what the example
+        programs print as JSON on their last line."""
+        return {"received": self.received, "published": self.published, "dropped": dict(self.dropped),
+                "status": self.status}
 
     def close(self, linger: float = 0.1) -> None:
         """Drop the liveliness token and close the session (idempotent), after *linger* s
@@ -237,25 +325,47 @@ class RemoteProcess:
         self.close()
 
 
+def add_arguments(parser: Any) -> None:
+    """The options every remote program accepts (``netcosim hil`` prints them): ``--run``,
+    ``--node``, ``--connect`` (repeatable), ``--session``, ``--lease``, ``--idle``,
+    ``--zenoh-config``."""
+    parser.add_argument("--run", required=True, help="run id printed by the simulation side")
+    parser.add_argument("--node", required=True, help="name of the remote node (or plant)")
+    parser.add_argument("--connect", action="append", required=True, help="endpoint, e.g. tcp/127.0.0.1:7447")
+    parser.add_argument("--session", help="serve only this session id (16 hex digits; default: the first seen)")
+    parser.add_argument("--idle", type=float, default=10.0, help="give up after this many seconds without a message")
+    parser.add_argument("--lease", type=float, default=DEFAULT_LEASE, help="liveliness lease of the session (s)")
+    parser.add_argument("--zenoh-config", help="a Zenoh configuration file (authentication, TLS)")
+
+
+def connect(args: Any) -> RemoteProcess:
+    """The :class:`RemoteProcess` of parsed :func:`add_arguments` options."""
+    return RemoteProcess(args.node, run=args.run, connect=args.connect, lease=args.lease, session=args.session,
+                         config=args.zenoh_config)
+
+
+def finish(rp: RemoteProcess, extra: dict | None = None) -> int:
+    """End a remote program: print its counters (and *extra*) as JSON on the last line of
+    stdout, the reason on stderr when the run did not end normally; return the exit status."""
+    import json
+    import sys
+    print(json.dumps({**rp.counters(), **(extra or {})}), flush=True)
+    if rp.status != "ended":
+        print(f"{sys.argv[0] if sys.argv else 'remote'}: {rp.reason}", file=sys.stderr, flush=True)
+    return rp.exit_code
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m netcosim.transport.client --run RUN --node NODE --connect ENDPOINT``: an
-    echo process (answers every message with its own values, to its sender); prints its
-    counters as JSON when the run ends.  Every remote process accepts these three options
-    (``netcosim hil`` prints them)."""
+    echo process (answers every request with its own values, to its sender); prints its
+    counters as JSON when the run is over; exit status :attr:`RemoteProcess.exit_code`."""
     import argparse
-    import json
     p = argparse.ArgumentParser(prog="python -m netcosim.transport.client", description=main.__doc__)
-    p.add_argument("--run", required=True, help="run id printed by the simulation side")
-    p.add_argument("--node", required=True, help="name of the remote node")
-    p.add_argument("--connect", action="append", required=True, help="endpoint, e.g. tcp/127.0.0.1:7447")
-    p.add_argument("--idle", type=float, default=10.0, help="give up after this many seconds without a message")
-    p.add_argument("--lease", type=float, default=DEFAULT_LEASE, help="liveliness lease of the session (s)")
+    add_arguments(p)
     a = p.parse_args(argv)
-    with RemoteProcess(a.node, run=a.run, connect=a.connect, lease=a.lease) as rp:
+    with connect(a) as rp:
         rp.serve(lambda msg: msg.values, timeout=a.idle)
-        print(json.dumps({"received": rp.received, "published": rp.published, "rejected": rp.rejected,
-                          "ended": rp.ended}), flush=True)
-    return 0
+        return finish(rp)
 
 
 if __name__ == "__main__":

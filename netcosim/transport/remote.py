@@ -1,62 +1,114 @@
 """Remote nodes: a simulated node whose tasks run in another OS process, over Zenoh.
 
-The simulated network still carries the node's frames (delay, contention and loss apply
-as before).  A frame the network delivers to the remote node is published, at the
-instant of delivery, on ``netcosim/<run>/<node>/rx`` (wire format:
-:mod:`netcosim.transport.wire`; ``node`` = network index of the sender, ``ticks`` = the
-simulated delivery time, the payload's numbers as float64).  What the process publishes
-on ``netcosim/<run>/<node>/tx`` (``node`` = network index of the destination) enters
-the simulated network at the simulated instant matching its wall-clock arrival (the
-:class:`~netcosim.transport.realtime.RealtimeClock` injects it) and is sent by the
-node's interface like any message of that node.
+A remote serves **requests**: the frames the simulated network delivers to the node
+(``node`` = the sender's network index, ``values`` = the payload's numbers, then any
+plant outputs the node reads), and samples of a plant taken every ``sample_period`` s
+(``node`` = :data:`~netcosim.transport.wire.LOCAL`).  Each request is published on
+``netcosim/<run>/<name>/rx`` with a fresh ``seq`` and the simulated time ``ticks``.  The
+process answers a request with one **reply** on ``.../tx`` echoing its ``seq`` and
+``ticks``, addressed to a node of the network (sent through the simulated network: delay,
+contention and loss still apply), to every node (:data:`~netcosim.transport.wire.BROADCAST`)
+or to the node's own plant inputs (:data:`~netcosim.transport.wire.LOCAL`, zero-order
+hold).  Wire format: :mod:`netcosim.transport.wire`.
 
-The process declares a liveliness token ``netcosim/<run>/<node>/alive``.  When the token
-goes (the process died, or was silent for its session's lease), the node's loss policy
-applies: ``"hold"`` sends nothing more (receivers keep the last command, zero-order
-hold), ``"zero"`` sends, once, a message of zeros of the last payload's length to every
-node it has sent to (the receivers' command becomes 0), a callable ``fn(remote)`` does
-what it wants.  Every such event is a row of the trace table ``hil``.
+**What is applied.**  A reply is applied only if it answers an outstanding request of
+this session, once, before the request's deadline (``deadline`` s after the request;
+default: the period).  Everything else is dropped and counted by reason (``dropped``,
+:data:`DROP_REASONS`) and recorded in aggregated rows of the trace table ``hil``; a
+request that got no reply in time is ``expired`` and a lost reply under the loss
+policy.  At most ``max_outstanding`` requests wait for a reply; a request beyond that is
+not published (an ``overrun``, a lost reply too).  Checks that need no simulated time
+(format, session, peer, values, and replies to requests that are not outstanding) run on
+the Zenoh thread, so a flood of bad messages never reaches the simulation's event queue.
 
-Remote plant I/O (:class:`RemotePlantIO`): for a fast local loop (e.g. a 500 Hz
-low-level controller) against a simulated plant, without a simulated network in
-between: every ``period`` s the plant's outputs are published on
-``netcosim/<run>/<name>/rx``, followed by any values the simulation computes for the
-process at that instant (``extra``, e.g. a reference the simulation generates); what
-the process publishes on ``.../tx`` is written to the plant's inputs (zero-order hold)
-at the simulated instant matching its arrival.  Loss policies as above (``"zero"``
-writes zeros to the inputs).
+**Session and claim.**  Each remote has a random 64-bit session id, in every message, and
+declares the liveliness token ``netcosim/<run>/<name>/sim/<session>`` (the process sees
+the simulation end or die through it).  A process declares
+``netcosim/<run>/<name>/alive/<peer>`` with its own random id; the first one claims the
+node, any other gets a :data:`~netcosim.transport.wire.REFUSED` message and its replies
+are dropped (reason ``"peer"``).  A claimant whose token goes (killed: at once; hung: after
+the lease) is ``lost``: the loss policy applies once, no request is published until a
+process claims the node again.  The process can ask the run's parameters (session, the
+network's name -> index table, period, deadline, payload schema) on
+``netcosim/<run>/<name>/info`` (a Zenoh query answered with JSON).
+
+**Loss policy** (a lost reply: expired, overrun, or the claimant lost): ``"hold"`` does
+nothing (receivers keep the last command, zero-order hold); ``"zero"`` sends zeros of the
+last reply's length to every destination the remote has sent to (``LOCAL``: writes zeros
+to the inputs); a callable ``fn(remote, why)`` with ``why`` one of ``"expired"``,
+``"overrun"``, ``"lost"``.  ``abort_on``: reasons (drop reasons, ``"expired"``,
+``"overrun"``, ``"lost"``) that end the run with :class:`RemoteFault` instead; the trace
+is kept and the harness still sends END.
+
+Remote plant I/O (:class:`RemotePlantIO`): a remote with no network, sampling a plant's
+outputs every ``period`` s and writing the replies to its inputs: a fast local loop (e.g.
+a 500 Hz low-level controller) against a simulated plant.
 """
 
 from __future__ import annotations
 
+import json
 import logging
+import math
 import queue
+import secrets
 import threading
 import time
-from collections import Counter
-from typing import Any, Callable
+from collections import Counter, deque
+from typing import Any, Callable, Collection
 
 import numpy as np
 
 from .. import validate
-from ..errors import ConfigurationError
+from ..errors import ConfigurationError, NetcosimError
 from ..timebase import RESOLUTION, to_ticks
 from . import wire
 from .realtime import RealtimeClock
 from .session import Session, key
 
-__all__ = ["RemoteNode", "RemotePlantIO", "HIL_COLUMNS", "LOSS_POLICIES"]
+__all__ = ["RemoteNode", "RemotePlantIO", "RemoteFault", "HIL_COLUMNS", "REPLY_COLUMNS", "LOSS_POLICIES",
+           "DROP_REASONS", "LOSS_EVENTS"]
 
 log = logging.getLogger("netcosim.transport")
 
-#: columns of the trace table ``hil``: simulated time (s), node, event, detail
-HIL_COLUMNS = ("time", "node", "event", "detail")
-#: built-in loss policies (or pass a callable ``fn(remote)``)
+#: columns of the trace table ``hil``: simulated time (s), remote, event, detail, count
+#: (aggregated rows: ``count`` events of this kind since the previous row of the same
+#: event and detail)
+HIL_COLUMNS = ("time", "node", "event", "detail", "count")
+#: columns of the trace table ``hil_replies``: the request's simulated time (s), remote,
+#: its seq, the network index it came from (LOCAL for a sample), the response time (s)
+REPLY_COLUMNS = ("time", "node", "seq", "source", "response")
+#: built-in loss policies (or pass a callable ``fn(remote, why)``)
 LOSS_POLICIES = ("hold", "zero")
+#: why a reply is a lost one (what a loss policy is called with)
+LOSS_EVENTS = ("expired", "overrun", "lost")
+#: why a message from the process is dropped: the wire format's (short, magic, version,
+#: kind, oversized, length), then ``session`` (another run's), ``peer`` (not from the
+#: process that claimed the node), ``nonfinite`` (a NaN or infinity), ``values`` (another
+#: number of values than the destination takes), ``destination`` (no such node),
+#: ``unsolicited`` (answers no request ever published), ``duplicate`` (answers a request
+#: already answered), ``late`` (after the request's deadline), ``stale`` (answers a request
+#: forgotten: older than ``stale_after``), ``mismatch`` (its ticks are not its request's)
+DROP_REASONS = ("short", "magic", "version", "kind", "oversized", "length", "session", "peer", "nonfinite", "values",
+                "destination", "unsolicited", "duplicate", "late", "stale", "mismatch")
+#: aggregation of the ``hil`` rows: at most one row per event and detail per this many
+#: simulated seconds (plus one at the end)
+AGGREGATE = 0.1
+_ANSWERED_MEMORY = 4096
+
+
+class RemoteFault(NetcosimError):
+    """A remote misbehaved in a way the run was told to abort on (``abort_on``)."""
 
 
 def _hil_frame(df):
     df["time"] = df["time"] * RESOLUTION
+    return df
+
+
+def _reply_frame(df):
+    df["time"] = df["time"] * RESOLUTION
+    df["response"] = df["response"] * RESOLUTION
     return df
 
 
@@ -75,134 +127,380 @@ def _flat(x: Any) -> tuple[float, ...]:
     return tuple(v for part in x for v in np.ravel(np.asarray(part, dtype=float)).tolist())
 
 
-class _Remote:
-    """What a remote node and remote plant I/O share: keys, liveliness, loss policy,
-    counters, validation of incoming messages, the ``hil`` trace rows."""
+class _Request:
+    __slots__ = ("ticks", "deadline", "source", "timer", "expired")
 
-    def __init__(self, sim: Any, name: str, session: Session, run: str, loss_policy: Any, clock_options: dict):
+    def __init__(self, ticks: int, deadline: int, source: int, timer: Any):
+        self.ticks, self.deadline, self.source, self.timer, self.expired = ticks, deadline, source, timer, False
+
+
+class _Remote:
+    """The bookkeeping every remote shares: session and claim, keys and liveliness,
+    requests and their deadlines, matching and dropping replies, counters, the loss
+    policy and the ``hil`` trace rows.  A subclass says where requests come from and
+    how a reply is applied (:meth:`_apply_to`, :meth:`_check_reply`, :meth:`_zero`)."""
+
+    def __init__(self, sim: Any, name: str, session: Session, run: str, *, period: float | None,
+                 deadline: float | None, max_outstanding: int | None, stale_after: float | None,
+                 loss_policy: Any, abort_on: Collection[str], schema: dict | None, clock_options: dict):
         if not (callable(loss_policy) or loss_policy in LOSS_POLICIES):
-            raise ConfigurationError(f"loss_policy must be one of {LOSS_POLICIES} or a callable, "
-                                     f"got {loss_policy!r}")
+            raise ConfigurationError(f"loss_policy must be one of {LOSS_POLICIES} or a callable "
+                                     f"fn(remote, why), got {loss_policy!r}")
+        unknown = sorted(set(abort_on) - set(DROP_REASONS) - set(LOSS_EVENTS))
+        if isinstance(abort_on, str) or unknown:
+            raise ConfigurationError(f"abort_on must be a collection of {DROP_REASONS + LOSS_EVENTS}, "
+                                     f"got {abort_on!r}")
+        if period is None and deadline is None:
+            raise ConfigurationError(f"remote {name!r}: give the period of its requests (period=, s) or a "
+                                     "deadline= (s) for its replies")
+        self.period = None if period is None else validate.positive(period, "period (s)",
+                                                                      type_error=ConfigurationError)
+        self.deadline = validate.positive(deadline if deadline is not None else period, "deadline (s)",
+                                          type_error=ConfigurationError)
+        if max_outstanding is None:
+            max_outstanding = math.ceil(self.deadline / self.period - 1e-9) + 1 if self.period else 2
+        self.max_outstanding = validate.count(max_outstanding, "max_outstanding", minimum=1)
+        self.stale_after = validate.positive(stale_after if stale_after is not None else 100 * self.deadline,
+                                             "stale_after (s)", type_error=ConfigurationError)
         self.sim = sim
         self.name = name
         self.loss_policy = loss_policy
+        self.abort_on = frozenset(abort_on)
+        self.schema = dict(schema or {})
         self.clock = getattr(sim, "_realtime_clock", None) or RealtimeClock(sim, **clock_options)
         self.run_id = run
-        self.keys = {leaf: key(run, name, leaf) for leaf in ("rx", "tx", "alive")}
-        self.published = 0
-        self.received = 0
-        self.rejected: Counter[str] = Counter()
+        self.session_id = secrets.randbits(64) or 1
+        self.keys = {leaf: key(run, name, leaf) for leaf in ("rx", "tx", "alive", "sim", "info")}
+        # counters (simulation thread; Zenoh-thread drops are folded in by _fold)
+        self.published = 0          # requests published to the process
+        self.received = 0           # replies applied
+        self.expired = 0            # requests without a reply before their deadline
+        self.overruns = 0           # requests not published: max_outstanding were waiting
+        self.unserved = 0           # requests while no process had claimed the node
+        self.after_end = 0          # valid messages that arrived after the run (drain)
+        self.dropped: Counter[str] = Counter()
         self.alive = False
-        self.after_end = 0
-        self.connected = threading.Event()   # set (from a Zenoh thread) when the token appears
+        self.peer: int | None = None        # the claimant's id (set on a Zenoh thread)
+        self.refused: list[int] = []        # ids of refused claimants
+        self.connected = threading.Event()  # set when a process has claimed the node
+        self._lock = threading.Lock()
+        self._zdrops: Counter[str] = Counter()  # drops decided on Zenoh threads, not yet folded
+        self._claimed: set[int] = set()         # seqs a reply is already on its way for (Zenoh threads)
         self._seq = 0
-        self._sent_at: dict[int, int] = {}   # seq -> tick of publication to the process
-        self._rows = sim.trace.table("hil", HIL_COLUMNS, categorical=("node", "event"), transform=_hil_frame,
-                                     dtypes=("int", None, None, None))
-        self._signal = sim.trace.signal_rec
-        self._pub = session.publisher(self.keys["rx"])
-        self._subs = [session.subscribe(self.keys["tx"], self._on_tx),
-                      session.watch(self.keys["alive"], self._on_alive)]
+        self._requests: dict[int, _Request] = {}    # outstanding (pending or expired), publication order
+        self._answered: deque[int] = deque(maxlen=_ANSWERED_MEMORY)
+        self._answered_set: set[int] = set()
+        self._issued = 0
+        self._deadline_ticks = to_ticks(self.deadline, "deadline (s)")
+        self._stale_ticks = to_ticks(self.stale_after, "stale_after (s)")
+        self._tally: dict[tuple[str, str], list] = {}   # (event, detail) -> [pending count, last row tick]
+        self._aggregate_ticks = to_ticks(AGGREGATE, "aggregation")
+        self._warned: set[str] = set()
+        self._rows = sim.trace.table("hil", HIL_COLUMNS, categorical=("node", "event", "detail"),
+                                     transform=_hil_frame, dtypes=("int", None, None, None, "int"))
+        self._replies = sim.trace.table("hil_replies", REPLY_COLUMNS, categorical=("node",), transform=_reply_frame,
+                                        dtypes=("int", None, "int", "int", "int"))
+        sim._finalizers.append(self.flush)
+        self._session = session
+        self._pub = session.publisher(self.keys["rx"], encoding=wire.ENCODING)
+        self._decls = [session.subscribe(self.keys["tx"], self._on_tx),
+                       session.watch_keys(self.keys["alive"] + "/*", self._on_token),
+                       session.token(f"{self.keys['sim']}/{self.session_id:016x}"),
+                       session.zenoh.declare_queryable(self.keys["info"], self._on_info)]
 
-    # Zenoh threads: stamp and queue only ------------------------------------------
+    # Zenoh threads: stamp and queue, or drop and count ----------------------------
+    def _zdrop(self, reason: str) -> None:
+        with self._lock:
+            self._zdrops[reason] += 1
+
     def _on_tx(self, data: bytes) -> None:
-        self.clock.post(self._receive, data)
-
-    def _on_alive(self, alive: bool) -> None:
-        if alive:
-            self.connected.set()
-        self.clock.post(self._liveliness, alive)
-
-    # simulation thread ---------------------------------------------------------------
-    def _record(self, event: str, detail: str = "") -> None:
-        self._rows.append((self.sim.now_ticks, self.name, event, detail))
-
-    def _publish(self, node: int, values: tuple[float, ...]) -> None:
-        seq = self._seq
-        self._seq = (seq + 1) & 0xFFFFFFFF
-        now = self.sim.now_ticks
-        self._sent_at[seq] = now
-        if len(self._sent_at) > 4096:      # replies that never came: keep memory bounded
-            self._sent_at.pop(next(iter(self._sent_at)))
-        self._pub.put(wire.encode(wire.DATA, node, seq, now, values))
-        self.published += 1
-        self.clock.expect_reply()
-
-    def _reject(self, reason: str, detail: str) -> None:
-        self.rejected[reason] += 1
-        log.warning("remote %r: %s", self.name, detail)
-        self._record("rejected", reason)
-
-    def _receive(self, data: bytes) -> None:
         try:
             m = wire.decode(data)
         except wire.WireError as e:
-            self._reject(e.reason, str(e))
+            self._zdrop(e.reason)
             return
-        if m.kind == wire.END:
-            self._record("ended")       # the process has answered everything it will answer
+        if m.session != self.session_id:
+            self._zdrop("session")
+        elif self.peer is None or m.peer != self.peer:
+            self._zdrop("peer")
+        elif m.kind == wire.END:
+            self.clock.post(self._ended, m)
+        elif m.kind != wire.DATA:
+            self._zdrop("kind")
+        elif not wire.finite(m.values):
+            self._zdrop("nonfinite")
+        elif (reason := self._check_reply(m)) is not None:
+            self._zdrop(reason)
+        else:
+            seq = m.seq
+            req = self._requests.get(seq)
+            if req is None:
+                self._zdrop(self._classify(seq))
+                return
+            if m.ticks != req.ticks:
+                self._zdrop("mismatch")
+                return
+            with self._lock:
+                if seq in self._claimed:
+                    self._zdrops["duplicate"] += 1
+                    return
+                self._claimed.add(seq)
+            self.clock.post(self._receive, m)
+
+    def _on_token(self, key_expr: str, alive: bool) -> None:
+        try:
+            peer = int(key_expr.rsplit("/", 1)[1], 16)
+        except ValueError:
             return
-        if not self._valid(m):
+        with self._lock:    # the claim is decided here, so that replies are filtered from now on
+            if alive:
+                if self.peer is None or peer == self.peer or not self.connected.is_set():
+                    self.peer = peer
+                    self.connected.set()
+                    what = "claim"
+                else:
+                    what = "refuse"
+            elif peer == self.peer and self.connected.is_set():
+                self.connected.clear()      # a new process may claim the node
+                what = "lost"
+            else:
+                what = "left"
+        if what == "refuse":
+            # the refused process learns it at once; the simulation records it at its next step
+            self._pub.put(wire.encode(wire.REFUSED, 0, self.session_id, peer, 0, 0))
+        self.clock.post(self._token, (peer, what))
+
+    def _on_info(self, query: Any) -> None:
+        query.reply(self.keys["info"], json.dumps(self.info()).encode())
+
+    # simulation thread ---------------------------------------------------------------
+    def info(self) -> dict:
+        """What a process may ask on ``netcosim/<run>/<name>/info`` (JSON): wire
+        version, session id (16 hex digits), remote name, its network index and the
+        network's name -> index table (empty without a network), LOCAL and BROADCAST
+        addresses, period and deadline (s), values a reply must carry per destination,
+        and the scenario's payload schema."""
+        return {"version": wire.VERSION, "session": f"{self.session_id:016x}", "name": self.name,
+                "index": self._index(), "network": self._network_table(), "local": wire.LOCAL,
+                "broadcast": wire.BROADCAST, "period": self.period, "deadline": self.deadline,
+                "max_outstanding": self.max_outstanding, "schema": self.schema}
+
+    def _index(self) -> int | None:
+        return None
+
+    def _network_table(self) -> dict[str, int]:
+        return {}
+
+    def _record(self, event: str, detail: str = "", count: int = 1) -> None:
+        self._rows.append((self.sim.now_ticks, self.name, event, detail, count))
+
+    def _count(self, event: str, detail: str = "", n: int = 1) -> None:
+        """Count *n* events in the aggregated ``hil`` rows: a row at the first one, then at
+        most one per :data:`AGGREGATE` s holding the count since the previous row."""
+        now = self.sim.now_ticks
+        entry = self._tally.get((event, detail))
+        if entry is None:
+            self._tally[(event, detail)] = [0, now]
+            self._record(event, detail, n)
             return
+        entry[0] += n
+        if now - entry[1] >= self._aggregate_ticks:
+            self._record(event, detail, entry[0])
+            entry[0], entry[1] = 0, now
+
+    def flush(self) -> None:
+        """Write the counts not yet in a ``hil`` row (called at the end of every run,
+        also a failed one; never aborts)."""
+        self._fold(abort=False)
+        for (event, detail), entry in self._tally.items():
+            if entry[0]:
+                self._record(event, detail, entry[0])
+                entry[0], entry[1] = 0, self.sim.now_ticks
+
+    def _fold(self, abort: bool = True) -> None:
+        if not self._zdrops:
+            return
+        with self._lock:
+            drops, self._zdrops = self._zdrops, Counter()
+        for reason, n in drops.items():
+            self._drop(reason, n, abort)
+
+    def _drop(self, reason: str, n: int = 1, abort: bool = True) -> None:
+        self.dropped[reason] += n
+        self._count("dropped", reason, n)
+        if reason not in self._warned:
+            self._warned.add(reason)
+            log.warning("remote %r: dropped a message (%s); further ones are counted, not logged", self.name, reason)
+        if abort and reason in self.abort_on:
+            self._abort(f"a reply was dropped ({reason})")
+
+    def _abort(self, why: str) -> None:
+        self._record("aborted", why)
+        raise RemoteFault(f"remote {self.name!r}: {why} (abort_on={sorted(self.abort_on)})")
+
+    def _classify(self, seq: int) -> str:
+        """Why a reply to *seq*, which is not outstanding, is dropped."""
+        if seq in self._answered_set:
+            return "duplicate"
+        age = (self._seq - 1 - seq) & 0xFFFFFFFF
+        return "stale" if age < self._issued else "unsolicited"
+
+    def _request(self, source: int, values: tuple[float, ...]) -> None:
+        """Publish one request (or count why not) and arm its deadline."""
+        self._fold()
+        seq = self._seq
+        self._seq = (seq + 1) & 0xFFFFFFFF
+        self._issued = min(self._issued + 1, 1 << 31)
+        now = self.sim.now_ticks
+        self._forget(now)
+        if not self.connected.is_set():     # decided on the Zenoh thread: no claimant now
+            self.unserved += 1
+            self._count("unserved")
+            return
+        if len(self._requests) >= self.max_outstanding:
+            self.overruns += 1
+            self._count("overrun")
+            self._lost("overrun")
+            return
+        deadline = now + self._deadline_ticks
+        timer = self.sim.call_at_ticks(deadline, self._expire, arg=seq)
+        self._requests[seq] = _Request(now, deadline, source, timer)
+        self._pub.put(wire.encode(wire.DATA, source, self.session_id, self.peer or 0, now, seq, values))
+        self.published += 1
+        self.clock.expect_reply()
+
+    def _forget(self, now: int) -> None:
+        """Forget expired requests older than ``stale_after``: they no longer count as
+        outstanding, and a reply to one is ``stale``."""
+        reqs = self._requests
+        while reqs:
+            seq, req = next(iter(reqs.items()))
+            if not (req.expired and now - req.ticks >= self._stale_ticks):
+                return
+            del reqs[seq]
+            self._claimed.discard(seq)
+
+    def _expire(self, seq: int) -> None:
+        req = self._requests.get(seq)
+        if req is None or req.expired:
+            return
+        req.expired = True
+        self.expired += 1
+        self._count("expired")
+        self._lost("expired")
+
+    def _lost(self, why: str) -> None:
+        if why in self.abort_on:
+            self._abort(f"a reply was lost ({why})")
+        policy = self.loss_policy
+        if policy == "zero":
+            self._zero()
+        elif callable(policy):
+            policy(self, why)
+
+    def _receive(self, m: wire.Message) -> None:
+        self._fold()
+        seq = m.seq
+        req = self._requests.pop(seq, None)
+        self._claimed.discard(seq)
+        if req is None:                 # forgotten meanwhile
+            self._drop(self._classify(seq))
+            return
+        if len(self._answered) == _ANSWERED_MEMORY:
+            self._answered_set.discard(self._answered[0])
+        self._answered.append(seq)
+        self._answered_set.add(seq)
+        if req.expired:
+            self._drop("late")
+            return
+        req.timer.cancel()
+        self.clock.reply_arrived()
         self.received += 1
-        sent = self._sent_at.pop(m.seq, None)
-        if sent is not None:
-            self.clock.reply_arrived()
-            self._signal.append((self.sim.now, f"{self.name}.remote", "response",
-                                 (self.sim.now_ticks - sent) * RESOLUTION))
-        self._apply(m)
+        now = self.sim.now_ticks
+        self._replies.append((req.ticks, self.name, seq, req.source, now - req.ticks))
+        self._apply_to(m.node, m.values)
 
-    def _valid(self, m: wire.Message) -> bool:
-        return True
+    def _ended(self, m: wire.Message) -> None:
+        self._record("ended")       # the process has answered everything it will answer
 
-    def _apply(self, m: wire.Message) -> None:
+    def _token(self, arg: tuple[int, str]) -> None:
+        peer, what = arg
+        hexid = f"{peer:016x}"
+        if what == "refuse":
+            self.refused.append(peer)
+            self._record("refused", hexid)
+            log.warning("remote %r: refused a second process claiming it (%s)", self.name, hexid)
+        elif what == "left":
+            self._record("left", hexid)     # a token that was not the claimant's went away
+        elif what == "claim":
+            if not self.alive:
+                self.alive = True
+                self._record("alive", hexid)
+        elif self.alive:                    # lost
+            self.alive = False
+            policy = self.loss_policy
+            self._record("lost", policy if isinstance(policy, str) else getattr(policy, "__name__", "callable"))
+            for req in self._requests.values():
+                req.timer.cancel()
+            self._requests.clear()
+            with self._lock:
+                self._claimed.clear()
+            self._lost("lost")
+
+    # subclasses ------------------------------------------------------------------------
+    def _check_reply(self, m: wire.Message) -> str | None:
+        """Why reply *m* cannot be applied whatever the time (a drop reason), or None.
+        Runs on a Zenoh thread: read only what does not change during the run."""
+        return None
+
+    def _apply_to(self, node: int, values: tuple[float, ...]) -> None:
         raise NotImplementedError
 
     def _zero(self) -> None:
         raise NotImplementedError
 
-    def _liveliness(self, alive: bool) -> None:
-        if alive == self.alive:
-            return
-        self.alive = alive
-        if alive:
-            self._record("alive")
-            return
-        policy = self.loss_policy
-        self._record("lost", policy if isinstance(policy, str) else getattr(policy, "__name__", "callable"))
-        if policy == "zero":
-            self._zero()
-        elif callable(policy):
-            policy(self)
-
     # any thread, outside the run -----------------------------------------------------
+    def counters(self) -> dict:
+        """Requests published, replies applied, requests expired, overruns, requests
+        while unclaimed, messages after the end, and the drops by reason (a dict)."""
+        self._fold(abort=False)
+        return {"published": self.published, "received": self.received, "expired": self.expired,
+                "overruns": self.overruns, "unserved": self.unserved, "after_end": self.after_end,
+                "dropped": dict(self.dropped), "refused": len(self.refused)}
+
+    def replies(self):
+        """One row per applied reply (trace table ``hil_replies`` of this remote):
+        ``time`` of the request (s), ``seq``, ``source`` (network index, or LOCAL for a
+        sample), ``response`` (s, simulated: request published to reply injected)."""
+        df = self.sim.trace.frame("hil_replies")
+        return df[df["node"] == self.name].reset_index(drop=True)
+
     def response_times(self) -> np.ndarray:
-        """The response time (s, simulated) of every reply so far, in arrival order: from
-        the publication of the message it answers to its injection (signal ``response``
-        of source ``<name>.remote``)."""
-        sig = self.sim.trace.signals()
-        sel = (sig["source"] == f"{self.name}.remote") & (sig["signal"] == "response")
-        return sig.loc[sel, "value"].to_numpy()
+        """The response time (s, simulated) of every applied reply, in the order of the
+        requests (``replies()["response"]``)."""
+        return self.replies().sort_values("seq", kind="stable")["response"].to_numpy()
 
     def wait_connected(self, timeout: float) -> bool:
-        """Block up to *timeout* s until the process's liveliness token is seen; True if it was."""
+        """Block up to *timeout* s until a process has claimed the node; True if one has."""
         return self.connected.wait(timeout)
 
     def finish(self) -> None:
-        """Tell the process the run is over (an ``END`` message on ``rx``); call after ``sim.run``."""
-        self._pub.put(wire.encode(wire.END, 0, self._seq, self.sim.now_ticks))
+        """Tell the process the run is over (an ``END`` message on ``rx``); call after
+        ``sim.run``, also after a failed one."""
+        self._pub.put(wire.encode(wire.END, 0, self.session_id, self.peer or 0, self.sim.now_ticks, self._seq))
 
     def drain(self, timeout: float = 5.0, quiet: float = 0.5) -> int:
         """After the run and :meth:`finish`, once the process is ending: count the valid
-        messages it sent that arrived after the run (``after_end``; replies in flight at
-        the stop time, or scheduled after it by a lagging simulation).  Waits for the
-        process's own END message (it sends one after its
-        last reply), or else until its liveliness token has gone and then no message came
-        for *quiet* s (Zenoh may deliver the token's end before the last data), at most
-        *timeout* s.  Nothing is injected.  Returns ``after_end``."""
+        replies that arrived after the run (``after_end``; replies in flight at the stop
+        time, or scheduled after it by a lagging simulation).  Waits for the process's
+        own END message (it sends one after its last reply), or else until its liveliness
+        token has gone and then no message came for *quiet* s, at most *timeout* s.
+        Nothing is applied.  Returns ``after_end``."""
         for fn, arg in self.clock.take_pending():     # arrived, due after the stop time
             if fn == self._receive:
-                self._count_late(arg)
+                self.after_end += 1
+            elif fn == self._ended:
+                return self.after_end
         inbox = self.clock.inbox
         deadline = time.monotonic() + timeout
         gone = not self.alive
@@ -211,25 +509,28 @@ class _Remote:
                 _, fn, arg = inbox.get(timeout=min(left, quiet) if gone else left)
             except queue.Empty:
                 break
-            if fn == self._liveliness and arg is False:
+            if fn == self._token and arg[1] == "lost":
                 gone = True
-            elif fn == self._receive and self._count_late(arg):
+            elif fn == self._receive:
+                self.after_end += 1
+            elif fn == self._ended:
                 break
         return self.after_end
 
-    def _count_late(self, data: bytes) -> bool:
-        """Count a message that arrived after the run; True if it is the process's END."""
-        try:
-            m = wire.decode(data)
-        except wire.WireError:
-            return False
-        if m.kind == wire.END:
-            return True
-        self.after_end += 1
-        return False
+    def close(self) -> None:
+        """Undeclare this remote's subscribers, token and queryable (idempotent); the
+        process then sees the simulation gone.  The caller still closes the session."""
+        decls, self._decls = self._decls, []
+        for d in decls:
+            try:
+                d.undeclare()
+            except Exception:   # the session is already closed: nothing left to undeclare
+                pass
 
     def events(self):
-        """The ``hil`` trace rows of this remote (``time`` in s, ``event``: alive, lost, rejected, ended)."""
+        """The ``hil`` trace rows of this remote (``time`` in s; ``event``: alive, lost,
+        refused, left, ended, dropped (detail: the reason), expired, overrun, unserved,
+        aborted; ``count``: events aggregated in the row)."""
         df = self.sim.trace.frame("hil")
         return df[df["node"] == self.name].reset_index(drop=True)
 
@@ -244,28 +545,50 @@ class RemoteNode(_Remote):
         ``factor`` and ``max_lag`` come from *clock_options*).
     node:
         The kernel node (or its name) to make remote.  It must have exactly one network
-        interface; its receive handlers are replaced by publishing (its periodic tasks,
-        if any, keep running in the simulation: give a remote node none).
+        interface; its receive handlers are replaced by publishing requests (its periodic
+        tasks, if any, keep running in the simulation: give a remote node none).
     session:
         An open :class:`~netcosim.transport.session.Session` (the caller closes it).
     run:
         The run id: keys live under ``netcosim/<run>/<node>/``.
     size_bits:
         Size (bits) of each message the process sends (the network adds its overhead).
-    loss_policy:
-        ``"hold"``, ``"zero"`` or ``fn(remote)`` (see the module docstring).
+    period:
+        The period (s) of the requests the node serves, e.g. the sampling period of the
+        sensor that sends to it; the default deadline.
+    deadline:
+        A reply must be injected less than this many seconds (simulated) after its
+        request; default: ``period``.
+    reply_values:
+        Number of values a reply to a network node must carry (None: any number; a
+        receiving task may then fail on a short reply: give it).
+    max_outstanding:
+        Requests that may wait for a reply at once (default ``ceil(deadline / period) + 1``).
+    stale_after:
+        An expired request is forgotten after this many seconds (default 100 deadlines).
+    plant, outputs, inputs, sample_period, extra:
+        The node's own plant I/O: *outputs* (selector as for ``plant.output``) are read
+        at every request and appended to its values; every *sample_period* s (if given) a
+        request of them alone is published (``node`` = LOCAL), followed by the values of
+        ``extra(t)`` if given (see :class:`RemotePlantIO`); a reply to LOCAL is written
+        to *inputs* (selector as for ``plant.input``; it must carry one value per input).
+    loss_policy, abort_on:
+        See the module docstring.
+    schema:
+        A description of the payloads (free-form, JSON-able) handed to the process by
+        the info query, e.g. ``{"request": ["t_sample", "y"], "reply": ["t_sample", "u"]}``.
 
-    Counters (simulation thread): ``published`` messages sent to the process, ``received``
-    valid messages from it, ``rejected`` a :class:`collections.Counter` by reason of
-    invalid ones (see :class:`~netcosim.transport.wire.WireError`; unknown destination:
-    ``"destination"``), ``alive`` whether its token is present, ``after_end`` messages
-    that arrived after the run (see :meth:`drain`).  The simulated response time of
-    every reply (delivery of a message to the process to arrival of a reply echoing its
-    ``seq``) is logged as signal ``response`` (s) of source ``<node>.remote``.
+    Counters (:meth:`counters`): ``published``, ``received``, ``expired``, ``overruns``,
+    ``unserved``, ``after_end``, ``dropped`` by reason.  Replies applied: :meth:`replies`.
     """
 
     def __init__(self, sim: Any, node: Any, session: Session, *, run: str, size_bits: int,
-                 loss_policy: str | Callable[["RemoteNode"], None] = "hold", **clock_options: Any):
+                 period: float | None = None, deadline: float | None = None, reply_values: int | None = None,
+                 max_outstanding: int | None = None, stale_after: float | None = None,
+                 plant: Any = None, outputs: Any = None, inputs: Any = None, sample_period: float | None = None,
+                 extra: Callable[[float], Any] | None = None,
+                 loss_policy: str | Callable[[Any, str], None] = "hold", abort_on: Collection[str] = (),
+                 schema: dict | None = None, **clock_options: Any):
         name = node if isinstance(node, str) else getattr(node, "name", None)
         if not isinstance(name, str) or name not in sim.nodes:
             raise ConfigurationError(f"no node {node!r} in this simulation")
@@ -274,31 +597,98 @@ class RemoteNode(_Remote):
             raise ConfigurationError(f"remote node {name!r} must have exactly one network interface, "
                                      f"has {len(ifaces)}")
         self.size_bits = validate.count(size_bits, "size_bits (bits)", minimum=1)
-        super().__init__(sim, name, session, run, loss_policy, clock_options)
+        self.reply_values = None if reply_values is None else validate.count(reply_values, "reply_values",
+                                                                               minimum=0)
+        self._io = _PlantIO(plant, outputs, inputs, extra) if plant is not None else None
+        if plant is None and (outputs is not None or inputs is not None or sample_period is not None):
+            raise ConfigurationError(f"remote node {name!r}: outputs, inputs and sample_period need plant=")
+        if period is None and sample_period is not None:
+            period = sample_period
+        super().__init__(sim, name, session, run, period=period, deadline=deadline, max_outstanding=max_outstanding,
+                         stale_after=stale_after, loss_policy=loss_policy, abort_on=abort_on, schema=schema,
+                         clock_options=clock_options)
         self.iface = iface = ifaces[0]
         self.network = iface.network
-        self._last: dict[str, int] = {}      # destination -> length of the last payload sent to it
+        self._table = {i.name: i.index for i in self.network._ifaces}
+        self._last: dict[Any, int] = {}      # destination -> length of the last payload sent to it
         iface.handlers[:] = [self._deliver]
         iface.use_mailbox = False
+        if sample_period is not None:
+            assert self._io is not None
+            self._io.start(sim, sample_period, lambda values: self._request(wire.LOCAL, values))
+
+    def _index(self) -> int | None:
+        return self.iface.index
+
+    def _network_table(self) -> dict[str, int]:
+        return dict(self._table)
 
     def _deliver(self, msg: Any) -> None:
-        self._publish(self.network.interface(msg.src).index, _floats(msg.payload))
+        values = _floats(msg.payload)
+        if self._io is not None and self._io.y is not None:
+            values += self._io.read()
+        self._request(self.network.interface(msg.src).index, values)
 
-    def _valid(self, m: wire.Message) -> bool:
-        ifaces = self.network._ifaces
-        if m.node >= len(ifaces) or ifaces[m.node] is self.iface:
-            self._reject("destination", f"no destination with network index {m.node}")
-            return False
-        return True
+    def _check_reply(self, m: wire.Message) -> str | None:
+        node = m.node
+        if node == wire.LOCAL:
+            if self._io is None or self._io.u is None:
+                return "destination"
+            return None if len(m.values) == self._io.n_inputs else "values"
+        if node != wire.BROADCAST and (node >= len(self._table) or node == self.iface.index):
+            return "destination"
+        if self.reply_values is not None and len(m.values) != self.reply_values:
+            return "values"
+        return None
 
-    def _apply(self, m: wire.Message) -> None:
-        dst = self.network._ifaces[m.node].name
-        self._last[dst] = len(m.values)
-        self.iface.send(dst, m.values, self.size_bits)
+    def _apply_to(self, node: int, values: tuple[float, ...]) -> None:
+        if node == wire.LOCAL:
+            assert self._io is not None
+            self._io.write(values)
+            self._last[wire.LOCAL] = len(values)
+            return
+        from ..network import BROADCAST
+        dst = BROADCAST if node == wire.BROADCAST else self.network._ifaces[node].name
+        self._last[dst] = len(values)
+        self.iface.send(dst, values, self.size_bits)
 
     def _zero(self) -> None:
         for dst, n in self._last.items():
-            self.iface.send(dst, (0.0,) * n, self.size_bits)
+            if dst == wire.LOCAL:
+                assert self._io is not None
+                self._io.write((0.0,) * n)
+            else:
+                self.iface.send(dst, (0.0,) * n, self.size_bits)
+
+
+class _PlantIO:
+    """A plant's selected outputs (read) and inputs (written, zero-order hold), and the
+    periodic sampling of the outputs (plus ``extra(t)``)."""
+
+    def __init__(self, plant: Any, outputs: Any, inputs: Any, extra: Callable[[float], Any] | None):
+        if extra is not None:
+            validate.callable_(extra, "extra", kind="None or a callable extra(t) returning numbers")
+        self.plant, self.extra = plant, extra
+        self.y = plant.output(outputs)
+        self.u = plant.input(inputs)
+        self.n_inputs = len(np.atleast_1d(plant.u[self.u.index]))
+
+    def read(self) -> tuple[float, ...]:
+        return _floats(np.atleast_1d(self.y.read()))
+
+    def write(self, values: tuple[float, ...]) -> None:
+        self.u.write(values[0] if self.n_inputs == 1 and type(self.u.index) is int else np.asarray(values))
+
+    def start(self, sim: Any, period: float, request: Callable[[tuple[float, ...]], None]) -> None:
+        period_ticks = to_ticks(validate.positive(period, "period (s)"), "period (s)")
+
+        def sample() -> None:
+            values = self.read()
+            if self.extra is not None:
+                values += _flat(self.extra(sim.now))
+            request(values)
+            sim.call_in_ticks(period_ticks, sample)
+        sim.call_at_ticks(int(sim.now_ticks), sample)
 
 
 class RemotePlantIO(_Remote):
@@ -306,18 +696,18 @@ class RemotePlantIO(_Remote):
 
     Parameters
     ----------
-    sim, session, run, loss_policy:
-        As for :class:`RemoteNode` (``"zero"`` writes zeros to the inputs).
+    sim, session, run, loss_policy, abort_on, deadline, max_outstanding, stale_after, schema:
+        As for :class:`RemoteNode` (``"zero"`` writes zeros to the inputs; the deadline
+        defaults to *period*).
     plant:
         The :class:`~netcosim.continuous.PlantInstance`.
     period:
-        Sampling period (s): a sample is published at ``t0, t0 + period, t0 + 2 period,
+        Sampling period (s): a request is published at ``t0, t0 + period, t0 + 2 period,
         ...`` s of simulated time (``t0``: the simulated time at construction; ``node``
-        field 0, ``ticks`` the sampling instant).
+        LOCAL, ``ticks`` the sampling instant).
     outputs, inputs:
         Output and input selectors as for ``plant.output(...)`` / ``plant.input(...)``
-        (None: all).  A message from the process carries one value per selected input;
-        another length is rejected (reason ``"length"``).
+        (None: all).  A reply carries one value per selected input, to LOCAL.
     name:
         The key name (default: the plant's name): keys ``netcosim/<run>/<name>/...``.
     extra:
@@ -329,46 +719,28 @@ class RemotePlantIO(_Remote):
         then the values of ``extra(t)`` flattened in order (element by element, each
         array row by row).  An exception of ``extra`` ends the run
         like any exception of a simulated component.
-
-    The response time of every write (sample published to the reply echoing its
-    ``seq``) is logged as signal ``response`` (s) of source ``<name>.remote``.
     """
 
     def __init__(self, sim: Any, plant: Any, session: Session, *, run: str, period: float,
                  outputs: Any = None, inputs: Any = None, name: str | None = None,
-                 loss_policy: str | Callable[["RemotePlantIO"], None] = "hold",
-                 extra: Callable[[float], Any] | None = None, **clock_options: Any):
-        if extra is not None:
-            validate.callable_(extra, "extra", kind="None or a callable extra(t) returning numbers")
-        self.extra = extra
-        self.period_ticks = to_ticks(validate.positive(period, "period (s)"), "period (s)")
+                 deadline: float | None = None, max_outstanding: int | None = None, stale_after: float | None = None,
+                 loss_policy: str | Callable[[Any, str], None] = "hold", abort_on: Collection[str] = (),
+                 extra: Callable[[float], Any] | None = None, schema: dict | None = None, **clock_options: Any):
+        self._io = _PlantIO(plant, outputs, inputs, extra)
         self.plant = plant
-        self.y = plant.output(outputs)
-        self.u = plant.input(inputs)
-        self.n_inputs = len(np.atleast_1d(plant.u[self.u.index]))
-        super().__init__(sim, name or plant.name, session, run, loss_policy, clock_options)
-        self._k = 0
-        sim.call_at_ticks(int(sim.now_ticks), self._sample)
+        super().__init__(sim, name or plant.name, session, run, period=period, deadline=deadline,
+                         max_outstanding=max_outstanding, stale_after=stale_after, loss_policy=loss_policy,
+                         abort_on=abort_on, schema=schema, clock_options=clock_options)
+        self.n_inputs = self._io.n_inputs
+        self._io.start(sim, period, lambda values: self._request(wire.LOCAL, values))
 
-    def _sample(self) -> None:
-        values = _floats(np.atleast_1d(self.y.read()))
-        if self.extra is not None:
-            values += _flat(self.extra(self.sim.now))
-        self._publish(0, values)
-        self._k += 1
-        self.sim.call_in_ticks(self.period_ticks, self._sample)
+    def _check_reply(self, m: wire.Message) -> str | None:
+        if m.node != wire.LOCAL:
+            return "destination"
+        return None if len(m.values) == self.n_inputs else "values"
 
-    def _valid(self, m: wire.Message) -> bool:
-        if len(m.values) != self.n_inputs:
-            self._reject("length", f"{len(m.values)} values for {self.n_inputs} plant inputs")
-            return False
-        return True
-
-    def _write(self, values: tuple[float, ...]) -> None:
-        self.u.write(values[0] if self.n_inputs == 1 and type(self.u.index) is int else np.asarray(values))
-
-    def _apply(self, m: wire.Message) -> None:
-        self._write(m.values)
+    def _apply_to(self, node: int, values: tuple[float, ...]) -> None:
+        self._io.write(values)
 
     def _zero(self) -> None:
-        self._write((0.0,) * self.n_inputs)
+        self._io.write((0.0,) * self.n_inputs)
