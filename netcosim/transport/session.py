@@ -7,6 +7,11 @@ So two runs on one machine never see each other, and nothing leaves the machine 
 an endpoint says so.  For several machines, connect every side to a Zenoh router
 (``zenohd``) by address: ``connect=["tcp/192.168.1.10:7447"]``, ``listen=()``.
 
+Authentication and encryption come from Zenoh's own configuration file
+(``open_session(config=PATH)``): user/password (``transport/auth/usrpwd``), TLS
+(``transport/link/tls``, endpoints ``tls/...``) and the rest are kept, and the hermetic
+keys above are set on top (``docs/hil_security.md``).
+
 Keys of one run live under ``netcosim/<run>/`` (:func:`key`).  Every session must be
 closed (a session left open with a Python callback hangs interpreter exit): use it as a
 context manager or call :meth:`Session.close` in ``finally``.
@@ -14,6 +19,7 @@ context manager or call :meth:`Session.close` in ``finally``.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import re
@@ -27,6 +33,8 @@ LOOPBACK = "tcp/127.0.0.1:0"
 #: default lease (s): a peer silent for this long is declared gone (its liveliness token dropped)
 DEFAULT_LEASE = 1.0
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
+#: the copy of the whole configuration Zenoh appends to "Invalid configuration" (passwords in clear)
+_CONFIG_DUMP = re.compile(r"Invalid configuration: \{.*\}", re.S)
 
 
 def zenoh_available() -> bool:
@@ -139,27 +147,65 @@ class Session:
         self.close()
 
 
+def _zenoh_message(exc: BaseException) -> str:
+    """Zenoh's error message, without the copy of the whole configuration it appends to
+    "Invalid configuration" (that copy holds passwords in clear)."""
+    return _CONFIG_DUMP.sub("Invalid configuration (Zenoh's copy of it left out: it may hold passwords)", str(exc))
+
+
+def _load_config(zenoh: Any, path: str):
+    """``zenoh.Config.from_file(path)``, with errors that name *path*."""
+    if not os.path.isfile(path):
+        if os.path.exists(path):
+            raise ValueError(f"Zenoh configuration file {path!r} is not a regular file")
+        raise FileNotFoundError(errno.ENOENT, "Zenoh configuration file not found", path)
+    try:
+        return zenoh.Config.from_file(path)
+    except zenoh.ZError as e:    # `from None`: the chained ZError could print a password
+        raise ValueError(f"Zenoh rejected the configuration file {path!r}: {_zenoh_message(e)}") from None
+
+
 def open_session(*, listen: Sequence[str] = (LOOPBACK,), connect: Sequence[str] = (),
-                 lease: float = DEFAULT_LEASE) -> Session:
+                 lease: float = DEFAULT_LEASE, config: str | os.PathLike[str] | None = None) -> Session:
     """Open a hermetic Zenoh session: peer mode, multicast and gossip scouting off.
 
     ``listen``: endpoints to accept peers on (default loopback, port 0: the OS picks the
-    port, read back into ``Session.endpoints``); ``connect``: endpoints of peers or of a
-    router to connect to; ``lease``: seconds after which a silent peer is declared gone
-    (keep-alives are sent four times per lease).
+    port, read back into ``Session.endpoints``; also for ``tls/...:0``); ``connect``:
+    endpoints of peers or of a router to connect to; ``lease``: seconds after which a
+    silent peer is declared gone (keep-alives are sent four times per lease).
+
+    ``config``: path of a Zenoh configuration file (Zenoh's own format; the name ends in
+    ``.json5``, ``.json`` or ``.yaml``), loaded with ``zenoh.Config.from_file``.  Its
+    settings are kept (user/password in ``transport/auth/usrpwd``, TLS certificates in
+    ``transport/link/tls``, ``access_control``, ...), then the keys above are set on top
+    of them: ``mode``, ``scouting/multicast/enabled``, ``scouting/gossip/enabled``,
+    ``listen/endpoints``, ``connect/endpoints``, ``transport/link/tx/lease`` and
+    ``transport/link/tx/keep_alive`` in the file are replaced.  A missing file raises
+    ``FileNotFoundError``; a file Zenoh rejects raises ``ValueError`` and a session Zenoh
+    cannot open with it ``RuntimeError``, both naming the path and giving Zenoh's message.
+    Note that a peer refused by the other side (wrong password, certificate not trusted)
+    does not make this call fail: Zenoh logs the refusal, retries, and no message passes.
     """
     if isinstance(listen, str) or isinstance(connect, str):
         raise TypeError("listen and connect are lists of endpoints, e.g. ['tcp/127.0.0.1:0']")
     if not (isinstance(lease, (int, float)) and 0.01 <= lease <= 3600):
         raise ValueError(f"lease must be a number of seconds in [0.01, 3600], got {lease!r}")
+    path = None if config is None else os.fsdecode(config)
     zenoh = _zenoh()
-    config = zenoh.Config()
+    zconfig = zenoh.Config() if path is None else _load_config(zenoh, path)
     for k, v in (("mode", "peer"), ("scouting/multicast/enabled", False), ("scouting/gossip/enabled", False),
                  ("listen/endpoints", list(listen)), ("connect/endpoints", list(connect)),
                  ("transport/link/tx/lease", int(round(lease * 1000))), ("transport/link/tx/keep_alive", 4)):
-        config.insert_json5(k, json.dumps(v))
+        zconfig.insert_json5(k, json.dumps(v))
     before = _socket_inodes()
-    z = zenoh.open(config)
+    if path is None:
+        z = zenoh.open(zconfig)
+    else:
+        try:
+            z = zenoh.open(zconfig)
+        except zenoh.ZError as exc:
+            raise RuntimeError(f"cannot open a Zenoh session with the configuration file {path!r}: "
+                               f"{_zenoh_message(exc)}") from None
     ports = iter(sorted(_listening_ports(_socket_inodes() - before)))
     endpoints = []
     for e in listen:
