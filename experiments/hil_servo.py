@@ -120,35 +120,33 @@ def deviation(a: pd.DataFrame, b: pd.DataFrame) -> float:
     return float(np.max(np.abs(a["value"].to_numpy() - np.interp(a["time"], b["time"], b["value"]))))
 
 
-def _by_seq(replies: Any) -> dict[int, float]:
-    """``{seq: response (s)}`` of a :meth:`RemoteNode.replies` frame (or such a dict, or
-    a sequence of response times, one per request in order)."""
-    if isinstance(replies, pd.DataFrame):
-        return dict(zip(replies["seq"].astype(int).tolist(), replies["response"].astype(float).tolist()))
-    if isinstance(replies, dict):
-        return {int(k): float(v) for k, v in replies.items()}
-    return {i: float(d) for i, d in enumerate(replies)}
-
-
-def run_replay(until: float, replies: Any, *, seed: int = 0):
-    """The all-simulated networked servo with the controller answering the *k*-th
-    measurement it receives after the response time (s) measured for request ``seq == k``
-    in a HIL run (*replies*: the remote's :meth:`~netcosim.transport.remote.RemoteNode.replies`
-    frame, a ``{seq: response}`` dict, or response times in request order), and not at all
-    when that request got no reply: what the HIL run must reproduce."""
+def run_replay(until: float, requests: Any, *, seed: int = 0):
+    """The all-simulated networked servo replaying a HIL run's timing: the controller
+    computes for the *k*-th measurement it receives only if request ``seq == k`` was
+    published to the process, and answers it after the measured response time if a reply
+    was applied (none otherwise).  *requests*: the remote's
+    :meth:`~netcosim.transport.remote.RemoteNode.requests` frame, or response times (s)
+    of requests all published and replied, in order.  What the HIL run must reproduce."""
     from controllers.pid import PID
 
     from .servo import square_wave
+    if isinstance(requests, pd.DataFrame):
+        seen = requests[requests["outcome"].isin(["replied", "expired", "open"])]
+        plan = dict(zip(seen["seq"].astype(int).tolist(), seen["response"].astype(float).tolist()))
+    else:
+        plan = {i: float(d) for i, d in enumerate(requests)}
     sim, net = networked_servo.build("csma_cd", 0.0, seed=seed)
     iface = net.interface("controller")
-    pid, ref, delays = PID(h=networked_servo.PERIOD), square_wave(1.0, 1.0), _by_seq(replies)
+    pid, ref = PID(h=networked_servo.PERIOD), square_wave(1.0, 1.0)
     k = iter(range(1 << 62))
 
     def answer(msg):
+        d = plan.get(next(k))
+        if d is None:                   # never published to the process
+            return
         t_sample, y = msg.payload
         u = pid.compute(ref(t_sample), y)
-        d = delays.get(next(k))
-        if d is not None:
+        if not np.isnan(d):
             sim.call_in(d, lambda: iface.send(msg.src, (t_sample, u), FRAME_BITS))
 
     iface.handlers[:] = [answer]
@@ -157,12 +155,12 @@ def run_replay(until: float, replies: Any, *, seed: int = 0):
     return sim
 
 
-def tolerance(until: float, replies: Any) -> float:
+def tolerance(until: float, requests: Any) -> float:
     """How far the HIL output may lie from the all-simulated one (rad): 1.5 times the
     deviation the measured response times alone explain (the all-simulated run replayed
     with them, :func:`run_replay`, against the nominal one), plus 1e-4 rad."""
     nominal = servo_output(run_simulated(until))
-    replay = servo_output(run_replay(until, replies))
+    replay = servo_output(run_replay(until, requests))
     return 1.5 * deviation(replay, nominal) + 1e-4
 
 
@@ -175,7 +173,7 @@ def main(outdir: str = "results/hil_servo", quick: bool = False, spawn: bool = T
     until = 2.0 if quick else 5.0
     hil = run_hil(until, spawn=spawn)
     ref = servo_output(run_simulated(until))
-    tol = tolerance(until, hil.remote.replies())
+    tol = tolerance(until, hil.remote.requests())
     dev = deviation(hil.output(), ref)
     summary = pd.DataFrame([{"until": until, "deviation": dev, "tolerance": tol, **hil.summary()}])
     summary.to_parquet(out / "summary.parquet", index=False)

@@ -129,14 +129,14 @@ class RemoteRun:
     def save(self, out: Any) -> None:
         """Write into the directory *out* (created if needed): the lateness histogram
         (``lateness.parquet``), the trace tables ``hil`` (``hil_events.parquet``) and
-        ``hil_replies`` (``hil_replies.parquet``), the per-remote counters
+        ``hil_requests`` (``hil_requests.parquet``), the per-remote counters
         (``remotes.parquet``) and the whole trace (``trace/``, ``Trace.to_parquet``)."""
         from pathlib import Path
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         self.lateness.to_pandas().to_parquet(out / "lateness.parquet", index=False)
         self.sim.trace.frame("hil").to_parquet(out / "hil_events.parquet", index=False)
-        self.sim.trace.frame("hil_replies").to_parquet(out / "hil_replies.parquet", index=False)
+        self.sim.trace.frame("hil_requests").to_parquet(out / "hil_requests.parquet", index=False)
         self.per_remote().to_parquet(out / "remotes.parquet", index=False)
         self.sim.trace.to_parquet(out / "trace")
 

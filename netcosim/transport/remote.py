@@ -66,7 +66,7 @@ from . import wire
 from .realtime import RealtimeClock
 from .session import Session, key
 
-__all__ = ["RemoteNode", "RemotePlantIO", "RemoteFault", "HIL_COLUMNS", "REPLY_COLUMNS", "LOSS_POLICIES",
+__all__ = ["RemoteNode", "RemotePlantIO", "RemoteFault", "HIL_COLUMNS", "REQUEST_COLUMNS", "OUTCOMES", "LOSS_POLICIES",
            "DROP_REASONS", "LOSS_EVENTS"]
 
 log = logging.getLogger("netcosim.transport")
@@ -75,9 +75,14 @@ log = logging.getLogger("netcosim.transport")
 #: (aggregated rows: ``count`` events of this kind since the previous row of the same
 #: event and detail)
 HIL_COLUMNS = ("time", "node", "event", "detail", "count")
-#: columns of the trace table ``hil_replies``: the request's simulated time (s), remote,
-#: its seq, the network index it came from (LOCAL for a sample), the response time (s)
-REPLY_COLUMNS = ("time", "node", "seq", "source", "response")
+#: columns of the trace table ``hil_requests``, one row per request: its simulated time (s),
+#: remote, seq, the network index it came from (LOCAL for a sample), its outcome (one of
+#: :data:`OUTCOMES`) and the response time (s; NaN unless a reply was applied)
+REQUEST_COLUMNS = ("time", "node", "seq", "source", "outcome", "response")
+#: what became of a request: ``replied`` (a reply applied in time), ``expired`` (published,
+#: no reply in time), ``open`` (published, no reply when the run ended), ``overrun`` and
+#: ``unserved`` (not published: ``max_outstanding`` were waiting / no process claimed the node)
+OUTCOMES = ("replied", "expired", "open", "overrun", "unserved")
 #: built-in loss policies (or pass a callable ``fn(remote, why)``)
 LOSS_POLICIES = ("hold", "zero")
 #: why a reply is a lost one (what a loss policy is called with)
@@ -94,7 +99,8 @@ DROP_REASONS = ("short", "magic", "version", "kind", "oversized", "length", "ses
 #: aggregation of the ``hil`` rows: at most one row per event and detail per this many
 #: simulated seconds (plus one at the end)
 AGGREGATE = 0.1
-_ANSWERED_MEMORY = 4096
+#: at most this many answered requests are remembered (a reply to an older one is ``stale``)
+_ANSWERED_MEMORY = 65536
 
 
 class RemoteFault(NetcosimError):
@@ -106,9 +112,9 @@ def _hil_frame(df):
     return df
 
 
-def _reply_frame(df):
+def _request_frame(df):
     df["time"] = df["time"] * RESOLUTION
-    df["response"] = df["response"] * RESOLUTION
+    df["response"] = df["response"].where(df["response"] >= 0) * RESOLUTION
     return df
 
 
@@ -188,7 +194,7 @@ class _Remote:
         self._claimed: set[int] = set()         # seqs a reply is already on its way for (Zenoh threads)
         self._seq = 0
         self._requests: dict[int, _Request] = {}    # outstanding (pending or expired), publication order
-        self._answered: deque[int] = deque(maxlen=_ANSWERED_MEMORY)
+        self._answered: deque[tuple[int, int]] = deque()  # (seq, tick of its request), oldest first
         self._answered_set: set[int] = set()
         self._issued = 0
         self._deadline_ticks = to_ticks(self.deadline, "deadline (s)")
@@ -198,8 +204,8 @@ class _Remote:
         self._warned: set[str] = set()
         self._rows = sim.trace.table("hil", HIL_COLUMNS, categorical=("node", "event", "detail"),
                                      transform=_hil_frame, dtypes=("int", None, None, None, "int"))
-        self._replies = sim.trace.table("hil_replies", REPLY_COLUMNS, categorical=("node",), transform=_reply_frame,
-                                        dtypes=("int", None, "int", "int", "int"))
+        self._outcomes = sim.trace.table("hil_requests", REQUEST_COLUMNS, categorical=("node", "outcome"),
+                                         transform=_request_frame, dtypes=("int", None, "int", "int", None, "int"))
         sim._finalizers.append(self.flush)
         self._session = session
         self._pub = session.publisher(self.keys["rx"], encoding=wire.ENCODING)
@@ -356,10 +362,12 @@ class _Remote:
         if not self.connected.is_set():     # decided on the Zenoh thread: no claimant now
             self.unserved += 1
             self._count("unserved")
+            self._outcomes.append((now, self.name, seq, source, "unserved", -1))
             return
         if len(self._requests) >= self.max_outstanding:
             self.overruns += 1
             self._count("overrun")
+            self._outcomes.append((now, self.name, seq, source, "overrun", -1))
             self._lost("overrun")
             return
         deadline = now + self._deadline_ticks
@@ -370,8 +378,11 @@ class _Remote:
         self.clock.expect_reply()
 
     def _forget(self, now: int) -> None:
-        """Forget expired requests older than ``stale_after``: they no longer count as
-        outstanding, and a reply to one is ``stale``."""
+        """Forget requests older than ``stale_after``: expired ones no longer count as
+        outstanding, and a reply to one, answered or not, is ``stale``."""
+        answered, horizon = self._answered, now - self._stale_ticks
+        while answered and (answered[0][1] <= horizon or len(answered) > _ANSWERED_MEMORY):
+            self._answered_set.discard(answered.popleft()[0])
         reqs = self._requests
         while reqs:
             seq, req = next(iter(reqs.items()))
@@ -386,6 +397,7 @@ class _Remote:
             return
         req.expired = True
         self.expired += 1
+        self._outcomes.append((req.ticks, self.name, seq, req.source, "expired", -1))
         self._count("expired")
         self._lost("expired")
 
@@ -406,9 +418,7 @@ class _Remote:
         if req is None:                 # forgotten meanwhile
             self._drop(self._classify(seq))
             return
-        if len(self._answered) == _ANSWERED_MEMORY:
-            self._answered_set.discard(self._answered[0])
-        self._answered.append(seq)
+        self._answered.append((seq, req.ticks))
         self._answered_set.add(seq)
         if req.expired:
             self._drop("late")
@@ -417,7 +427,7 @@ class _Remote:
         self.clock.reply_arrived()
         self.received += 1
         now = self.sim.now_ticks
-        self._replies.append((req.ticks, self.name, seq, req.source, now - req.ticks))
+        self._outcomes.append((req.ticks, self.name, seq, req.source, "replied", now - req.ticks))
         self._apply_to(m.node, m.values)
 
     def _ended(self, m: wire.Message) -> None:
@@ -468,17 +478,20 @@ class _Remote:
                 "overruns": self.overruns, "unserved": self.unserved, "after_end": self.after_end,
                 "dropped": dict(self.dropped), "refused": len(self.refused)}
 
-    def replies(self):
-        """One row per applied reply (trace table ``hil_replies`` of this remote):
-        ``time`` of the request (s), ``seq``, ``source`` (network index, or LOCAL for a
-        sample), ``response`` (s, simulated: request published to reply injected)."""
-        df = self.sim.trace.frame("hil_replies")
-        return df[df["node"] == self.name].reset_index(drop=True)
+    def requests(self):
+        """One row per request of this remote (trace table ``hil_requests``), in the
+        order of ``seq``: ``time`` of the request (s), ``seq``, ``source`` (network index,
+        or LOCAL for a sample), ``outcome`` (:data:`OUTCOMES`), ``response`` (s, simulated:
+        request published to reply injected; NaN unless ``replied``)."""
+        df = self.sim.trace.frame("hil_requests")
+        df = df[df["node"] == self.name]
+        return df.sort_values(["time", "seq"], kind="stable").reset_index(drop=True)
 
     def response_times(self) -> np.ndarray:
         """The response time (s, simulated) of every applied reply, in the order of the
-        requests (``replies()["response"]``)."""
-        return self.replies().sort_values("seq", kind="stable")["response"].to_numpy()
+        requests."""
+        df = self.requests()
+        return df.loc[df["outcome"] == "replied", "response"].to_numpy()
 
     def wait_connected(self, timeout: float) -> bool:
         """Block up to *timeout* s until a process has claimed the node; True if one has."""
@@ -486,7 +499,13 @@ class _Remote:
 
     def finish(self) -> None:
         """Tell the process the run is over (an ``END`` message on ``rx``); call after
-        ``sim.run``, also after a failed one."""
+        ``sim.run``, also after a failed one.  Requests still waiting are recorded
+        ``open``."""
+        for seq, req in self._requests.items():
+            if not req.expired:
+                self._outcomes.append((req.ticks, self.name, seq, req.source, "open", -1))
+                req.expired = True
+        self.flush()
         self._pub.put(wire.encode(wire.END, 0, self.session_id, self.peer or 0, self.sim.now_ticks, self._seq))
 
     def drain(self, timeout: float = 5.0, quiet: float = 0.5) -> int:

@@ -113,12 +113,14 @@ class Session:
         self.endpoints = endpoints
         self.lease = lease
 
-    def publisher(self, key_expr: str):
+    def publisher(self, key_expr: str, encoding: str | None = None):
         """A Zenoh publisher on *key_expr* (reliable, blocking on congestion, express:
-        no batching, as every message is latency-critical)."""
+        no batching, as every message is latency-critical), putting every message with
+        the Zenoh *encoding* (a string such as ``"application/octet-stream;schema"``)."""
         zenoh = _zenoh()
+        kw = {} if encoding is None else {"encoding": zenoh.Encoding(encoding)}
         return self.zenoh.declare_publisher(key_expr, congestion_control=zenoh.CongestionControl.BLOCK,
-                                            express=True)
+                                            express=True, **kw)
 
     def subscribe(self, key_expr: str, callback: Callable[[bytes], None]):
         """Call ``callback(payload bytes)`` on a Zenoh thread for every sample on *key_expr*."""
@@ -134,6 +136,13 @@ class Session:
         zenoh = _zenoh()
         return self.zenoh.liveliness().declare_subscriber(
             key_expr, lambda s: callback(s.kind == zenoh.SampleKind.PUT), history=True)
+
+    def watch_keys(self, key_expr: str, callback: Callable[[str, bool], None]):
+        """Like :meth:`watch` for a key expression with wildcards: ``callback(key, alive)``
+        with the key of the token that appeared or disappeared."""
+        zenoh = _zenoh()
+        return self.zenoh.liveliness().declare_subscriber(
+            key_expr, lambda s: callback(str(s.key_expr), s.kind == zenoh.SampleKind.PUT), history=True)
 
     def close(self) -> None:
         """Close the session (idempotent): undeclares everything declared on it."""
