@@ -13,33 +13,45 @@ from netcosim.transport.realtime import LATENESS_EDGES, RealtimeClock
 
 
 def test_encode_layout_is_the_documented_one():
-    b = wire.encode(wire.DATA, 3, 7, 10_000_000_000, (1.5, -2.0))
-    assert len(b) == 24 + 16
-    assert b[:4] == b"NCSM" and b[4] == 1 and b[5] == wire.DATA
+    b = wire.encode(wire.DATA, 3, 0x0123456789ABCDEF, 0xFEDCBA9876543210, -10_000_000_000, 7, (1.5, -2.0))
+    assert len(b) == 40 + 16 and wire.HEADER.size == 40
+    assert b[:4] == b"NCSM" and b[4] == 2 and b[5] == wire.DATA
     assert struct.unpack_from("<H", b, 6)[0] == 3
-    assert struct.unpack_from("<I", b, 8)[0] == 7
-    assert struct.unpack_from("<q", b, 12)[0] == 10_000_000_000
-    assert struct.unpack_from("<I", b, 20)[0] == 2
-    assert struct.unpack_from("<2d", b, 24) == (1.5, -2.0)
+    assert struct.unpack_from("<Q", b, 8)[0] == 0x0123456789ABCDEF
+    assert struct.unpack_from("<Q", b, 16)[0] == 0xFEDCBA9876543210
+    assert struct.unpack_from("<q", b, 24)[0] == -10_000_000_000
+    assert struct.unpack_from("<I", b, 32)[0] == 7
+    assert struct.unpack_from("<I", b, 36)[0] == 2
+    assert struct.unpack_from("<2d", b, 40) == (1.5, -2.0)
+
+
+def test_every_header_field_is_naturally_aligned():
+    # what lets a C struct of the same fields have no padding (sizeof 40)
+    offsets = {"magic": (0, 1), "version": (4, 1), "kind": (5, 1), "node": (6, 2), "session": (8, 8),
+               "peer": (16, 8), "ticks": (24, 8), "seq": (32, 4), "count": (36, 4)}
+    for off, size in offsets.values():
+        assert off % size == 0
+    assert struct.calcsize("@4sBBHQQqII") == struct.calcsize("<4sBBHQQqII") == 40   # native alignment: no padding
 
 
 def test_round_trip_keeps_every_field_bit_for_bit():
     values = (0.1, -0.0, 1e308, 5e-324, float("inf"))
-    m = wire.decode(wire.encode(wire.DATA, 65535, 2**32 + 5, -42, values))
-    assert m == wire.Message(wire.DATA, 65535, 5, -42, values)
+    m = wire.decode(wire.encode(wire.DATA, 65535, 2**64 - 1, 1, -42, 2**32 + 5, values))
+    assert m == wire.Message(wire.DATA, 65535, 2**64 - 1, 1, -42, 5, values)
     assert struct.pack("<5d", *m.values) == struct.pack("<5d", *values)
-    assert wire.decode(wire.encode(wire.END, 0, 0, 0)).values == ()
+    assert wire.decode(wire.encode(wire.END, 0, 1, 0, 0, 0)).values == ()
+    assert not wire.finite((1.0, float("nan"))) and not wire.finite((float("-inf"),)) and wire.finite((1.0, -0.0))
 
 
 @pytest.mark.parametrize("data, reason", [
     (b"", "short"),
-    (b"NCSM\x01", "short"),
-    (b"XXXX" + wire.encode(wire.DATA, 0, 0, 0)[4:], "magic"),
-    (b"NCSM\x02" + wire.encode(wire.DATA, 0, 0, 0)[5:], "version"),
-    (b"NCSM\x01\x09" + wire.encode(wire.DATA, 0, 0, 0)[6:], "kind"),
-    (wire.HEADER.pack(b"NCSM", 1, wire.DATA, 0, 0, 0, wire.MAX_VALUES + 1), "oversized"),
-    (wire.encode(wire.DATA, 0, 0, 0, (1.0,))[:-1], "length"),
-    (wire.encode(wire.DATA, 0, 0, 0, (1.0,)) + b"\0", "length"),
+    (b"NCSM\x02", "short"),
+    (b"XXXX" + wire.encode(wire.DATA, 0, 1, 1, 0, 0)[4:], "magic"),
+    (b"NCSM\x01" + wire.encode(wire.DATA, 0, 1, 1, 0, 0)[5:], "version"),
+    (b"NCSM\x02\x09" + wire.encode(wire.DATA, 0, 1, 1, 0, 0)[6:], "kind"),
+    (wire.HEADER.pack(b"NCSM", 2, wire.DATA, 0, 1, 1, 0, 0, wire.MAX_VALUES + 1), "oversized"),
+    (wire.encode(wire.DATA, 0, 1, 1, 0, 0, (1.0,))[:-1], "length"),
+    (wire.encode(wire.DATA, 0, 1, 1, 0, 0, (1.0,)) + b"\0", "length"),
 ])
 def test_decode_rejects_with_a_reason(data, reason):
     with pytest.raises(wire.WireError, match=reason) as e:
@@ -49,11 +61,17 @@ def test_decode_rejects_with_a_reason(data, reason):
 
 def test_encode_rejects_out_of_range_fields():
     with pytest.raises(ValueError, match="kind"):
-        wire.encode(7, 0, 0, 0)
+        wire.encode(7, 0, 1, 1, 0, 0)
     with pytest.raises(ValueError, match="node index"):
-        wire.encode(wire.DATA, 70000, 0, 0)
+        wire.encode(wire.DATA, 70000, 1, 1, 0, 0)
+    with pytest.raises(ValueError, match="session id"):
+        wire.encode(wire.DATA, 0, 2**64, 1, 0, 0)
+    with pytest.raises(ValueError, match="peer id"):
+        wire.encode(wire.DATA, 0, 1, -1, 0, 0)
+    with pytest.raises(ValueError, match="ticks"):
+        wire.encode(wire.DATA, 0, 1, 1, 2**63, 0)
     with pytest.raises(ValueError, match="at most 1024"):
-        wire.encode(wire.DATA, 0, 0, 0, [0.0] * 1025)
+        wire.encode(wire.DATA, 0, 1, 1, 0, 0, [0.0] * 1025)
 
 
 class FakeClock:
@@ -317,8 +335,9 @@ class FakeSession:
     def __init__(self):
         self.sent: list[bytes] = []
         self.callbacks: dict[str, object] = {}
+        self.zenoh = self
 
-    def publisher(self, key_expr):
+    def publisher(self, key_expr, encoding=None):
         session = self
 
         class Pub:
@@ -328,16 +347,73 @@ class FakeSession:
 
     def subscribe(self, key_expr, callback):
         self.callbacks[key_expr] = callback
-        return object()
+        return _Decl()
 
-    def watch(self, key_expr, callback):
+    def watch_keys(self, key_expr, callback):
         self.callbacks[key_expr] = callback
-        return object()
+        return _Decl()
+
+    def token(self, key_expr):
+        self.callbacks[key_expr] = None
+        return _Decl()
+
+    def declare_queryable(self, key_expr, callback):
+        self.callbacks[key_expr] = callback
+        return _Decl()
 
 
-def _plant_io(extra, reply_after=0.0003, factor=1.0):
-    """A DC servo sampled every 10 ms by RemotePlantIO over a fake session; a fake process
-    answers every sample *reply_after* s (wall clock) later with u = 2 * (last value)."""
+class _Decl:
+    def undeclare(self):
+        pass
+
+
+PEER = 0xAB
+
+
+class FakeProcess:
+    """A process answering each request of a remote over a :class:`FakeSession`:
+    ``answer(m)`` returns ``[(delay s, bytes), ...]`` to deliver on ``tx`` that many
+    wall-clock seconds after the request was published (None: the correct reply, u = 2 *
+    the last value, after 0.3 ms).  Its ``wait`` drives a :class:`FakeClock`."""
+
+    def __init__(self, session, fake, answer=None, reply_after=0.0003):
+        self.session, self.fake, self.answer, self.reply_after = session, fake, answer, reply_after
+        self.seen = 0
+        self.due: list[tuple[float, bytes]] = []
+        self.requests: list = []
+        self.tx = None
+
+    def reply(self, m, values, **fields):
+        f = dict(kind=wire.DATA, node=m.node, session=m.session, peer=PEER, ticks=m.ticks, seq=m.seq)
+        f.update(fields)
+        return wire.encode(f["kind"], f["node"], f["session"], f["peer"], f["ticks"], f["seq"], values)
+
+    def wait(self, inbox, timeout):
+        sent = self.session.sent
+        while self.seen < len(sent):
+            m = wire.decode(sent[self.seen])
+            self.seen += 1
+            if m.kind != wire.DATA:
+                continue
+            self.requests.append(m)
+            out = [(self.reply_after, self.reply(m, (2.0 * m.values[-1],)))] if self.answer is None else self.answer(m)
+            self.due += [(self.fake.t + d, b) for d, b in out]
+            self.due.sort(key=lambda x: x[0])
+        end = self.fake.t + timeout
+        while self.due and self.due[0][0] <= end:
+            t, data = self.due.pop(0)
+            self.fake.t = max(self.fake.t, t)
+            self.tx(data)                   # the "Zenoh thread": filters, may post to the inbox
+            if not inbox.empty():
+                return inbox.get()
+        self.fake.t = end
+        return None
+
+
+def _plant_io(extra, reply_after=0.0003, factor=1.0, answer=None, **options):
+    """A DC servo sampled every 10 ms by RemotePlantIO over a fake session, claimed by a
+    fake process that answers every sample *reply_after* s (wall clock) later with
+    u = 2 * (last value), or as *answer* says (:class:`FakeProcess`)."""
     from netcosim import RK4
     from netcosim.transport.remote import RemotePlantIO
     from plants.dc_servo import DCServo
@@ -345,20 +421,12 @@ def _plant_io(extra, reply_after=0.0003, factor=1.0):
     plant = sim.plant(DCServo(), x0=[0.5, 0.0], name="servo", integrator=RK4(dt=1e-3), log_interval=None)
     fake = FakeClock(0.0)
     session = FakeSession()
-    answered = [0]
-
-    def wait(inbox, timeout):
-        # the process answers each new sample reply_after s after it was published
-        if len(session.sent) > answered[0] and timeout >= reply_after:
-            m = wire.decode(session.sent[answered[0]])
-            answered[0] += 1
-            fake.t += reply_after
-            session.callbacks["netcosim/r1/servo/tx"](wire.encode(wire.DATA, 0, m.seq, m.ticks, (2.0 * m.values[-1],)))
-            return inbox.get()
-        fake.t += timeout
-        return None
+    proc = FakeProcess(session, fake, answer, reply_after)
     io = RemotePlantIO(sim, plant, session, run="r1", period=0.01, outputs=0, inputs=0, extra=extra,
-                       factor=factor, clock=fake, wait=wait)
+                       factor=factor, clock=fake, wait=proc.wait, **options)
+    proc.tx = session.callbacks["netcosim/r1/servo/tx"]
+    session.callbacks["netcosim/r1/servo/alive/*"](f"netcosim/r1/servo/alive/{PEER:016x}", True)   # the claim
+    io.proc = proc
     return sim, plant, io, session
 
 
@@ -374,15 +442,15 @@ def test_remote_plant_io_sends_the_outputs_then_the_extra_values():
     assert calls == [0.0, 0.01, 0.02, 0.03]
     assert [m.ticks for m in msgs] == [0, 10_000_000_000, 20_000_000_000, 30_000_000_000]
     assert [m.seq for m in msgs] == [0, 1, 2, 3]
+    assert {(m.node, m.session, m.peer) for m in msgs} == {(wire.LOCAL, io.session_id, PEER)}
     # first the selected output (the servo angle, 0.5 rad at t = 0), then extra(t)'s values
     assert msgs[0].values == (0.5, 0.0, 0.0, -1.0)
     assert msgs[1].values[1:] == (0.01, 0.1, -1.0)
-    assert io.published == 4 and io.received == 4 and not io.rejected
+    assert io.published == 4 and io.received == 4 and not io.dropped
     # every reply (u = 2 * last value = -2) was written to the input 0.3 ms after its sample
     assert plant.u[0] == -2.0
-    sig = sim.trace.signals()
-    resp = sig[(sig["source"] == "servo.remote") & (sig["signal"] == "response")]["value"].to_numpy()
-    assert resp == pytest.approx([0.0003] * 4, abs=1e-12)
+    assert io.response_times() == pytest.approx([0.0003] * 4, abs=1e-12)
+    assert list(io.requests()["outcome"]) == ["replied"] * 4
 
 
 def test_remote_plant_io_without_extra_sends_the_outputs_only():
@@ -395,3 +463,95 @@ def test_remote_plant_io_extra_must_be_callable():
     from netcosim.errors import ConfigurationTypeError
     with pytest.raises(ConfigurationTypeError, match=r"extra must be None or a callable .* got \[1\.0\]"):
         _plant_io([1.0])
+
+
+def _faulty(m, proc_reply):
+    """The replies of a misbehaving process to request *m* (seq k): the fault of each k."""
+    k, ok = m.seq, proc_reply(m, (1.0,))
+    return {0: [(0.001, ok)],
+            1: [(0.001, ok), (0.002, ok)],                                  # duplicate
+            2: [(0.001, proc_reply(m, (float("nan"),))), (0.002, ok)],        # NaN first, then a good one in time
+            3: [(0.001, proc_reply(m, (1.0, 2.0)))],                         # wrong length: expires
+            4: [(0.015, ok)],                                                 # after the 10 ms deadline: late
+            5: [(0.001, proc_reply(m, (1.0,), seq=m.seq + 100))],            # unsolicited, then expires
+            6: [(0.001, proc_reply(m, (1.0,), ticks=m.ticks + 1))],          # names another request: mismatch
+            # forged by others before the process's own reply: dropped, the reply applied
+            7: [(0.001, proc_reply(m, (5.0,), session=m.session ^ 1)), (0.002, ok)],   # another session
+            8: [(0.001, proc_reply(m, (5.0,), peer=PEER + 1)), (0.002, ok)],           # another process
+            9: [(0.001, proc_reply(m, (1.0,), node=3))],                     # not to LOCAL: expires
+            10: [(0.001, b"NCSM"), (0.002, ok)],                              # short
+            11: [(0.001, ok), (1.5, ok)],                                     # replayed 1.5 s later: stale
+            }.get(k, [(0.001, ok)])
+
+
+def test_replies_are_matched_to_outstanding_requests_and_everything_else_is_dropped_by_reason():
+    sim, plant, io, session = _plant_io(None, answer=lambda m: _faulty(m, io.proc.reply))
+    sim.run(until=1.7)
+    c = io.counters()
+    assert c["dropped"] == {"duplicate": 1, "nonfinite": 1, "values": 1, "late": 1, "unsolicited": 1,
+                            "mismatch": 1, "session": 1, "peer": 1, "destination": 1, "short": 1, "stale": 1}
+    r = io.requests().set_index("seq")
+    assert list(r.loc[[3, 4, 5, 6, 9], "outcome"]) == ["expired"] * 5
+    assert list(r.loc[[2, 7, 8, 10, 11], "outcome"]) == ["replied"] * 5
+    assert r.loc[2, "response"] == pytest.approx(0.002) and r.loc[11, "response"] == pytest.approx(0.001)
+    assert c["expired"] == 5 and c["received"] == c["published"] - 5 and c["published"] == 170
+    assert c["overruns"] == 0 and c["unserved"] == 0
+    ev = io.events()
+    assert ev.loc[ev["event"] == "dropped", "count"].sum() == 11
+    assert ev.loc[ev["event"] == "expired", "count"].sum() == 5
+    # the command written is only ever what was asked: 2 * the sample, never the forged 5.0
+    assert plant.u[0] == 1.0
+
+
+def test_a_silent_process_fills_the_outstanding_requests_then_overruns_are_counted():
+    sim, plant, io, session = _plant_io(None, answer=lambda m: [] if m.seq >= 5 else [(0.001, io.proc.reply(m, (1.0,)))])
+    sim.run(until=0.2)
+    c = io.counters()
+    # max_outstanding = ceil(deadline / period) + 1 = 2: requests 5 and 6 expire, 7..19 are overruns
+    assert io.max_outstanding == 2
+    assert (c["published"], c["received"], c["expired"], c["overruns"]) == (7, 5, 2, 13)
+    assert [m.seq for m in io.proc.requests] == list(range(7))      # the process never saw more
+    # forgotten after stale_after (100 deadlines = 1 s): requests flow again
+    sim.run(until=1.2)
+    assert io.counters()["published"] > 7
+
+
+def test_loss_policy_callable_and_abort_on():
+    from netcosim.transport.remote import RemoteFault
+    calls = []
+    sim, plant, io, session = _plant_io(None, answer=lambda m: [] if m.seq == 3 else [(0.001, io.proc.reply(m, (1.0,)))],
+                                        loss_policy=lambda remote, why: calls.append((remote.sim.now, why)))
+    sim.run(until=0.1)
+    assert calls == [(pytest.approx(0.04), "expired")]
+    sim, plant, io, session = _plant_io(None, answer=lambda m: [(0.001, io.proc.reply(m, (float("nan"),)))]
+                                        if m.seq == 3 else [(0.001, io.proc.reply(m, (1.0,)))],
+                                        abort_on={"nonfinite"})
+    with pytest.raises(RemoteFault, match="nonfinite"):
+        sim.run(until=0.1)
+    assert sim.now == pytest.approx(0.04)       # folded at the next request, 10 ms later
+    ev = io.events()
+    assert list(ev.loc[ev["event"] == "aborted", "detail"]) == ["a reply was dropped (nonfinite)"]
+
+
+def test_a_second_claimant_is_refused_and_told_so():
+    sim, plant, io, session = _plant_io(None)
+    session.callbacks["netcosim/r1/servo/alive/*"](f"netcosim/r1/servo/alive/{PEER + 1:016x}", True)
+    refused = wire.decode(session.sent[-1])
+    assert (refused.kind, refused.peer, refused.session) == (wire.REFUSED, PEER + 1, io.session_id)
+    sim.run(until=0.05)
+    assert io.refused == [PEER + 1] and io.peer == PEER
+    ev = io.events()
+    assert list(ev["event"][:2]) == ["alive", "refused"]
+    assert io.counters()["received"] == 5
+
+
+def test_remote_options_are_checked():
+    from netcosim.errors import ConfigurationError
+    with pytest.raises(ConfigurationError, match="loss_policy"):
+        _plant_io(None, loss_policy="drop")
+    with pytest.raises(ConfigurationError, match="abort_on"):
+        _plant_io(None, abort_on={"nan"})
+    with pytest.raises(ConfigurationError, match="abort_on"):
+        _plant_io(None, abort_on="nonfinite")
+    with pytest.raises(ConfigurationError, match="deadline"):
+        _plant_io(None, deadline=-1.0)

@@ -16,8 +16,12 @@ this session, once, before the request's deadline (``deadline`` s after the requ
 default: the period).  Everything else is dropped and counted by reason (``dropped``,
 :data:`DROP_REASONS`) and recorded in aggregated rows of the trace table ``hil``; a
 request that got no reply in time is ``expired`` and a lost reply under the loss
-policy.  At most ``max_outstanding`` requests wait for a reply; a request beyond that is
-not published (an ``overrun``, a lost reply too).  Checks that need no simulated time
+policy.  At most ``max_outstanding`` requests may wait in the process: requests it has
+not answered in any way (in time, late or malformed) since the newest one it did answer;
+a request beyond that is not published (an ``overrun``, a lost reply too), so a process
+slower than the period is never handed more than it can answer.  A request unanswered
+for ``stale_after`` s is forgotten (a reply to it is then ``stale``), so a silent process
+is offered requests again from time to time.  Checks that need no simulated time
 (format, session, peer, values, and replies to requests that are not outstanding) run on
 the Zenoh thread, so a flood of bad messages never reaches the simulation's event queue.
 
@@ -196,6 +200,7 @@ class _Remote:
         self._requests: dict[int, _Request] = {}    # outstanding (pending or expired), publication order
         self._answered: deque[tuple[int, int]] = deque()  # (seq, tick of its request), oldest first
         self._answered_set: set[int] = set()
+        self._heard = -1        # tick of the newest request the process answered in any way (Zenoh threads too)
         self._issued = 0
         self._deadline_ticks = to_ticks(self.deadline, "deadline (s)")
         self._stale_ticks = to_ticks(self.stale_after, "stale_after (s)")
@@ -227,9 +232,14 @@ class _Remote:
             return
         if m.session != self.session_id:
             self._zdrop("session")
-        elif self.peer is None or m.peer != self.peer:
+            return
+        if self.peer is None or m.peer != self.peer:
             self._zdrop("peer")
-        elif m.kind == wire.END:
+            return
+        req = self._requests.get(m.seq)
+        if req is not None and req.ticks > self._heard:
+            self._heard = req.ticks         # the process got this far, whatever its reply is worth
+        if m.kind == wire.END:
             self.clock.post(self._ended, m)
         elif m.kind != wire.DATA:
             self._zdrop("kind")
@@ -239,7 +249,6 @@ class _Remote:
             self._zdrop(reason)
         else:
             seq = m.seq
-            req = self._requests.get(seq)
             if req is None:
                 self._zdrop(self._classify(seq))
                 return
@@ -348,6 +357,7 @@ class _Remote:
         """Why a reply to *seq*, which is not outstanding, is dropped."""
         if seq in self._answered_set:
             return "duplicate"
+
         age = (self._seq - 1 - seq) & 0xFFFFFFFF
         return "stale" if age < self._issued else "unsolicited"
 
@@ -364,7 +374,7 @@ class _Remote:
             self._count("unserved")
             self._outcomes.append((now, self.name, seq, source, "unserved", -1))
             return
-        if len(self._requests) >= self.max_outstanding:
+        if self._backlog() >= self.max_outstanding:
             self.overruns += 1
             self._count("overrun")
             self._outcomes.append((now, self.name, seq, source, "overrun", -1))
@@ -377,10 +387,21 @@ class _Remote:
         self.published += 1
         self.clock.expect_reply()
 
+    def _backlog(self) -> int:
+        """Requests the process has not answered in any way (in time, late or malformed)
+        since the newest one it did answer: what may still wait in its queue."""
+        n, heard = 0, self._heard
+        for req in reversed(self._requests.values()):
+            if req.ticks <= heard:
+                break
+            n += 1
+        return n
+
     def _forget(self, now: int) -> None:
         """Forget requests older than ``stale_after``: expired ones no longer count as
         outstanding, and a reply to one, answered or not, is ``stale``."""
-        answered, horizon = self._answered, now - self._stale_ticks
+        horizon = now - self._stale_ticks
+        answered = self._answered
         while answered and (answered[0][1] <= horizon or len(answered) > _ANSWERED_MEMORY):
             self._answered_set.discard(answered.popleft()[0])
         reqs = self._requests
@@ -418,6 +439,8 @@ class _Remote:
         if req is None:                 # forgotten meanwhile
             self._drop(self._classify(seq))
             return
+        if req.ticks > self._heard:
+            self._heard = req.ticks
         self._answered.append((seq, req.ticks))
         self._answered_set.add(seq)
         if req.expired:
