@@ -60,29 +60,39 @@ def run_hil_cli(args, *, module, node, messages, timeout=120):
     prints, as two real processes; check that the printed command starts *module* for
     *node* and that both sides counted *messages* messages each way (replies in flight
     at the end count as ``after the end``).  Returns the process's last stdout."""
+    import ast
     import re
     import subprocess
     import sys
+    import tempfile
     from pathlib import Path
     root = Path(__file__).resolve().parent.parent
+    out_dir = tempfile.mkdtemp(prefix="netcosim-hil-")
     env = dict(os.environ, PYTHONPATH=str(root))
     sim_side = subprocess.Popen(
-        [sys.executable, "-m", "netcosim.cli", "hil", *args, "--remote-cmd", f"{sys.executable} -m {module}"],
+        [sys.executable, "-m", "netcosim.cli", "hil", *args, "--out", out_dir,
+         "--remote-cmd", f"{sys.executable} -m {module}"],
         cwd=root, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     remote = None
     try:
         assert sim_side.stdout is not None
         assert sim_side.stdout.readline().strip() == "start the remote side with:"
         cmd = sim_side.stdout.readline().split()
-        assert cmd[1:3] == ["-m", module]
+        assert cmd[0] == sys.executable and cmd[1:3] == ["-m", module]
         assert cmd[cmd.index("--node") + 1] == node
         assert cmd[cmd.index("--connect") + 1].startswith("tcp/127.0.0.1:")
+        assert re.fullmatch(r"[0-9a-f]{16}", cmd[cmd.index("--session") + 1])
         remote = subprocess.Popen(cmd, cwd=root, env=env, stdout=subprocess.PIPE, text=True)
         out, err = sim_side.communicate(timeout=timeout)
         assert sim_side.returncode == 0, err
-        m = re.search(rf"messages to the remote: {messages}, from it: (\d+) \(\+(\d+) after the end\), "
-                      r"rejected: \{\}", out)
-        assert m and int(m[1]) + int(m[2]) == messages, out
+        m = re.search(rf"requests to the remote: {messages} published \(0 overruns, 0 unserved\), replies applied: "
+                      r"(\d+) \(\+(\d+) after the end\), expired: (\d+), dropped: (\{.*?\}), refused claimants: 0",
+                      out)
+        assert m, out
+        late = ast.literal_eval(m[4]).get("late", 0)
+        assert int(m[1]) + int(m[2]) + late == messages and set(ast.literal_eval(m[4])) <= {"late"}, out
+        assert re.search(r"response time \(simulated\): median [0-9.]+ ms, p90 [0-9.]+ ms, p99", out), out
+        assert "trace and counters written to" in out
         r_out, _ = remote.communicate(timeout=30)
         assert f'"received": {messages}, "published": {messages}' in r_out
         return r_out

@@ -25,6 +25,7 @@ from netcosim.transport.client import periodic
 from netcosim.transport.session import key, open_session, zenoh_available
 
 ROOT = Path(__file__).resolve().parent.parent
+SID = 0x5E5510A0C0FFEE01       # the session id of the hand-made simulation side
 needs_zenoh = pytest.mark.skipif(not zenoh_available(), reason="the zenoh extra (eclipse-zenoh) is not installed")
 
 
@@ -104,18 +105,22 @@ def _check_servo(until):
     samples = round(until / 0.010)
     # both sides count the same messages (loss 0): one measurement and one reply per sample
     assert run.remote.published == samples
-    assert run.process == {"received": samples, "published": samples, "rejected": {}, "ended": True}
-    # replies still in flight at the stop time arrive after the run: counted, not applied
-    assert run.remote.received + run.remote.after_end == samples and len(resp) == run.remote.received
-    assert not run.remote.rejected
+    assert run.process == {"received": samples, "published": samples, "dropped": {}, "status": "ended"}
+    assert run.exit_codes == [0]
+    # replies still in flight at the stop time arrive after the run: counted, not applied; a
+    # reply later than the deadline (10 ms, a loaded machine) is dropped as late
+    late = run.remote.dropped.get("late", 0)
+    assert run.remote.received + run.remote.after_end + late == samples and len(resp) == run.remote.received
+    assert set(run.remote.dropped) <= {"late"}
     assert run.sim.now == until
     assert np.all(resp > 0)
     y = run.output()
     # the HIL run is the all-simulated run with the measured response times, bit for bit
-    replay = hs.servo_output(hs.run_replay(until, resp))
+    requests = run.remote.requests()
+    replay = hs.servo_output(hs.run_replay(until, requests))
     assert np.array_equal(y["value"].to_numpy(), replay["value"].to_numpy())
     nominal = hs.servo_output(hs.run_simulated(until))
-    tol = hs.tolerance(until, resp)
+    tol = hs.tolerance(until, requests)
     assert hs.deviation(y, nominal) <= tol
     assert run.lateness.events > 10 * samples
 
@@ -142,9 +147,13 @@ def test_kill_of_the_remote_is_detected_and_the_zero_policy_applies():
     run = hs.run_hil(1.5, loss_policy="zero", kill_at=0.5, lease=0.5)
     assert run.sim.now == 1.5                      # the run finished
     ev = run.remote.events()
+    ev = ev[ev["event"].isin(["alive", "lost"])].reset_index(drop=True)
     assert list(ev["event"]) == ["alive", "lost"]
     t_lost = ev["time"].iloc[1]
     assert ev["detail"].iloc[1] == "zero"
+    # after the loss no request is published (nobody claims the node)
+    r = run.remote.requests()
+    assert (r.loc[r["time"] > t_lost, "outcome"] == "unserved").all() and (r["time"] > t_lost).sum() >= 40
     assert 0.5 <= t_lost <= 0.5 + 0.5 + 0.5        # within the lease (plus scheduling slack)
     u = _actuations(run.sim)
     assert u["value"].iloc[-1] == 0.0             # the command was zeroed ...
@@ -158,6 +167,9 @@ def test_stopped_remote_is_detected_within_its_lease_and_hold_keeps_the_command(
     lease = 0.5
     run = hs.run_hil(2.5, loss_policy="hold", kill_at=0.3, lease=lease, stop_signal=signal.SIGSTOP)
     ev = run.remote.events()
+    # before the lease runs out, the requests to the stopped process expire (hold: nothing sent)
+    assert ev.loc[ev["event"] == "expired", "count"].sum() >= 1
+    ev = ev[ev["event"].isin(["alive", "lost"])].reset_index(drop=True)
     assert list(ev["event"]) == ["alive", "lost"]
     t_lost = ev["time"].iloc[1]
     # the lease runs from the last keep-alive (4 per lease) before the stop; plus scheduling slack
@@ -168,12 +180,11 @@ def test_stopped_remote_is_detected_within_its_lease_and_hold_keeps_the_command(
 
 
 @needs_zenoh
-def test_malformed_messages_are_rejected_counted_and_the_run_goes_on():
+def test_malformed_messages_are_dropped_counted_and_the_run_goes_on():
     hs = _hil()
-    bad = [b"", b"NCSM", b"XXXX" + wire.encode(wire.DATA, 1, 0, 0, (1.0, 2.0))[4:],
-           b"NCSM\x07" + wire.encode(wire.DATA, 1, 0, 0, (1.0, 2.0))[5:],
-           wire.HEADER.pack(b"NCSM", wire.VERSION, wire.DATA, 1, 0, 0, 100_000),
-           wire.encode(wire.DATA, 60000, 0, 0, (1.0, 2.0))]
+    data = wire.encode(wire.DATA, 0, 1, 1, 0, 0, (1.0, 2.0))
+    bad = [b"", b"NCSM", b"XXXX" + data[4:], b"NCSM\x01" + data[5:],
+           wire.HEADER.pack(b"NCSM", wire.VERSION, wire.DATA, 0, 1, 1, 0, 0, 100_000)]
 
     peers = []
 
@@ -183,30 +194,29 @@ def test_malformed_messages_are_rejected_counted_and_the_run_goes_on():
         peers.append(peer)
         pub = peer.publisher(remote.keys["tx"])
         deadline = time.monotonic() + 10
-        while not pub.matching_status and time.monotonic() < deadline:
+        while not pub.matching_status.matching and time.monotonic() < deadline:
             time.sleep(0.01)
         for b in bad:
             pub.put(b)
             remote._pub.put(b)     # on rx, through the simulation's own publisher
     try:
-        run = hs.run_hil(0.5, before_run=inject)
+        run = hs.run_hil(0.5, before_run=inject, deadline=0.1)
     finally:
         for peer in peers:
             peer.close()
-    # the message for node 60000 arrives twice: sent on tx, and echoed by the process, which
-    # answers every valid message it gets on rx (here to the sender index 60000)
-    assert dict(run.remote.rejected) == {"short": 2, "magic": 1, "version": 1, "oversized": 1, "destination": 2}
+    assert dict(run.remote.dropped) == {"short": 2, "magic": 1, "version": 1, "oversized": 1}
     assert run.sim.now == 0.5 and run.remote.published == 50
     assert run.remote.received + run.remote.after_end == 50
-    assert run.process == {"received": 51, "published": 51, "ended": True,
-                           "rejected": {"short": 2, "magic": 1, "version": 1, "oversized": 1}}
+    assert run.process == {"received": 50, "published": 50, "status": "ended",
+                           "dropped": {"short": 2, "magic": 1, "version": 1, "oversized": 1}}
     rows = run.remote.events()
-    assert (rows["event"] == "rejected").sum() == 7
+    assert rows.loc[rows["event"] == "dropped", "count"].sum() == 5
 
 
 @needs_zenoh
 def test_cli_prints_the_remote_command_and_runs_with_it():
-    run_hil_cli(["experiments.networked_servo:build", "--remote", "controller", "--until", "0.5", "--wait", "30"],
+    run_hil_cli(["experiments.networked_servo:build", "--remote", "controller", "--period", "0.01", "--until", "0.5",
+                 "--wait", "30"],
                 module="experiments.hil_servo_controller", node="controller", messages=50, timeout=60)
 
 
@@ -216,8 +226,9 @@ def test_hil_servo_example_writes_its_results(tmp_path):
     row = summary.iloc[0]
     assert row["until"] == 2.0 and row["published"] == 200
     assert row["deviation"] <= row["tolerance"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["hil_events.parquet", "lateness.parquet", "outputs.png",
-                                                         "summary.parquet"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hil_events.parquet", "hil_requests.parquet",
+                                                         "lateness.parquet", "outputs.png", "remotes.parquet",
+                                                         "summary.parquet", "trace"]
 
 
 LOCAL_LOOP = """
@@ -264,22 +275,23 @@ def test_remote_plant_io_runs_a_fast_local_loop_against_the_simulated_plant():
     samples = round(until / h)                      # 0, h, ..., until - h (the run stops before `until`)
     assert io.published == samples
     assert out.split() == [str(samples), str(samples)]
-    assert io.received + io.after_end == samples and not io.rejected
-    sig = sim.trace.signals()
-    resp = sig[(sig["source"] == "servo.remote") & (sig["signal"] == "response")]["value"].to_numpy()
-    assert len(resp) == io.received
+    assert io.received + io.after_end + io.dropped.get("late", 0) == samples
+    assert set(io.dropped) <= {"late"}
+    assert len(io.response_times()) == io.received
+    plan = io.requests().set_index("seq")["response"]      # NaN: no reply applied
     # replayed all-simulated: sample every h, write u = 0.05 (1 - y) after the measured response time
     ref, rplant = _servo_sim()
-    y_port, u_port, delays = rplant.output(0), rplant.input(0), iter(resp)
+    y_port, u_port, k = rplant.output(0), rplant.input(0), iter(range(10**9))
 
     def sample():
         u = 0.05 * (1.0 - y_port.read())
-        d = next(delays, None)
-        if d is not None:
+        d = plan.get(next(k), float("nan"))
+        if not np.isnan(d):
             ref.call_in(float(d), lambda: u_port.write(u))
         ref.call_in(h, sample)
     ref.call_at(0.0, sample)
     ref.run(until=until)
+    sig = sim.trace.signals()
     y = sig[(sig["source"] == "servo") & (sig["signal"] == "y.y")]["value"].to_numpy()
     rs = ref.trace.signals()
     assert np.array_equal(y, rs[(rs["source"] == "servo") & (rs["signal"] == "y.y")]["value"].to_numpy())
@@ -299,7 +311,7 @@ def test_serve_answers_from_the_receiving_thread_echoing_seq():
         got: queue.SimpleQueue = queue.SimpleQueue()
         sub = sim_side.subscribe(key(run, "ctl", "tx"), got.put)
         pub = sim_side.publisher(key(run, "ctl", "rx"))
-        rp = RemoteProcess("ctl", run=run, connect=sim_side.endpoints)
+        rp = RemoteProcess("ctl", run=run, connect=sim_side.endpoints, session=SID)
         threads = set()
 
         def law(m):
@@ -309,9 +321,11 @@ def test_serve_answers_from_the_receiving_thread_echoing_seq():
         def feed():
             time.sleep(0.5)        # the peers have met
             for seq in range(5):
-                pub.put(wire.encode(wire.DATA, 1, seq, 1000 * seq, (seq + 0.5,)))
+                pub.put(wire.encode(wire.DATA, 1, SID, rp.peer, 1000 * seq, seq, (seq + 0.5,)))
             pub.put(b"garbage")
-            pub.put(wire.encode(wire.END, 0, 5, 5000))
+            pub.put(wire.encode(wire.DATA, 1, SID + 1, rp.peer, 0, 9, (1.0,)))     # another session
+            pub.put(wire.encode(wire.DATA, 1, SID, rp.peer + 1, 0, 9, (1.0,)))     # another process
+            pub.put(wire.encode(wire.END, 0, SID, 0, 5000, 5))
         feeder = threading.Thread(target=feed)
         feeder.start()
         rp.serve(law, timeout=10)
@@ -320,9 +334,11 @@ def test_serve_answers_from_the_receiving_thread_echoing_seq():
         sub.undeclare()
         assert [(m.kind, m.node, m.seq, m.ticks, m.values) for m in replies] == [
             (wire.DATA, 1, 0, 0, (1.0,)), (wire.DATA, 1, 1, 1000, (3.0,)), (wire.DATA, 1, 2, 2000, (5.0,)),
-            (wire.DATA, 1, 4, 4000, (9.0,)), (wire.END, 0, 0, 5000, ())]
+            (wire.DATA, 1, 4, 4000, (9.0,)), (wire.END, 0, 5, 5000, ())]
+        assert {(m.session, m.peer) for m in replies} == {(SID, rp.peer)}
         assert threads and threading.get_ident() not in threads
-        assert rp.ended and rp.received == 5 and rp.published == 4 and rp.rejected == {"short": 1}
+        assert rp.ended and rp.received == 5 and rp.published == 4
+        assert rp.dropped == {"short": 1, "session": 1, "peer": 1} and rp.exit_code == 0
     finally:
         if rp is not None:
             rp.close()
@@ -336,7 +352,7 @@ def test_serve_reraises_the_handler_error():
     rp = None
     try:
         pub = sim_side.publisher(key("servefail", "ctl", "rx"))
-        rp = RemoteProcess("ctl", run="servefail", connect=sim_side.endpoints)
+        rp = RemoteProcess("ctl", run="servefail", connect=sim_side.endpoints, session=SID)
         t0 = time.monotonic()
 
         def law(m):
@@ -344,7 +360,7 @@ def test_serve_reraises_the_handler_error():
 
         def feed():
             time.sleep(0.5)
-            pub.put(wire.encode(wire.DATA, 1, 0, 0, (1.0,)))
+            pub.put(wire.encode(wire.DATA, 1, SID, rp.peer, 0, 0, (1.0,)))
         import threading
         feeder = threading.Thread(target=feed)
         feeder.start()
@@ -367,13 +383,13 @@ def test_serve_times_out_after_the_last_message_not_after_it_began():
     rp = None
     try:
         pub = sim_side.publisher(key("serveidle", "ctl", "rx"))
-        rp = RemoteProcess("ctl", run="serveidle", connect=sim_side.endpoints)
+        rp = RemoteProcess("ctl", run="serveidle", connect=sim_side.endpoints, session=SID)
         sent = []
 
         def feed():
             time.sleep(0.5)            # the peers have met
             for seq in range(12):      # a message every 0.1 s for 1.2 s: longer than the 0.4 s timeout
-                pub.put(wire.encode(wire.DATA, 1, seq, 0, (1.0,)))
+                pub.put(wire.encode(wire.DATA, 1, SID, rp.peer, 0, seq, (1.0,)))
                 sent.append(time.monotonic())
                 time.sleep(0.1)
         feeder = threading.Thread(target=feed)
@@ -381,7 +397,7 @@ def test_serve_times_out_after_the_last_message_not_after_it_began():
         rp.serve(lambda m: m.values, timeout=0.4 + 0.5)      # the first message comes 0.5 s after serving began
         ended = time.monotonic()
         feeder.join(timeout=10)
-        assert rp.received == 12 and not rp.ended
+        assert rp.received == 12 and not rp.ended and rp.status == "idle" and rp.exit_code == 5
         # it returned once 0.9 s had passed without a message (scheduling slack: 1 s)
         assert 0.9 - 0.05 <= ended - sent[-1] <= 0.9 + 1.0
     finally:

@@ -191,7 +191,7 @@ class _Remote:
         self.dropped: Counter[str] = Counter()
         self.alive = False
         self.peer: int | None = None        # the claimant's id (set on a Zenoh thread)
-        self.refused: list[int] = []        # ids of refused claimants
+        self.refused: list[int] = []        # ids of refused claimants (appended on a Zenoh thread)
         self.connected = threading.Event()  # set when a process has claimed the node
         self._lock = threading.Lock()
         self._zdrops: Counter[str] = Counter()  # drops decided on Zenoh threads, not yet folded
@@ -275,6 +275,7 @@ class _Remote:
                     what = "claim"
                 else:
                     what = "refuse"
+                    self.refused.append(peer)
             elif peer == self.peer and self.connected.is_set():
                 self.connected.clear()      # a new process may claim the node
                 what = "lost"
@@ -460,7 +461,6 @@ class _Remote:
         peer, what = arg
         hexid = f"{peer:016x}"
         if what == "refuse":
-            self.refused.append(peer)
             self._record("refused", hexid)
             log.warning("remote %r: refused a second process claiming it (%s)", self.name, hexid)
         elif what == "left":
