@@ -55,27 +55,36 @@ def scenario(until: float) -> LandingScenario:
     return LandingScenario(controller="2lc", topology="single", duration=until)
 
 
+#: what the low-level process exchanges (handed to it by the info query)
+SCHEMA = {"request": ["phi [rad]", "dphi [rad/s]", "theta [rad]", "dtheta [rad/s]", "phi_d [rad]", "theta_d [rad]",
+                      "dphi_d [rad/s]", "dtheta_d [rad/s]", "ddphi_d [rad/s2]", "ddtheta_d [rad/s2]"],
+          "reply": ["f_R [N]", "tau_R [N m]"]}
+
+
 def controller_command(run: str, endpoints: Sequence[str], sc: LandingScenario, *, node: str = "uav",
-                       idle: float = 10.0, lease: float = 1.0, python: str = sys.executable) -> list[str]:
-    """The command that starts the low-level controller process for run *run*, with the
-    sampling period and PID gains of scenario *sc*."""
+                       idle: float = 10.0, lease: float = 1.0, session: int | None = None,
+                       python: str = sys.executable) -> list[str]:
+    """The command that starts the low-level controller process for run *run* (and session
+    *session*, if given), with the sampling period and PID gains of scenario *sc*."""
     if sc.params != TetheredUAVParams():
         raise ValueError("the low-level process uses the default TetheredUAVParams; "
                          f"the scenario has {sc.params!r}")
     g = sc.fl_gains
     return remote_command([python, "-m", "experiments.hil_landing_llc_controller", "--period", repr(sc.fl_period),
                            "--gains", repr(g.kp), repr(g.kd), repr(g.ki), "--idle", repr(idle)],
-                          run=run, node=node, endpoints=endpoints, lease=lease)
+                          run=run, node=node, endpoints=endpoints, lease=lease, session=session)
 
 
 def attach_remote_llc(sim, uav, loop, session, *, run: str, factor: float = FACTOR, max_lag: float = 0.005,
-                      loss_policy: Any = "hold") -> RemotePlantIO:
+                      loss_policy: Any = "hold", **options: Any) -> RemotePlantIO:
     """Make the landing's low-level loop remote: samples every ``fl_period`` s of the
     measured state then the reference (``loop.low_level_reference``), replies written
-    to the force inputs.  ``factor``/``max_lag``: the :class:`RealtimeClock`'s."""
+    to the force inputs; the deadline is the period (simulated: a factor of 10 gives the
+    process 20 ms of wall clock).  ``factor``/``max_lag``: the :class:`RealtimeClock`'s;
+    *options*: more :class:`RemotePlantIO` options (``deadline``, ``abort_on``, ...)."""
     return RemotePlantIO(sim, uav, session, run=run, period=loop.scenario.fl_period, outputs=OUTPUTS,
                          inputs=None, extra=loop.low_level_reference, loss_policy=loss_policy,
-                         factor=factor, max_lag=max_lag)
+                         factor=factor, max_lag=max_lag, schema=SCHEMA, **options)
 
 
 def build(until: float = 1.5):
@@ -127,9 +136,10 @@ def run_hil(until: float, *, factor: float = FACTOR, spawn: bool = True, lease: 
         sim, uav, loop = build_landing(sc, low_level=False)
         io = attach_remote_llc(sim, uav, loop, session, run=run, factor=factor, max_lag=max_lag,
                                loss_policy=loss_policy)
-        info = run_with_remote(sim, io, until, controller_command(run, session.endpoints, sc, lease=lease),
+        info = run_with_remote(sim, io, until, controller_command(run, session.endpoints, sc, lease=lease,
+                                                                  session=io.session_id),
                                spawn=spawn, connect_timeout=connect_timeout, cwd=ROOT)
-        return HilLandingRun(info.sim, info.remote, info.lateness, info.process, info.wall, loop, factor)
+        return HilLandingRun.of(info, loop=loop, factor=factor)
     finally:
         session.close()
 
@@ -139,21 +149,30 @@ def run_simulated(until: float):
     return simulate_landing(scenario(until)).sim
 
 
-def run_replay(until: float, responses: Sequence[float]):
+def run_replay(until: float, requests: Any):
     """The all-simulated landing with the low-level controller sampling like the remote
-    one (every ``fl_period`` s, same outputs and reference) and its command written
-    after the response time (s) measured for that sample in a HIL run (*responses*, in
-    order; none after them): what the HIL run must reproduce bit for bit."""
+    one (every ``fl_period`` s, same outputs and reference): sample *k* is computed if
+    request ``seq == k`` was published to the process, and its command written after the
+    response time (s) measured for it if a reply was applied.  *requests*: the
+    :meth:`~netcosim.transport.remote.RemotePlantIO.requests` frame of a HIL run, or
+    response times of requests all published and replied, in order.  What the HIL run
+    must reproduce bit for bit."""
+    if isinstance(requests, pd.DataFrame):
+        seen = requests[requests["outcome"].isin(["replied", "expired", "open"])]
+        plan = dict(zip(seen["seq"].astype(int).tolist(), seen["response"].astype(float).tolist()))
+    else:
+        plan = {i: float(d) for i, d in enumerate(requests)}
     sc = scenario(until)
     sim, uav, loop = build_landing(sc, low_level=False)
     y_port, u_port = uav.output(OUTPUTS), uav.input(None)
-    period, delays = to_ticks(sc.fl_period), iter(responses)
+    period, k = to_ticks(sc.fl_period), iter(range(1 << 62))
 
     def sample():
-        u = loop.low_level_command(sim.now, y_port.read())
-        d = next(delays, None)
+        d = plan.get(next(k))
         if d is not None:
-            sim.call_in_ticks(round(float(d) / RESOLUTION), lambda: u_port.write(u))
+            u = loop.low_level_command(sim.now, y_port.read())
+            if not np.isnan(d):
+                sim.call_in_ticks(round(d / RESOLUTION), lambda: u_port.write(u))
         sim.call_in_ticks(period, sample)
     sim.call_at_ticks(sim.now_ticks, sample)
     sim.run(until=until)
@@ -165,12 +184,12 @@ def deviation(a: pd.DataFrame, b: pd.DataFrame) -> float:
     return float(max(np.max(np.abs(a[c].to_numpy() - b[c].to_numpy())) for c in ("phi", "theta")))
 
 
-def tolerance(until: float, responses: Sequence[float]) -> float:
+def tolerance(until: float, requests: Any) -> float:
     """How far the HIL landing may lie from the all-simulated one (rad): 1.5 times the
     deviation the measured response times alone explain (:func:`run_replay` against the
     nominal run), plus 1e-6 rad."""
     nominal = landing_output(run_simulated(until))
-    replay = landing_output(run_replay(until, responses))
+    replay = landing_output(run_replay(until, requests))
     return 1.5 * deviation(replay, nominal) + 1e-6
 
 
@@ -185,8 +204,7 @@ def main(outdir: str = "results/hil_landing_llc", quick: bool = False, spawn: bo
     until = 0.5 if quick else 1.5
     hil = run_hil(until, factor=factor, spawn=spawn, connect_timeout=30.0 if spawn else 600.0)
     nominal = landing_output(run_simulated(until))
-    resp = hil.response_times()
-    tol = tolerance(until, resp)
+    tol = tolerance(until, hil.remote.requests())
     y = hil.output()
     dev = deviation(y, nominal)
     summary = pd.DataFrame([{"until": until, "factor": factor, "deviation": dev, "tolerance": tol,

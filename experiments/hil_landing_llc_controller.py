@@ -12,9 +12,10 @@ the measured ``φ, φ̇, ϑ, ϑ̇`` (rad, rad/s), then the reference of the C² 
 (Fig. 2.6) at the sampling instant: ``φ_d, ϑ_d`` (rad), ``φ̇_d, ϑ̇_d`` (rad/s),
 ``φ̈_d, ϑ̈_d`` (rad/s², the feed-forward, evaluated ``ff_lead`` s after the instant).
 The reply is ``(f_R, τ_R)`` (N, N·m), written to the plant (zero-order hold) when it
-arrives.  It stops at the simulation's END message, or after ``--idle`` seconds without
-one.  Its last line on stdout is a JSON object of its counters (received, published,
-rejected, ended, saturated, singular).
+arrives.  It stops at the simulation's END message (exit status 0), when the simulation
+is gone without one (3), when another process already serves the plant (4), or after
+``--idle`` seconds without a message (5).  Its last line on stdout is a JSON object of its
+counters (received, published, dropped, status, saturated, singular).
 
 Imports: the client library (stdlib and Zenoh), NumPy and the low-level controller;
 no SimPy, no CasADi.
@@ -23,11 +24,10 @@ no SimPy, no CasADi.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from controllers.landing.feedback_linearization import DEFAULT_FL_GAINS, FeedbackLinearization, PIDGains
-from netcosim.transport.client import RemoteProcess
+from netcosim.transport.client import add_arguments, connect, finish
 from plants.tethered_uav_params import TetheredUAVParams
 
 #: values in a sample: the measured state (4), the reference positions, velocities, accelerations (2 each)
@@ -48,35 +48,25 @@ def command(fl: FeedbackLinearization, values) -> tuple[float, float]:
     return float(u[0]), float(u[1])
 
 
-def serve(run: str, connect: list[str], *, node: str = "uav", period: float = 0.002,
-          gains: PIDGains = DEFAULT_FL_GAINS, idle: float = 10.0, lease: float = 1.0) -> dict:
-    """Answer samples until the run ends; returns the counters."""
-    fl = controller(period, gains)
-    with RemoteProcess(node, run=run, connect=connect, lease=lease) as rp:
+def serve(args: argparse.Namespace) -> int:
+    """Answer samples until the run is over; returns the exit status."""
+    fl = controller(args.period, PIDGains(*args.gains))
+    with connect(args) as rp:
         print("ready", flush=True)
-        rp.serve(lambda msg: command(fl, msg.values), timeout=idle)
-        return {"received": rp.received, "published": rp.published, "rejected": rp.rejected, "ended": rp.ended,
-                "saturated": fl.n_saturated, "singular": fl.n_singular}
+        rp.serve(lambda msg: command(fl, msg.values), timeout=args.idle)
+        return finish(rp, {"saturated": fl.n_saturated, "singular": fl.n_singular})
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m experiments.hil_landing_llc_controller",
                                 description=__doc__.splitlines()[0], epilog="\n".join(__doc__.splitlines()[1:]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--run", required=True, help="run id printed by the simulation side")
-    p.add_argument("--connect", action="append", required=True, help="simulation endpoint, e.g. tcp/127.0.0.1:7447")
-    p.add_argument("--node", default="uav", help="key name of the remote plant I/O (default: uav)")
+    add_arguments(p)
     p.add_argument("--period", type=float, default=0.002, help="sampling period (s) of the controller (default 0.002)")
     p.add_argument("--gains", type=float, nargs=3, metavar=("KP", "KD", "KI"),
                    default=(DEFAULT_FL_GAINS.kp, DEFAULT_FL_GAINS.kd, DEFAULT_FL_GAINS.ki),
                    help="PID gains of both loops (1/s², 1/s, 1/s³; default: triple pole at -60 rad/s)")
-    p.add_argument("--idle", type=float, default=10.0, help="give up after this many seconds without a message")
-    p.add_argument("--lease", type=float, default=1.0, help="liveliness lease of the session (s)")
-    a = p.parse_args(argv)
-    counters = serve(a.run, a.connect, node=a.node, period=a.period, gains=PIDGains(*a.gains), idle=a.idle,
-                     lease=a.lease)
-    print(json.dumps(counters), flush=True)
-    return 0
+    return serve(p.parse_args(argv))
 
 
 if __name__ == "__main__":

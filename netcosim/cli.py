@@ -299,6 +299,7 @@ def _hil(args) -> int:
     import shlex
     from pathlib import Path
 
+    from .errors import NetcosimError
     from .transport.harness import remote_command, run_with_remote
     from .transport.remote import DROP_REASONS, LOSS_EVENTS, RemoteNode, RemotePlantIO
     from .transport.session import LOOPBACK, new_run_id, open_session
@@ -341,12 +342,16 @@ def _hil(args) -> int:
         common = dict(deadline=args.deadline, max_outstanding=args.max_outstanding, loss_policy=args.loss_policy,
                       abort_on=abort_on, factor=args.factor)
         remote: RemoteNode | RemotePlantIO
-        if is_node:
-            remote = RemoteNode(sim, args.remote, session, run=run, size_bits=args.size_bits, period=args.period,
-                                reply_values=args.reply_values, **common)
-        else:
-            remote = RemotePlantIO(sim, sim.plants[args.remote], session, run=run, period=args.period,
-                                   outputs=_names(args.outputs), inputs=_names(args.inputs), extra=extra, **common)
+        try:
+            if is_node:
+                remote = RemoteNode(sim, args.remote, session, run=run, size_bits=args.size_bits, period=args.period,
+                                    reply_values=args.reply_values, **common)
+            else:
+                remote = RemotePlantIO(sim, sim.plants[args.remote], session, run=run, period=args.period,
+                                       outputs=_names(args.outputs), inputs=_names(args.inputs), extra=extra,
+                                       **common)
+        except NetcosimError as e:
+            raise UsageError(str(e)) from None
         cmd = remote_command(shlex.split(args.remote_cmd), run=run, node=args.remote,
                              endpoints=args.connect or session.endpoints, lease=args.lease,
                              session=remote.session_id, zenoh_config=args.zenoh_config)

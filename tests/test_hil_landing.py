@@ -67,8 +67,9 @@ def test_controller_command_carries_the_scenario_gains_and_period():
     from controllers.landing import PIDGains
     h = _h()
     sc = replace(h.scenario(0.1), fl_gains=PIDGains(1.5, 2.25, 0.1))
-    cmd = h.controller_command("abc", ["tcp/127.0.0.1:7447"], sc, python="py")
+    cmd = h.controller_command("abc", ["tcp/127.0.0.1:7447"], sc, python="py", session=0xABC)
     assert cmd[:3] == ["py", "-m", "experiments.hil_landing_llc_controller"]
+    assert cmd[cmd.index("--session") + 1] == "0000000000000abc"
     i = cmd.index("--gains")
     assert cmd[i + 1:i + 4] == ["1.5", "2.25", "0.1"] and cmd[cmd.index("--period") + 1] == "0.002"
     assert cmd[cmd.index("--node") + 1] == "uav" and cmd[cmd.index("--connect") + 1] == "tcp/127.0.0.1:7447"
@@ -85,18 +86,21 @@ def _check_landing(until, factor):
     # both sides count the same samples and replies (loss 0)
     assert run.remote.published == samples
     assert run.process is not None
-    assert {k: run.process[k] for k in ("received", "published", "rejected", "ended", "singular")} == {
-        "received": samples, "published": samples, "rejected": {}, "ended": True, "singular": 0}
-    assert run.remote.received + run.remote.after_end == samples and len(resp) == run.remote.received
-    assert not run.remote.rejected and run.sim.now == until
+    assert {k: run.process[k] for k in ("received", "published", "dropped", "status", "singular")} == {
+        "received": samples, "published": samples, "dropped": {}, "status": "ended", "singular": 0}
+    # a reply beyond the deadline (2 ms simulated, 20 ms of wall clock) is dropped as late
+    late = run.remote.dropped.get("late", 0)
+    assert run.remote.received + run.remote.after_end + late == samples and len(resp) == run.remote.received
+    assert set(run.remote.dropped) <= {"late"} and run.sim.now == until
     assert np.all(resp > 0)
     y = run.output()
     # the HIL landing is the all-simulated one with the measured response times, bit for bit
-    replay = h.landing_output(h.run_replay(until, resp))
+    requests = run.remote.requests()
+    replay = h.landing_output(h.run_replay(until, requests))
     assert _states_equal(y, replay)
     nominal = h.landing_output(h.run_simulated(until))
-    assert h.deviation(y, nominal) <= h.tolerance(until, resp)
-    assert list(run.remote.events()["event"]) == ["alive"]
+    assert h.deviation(y, nominal) <= h.tolerance(until, requests)
+    assert set(run.remote.events()["event"]) <= {"alive", "dropped", "expired"}
     return run
 
 
@@ -118,10 +122,11 @@ def test_hil_landing_example_writes_its_results(tmp_path):
     summary = _h().main(outdir=str(tmp_path), quick=True)
     row = summary.iloc[0]
     assert row["until"] == 0.5 and row["published"] == 250
-    assert row["received"] + row["after_end"] == 250
+    assert row["received"] + row["after_end"] + row["expired"] == 250
     assert row["deviation"] <= row["tolerance"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["hil_events.parquet", "lateness.parquet", "outputs.png",
-                                                         "summary.parquet"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hil_events.parquet", "hil_requests.parquet",
+                                                         "lateness.parquet", "outputs.png", "remotes.parquet",
+                                                         "summary.parquet", "trace"]
 
 
 @needs_zenoh
@@ -131,13 +136,17 @@ def test_cli_runs_the_landing_with_a_remote_plant():
          "--outputs", "phi,dphi,theta,dtheta", "--extra", "experiments.hil_landing_llc:reference",
          "--factor", "10", "--until", "0.2", "--wait", "60"],
         module="experiments.hil_landing_llc_controller", node="uav", messages=100)
-    assert '"rejected": {}, "ended": true' in r_out
+    assert '"status": "ended"' in r_out
 
 
 @pytest.mark.parametrize("args, message", [
     (["--remote", "nothing"], "has no node or plant 'nothing'"),
     (["--remote", "uav"], "'uav' is a plant: give its sampling period with --period"),
-    (["--remote", "onboard", "--period", "0.002"], "'onboard' is a node, not a plant: --period given"),
+    (["--remote", "onboard", "--outputs", "phi"], "'onboard' is a node, not a plant: --outputs given"),
+    (["--remote", "onboard"], "'onboard' is a node: give the period of the requests it serves with --period"),
+    (["--remote", "onboard", "--period", "0.01"], "remote node 'onboard' must have exactly one network interface"),
+    (["--remote", "uav", "--period", "0.002", "--abort-on", "nan"], "--abort-on nan: not one of"),
+    (["--remote", "uav", "--period", "0.002", "--zenoh-config", "/nonexistent.json5"], "/nonexistent.json5"),
 ])
 def test_cli_names_a_bad_remote(args, message, capsys):
     from netcosim.cli import main
