@@ -42,7 +42,7 @@ def _raw_ping(session, run: str, pings: int) -> np.ndarray:
     inbox: queue.SimpleQueue = queue.SimpleQueue()
     sub = session.zenoh.declare_subscriber(f"netcosim/{run}/raw/tx", lambda s: inbox.put(time.perf_counter()))
     pub = session.publisher(f"netcosim/{run}/raw/rx")
-    payload = bytes(24 + 8)            # the size of a one-value netcosim message
+    payload = bytes(40 + 8)            # the size of a one-value netcosim message
     out = []
     try:
         for _ in range(20):            # until the echo's subscriber is matched
@@ -71,9 +71,37 @@ def _raw_ping(session, run: str, pings: int) -> np.ndarray:
     return np.asarray(out)
 
 
-def measure(duration: float = 10.0, baseline_pings: int = 5000, spin: float | None = None) -> dict:
+def _flood(session, remote, count: int, at: float, sent: list) -> None:
+    """From a third session, publish *count* garbage messages on *remote*'s reply key as
+    fast as possible, *at* s after the run starts (a thread); the wall time it took goes to *sent*."""
+    import os
+    import threading
+    import time
+    from netcosim.transport.session import open_session
+    peer = open_session(listen=(), connect=session.endpoints)
+    pub = peer.publisher(remote.keys["tx"])
+    deadline = time.monotonic() + 10
+    while not pub.matching_status.matching and time.monotonic() < deadline:
+        time.sleep(0.01)
+    junk = os.urandom(64)
+
+    def go():
+        try:
+            time.sleep(at)
+            t0 = time.monotonic()
+            for i in range(count):
+                pub.put(junk[: i % 64])
+            sent.append(time.monotonic() - t0)
+            time.sleep(0.5)
+        finally:
+            peer.close()
+    threading.Thread(target=go, daemon=True).start()
+
+
+def measure(duration: float = 10.0, baseline_pings: int = 5000, spin: float | None = None, flood: int = 0) -> dict:
     """Run *baseline_pings* raw pings, then the 500 Hz echo loop for *duration* s of real
-    time (``spin``: the real-time clock's busy-wait, s; None: its default); returns the statistics."""
+    time (``spin``: the real-time clock's busy-wait, s; None: its default; ``flood``: that
+    many garbage messages from a third session halfway through); returns the statistics."""
     from netcosim import IdealLink, Simulation
     from netcosim.transport.remote import RemoteNode
     from netcosim.transport.session import new_run_id, open_session
@@ -93,15 +121,18 @@ def measure(duration: float = 10.0, baseline_pings: int = 5000, spin: float | No
     session = open_session()
     child = None
     try:
-        remote = RemoteNode(sim, "echo", session, run=run, size_bits=FRAME_BITS, max_lag=0.001,
-                            spin=spin)
+        remote = RemoteNode(sim, "echo", session, run=run, size_bits=FRAME_BITS, period=PERIOD, reply_values=1,
+                            max_lag=0.001, spin=spin)
         cmd = [sys.executable, "-m", "benchmarks.hil", "--echo", "--run", run, "--connect", session.endpoints[0]]
+        flood_took: list = []
         child = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL)
         if not remote.wait_connected(30):
             raise TimeoutError("the echo process did not connect within 30 s")
         raw = _raw_ping(session, run, baseline_pings)
         if len(raw) == 0:
             raise TimeoutError("the echo process answered no raw Zenoh ping")
+        if flood:
+            _flood(session, remote, flood, duration / 2, flood_took)
         sim.run(until=duration)
         remote.finish()
         child.wait(timeout=10)
@@ -113,6 +144,7 @@ def measure(duration: float = 10.0, baseline_pings: int = 5000, spin: float | No
     resp = remote.response_times()
     lat = remote.clock.lateness
     sent = remote.published
+    counters = remote.counters()
     raw_median = float(np.median(raw))
     return {"raw_pings": baseline_pings, "raw_replies": len(raw), "raw_median_ms": raw_median * 1e3,
             "raw_p99_ms": float(np.quantile(raw, 0.99)) * 1e3,
@@ -121,7 +153,11 @@ def measure(duration: float = 10.0, baseline_pings: int = 5000, spin: float | No
             "ratio_p99": float(np.quantile(resp, 0.99)) / float(np.quantile(raw, 0.99)),
             "periods": sent, "replies": len(resp), "rtt_median_ms": float(np.median(resp)) * 1e3,
             "rtt_p99_ms": float(np.quantile(resp, 0.99)) * 1e3, "rtt_max_ms": float(resp.max()) * 1e3,
-            "miss_share": float(((resp > PERIOD).sum() + sent - len(resp)) / sent),
+            # a reply later than the deadline (one period) is dropped as late: a miss
+            "miss_share": float((sent - len(resp)) / sent),
+            "dropped": counters["dropped"], "expired": counters["expired"], "overruns": counters["overruns"],
+            "flood": flood, "flood_publish_s": flood_took[0] if flood_took else float("nan"),
+            "injections": lat.injections,
             "lateness_p50_ms": lat.quantile(0.5) * 1e3, "lateness_p99_ms": lat.quantile(0.99) * 1e3,
             "lateness_max_ms": lat.max * 1e3, "overruns_1ms": lat.overruns, "events": lat.events,
             "collections": tuple(remote.clock.collections)}
@@ -131,7 +167,7 @@ def echo(run: str, connect: str) -> None:
     """The echo process: a raw Zenoh echo (answered from the callback) on
     ``netcosim/<run>/raw/...`` and the netcosim echo of node ``echo`` until the run ends."""
     from netcosim.transport.client import RemoteProcess
-    with RemoteProcess("echo", run=run, connect=[connect]) as rp:
+    with RemoteProcess("echo", run=run, connect=[connect], lease=1.0) as rp:
         z = rp.session.zenoh
         raw_pub = z.declare_publisher(f"netcosim/{run}/raw/tx", express=True)
         raw_sub = z.declare_subscriber(f"netcosim/{run}/raw/rx", lambda s: raw_pub.put(s.payload))
@@ -150,12 +186,26 @@ def main(argv: list[str] | None = None) -> None:
                    help="raw Zenoh pings of the baseline, one per period (default 5000: 10 s)")
     p.add_argument("--spin", type=float, default=None,
                    help="busy-wait (s) of the real-time clock before each event (default: the clock's, 1e-4)")
+    p.add_argument("--flood", type=int, default=0, metavar="N",
+                   help="also run the loop with N garbage messages from a third session halfway through, "
+                        "after the same loop without (the baseline of the same invocation)")
     p.add_argument("--echo", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--run", help=argparse.SUPPRESS)
     p.add_argument("--connect", help=argparse.SUPPRESS)
     a = p.parse_args([] if argv is None and __name__ != "__main__" else argv)
     if a.echo:
         echo(a.run, a.connect)
+        return
+    if a.flood:
+        base = measure(a.duration, a.pings, a.spin)
+        r = measure(a.duration, a.pings, a.spin, flood=a.flood)
+        for label, x in (("without flood", base), (f"with {a.flood} garbage messages", r)):
+            print(f"{label}: lateness max {x['lateness_max_ms']:.3f} ms, p99 <= {x['lateness_p99_ms']:.3f} ms, "
+                  f"{x['overruns_1ms']} events over 1 ms; round trip median {x['rtt_median_ms']:.3f} ms, "
+                  f"p99 {x['rtt_p99_ms']:.3f} ms; misses {100 * x['miss_share']:.3f} %; dropped {x['dropped']}; "
+                  f"{x['injections']} injections")
+        print(f"the flood took {r['flood_publish_s'] * 1e3:.0f} ms to publish; worst lateness with it "
+              f"x{r['lateness_max_ms'] / base['lateness_max_ms']:.2f} the baseline's")
         return
     r = measure(a.duration, a.pings, a.spin)
     print(f"raw Zenoh ping-pong, same processes, {r['raw_replies']}/{r['raw_pings']} replies: "
