@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Sequence
 
 from . import wire
+from .codecs import codec
 from .session import DEFAULT_LEASE, Session, key, open_session
 
 __all__ = ["RemoteProcess", "LoopStats", "periodic", "add_arguments", "connect", "finish"]
@@ -90,7 +91,8 @@ class RemoteProcess:
     process the simulation); ``session``: serve only this session id (an int, or 16 hex
     digits as printed; default: the first simulation of run *run* seen, through its
     liveliness token or the first request addressed to this process); ``config``: a
-    Zenoh configuration file (authentication, TLS; see ``docs/hil_security.md``).
+    Zenoh configuration file (authentication, TLS; see ``docs/hil_security.md``);
+    ``encoding``: ``"ncsm"`` (default) or ``"cdr"``, as the simulation's.
 
     The process draws a random id (``peer``), declares the liveliness token
     ``netcosim/<run>/<node>/alive/<peer>`` and watches the simulation's token
@@ -107,10 +109,13 @@ class RemoteProcess:
     """
 
     def __init__(self, node: str, *, run: str, connect: Sequence[str], listen: Sequence[str] = (),
-                 lease: float = DEFAULT_LEASE, session: int | str | None = None, config: str | None = None):
+                 lease: float = DEFAULT_LEASE, session: int | str | None = None, config: str | None = None,
+                 encoding: str = "ncsm"):
         self.node = node
         self.run = run
-        self.keys = {leaf: key(run, node, leaf) for leaf in ("rx", "tx", "alive", "sim", "info")}
+        self.codec = codec(encoding)
+        self.keys = {leaf: key(run, node, leaf) for leaf in ("alive", "sim", "info")}
+        self.keys.update({leaf: self.codec.data_key(run, node, leaf) for leaf in ("rx", "tx")})
         self.peer = secrets.randbits(64) or 1
         self.session_id: int | None = None if session is None else (
             int(session, 16) if isinstance(session, str) else int(session))
@@ -127,7 +132,7 @@ class RemoteProcess:
         kw = {} if config is None else {"config": config}
         self.session: Session = open_session(listen=listen, connect=connect, lease=lease, **kw)
         try:
-            self._pub = self.session.publisher(self.keys["tx"], encoding=wire.ENCODING)
+            self._pub = self.codec.publisher(self.session, self.keys["tx"], self.peer)
             self._sub = self.session.subscribe(self.keys["rx"], self._on_rx)
             self._sim = self.session.watch_keys(self.keys["sim"] + "/*", self._on_sim)
             self._token = self.session.token(f"{self.keys['alive']}/{self.peer:016x}")
@@ -170,7 +175,7 @@ class RemoteProcess:
     def _accept(self, data: bytes) -> wire.Message | None:
         """The message in *data* if it is for this process, else None (counted)."""
         try:
-            m = wire.decode(data)
+            m = self.codec.decode(data)
         except wire.WireError as e:
             self._drop(e.reason)
             return None
@@ -262,7 +267,7 @@ class RemoteProcess:
                 continue
             if m.kind == wire.END:
                 # answer with our own END: the simulation then knows every reply has arrived
-                self._pub.put(wire.encode(wire.END, 0, m.session, self.peer, m.ticks, m.seq))
+                self._pub.put(self.codec.encode(wire.END, 0, m.session, self.peer, m.ticks, m.seq))
                 self.status, self.reason = "ended", "the simulation ended the run"
                 return None
             self.received += 1
@@ -284,7 +289,7 @@ class RemoteProcess:
         :data:`~netcosim.transport.wire.LOCAL`: the node's plant inputs).  One reply per
         request: the simulation drops any further one (``duplicate``)."""
         session = self.session_id if self.session_id is not None else msg.session
-        self._pub.put(wire.encode(wire.DATA, msg.node if to is None else to, session, self.peer, msg.ticks,
+        self._pub.put(self.codec.encode(wire.DATA, msg.node if to is None else to, session, self.peer, msg.ticks,
                                   msg.seq, values))
         self.published += 1
 
@@ -328,7 +333,7 @@ class RemoteProcess:
 def add_arguments(parser: Any) -> None:
     """The options every remote program accepts (``netcosim hil`` prints them): ``--run``,
     ``--node``, ``--connect`` (repeatable), ``--session``, ``--lease``, ``--idle``,
-    ``--zenoh-config``."""
+    ``--zenoh-config``, ``--encoding``."""
     parser.add_argument("--run", required=True, help="run id printed by the simulation side")
     parser.add_argument("--node", required=True, help="name of the remote node (or plant)")
     parser.add_argument("--connect", action="append", required=True, help="endpoint, e.g. tcp/127.0.0.1:7447")
@@ -336,12 +341,14 @@ def add_arguments(parser: Any) -> None:
     parser.add_argument("--idle", type=float, default=10.0, help="give up after this many seconds without a message")
     parser.add_argument("--lease", type=float, default=DEFAULT_LEASE, help="liveliness lease of the session (s)")
     parser.add_argument("--zenoh-config", help="a Zenoh configuration file (authentication, TLS)")
+    parser.add_argument("--encoding", choices=["ncsm", "cdr"], default="ncsm",
+                        help="message encoding, as the simulation's (default ncsm; cdr: ROS 2-friendly)")
 
 
 def connect(args: Any) -> RemoteProcess:
     """The :class:`RemoteProcess` of parsed :func:`add_arguments` options."""
     return RemoteProcess(args.node, run=args.run, connect=args.connect, lease=args.lease, session=args.session,
-                         config=args.zenoh_config)
+                         config=args.zenoh_config, encoding=args.encoding)
 
 
 def finish(rp: RemoteProcess, extra: dict | None = None) -> int:

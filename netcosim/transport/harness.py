@@ -30,11 +30,12 @@ __all__ = ["remote_command", "run_with_remote", "run_with_remotes", "RemoteRun"]
 
 
 def remote_command(program: Sequence[str], *, run: str, node: str, endpoints: Sequence[str], lease: float,
-                   session: int | None = None, zenoh_config: str | None = None) -> list[str]:
+                   session: int | None = None, zenoh_config: str | None = None, encoding: str = "ncsm") -> list[str]:
     """``program`` (e.g. ``[sys.executable, "-m", "my.controller", "--gain", "2"]``; a
     leading ``python`` or ``python3`` is replaced by :data:`sys.executable`, the running
     interpreter) followed by ``--run RUN --node NODE [--session HEX] --lease LEASE``,
-    ``--zenoh-config PATH`` if given, and ``--connect E`` for each endpoint."""
+    ``--zenoh-config PATH`` and ``--encoding ENC`` if given (not ``ncsm``), and ``--connect E``
+    for each endpoint."""
     program = list(program)
     if program and program[0] in ("python", "python3"):
         program[0] = sys.executable
@@ -44,6 +45,8 @@ def remote_command(program: Sequence[str], *, run: str, node: str, endpoints: Se
     cmd += ["--lease", repr(float(lease))]
     if zenoh_config is not None:
         cmd += ["--zenoh-config", str(zenoh_config)]
+    if encoding != "ncsm":
+        cmd += ["--encoding", encoding]
     for e in endpoints:
         cmd += ["--connect", e]
     return cmd

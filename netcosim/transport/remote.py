@@ -67,6 +67,7 @@ from .. import validate
 from ..errors import ConfigurationError, NetcosimError
 from ..timebase import RESOLUTION, to_ticks
 from . import wire
+from .codecs import codec
 from .realtime import RealtimeClock
 from .session import Session, key
 
@@ -91,15 +92,16 @@ OUTCOMES = ("replied", "expired", "open", "overrun", "unserved")
 LOSS_POLICIES = ("hold", "zero")
 #: why a reply is a lost one (what a loss policy is called with)
 LOSS_EVENTS = ("expired", "overrun", "lost")
-#: why a message from the process is dropped: the wire format's (short, magic, version,
-#: kind, oversized, length), then ``session`` (another run's), ``peer`` (not from the
-#: process that claimed the node), ``nonfinite`` (a NaN or infinity), ``values`` (another
-#: number of values than the destination takes), ``destination`` (no such node),
-#: ``unsolicited`` (answers no request ever published), ``duplicate`` (answers a request
-#: already answered), ``late`` (after the request's deadline), ``stale`` (answers a request
-#: forgotten: older than ``stale_after``), ``mismatch`` (its ticks are not its request's)
-DROP_REASONS = ("short", "magic", "version", "kind", "oversized", "length", "session", "peer", "nonfinite", "values",
-                "destination", "unsolicited", "duplicate", "late", "stale", "mismatch")
+#: why a message from the process is dropped: the wire format's (short, magic -- or
+#: encapsulation with the ``cdr`` encoding --, version, kind, oversized, length), then
+#: ``session`` (another run's), ``peer`` (not from the process that claimed the node),
+#: ``nonfinite`` (a NaN or infinity), ``values`` (another number of values than the
+#: destination takes), ``destination`` (no such node), ``unsolicited`` (answers no request
+#: ever published), ``duplicate`` (answers a request already answered), ``late`` (after
+#: the request's deadline), ``stale`` (answers a request forgotten: older than
+#: ``stale_after``), ``mismatch`` (its ticks are not its request's)
+DROP_REASONS = ("short", "magic", "encapsulation", "version", "kind", "oversized", "length", "session", "peer",
+                "nonfinite", "values", "destination", "unsolicited", "duplicate", "late", "stale", "mismatch")
 #: aggregation of the ``hil`` rows: at most one row per event and detail per this many
 #: simulated seconds (plus one at the end)
 AGGREGATE = 0.1
@@ -152,7 +154,8 @@ class _Remote:
 
     def __init__(self, sim: Any, name: str, session: Session, run: str, *, period: float | None,
                  deadline: float | None, max_outstanding: int | None, stale_after: float | None,
-                 loss_policy: Any, abort_on: Collection[str], schema: dict | None, clock_options: dict):
+                 loss_policy: Any, abort_on: Collection[str], schema: dict | None, encoding: str,
+                 clock_options: dict):
         if not (callable(loss_policy) or loss_policy in LOSS_POLICIES):
             raise ConfigurationError(f"loss_policy must be one of {LOSS_POLICIES} or a callable "
                                      f"fn(remote, why), got {loss_policy!r}")
@@ -180,7 +183,12 @@ class _Remote:
         self.clock = getattr(sim, "_realtime_clock", None) or RealtimeClock(sim, **clock_options)
         self.run_id = run
         self.session_id = secrets.randbits(64) or 1
-        self.keys = {leaf: key(run, name, leaf) for leaf in ("rx", "tx", "alive", "sim", "info")}
+        try:
+            self.codec = codec(encoding)
+            self.keys = {leaf: key(run, name, leaf) for leaf in ("alive", "sim", "info")}
+            self.keys.update({leaf: self.codec.data_key(run, name, leaf) for leaf in ("rx", "tx")})
+        except ValueError as e:
+            raise ConfigurationError(str(e)) from None
         # counters (simulation thread; Zenoh-thread drops are folded in by _fold)
         self.published = 0          # requests published to the process
         self.received = 0           # replies applied
@@ -213,7 +221,7 @@ class _Remote:
                                          transform=_request_frame, dtypes=("int", None, "int", "int", None, "int"))
         sim._finalizers.append(self.flush)
         self._session = session
-        self._pub = session.publisher(self.keys["rx"], encoding=wire.ENCODING)
+        self._pub = self.codec.publisher(session, self.keys["rx"], self.session_id)
         self._decls = [session.subscribe(self.keys["tx"], self._on_tx),
                        session.watch_keys(self.keys["alive"] + "/*", self._on_token),
                        session.token(f"{self.keys['sim']}/{self.session_id:016x}"),
@@ -226,7 +234,7 @@ class _Remote:
 
     def _on_tx(self, data: bytes) -> None:
         try:
-            m = wire.decode(data)
+            m = self.codec.decode(data)
         except wire.WireError as e:
             self._zdrop(e.reason)
             return
@@ -283,7 +291,7 @@ class _Remote:
                 what = "left"
         if what == "refuse":
             # the refused process learns it at once; the simulation records it at its next step
-            self._pub.put(wire.encode(wire.REFUSED, 0, self.session_id, peer, 0, 0))
+            self._pub.put(self.codec.encode(wire.REFUSED, 0, self.session_id, peer, 0, 0))
         self.clock.post(self._token, (peer, what))
 
     def _on_info(self, query: Any) -> None:
@@ -293,10 +301,12 @@ class _Remote:
     def info(self) -> dict:
         """What a process may ask on ``netcosim/<run>/<name>/info`` (JSON): wire
         version, session id (16 hex digits), remote name, its network index and the
-        network's name -> index table (empty without a network), LOCAL and BROADCAST
+        network's name -> index table (empty without a network), the encoding and the
+        request and reply keys, LOCAL and BROADCAST
         addresses, period and deadline (s), values a reply must carry per destination,
         and the scenario's payload schema."""
-        return {"version": wire.VERSION, "session": f"{self.session_id:016x}", "name": self.name,
+        return {"version": wire.VERSION, "encoding": self.codec.name, "keys": {k: self.keys[k] for k in ("rx", "tx")},
+                "session": f"{self.session_id:016x}", "name": self.name,
                 "index": self._index(), "network": self._network_table(), "local": wire.LOCAL,
                 "broadcast": wire.BROADCAST, "period": self.period, "deadline": self.deadline,
                 "max_outstanding": self.max_outstanding, "schema": self.schema}
@@ -384,7 +394,7 @@ class _Remote:
         deadline = now + self._deadline_ticks
         timer = self.sim.call_at_ticks(deadline, self._expire, arg=seq)
         self._requests[seq] = _Request(now, deadline, source, timer)
-        self._pub.put(wire.encode(wire.DATA, source, self.session_id, self.peer or 0, now, seq, values))
+        self._pub.put(self.codec.encode(wire.DATA, source, self.session_id, self.peer or 0, now, seq, values))
         self.published += 1
         self.clock.expect_reply()
 
@@ -529,7 +539,7 @@ class _Remote:
                 self._outcomes.append((req.ticks, self.name, seq, req.source, "open", -1))
                 req.expired = True
         self.flush()
-        self._pub.put(wire.encode(wire.END, 0, self.session_id, self.peer or 0, self.sim.now_ticks, self._seq))
+        self._pub.put(self.codec.encode(wire.END, 0, self.session_id, self.peer or 0, self.sim.now_ticks, self._seq))
 
     def drain(self, timeout: float = 5.0, quiet: float = 0.5) -> int:
         """After the run and :meth:`finish`, once the process is ending: count the valid
@@ -619,6 +629,10 @@ class RemoteNode(_Remote):
     schema:
         A description of the payloads (free-form, JSON-able) handed to the process by
         the info query, e.g. ``{"request": ["t_sample", "y"], "reply": ["t_sample", "u"]}``.
+    encoding:
+        ``"ncsm"`` (the native layout, default) or ``"cdr"`` (CDR payloads on
+        rmw_zenoh-style keys, for ROS 2 tools; :mod:`netcosim.transport.codecs`); the
+        process must use the same.
 
     Counters (:meth:`counters`): ``published``, ``received``, ``expired``, ``overruns``,
     ``unserved``, ``after_end``, ``dropped`` by reason.  Replies applied: :meth:`replies`.
@@ -630,7 +644,7 @@ class RemoteNode(_Remote):
                  plant: Any = None, outputs: Any = None, inputs: Any = None, sample_period: float | None = None,
                  extra: Callable[[float], Any] | None = None,
                  loss_policy: str | Callable[[Any, str], None] = "hold", abort_on: Collection[str] = (),
-                 schema: dict | None = None, **clock_options: Any):
+                 schema: dict | None = None, encoding: str = "ncsm", **clock_options: Any):
         name = node if isinstance(node, str) else getattr(node, "name", None)
         if not isinstance(name, str) or name not in sim.nodes:
             raise ConfigurationError(f"no node {node!r} in this simulation")
@@ -648,7 +662,7 @@ class RemoteNode(_Remote):
             period = sample_period
         super().__init__(sim, name, session, run, period=period, deadline=deadline, max_outstanding=max_outstanding,
                          stale_after=stale_after, loss_policy=loss_policy, abort_on=abort_on, schema=schema,
-                         clock_options=clock_options)
+                         encoding=encoding, clock_options=clock_options)
         self.iface = iface = ifaces[0]
         self.network = iface.network
         self._table = {i.name: i.index for i in self.network._ifaces}
@@ -738,7 +752,7 @@ class RemotePlantIO(_Remote):
 
     Parameters
     ----------
-    sim, session, run, loss_policy, abort_on, deadline, max_outstanding, stale_after, schema:
+    sim, session, run, loss_policy, abort_on, deadline, max_outstanding, stale_after, schema, encoding:
         As for :class:`RemoteNode` (``"zero"`` writes zeros to the inputs; the deadline
         defaults to *period*).
     plant:
@@ -767,12 +781,13 @@ class RemotePlantIO(_Remote):
                  outputs: Any = None, inputs: Any = None, name: str | None = None,
                  deadline: float | None = None, max_outstanding: int | None = None, stale_after: float | None = None,
                  loss_policy: str | Callable[[Any, str], None] = "hold", abort_on: Collection[str] = (),
-                 extra: Callable[[float], Any] | None = None, schema: dict | None = None, **clock_options: Any):
+                 extra: Callable[[float], Any] | None = None, schema: dict | None = None, encoding: str = "ncsm",
+                 **clock_options: Any):
         self._io = _PlantIO(plant, outputs, inputs, extra)
         self.plant = plant
         super().__init__(sim, name or plant.name, session, run, period=period, deadline=deadline,
                          max_outstanding=max_outstanding, stale_after=stale_after, loss_policy=loss_policy,
-                         abort_on=abort_on, schema=schema, clock_options=clock_options)
+                         abort_on=abort_on, schema=schema, encoding=encoding, clock_options=clock_options)
         self.n_inputs = self._io.n_inputs
         self._io.start(sim, period, lambda values: self._request(wire.LOCAL, values))
 

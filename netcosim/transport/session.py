@@ -64,8 +64,9 @@ def key(run: str, node: str, leaf: str) -> str:
 
 
 def new_run_id() -> str:
-    """A fresh run id (12 hex digits): the namespace of one run's keys."""
-    return uuid.uuid4().hex[:12]
+    """A fresh run id (``r`` and 11 hex digits: a valid ROS 2 name token too): the
+    namespace of one run's keys."""
+    return "r" + uuid.uuid4().hex[:11]
 
 
 def _socket_inodes() -> set[str]:

@@ -1,0 +1,127 @@
+"""A remote for the networked servo speaking the ROS 2-friendly encoding (CDR payloads on
+rmw_zenoh-style keys), written without netcosim: ``zenoh`` for transport and ``pycdr2``
+(Cyclone DDS's IDL/CDR package) for the messages.  It asks the simulation for the keys
+and the session with the info query (``netcosim/<run>/<node>/info``), checks that every
+request carries rmw_zenoh's attachment (int64 sequence number, int64 timestamp, 16-byte
+GID, read with ``zenoh.ext``), answers ``(t_sample, y)`` with ``(t_sample, u)`` of
+TrueTime's PID and the same attachment, and answers END with its own.  Its last stdout
+line is a JSON object of its counters.
+"""
+
+# no `from __future__ import annotations`: pycdr2 reads the dataclass annotations as types
+import argparse
+import json
+import math
+import queue
+import secrets
+import struct
+import sys
+import time
+from dataclasses import dataclass
+
+import pycdr2
+import zenoh
+from pycdr2.types import float64, int64, sequence, uint8, uint16, uint32, uint64
+from zenoh.ext import Int64, z_deserialize, z_serialize
+
+DATA, END = 1, 2
+
+
+@dataclass
+class Frame(pycdr2.IdlStruct, typename="netcosim_msgs::msg::dds_::Frame_"):
+    version: uint8
+    kind: uint8
+    node: uint16
+    session: uint64
+    peer: uint64
+    ticks: int64
+    seq: uint32
+    values: sequence[float64]
+
+
+class PID:
+    def __init__(self, h=0.010, K=0.96, Ti=0.12, Td=0.049, beta=0.5, N=10.0):
+        self.h, self.K, self.Ti, self.Td, self.beta, self.N = h, K, Ti, Td, beta, N
+        self.I = self.D = self.y_old = 0.0
+        self._ad = Td / (N * h + Td)
+        self._bd = N * K * Td / (N * h + Td)
+
+    def compute(self, r, y):
+        P = self.K * (self.beta * r - y)
+        self.D = self._ad * self.D + self._bd * (self.y_old - y)
+        u = P + self.I + self.D
+        self.I += self.K * self.h / self.Ti * (r - y)
+        self.y_old = y
+        return u
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser()
+    for opt in ("--run", "--node", "--session", "--encoding", "--zenoh-config"):
+        p.add_argument(opt)
+    p.add_argument("--connect", action="append", required=True)
+    p.add_argument("--lease", type=float, default=1.0)
+    p.add_argument("--idle", type=float, default=10.0)
+    a = p.parse_args(argv)
+    conf = zenoh.Config()
+    for k, v in (("mode", "peer"), ("scouting/multicast/enabled", False), ("scouting/gossip/enabled", False),
+                 ("listen/endpoints", []), ("connect/endpoints", a.connect)):
+        conf.insert_json5(k, json.dumps(v))
+    s = zenoh.open(conf)
+    peer = secrets.randbits(64) or 1
+    counts = {"received": 0, "published": 0, "attachments": 0, "status": "running"}
+    done: queue.SimpleQueue = queue.SimpleQueue()
+    try:
+        info = None
+        for _ in range(50):             # until the simulation answers the info query
+            for reply in s.get(f"netcosim/{a.run}/{a.node}/info", timeout=1.0):
+                if reply.ok is not None:
+                    info = json.loads(reply.ok.payload.to_bytes())
+            if info is not None:
+                break
+            time.sleep(0.1)
+        session = int(info["session"], 16)
+        pid, n = PID(), [0]
+        pub = s.declare_publisher(info["keys"]["tx"], encoding=zenoh.Encoding("application/cdr"),
+                                  congestion_control=zenoh.CongestionControl.BLOCK, express=True)
+
+        def put(frame):
+            n[0] += 1
+            pub.put(frame.serialize(), attachment=z_serialize((Int64(n[0]), Int64(time.time_ns()),
+                                                               peer.to_bytes(8, "little") * 2)))
+
+        def on_rx(sample):
+            m = Frame.deserialize(sample.payload.to_bytes())
+            seqno, stamp, gid = z_deserialize(tuple[Int64, Int64, bytes], sample.attachment)
+            if seqno > 0 and stamp > 0 and len(gid) == 16:
+                counts["attachments"] += 1
+            if m.session != session or m.peer not in (peer, 0):
+                return
+            if m.kind == END:
+                put(Frame(2, END, 0, session, peer, m.ticks, m.seq, []))
+                counts["status"] = "ended"
+                done.put(True)
+                return
+            counts["received"] += 1
+            t_sample, y = m.values
+            r = 1.0 if int(math.floor(t_sample / 0.5 + 1e-12)) % 2 == 0 else -1.0
+            put(Frame(2, DATA, m.node, session, peer, m.ticks, m.seq, [t_sample, pid.compute(r, y)]))
+            counts["published"] += 1
+
+        keep = [s.declare_subscriber(info["keys"]["rx"], on_rx),
+                s.liveliness().declare_token(f"netcosim/{a.run}/{a.node}/alive/{peer:016x}")]
+        print("ready", flush=True)
+        try:
+            done.get(timeout=30)
+        except queue.Empty:
+            counts["status"] = "idle"
+        time.sleep(0.1)
+        del keep
+    finally:
+        s.close()
+    print(json.dumps({**counts, "info": info}), flush=True)
+    return 0 if counts["status"] == "ended" else 5
+
+
+if __name__ == "__main__":
+    sys.exit(main())
