@@ -164,9 +164,35 @@ def tolerance(until: float, requests: Any) -> float:
     return 1.5 * deviation(replay, nominal) + 1e-4
 
 
-def main(outdir: str = "results/hil_servo", quick: bool = False, spawn: bool = True) -> pd.DataFrame:
+def compare_loss_policies(until: float = 3.0, stop_at: float = 0.5, lease: float = 1.0) -> pd.DataFrame:
+    """The loss policies on the servo: the controller process is stopped (SIGSTOP: hung,
+    its token goes after the lease) or killed (SIGKILL) at *stop_at* s, for ``"hold"`` and
+    ``"zero"``; one row per run: ``fault``, ``policy``, the simulated time the loss was
+    declared (``lost_at``, s), requests ``expired`` before it, and the largest deviation of
+    the angle from the all-simulated run after the fault (``deviation``, rad) and at the end
+    (``final_deviation``, rad)."""
+    import signal
+    nominal = servo_output(run_simulated(until))
+    rows = []
+    for fault, sig in (("stopped", signal.SIGSTOP), ("killed", signal.SIGKILL)):
+        for policy in ("hold", "zero"):
+            run = run_hil(until, loss_policy=policy, kill_at=stop_at, stop_signal=sig, lease=lease)
+            ev = run.remote.events()
+            lost = ev.loc[ev["event"] == "lost", "time"]
+            y = run.output()
+            after = y["time"] >= stop_at
+            err = np.abs(y["value"].to_numpy() - np.interp(y["time"], nominal["time"], nominal["value"]))
+            rows.append({"fault": fault, "policy": policy, "lost_at": float(lost.iloc[0]) if len(lost) else np.nan,
+                         "expired": run.remote.expired, "deviation": float(err[after.to_numpy()].max()),
+                         "final_deviation": float(err[-1])})
+    return pd.DataFrame(rows)
+
+
+def main(outdir: str = "results/hil_servo", quick: bool = False, spawn: bool = True,
+         policies: bool = False) -> pd.DataFrame:
     """Run 5 s (``quick``: 2 s) in real time with the remote controller, compare with the
-    all-simulated run; returns the one-row summary (also ``summary.parquet``)."""
+    all-simulated run; returns the one-row summary (also ``summary.parquet``).  ``policies``:
+    also :func:`compare_loss_policies` (``loss_policies.parquet``)."""
     import matplotlib.pyplot as plt
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -191,6 +217,10 @@ def main(outdir: str = "results/hil_servo", quick: bool = False, spawn: bool = T
     fig.savefig(out / "outputs.png", dpi=120)
     plt.close(fig)
     print(summary.to_string(index=False))
+    if policies:
+        table = compare_loss_policies()
+        table.to_parquet(out / "loss_policies.parquet", index=False)
+        print(table.to_string(index=False))
     return summary
 
 
@@ -198,5 +228,7 @@ if __name__ == "__main__":
     from experiments._cli import experiment_parser
     p = experiment_parser(__doc__, "results/hil_servo", quick="2 s instead of 5 s of real time")
     p.add_argument("--no-spawn", action="store_true", help="print the remote command instead of starting it")
+    p.add_argument("--policies", action="store_true",
+                   help="also compare the loss policies hold and zero with the process stopped or killed at 0.5 s")
     a = p.parse_args()
-    main(a.outdir, a.quick, spawn=not a.no_spawn)
+    main(a.outdir, a.quick, spawn=not a.no_spawn, policies=a.policies)

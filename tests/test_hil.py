@@ -273,9 +273,11 @@ def test_remote_plant_io_runs_a_fast_local_loop_against_the_simulated_plant():
             child.wait(timeout=10)
         session.close()
     samples = round(until / h)                      # 0, h, ..., until - h (the run stops before `until`)
-    assert io.published == samples
-    assert out.split() == [str(samples), str(samples)]
-    assert io.received + io.after_end + io.dropped.get("late", 0) == samples
+    # at 500 Hz a loaded machine may hold a reply back beyond two periods: the next request is
+    # then an overrun (not published), so the process is never handed more than it answers
+    assert io.published + io.overruns == samples and io.overruns <= 0.05 * samples
+    assert out.split() == [str(io.published), str(io.published)]
+    assert io.received + io.after_end + io.dropped.get("late", 0) == io.published
     assert set(io.dropped) <= {"late"}
     assert len(io.response_times()) == io.received
     plan = io.requests().set_index("seq")["response"]      # NaN: no reply applied

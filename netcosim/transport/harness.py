@@ -231,5 +231,5 @@ def run_with_remotes(sim: Any, remotes: Sequence[Any], until: float, commands: S
 
 
 def run_with_remote(sim: Any, remote: Any, until: float, command: Sequence[str], **options: Any) -> RemoteRun:
-    """:func:`run_with_remotes` with one remote and its command."""
+    """:func:`run_with_remotes` with one remote and its command (*until* in s of simulated time)."""
     return run_with_remotes(sim, [remote], until, [command], **options)
