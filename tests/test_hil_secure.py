@@ -256,3 +256,30 @@ def test_tls_and_user_password_together(certs, tmp_path, password):
                                             DELIVERY_TIMEOUT if accepted else REFUSAL_WINDOW)
     assert arrived is accepted
     assert (peers_l, peers_c) == ((1, 1) if accepted else (0, 0))
+
+
+# ---------------------------------------------------------------- a whole HIL run
+
+def test_hil_run_with_user_password_keeps_an_unauthenticated_sniffer_out(usrpwd):
+    """The servo with its controller process, both sides given the same user/password
+    file (``run_hil(zenoh_config=...)`` passes ``--zenoh-config`` to the process): the run is
+    complete, and a session without credentials connecting to the simulation's endpoint
+    sees nothing of it (``netcosim/**``) while the run goes on."""
+    from experiments import hil_servo
+    listener, _ = usrpwd
+    seen = []
+    sniffers = []
+
+    def sniff(session, remote):
+        s = open_session(listen=(), connect=session.endpoints)
+        sniffers.append(s)
+        s.subscribe("netcosim/**", seen.append)
+    try:
+        run = hil_servo.run_hil(1.0, zenoh_config=str(listener), before_run=sniff, deadline=0.1)
+    finally:
+        for s in sniffers:
+            s.close()
+    c = run.remote.counters()
+    assert c["published"] == 100 and c["received"] + c["after_end"] == 100 and not c["dropped"]
+    assert run.process["status"] == "ended"
+    assert seen == []
