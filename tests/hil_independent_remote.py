@@ -204,8 +204,9 @@ def main(argv=None):
         if state["status"] != "ended":
             print(f"independent remote: {state['reason']}", file=sys.stderr, flush=True)
         code = {"ended": 0, "gone": 3, "refused": 4, "idle": 5}[state["status"]]
-        if a.fault == "hang":
-            os._exit(code)          # a hung callback thread would block closing the session
+        if a.fault == "hang" or state["status"] == "gone":
+            # a hung callback thread, or a hung peer, would hold closing the session for 10 s
+            os._exit(code)
     finally:
         s.close()
     return code

@@ -18,7 +18,8 @@ MODULES = sorted(f"experiments.{m.name}" for m in pkgutil.iter_modules(experimen
                  if not m.name.startswith("_"))
 #: Programs that stand in for a remote node (hardware in the loop): they answer --help but
 #: write no results, so they have no --outdir
-REMOTE_PROCESSES = {"experiments.hil_servo_controller", "experiments.hil_landing_llc_controller"}
+REMOTE_PROCESSES = {"experiments.hil_servo_controller", "experiments.hil_landing_llc_controller",
+                    "experiments.hil_flycrane_node"}
 #: Seconds a `--help` may take: imports only (a full run takes seconds to minutes).
 HELP_TIMEOUT = 120
 
@@ -28,7 +29,7 @@ def _env(**extra):
 
 
 def test_the_experiment_list_is_complete():
-    assert len(MODULES) == 18 and "experiments.hil_servo" in MODULES and "experiments.flycrane_network" in MODULES
+    assert len(MODULES) == 20 and "experiments.hil_servo" in MODULES and "experiments.flycrane_network" in MODULES
     assert "experiments.fidelity" in MODULES and "experiments.hil_landing_llc" in MODULES
     assert "experiments.main" in MODULES and "experiments.servo" in MODULES
 

@@ -222,6 +222,6 @@ def ros_key(run: str, node: str, leaf: str, *, domain: int = 0) -> str:
         if not isinstance(value, str) or not _TOKEN.fullmatch(value):
             raise ValueError(f"ros_key {part} must be a ROS name token (letters, digits and '_', "
                              f"not starting with a digit), got {value!r}")
-    if isinstance(domain, bool) or not isinstance(domain, int) or domain < 0:
+    if type(domain) is not int or domain < 0:      # a bool is no domain id; stdlib only, no validate
         raise ValueError(f"ros_key domain must be a non-negative integer (ROS_DOMAIN_ID), got {domain!r}")
     return f"{domain}/netcosim/{run}/{node}/{leaf}/{TYPE_NAME}/{TYPE_HASH}"

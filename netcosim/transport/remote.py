@@ -200,6 +200,7 @@ class _Remote:
         self.alive = False
         self.peer: int | None = None        # the claimant's id (set on a Zenoh thread)
         self.refused: list[int] = []        # ids of refused claimants (appended on a Zenoh thread)
+        self._refused_alive: set[int] = set()   # refused claimants whose token is still there
         self.connected = threading.Event()  # set when a process has claimed the node
         self._lock = threading.Lock()
         self._zdrops: Counter[str] = Counter()  # drops decided on Zenoh threads, not yet folded
@@ -284,13 +285,16 @@ class _Remote:
                 else:
                     what = "refuse"
                     self.refused.append(peer)
+                    self._refused_alive.add(peer)
             elif peer == self.peer and self.connected.is_set():
                 self.connected.clear()      # a new process may claim the node
                 what = "lost"
             else:
                 what = "left"
+                self._refused_alive.discard(peer)
         if what == "refuse":
-            # the refused process learns it at once; the simulation records it at its next step
+            # the refused process learns it at once (and again with every request while its
+            # token stays: it may not have subscribed yet); the simulation records it at its next step
             self._pub.put(self.codec.encode(wire.REFUSED, 0, self.session_id, peer, 0, 0))
         self.clock.post(self._token, (peer, what))
 
@@ -391,6 +395,8 @@ class _Remote:
             self._outcomes.append((now, self.name, seq, source, "overrun", -1))
             self._lost("overrun")
             return
+        for peer in list(self._refused_alive):
+            self._pub.put(self.codec.encode(wire.REFUSED, 0, self.session_id, peer, 0, 0))
         deadline = now + self._deadline_ticks
         timer = self.sim.call_at_ticks(deadline, self._expire, arg=seq)
         self._requests[seq] = _Request(now, deadline, source, timer)
