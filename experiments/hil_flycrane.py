@@ -161,12 +161,12 @@ def attach_remotes(sim: Any, dep: Any, config: FlyCraneNetworkConfig, session: A
     n_V = len(st.pivot)
     remotes = [RemoteNode(sim, "pivot", session, run=run, size_bits=config.size_bits * (n_V + 1), period=T,
                           sample_period=T, plant=plant, outputs=list(st.pivot), reply_values=HEADER_VALUES + n_V,
-                          schema=SCHEMA["pivot"], **clock_options)]
+                          destinations=("broadcast",), schema=SCHEMA["pivot"], **clock_options)]
     for i, node in enumerate(dep.robots):
-        # a robot answers its plant inputs only: a reply to a network node must carry 0 values
+        # a robot answers its plant inputs only
         remotes.append(RemoteNode(sim, node.name, session, run=run, size_bits=config.size_bits, period=T,
-                                  plant=plant, outputs=list(st.cols[i]), inputs=list(st.rows[i]), reply_values=0,
-                                  schema=SCHEMA["robot"]))
+                                  plant=plant, outputs=list(st.cols[i]), inputs=list(st.rows[i]),
+                                  destinations=("local",), schema=SCHEMA["robot"]))
     return remotes
 
 

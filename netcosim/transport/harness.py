@@ -26,6 +26,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
+from .remote import drain
+
 __all__ = ["remote_command", "run_with_remote", "run_with_remotes", "RemoteRun"]
 
 
@@ -212,9 +214,7 @@ def run_with_remotes(sim: Any, remotes: Sequence[Any], until: float, commands: S
             if signal_at is not None and i == 0:
                 continue
             processes[i], codes[i] = _counters(child)
-        for i, r in enumerate(remotes):
-            if signal_at is None or i > 0:
-                r.drain()
+        drain([r for i, r in enumerate(remotes) if signal_at is None or i > 0])
         return RemoteRun(sim, remotes[0], remotes[0].clock.lateness, processes[0], wall, list(remotes), processes,
                          codes, failure)
     finally:

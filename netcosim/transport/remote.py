@@ -71,8 +71,8 @@ from .codecs import codec
 from .realtime import RealtimeClock
 from .session import Session, key
 
-__all__ = ["RemoteNode", "RemotePlantIO", "RemoteFault", "HIL_COLUMNS", "REQUEST_COLUMNS", "OUTCOMES", "LOSS_POLICIES",
-           "DROP_REASONS", "LOSS_EVENTS"]
+__all__ = ["RemoteNode", "RemotePlantIO", "RemoteFault", "drain", "HIL_COLUMNS", "REQUEST_COLUMNS", "OUTCOMES",
+           "LOSS_POLICIES", "DROP_REASONS", "LOSS_EVENTS"]
 
 log = logging.getLogger("netcosim.transport")
 
@@ -550,29 +550,9 @@ class _Remote:
     def drain(self, timeout: float = 5.0, quiet: float = 0.5) -> int:
         """After the run and :meth:`finish`, once the process is ending: count the valid
         replies that arrived after the run (``after_end``; replies in flight at the stop
-        time, or scheduled after it by a lagging simulation).  Waits for the process's
-        own END message (it sends one after its last reply), or else until its liveliness
-        token has gone and then no message came for *quiet* s, at most *timeout* s.
-        Nothing is applied.  Returns ``after_end``."""
-        for fn, arg in self.clock.take_pending():     # arrived, due after the stop time
-            if fn == self._receive:
-                self.after_end += 1
-            elif fn == self._ended:
-                return self.after_end
-        inbox = self.clock.inbox
-        deadline = time.monotonic() + timeout
-        gone = not self.alive
-        while (left := deadline - time.monotonic()) > 0:
-            try:
-                _, fn, arg = inbox.get(timeout=min(left, quiet) if gone else left)
-            except queue.Empty:
-                break
-            if fn == self._token and arg[1] == "lost":
-                gone = True
-            elif fn == self._receive:
-                self.after_end += 1
-            elif fn == self._ended:
-                break
+        time, or scheduled after it by a lagging simulation); :func:`drain` for this
+        remote alone.  Returns ``after_end``."""
+        drain([self], timeout, quiet)
         return self.after_end
 
     def close(self) -> None:
@@ -591,6 +571,43 @@ class _Remote:
         aborted; ``count``: events aggregated in the row)."""
         df = self.sim.trace.frame("hil")
         return df[df["node"] == self.name].reset_index(drop=True)
+
+
+def drain(remotes: Any, timeout: float = 5.0, quiet: float = 0.5) -> None:
+    """After the run and each remote's :meth:`~_Remote.finish`: count, for every remote of
+    *remotes* (sharing the simulation's clock), the valid replies that arrived after the
+    run (``after_end``).  Each remote is done when its process's own END has come (it
+    sends one after its last reply), or when its process is gone and then no message came
+    for *quiet* s; waits at most *timeout* s in all.  Messages are routed to the remote
+    they were posted for; nothing is applied."""
+    remotes = list(remotes)
+    if not remotes:
+        return
+    clock = remotes[0].clock
+    ended: set[int] = set()
+    gone = {id(r) for r in remotes if not r.alive}
+    owners = {id(r): r for r in remotes}
+
+    def route(fn: Any, arg: Any) -> None:
+        owner = owners.get(id(getattr(fn, "__self__", None)))
+        if owner is None:
+            return
+        if fn == owner._receive:
+            owner.after_end += 1
+        elif fn == owner._ended:
+            ended.add(id(owner))
+        elif fn == owner._token and arg[1] == "lost":
+            gone.add(id(owner))
+    for fn, arg in clock.take_pending():     # arrived, due after the stop time
+        route(fn, arg)
+    deadline = time.monotonic() + timeout
+    while len(ended) < len(remotes) and (left := deadline - time.monotonic()) > 0:
+        waiting_gone = all(i in ended or i in gone for i in owners)
+        try:
+            _, fn, arg = clock.inbox.get(timeout=min(left, quiet) if waiting_gone else left)
+        except queue.Empty:
+            break
+        route(fn, arg)
 
 
 class RemoteNode(_Remote):
@@ -625,11 +642,16 @@ class RemoteNode(_Remote):
     stale_after:
         An expired request is forgotten after this many seconds (default 100 deadlines).
     plant, outputs, inputs, sample_period, extra:
-        The node's own plant I/O: *outputs* (selector as for ``plant.output``) are read
-        at every request and appended to its values; every *sample_period* s (if given) a
-        request of them alone is published (``node`` = LOCAL), followed by the values of
-        ``extra(t)`` if given (see :class:`RemotePlantIO`); a reply to LOCAL is written
-        to *inputs* (selector as for ``plant.input``; it must carry one value per input).
+        The node's own plant I/O: *outputs* (selector as for ``plant.output``; None: none)
+        are read at every request and appended to its values; every *sample_period* s (if
+        given) a request of them alone is published (``node`` = LOCAL), followed by the
+        values of ``extra(t)`` if given (see :class:`RemotePlantIO`); a reply to LOCAL is
+        written to *inputs* (selector as for ``plant.input``; None: none, and a reply to
+        LOCAL is dropped, reason ``destination``; it must carry one value per input).
+    destinations:
+        Where a reply may go: names of network nodes, ``"broadcast"`` and ``"local"``
+        (None: any node of the network, broadcast, and local when *inputs* are given).
+        A reply elsewhere is dropped (reason ``destination``).
     loss_policy, abort_on:
         See the module docstring.
     schema:
@@ -648,7 +670,7 @@ class RemoteNode(_Remote):
                  period: float | None = None, deadline: float | None = None, reply_values: int | None = None,
                  max_outstanding: int | None = None, stale_after: float | None = None,
                  plant: Any = None, outputs: Any = None, inputs: Any = None, sample_period: float | None = None,
-                 extra: Callable[[float], Any] | None = None,
+                 extra: Callable[[float], Any] | None = None, destinations: Collection[str] | None = None,
                  loss_policy: str | Callable[[Any, str], None] = "hold", abort_on: Collection[str] = (),
                  schema: dict | None = None, encoding: str = "ncsm", **clock_options: Any):
         name = node if isinstance(node, str) else getattr(node, "name", None)
@@ -661,9 +683,11 @@ class RemoteNode(_Remote):
         self.size_bits = validate.count(size_bits, "size_bits (bits)", minimum=1)
         self.reply_values = None if reply_values is None else validate.count(reply_values, "reply_values",
                                                                                minimum=0)
-        self._io = _PlantIO(plant, outputs, inputs, extra) if plant is not None else None
+        self._io = _PlantIO(plant, outputs, inputs, extra, everything=False) if plant is not None else None
         if plant is None and (outputs is not None or inputs is not None or sample_period is not None):
             raise ConfigurationError(f"remote node {name!r}: outputs, inputs and sample_period need plant=")
+        if sample_period is not None and outputs is None:
+            raise ConfigurationError(f"remote node {name!r}: sample_period needs the outputs= it samples")
         if period is None and sample_period is not None:
             period = sample_period
         super().__init__(sim, name, session, run, period=period, deadline=deadline, max_outstanding=max_outstanding,
@@ -672,6 +696,7 @@ class RemoteNode(_Remote):
         self.iface = iface = ifaces[0]
         self.network = iface.network
         self._table = {i.name: i.index for i in self.network._ifaces}
+        self._allowed = self._destinations(destinations)
         self._last: dict[Any, int] = {}      # destination -> length of the last payload sent to it
         iface.handlers[:] = [self._deliver]
         iface.use_mailbox = False
@@ -681,6 +706,27 @@ class RemoteNode(_Remote):
 
     def _index(self) -> int | None:
         return self.iface.index
+
+    def _destinations(self, names: Collection[str] | None) -> frozenset[int]:
+        """The addresses a reply may carry (network indices, LOCAL, BROADCAST)."""
+        local = self._io is not None and self._io.u is not None
+        if names is None:
+            allowed = {i for n, i in self._table.items() if n != self.name} | {wire.BROADCAST}
+            return frozenset(allowed | ({wire.LOCAL} if local else set()))
+        if isinstance(names, str):
+            raise ConfigurationError(f"destinations must be a collection of names, got {names!r}")
+        out = set()
+        for n in names:
+            if n == "local" and local:
+                out.add(wire.LOCAL)
+            elif n == "broadcast":
+                out.add(wire.BROADCAST)
+            elif n in self._table and n != self.name:
+                out.add(self._table[n])
+            else:
+                known = sorted(set(self._table) - {self.name}) + ["broadcast"] + (["local"] if local else [])
+                raise ConfigurationError(f"remote node {self.name!r}: destination {n!r} is none of {known}")
+        return frozenset(out)
 
     def _network_table(self) -> dict[str, int]:
         return dict(self._table)
@@ -693,12 +739,11 @@ class RemoteNode(_Remote):
 
     def _check_reply(self, m: wire.Message) -> str | None:
         node = m.node
-        if node == wire.LOCAL:
-            if self._io is None or self._io.u is None:
-                return "destination"
-            return None if len(m.values) == self._io.n_inputs else "values"
-        if node != wire.BROADCAST and (node >= len(self._table) or node == self.iface.index):
+        if node not in self._allowed:
             return "destination"
+        if node == wire.LOCAL:
+            assert self._io is not None
+            return None if len(m.values) == self._io.n_inputs else "values"
         if self.reply_values is not None and len(m.values) != self.reply_values:
             return "values"
         return None
@@ -727,18 +772,21 @@ class _PlantIO:
     """A plant's selected outputs (read) and inputs (written, zero-order hold), and the
     periodic sampling of the outputs (plus ``extra(t)``)."""
 
-    def __init__(self, plant: Any, outputs: Any, inputs: Any, extra: Callable[[float], Any] | None):
+    def __init__(self, plant: Any, outputs: Any, inputs: Any, extra: Callable[[float], Any] | None,
+                 everything: bool = True):
         if extra is not None:
             validate.callable_(extra, "extra", kind="None or a callable extra(t) returning numbers")
         self.plant, self.extra = plant, extra
-        self.y = plant.output(outputs)
-        self.u = plant.input(inputs)
-        self.n_inputs = len(np.atleast_1d(plant.u[self.u.index]))
+        # None selects every output / input (everything) or none
+        self.y = plant.output(outputs) if outputs is not None or everything else None
+        self.u = plant.input(inputs) if inputs is not None or everything else None
+        self.n_inputs = 0 if self.u is None else len(np.atleast_1d(plant.u[self.u.index]))
 
     def read(self) -> tuple[float, ...]:
-        return _floats(np.atleast_1d(self.y.read()))
+        return () if self.y is None else _floats(np.atleast_1d(self.y.read()))
 
     def write(self, values: tuple[float, ...]) -> None:
+        assert self.u is not None
         self.u.write(values[0] if self.n_inputs == 1 and type(self.u.index) is int else np.asarray(values))
 
     def start(self, sim: Any, period: float, request: Callable[[tuple[float, ...]], None]) -> None:
