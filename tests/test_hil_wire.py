@@ -555,3 +555,30 @@ def test_remote_options_are_checked():
         _plant_io(None, abort_on="nonfinite")
     with pytest.raises(ConfigurationError, match="deadline"):
         _plant_io(None, deadline=-1.0)
+
+
+def test_remote_node_replies_go_only_where_destinations_allow():
+    from experiments import networked_servo
+    from netcosim.errors import ConfigurationError
+    from netcosim.transport.remote import RemoteNode
+
+    def node(**kw):
+        sim, _ = networked_servo.build("csma_cd", 0.0)
+        fake = FakeClock(0.0)
+        return RemoteNode(sim, "controller", FakeSession(), run="r1", size_bits=80, period=0.01, clock=fake,
+                          wait=fake.wait, **kw)
+
+    def to(r, dst, n=2):
+        return r._check_reply(wire.Message(wire.DATA, dst, 1, PEER, 0, 0, (0.0,) * n))
+    r = node()          # sensor 0, controller 1 (itself), interferer 2, sink 3
+    assert [to(r, d) for d in (0, 1, 2, 3, 4, wire.BROADCAST, wire.LOCAL)] == [
+        None, "destination", None, None, "destination", None, "destination"]   # no inputs: no LOCAL
+    r = node(destinations=("sensor",), reply_values=2)
+    assert [to(r, d) for d in (0, 2, wire.BROADCAST)] == [None, "destination", "destination"]
+    assert to(r, 0, n=1) == "values"
+    assert r.info()["network"] == {"sensor": 0, "controller": 1, "interferer": 2, "sink": 3}
+    with pytest.raises(ConfigurationError, match=r"destination 'local' is none of \['interferer', 'sensor', 'sink', "
+                                                 r"'broadcast'\]"):
+        node(destinations=("local",))
+    with pytest.raises(ConfigurationError, match="destinations must be a collection"):
+        node(destinations="sensor")
