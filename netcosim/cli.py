@@ -340,7 +340,7 @@ def _hil(args) -> int:
         raise UsageError(str(e)) from None
     try:
         common = dict(deadline=args.deadline, max_outstanding=args.max_outstanding, loss_policy=args.loss_policy,
-                      abort_on=abort_on, factor=args.factor)
+                      abort_on=abort_on, encoding=args.encoding, factor=args.factor)
         remote: RemoteNode | RemotePlantIO
         try:
             if is_node:
@@ -354,7 +354,7 @@ def _hil(args) -> int:
             raise UsageError(str(e)) from None
         cmd = remote_command(shlex.split(args.remote_cmd), run=run, node=args.remote,
                              endpoints=args.connect or session.endpoints, lease=args.lease,
-                             session=remote.session_id, zenoh_config=args.zenoh_config)
+                             session=remote.session_id, zenoh_config=args.zenoh_config, encoding=args.encoding)
         try:
             result = run_with_remote(sim, remote, args.until, cmd, spawn=False, connect_timeout=args.wait)
         except TimeoutError as e:
@@ -446,6 +446,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="endpoint to listen on (default tcp/127.0.0.1:0 without --connect)")
     h.add_argument("--zenoh-config", metavar="PATH",
                    help="a Zenoh configuration file for both sides (authentication, TLS; docs/hil_security.md)")
+    h.add_argument("--encoding", choices=["ncsm", "cdr"], default="ncsm",
+                   help="message encoding: ncsm (native, default) or cdr (CDR on rmw_zenoh keys, for ROS 2 tools)")
     h.add_argument("--size-bits", type=int, default=80, help="size (bits) of each message the remote sends")
     h.add_argument("--loss-policy", choices=["hold", "zero"], default="hold",
                    help="at a lost reply (expired, overrun, remote lost): keep the last command (hold) or send "
