@@ -214,9 +214,10 @@ def test_malformed_messages_are_dropped_counted_and_the_run_goes_on():
 
 
 @needs_zenoh
-def test_cli_prints_the_remote_command_and_runs_with_it():
+@pytest.mark.parametrize("encoding", [[], ["--encoding", "cdr"]])
+def test_cli_prints_the_remote_command_and_runs_with_it(encoding):
     run_hil_cli(["experiments.networked_servo:build", "--remote", "controller", "--period", "0.01", "--until", "0.5",
-                 "--wait", "30"],
+                 "--wait", "30", *encoding],
                 module="experiments.hil_servo_controller", node="controller", messages=50, timeout=60)
 
 
