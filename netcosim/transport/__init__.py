@@ -4,7 +4,12 @@ Modules (import them directly; this package imports none of them, so that the re
 process can load :mod:`netcosim.transport.client` without SimPy, NumPy or CasADi):
 
 :mod:`netcosim.transport.wire`
-    the versioned wire format (``struct``, float64 payloads; never pickle)
+    the versioned wire format (``struct``, float64 payloads; never pickle); the same
+    for C programs: ``ncsm_wire.h`` beside it
+:mod:`netcosim.transport.cdr`
+    the same message as CDR on rmw_zenoh key expressions (ROS 2-friendly)
+:mod:`netcosim.transport.codecs`
+    one interface to both encodings
 :mod:`netcosim.transport.realtime`
     :class:`~netcosim.transport.realtime.RealtimeClock`: wall-clock pacing with an inbox
     other threads can post to, and the lateness histogram
@@ -13,10 +18,11 @@ process can load :mod:`netcosim.transport.client` without SimPy, NumPy or CasADi
 :mod:`netcosim.transport.remote`
     :class:`~netcosim.transport.remote.RemoteNode`: a simulated node whose tasks run in
     another process; :class:`~netcosim.transport.remote.RemotePlantIO`: a process reading
-    a simulated plant's outputs and writing its inputs
+    a simulated plant's outputs and writing its inputs; the session, the claim, and the
+    matching of replies to requests (deadlines, drops by reason)
 :mod:`netcosim.transport.harness`
     the remote program's command line and one run with it, from connection to the last
-    reply (:func:`~netcosim.transport.harness.run_with_remote`)
+    reply, for one or several remotes (:func:`~netcosim.transport.harness.run_with_remotes`)
 :mod:`netcosim.transport.client`
     the library the real process uses (stdlib and Zenoh only)
 
