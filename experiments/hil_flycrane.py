@@ -327,37 +327,6 @@ class ReplayTimes:
         return dict(self._k)
 
 
-def build_with_times(sim: Any, config: FlyCraneNetworkConfig, exec_pivot: Any, exec_robot: Any):
-    """:func:`controllers.planner.networked.build` with the pose and command tasks'
-    execution times given as ``DeploymentConfig`` takes them (s, a frozen distribution or
-    ``fn(rng) -> s``); ``FlyCraneNetworkConfig`` takes constants only.  The same steps as
-    ``build`` (a test checks that with ``config``'s constants it is ``run(config)`` bit for
-    bit).  Returns ``(deployment, recorder)``."""
-    from controllers.planner.laws import OfflineGain
-    from controllers.planner.networked import GridRecorder, offline_gain, setting
-    from controllers.planner.plant_models import KinematicModel, VelocityTrackingModel
-    from controllers.planner.tasks import DeploymentConfig, PlannerLaw, deploy
-    from netcosim.network import Bernoulli, WLAN80211b
-    if config.strategy != "offline":
-        raise ValueError("the replay is for the offline strategy")
-    sys_, q0, q_ref = setting(config)
-    network = WLAN80211b(sim, "wlan", data_rate=config.data_rate, retry_limit=config.retry_limit + 1,
-                         loss=Bernoulli(config.loss) if config.loss > 0 else None)
-    if not config.schedules:
-        for table in ("schedule", "jobs", "network_schedule"):
-            sim.trace.configure(table, mode="off")
-    model = VelocityTrackingModel(config.alpha) if config.plant == "dynamic" else KinematicModel()
-    dcfg = DeploymentConfig(
-        config.T, PlannerLaw(OfflineGain(offline_gain(config)), q_ref=q_ref, kbar=np.ones(sys_.m), norm=config.norm),
-        architecture="sparse", exec_pivot=exec_pivot, exec_robot=exec_robot, exec_watchdog=config.exec_watchdog,
-        size_bits=config.size_bits, on_loss="hold", watchdog_period=config.watchdog_period, plant=model,
-        messaging=config.messaging, log_interval=None)
-    recorder = GridRecorder(model.integrator(), config.sample_dt, sys_.m)
-    dep = deploy(sim, sys_, q0, dcfg, network=network, integrator=recorder)
-    recorder.start(dep.plant)
-    return dep, recorder
-
-
 def run_replay(config: FlyCraneNetworkConfig, responses: dict[str, dict[int, float]]) -> tuple[FlyCraneRun, list]:
     """The all-simulated run in which the *k*-th pose job of the pivot and the *k*-th
     command job of robot I take the response time (s) measured for request ``seq == k``
@@ -366,7 +335,9 @@ def run_replay(config: FlyCraneNetworkConfig, responses: dict[str, dict[int, flo
     from netcosim import Simulation
     sim = Simulation(config.seed)
     times = ReplayTimes(sim, responses, config.T)
-    dep, recorder = build_with_times(sim, config, times, times)
+    if config.strategy != "offline":
+        raise ValueError("the replay is for the offline strategy")
+    dep, recorder = build(sim, config, exec_pivot=times, exec_robot=times)
     times.bind([dep.pivot, *dep.robots])
     failure = None
     try:

@@ -11,16 +11,15 @@ line is a JSON object of its counters.
 # no `from __future__ import annotations`: pycdr2 reads the dataclass annotations as types
 import argparse
 import json
-import math
 import queue
 import secrets
-import struct
 import sys
 import time
 from dataclasses import dataclass
 
 import pycdr2
 import zenoh
+from hil_independent_remote import PID, reference  # beside this file: the same PID, still no netcosim
 from pycdr2.types import float64, int64, sequence, uint8, uint16, uint32, uint64
 from zenoh.ext import Int64, z_deserialize, z_serialize
 
@@ -37,22 +36,6 @@ class Frame(pycdr2.IdlStruct, typename="netcosim_msgs::msg::dds_::Frame_"):
     ticks: int64
     seq: uint32
     values: sequence[float64]
-
-
-class PID:
-    def __init__(self, h=0.010, K=0.96, Ti=0.12, Td=0.049, beta=0.5, N=10.0):
-        self.h, self.K, self.Ti, self.Td, self.beta, self.N = h, K, Ti, Td, beta, N
-        self.I = self.D = self.y_old = 0.0
-        self._ad = Td / (N * h + Td)
-        self._bd = N * K * Td / (N * h + Td)
-
-    def compute(self, r, y):
-        P = self.K * (self.beta * r - y)
-        self.D = self._ad * self.D + self._bd * (self.y_old - y)
-        u = P + self.I + self.D
-        self.I += self.K * self.h / self.Ti * (r - y)
-        self.y_old = y
-        return u
 
 
 def main(argv=None):
@@ -104,8 +87,7 @@ def main(argv=None):
                 return
             counts["received"] += 1
             t_sample, y = m.values
-            r = 1.0 if int(math.floor(t_sample / 0.5 + 1e-12)) % 2 == 0 else -1.0
-            put(Frame(2, DATA, m.node, session, peer, m.ticks, m.seq, [t_sample, pid.compute(r, y)]))
+            put(Frame(2, DATA, m.node, session, peer, m.ticks, m.seq, [t_sample, pid.compute(reference(t_sample), y)]))
             counts["published"] += 1
 
         keep = [s.declare_subscriber(info["keys"]["rx"], on_rx),

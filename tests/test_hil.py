@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import run_hil_cli
+
 from netcosim.transport import wire
 from netcosim.transport.client import periodic
 from netcosim.transport.session import key, open_session, zenoh_available

@@ -98,15 +98,15 @@ def test_jacobian_tape_refuses_unknown_operations():
 
 
 def test_the_replay_with_nominal_times_is_the_simulated_run():
-    # build_with_times repeats networked.build with the execution times as DeploymentConfig
-    # takes them; ReplayTimes tells the nodes apart by their tasks' execution-time streams
-    from controllers.planner.networked import run
+    # networked.build with the execution times given (as the replay gives them) is run(config)
+    # for config's constants; ReplayTimes tells the nodes apart by their tasks' execution-time streams
+    from controllers.planner.networked import build, run
     from netcosim import Simulation
     h = _h()
     config = h.flycrane_config(4.5)
     nominal = run(config)
     sim = Simulation(config.seed)
-    dep, rec = h.build_with_times(sim, config, config.exec_pose, config.exec_robot)
+    dep, rec = build(sim, config, exec_pivot=lambda rng: config.exec_pose, exec_robot=lambda rng: config.exec_robot)
     sim.run(config.horizon)
     t, q, u = rec.arrays()
     assert np.array_equal(t, nominal.t) and np.array_equal(q, nominal.q) and np.array_equal(u, nominal.u)

@@ -31,7 +31,8 @@ def test_servo_over_cdr_with_an_independent_ros_style_client():
     rx = p["info"]["keys"]["rx"]
     assert rx == cdr.ros_key(run.remote.run_id, "controller", "rx") and rx.startswith(
         f"0/netcosim/{run.remote.run_id}/controller/rx/netcosim_msgs::msg::dds_::Frame_/RIHS01_")
-    assert p["info"]["encoding"] == "cdr" and p["info"]["network"] == {"sensor": 0, "controller": 1, "interferer": 2, "sink": 3}
+    assert p["info"]["encoding"] == "cdr"
+    assert p["info"]["network"] == {"sensor": 0, "controller": 1, "interferer": 2, "sink": 3}
     assert p["info"]["schema"] == hs.SCHEMA
     y = run.output()["value"].to_numpy()
     replay = hs.servo_output(hs.run_replay(1.0, run.remote.requests()))["value"].to_numpy()
@@ -46,8 +47,8 @@ def test_an_encoding_nobody_speaks_is_refused():
         codec("json")
     with pytest.raises(ValueError, match="encoding must be one of"):
         RemoteProcess("x", run="r1", connect=[], encoding="json")
-    from netcosim import Simulation
     from experiments import networked_servo
+    from netcosim import Simulation
     sim, _ = networked_servo.build("csma_cd", 0.0)
     from netcosim.transport.remote import RemoteNode
     with pytest.raises(ConfigurationError, match="encoding must be one of"):

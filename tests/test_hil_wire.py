@@ -504,7 +504,8 @@ def test_replies_are_matched_to_outstanding_requests_and_everything_else_is_drop
 
 
 def test_a_silent_process_fills_the_outstanding_requests_then_overruns_are_counted():
-    sim, plant, io, session = _plant_io(None, answer=lambda m: [] if m.seq >= 5 else [(0.001, io.proc.reply(m, (1.0,)))])
+    sim, plant, io, session = _plant_io(
+        None, answer=lambda m: [] if m.seq >= 5 else [(0.001, io.proc.reply(m, (1.0,)))])
     sim.run(until=0.2)
     c = io.counters()
     # max_outstanding = ceil(deadline / period) + 1 = 2: requests 5 and 6 expire, 7..19 are overruns
@@ -519,8 +520,9 @@ def test_a_silent_process_fills_the_outstanding_requests_then_overruns_are_count
 def test_loss_policy_callable_and_abort_on():
     from netcosim.transport.remote import RemoteFault
     calls = []
-    sim, plant, io, session = _plant_io(None, answer=lambda m: [] if m.seq == 3 else [(0.001, io.proc.reply(m, (1.0,)))],
-                                        loss_policy=lambda remote, why: calls.append((remote.sim.now, why)))
+    sim, plant, io, session = _plant_io(
+        None, answer=lambda m: [] if m.seq == 3 else [(0.001, io.proc.reply(m, (1.0,)))],
+        loss_policy=lambda remote, why: calls.append((remote.sim.now, why)))
     sim.run(until=0.1)
     assert calls == [(pytest.approx(0.04), "expired")]
     sim, plant, io, session = _plant_io(None, answer=lambda m: [(0.001, io.proc.reply(m, (float("nan"),)))]

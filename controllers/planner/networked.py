@@ -257,12 +257,16 @@ class GridRecorder(SolveIVP):
         return t, q, u
 
 
-def build(sim: Simulation, config: FlyCraneNetworkConfig, *, network: Any = None) -> tuple[Deployment, Any]:
+def build(sim: Simulation, config: FlyCraneNetworkConfig, *, network: Any = None, exec_pivot: Any = None,
+          exec_robot: Any = None) -> tuple[Deployment, Any]:
     """Wire the five nodes, the network and the plant of *config* inside *sim*.
 
     ``network``: the network (default: a :class:`~netcosim.network.WLAN80211b` named
-    ``"wlan"`` with ``config``'s data rate, loss and retry limit).  Returns
-    ``(deployment, recorder)``; the recorder holds q and u every ``sample_dt`` s.
+    ``"wlan"`` with ``config``'s data rate, loss and retry limit).  ``exec_pivot``,
+    ``exec_robot``: execution times (s) as :class:`~controllers.planner.tasks.DeploymentConfig`
+    takes them (a constant, a frozen distribution or ``fn(rng) -> s``) in place of
+    ``config``'s constants (the HIL replay gives each job its measured response time).
+    Returns ``(deployment, recorder)``; the recorder holds q and u every ``sample_dt`` s.
     """
     from netcosim.network import Bernoulli, WLAN80211b
 
@@ -279,7 +283,8 @@ def build(sim: Simulation, config: FlyCraneNetworkConfig, *, network: Any = None
     dcfg = DeploymentConfig(
         config.T, PlannerLaw(gain, q_ref=q_ref, kbar=np.ones(sys_.m), norm=config.norm),
         architecture="centralized" if online else "sparse",
-        exec_pivot=config.exec_planner if online else config.exec_pose, exec_robot=config.exec_robot,
+        exec_pivot=(config.exec_planner if online else config.exec_pose) if exec_pivot is None else exec_pivot,
+        exec_robot=config.exec_robot if exec_robot is None else exec_robot,
         exec_watchdog=config.exec_watchdog, size_bits=config.size_bits, on_loss="zero" if online else "hold",
         watchdog_period=config.watchdog_period, plant=model, messaging=config.messaging, log_interval=None)
     recorder = GridRecorder(model.integrator(), config.sample_dt, sys_.m)

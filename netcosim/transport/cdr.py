@@ -81,23 +81,18 @@ import re
 import struct
 from typing import Sequence
 
+from .wire import DATA, END, KINDS, MAX_VALUES, REFUSED, VERSION, check_fields
+
 __all__ = ["VERSION", "DATA", "END", "REFUSED", "KINDS", "MAX_VALUES", "ENCAPSULATION", "HEADER",
            "CdrError", "encode", "decode", "ROS_TYPE", "TYPE_NAME", "FIELDS", "rihs01", "TYPE_HASH",
            "ros_key"]
 
-#: the message version carried in the ``version`` field (that of the native layout, 2)
-VERSION = 2
-#: kinds of message (the same values as the native layout)
-DATA, END, REFUSED = 1, 2, 3
-KINDS = (DATA, END, REFUSED)
-#: largest payload accepted, as in the native layout
-MAX_VALUES = 1024
+# the version, kinds and largest payload are the native layout's: one message, two encodings
 #: encapsulation identifier CDR_LE (XCDR1 plain CDR, little endian)
 ENCAPSULATION = b"\x00\x01"
 #: encapsulation id, options, version, kind, node, pad to 8, session, peer, ticks, seq, count
 HEADER = struct.Struct("<2sHBBH4xQQqII")
-_U16, _U32, _U64 = 0xFFFF, 0xFFFFFFFF, 0xFFFFFFFFFFFFFFFF
-_I64 = 1 << 63
+_U32 = 0xFFFFFFFF
 
 
 class CdrError(ValueError):
@@ -116,19 +111,8 @@ def encode(kind: int, node: int, session: int, peer: int, ticks: int, seq: int,
     ``seq`` is taken modulo 2**32; every other field out of its range raises
     :class:`ValueError` naming it.
     """
-    if kind not in KINDS:
-        raise ValueError(f"message kind must be one of {KINDS}, got {kind!r}")
-    if not 0 <= node <= _U16:
-        raise ValueError(f"message node index must be in [0, {_U16}], got {node!r}")
-    if not 0 <= session <= _U64:
-        raise ValueError(f"message session must be in [0, 2**64 - 1], got {session!r}")
-    if not 0 <= peer <= _U64:
-        raise ValueError(f"message peer must be in [0, 2**64 - 1], got {peer!r}")
-    if not -_I64 <= ticks < _I64:
-        raise ValueError(f"message ticks must be in [-2**63, 2**63 - 1], got {ticks!r}")
     n = len(values)
-    if n > MAX_VALUES:
-        raise ValueError(f"a message carries at most {MAX_VALUES} values, got {n}")
+    check_fields(kind, node, session, peer, ticks, n)
     return (HEADER.pack(ENCAPSULATION, 0, VERSION, kind, node, session, peer, ticks, seq & _U32, n)
             + struct.pack(f"<{n}d", *values))
 
