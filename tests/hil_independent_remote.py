@@ -80,7 +80,7 @@ def main(argv=None):
     p.add_argument("--idle", type=float, default=10.0)
     p.add_argument("--zenoh-config")
     p.add_argument("--fault", choices=FAULTS, default="none")
-    p.add_argument("--at", type=int, default=20, help="request index at which the fault starts")
+    p.add_argument("--at", type=int, default=20, help="request (seq) at which the fault starts")
     p.add_argument("--delay", type=float, default=0.015, help="s: reply delay of 'late', work time of 'slow'")
     a = p.parse_args(argv)
 
@@ -137,8 +137,8 @@ def main(argv=None):
                 stop("ended", "the simulation ended the run")
                 return
             with lock:
-                k = counts["received"]
                 counts["received"] += 1
+            k = seq                     # the fault starts at request (seq) --at, whatever was withheld
             t_sample, y = values
             u = pid.compute(reference(t_sample), y)
             f, on = a.fault, k >= a.at
