@@ -15,11 +15,14 @@ process can load :mod:`netcosim.transport.client` without SimPy, NumPy or CasADi
     other threads can post to, and the lateness histogram
 :mod:`netcosim.transport.session`
     hermetic Zenoh sessions (peer mode, no scouting, loopback endpoints, per-run keys)
+:mod:`netcosim.transport.base`
+    :class:`~netcosim.transport.base.BaseRemote`: what every remote shares -- the session,
+    the claim, requests and deadlines, the matching of replies, drops by reason, counters,
+    the loss policy and the ``hil`` trace rows
 :mod:`netcosim.transport.remote`
     :class:`~netcosim.transport.remote.RemoteNode`: a simulated node whose tasks run in
     another process; :class:`~netcosim.transport.remote.RemotePlantIO`: a process reading
-    a simulated plant's outputs and writing its inputs; the session, the claim, and the
-    matching of replies to requests (deadlines, drops by reason)
+    a simulated plant's outputs and writing its inputs
 :mod:`netcosim.transport.harness`
     the remote program's command line and one run with it, from connection to the last
     reply, for one or several remotes (:func:`~netcosim.transport.harness.run_with_remotes`)
