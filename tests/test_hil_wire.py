@@ -559,6 +559,18 @@ def test_remote_options_are_checked():
         _plant_io(None, deadline=-1.0)
 
 
+def test_remote_node_without_reply_values_says_so_at_construction(caplog):
+    from experiments import networked_servo
+    from netcosim.transport.remote import RemoteNode
+    for kw, warned in (({}, True), ({"reply_values": 2}, False)):
+        caplog.clear()
+        sim, _ = networked_servo.build("csma_cd", 0.0)
+        fake = FakeClock(0.0)
+        RemoteNode(sim, "controller", FakeSession(), run="r1", size_bits=80, period=0.01, clock=fake,
+                   wait=fake.wait, **kw)
+        assert ("give reply_values=" in caplog.text) == warned
+
+
 def test_remote_node_replies_go_only_where_destinations_allow():
     from experiments import networked_servo
     from netcosim.errors import ConfigurationError

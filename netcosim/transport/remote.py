@@ -22,6 +22,7 @@ a 500 Hz low-level controller) against a simulated plant.
 
 from __future__ import annotations
 
+import logging
 from typing import Any, Callable, Collection
 
 import numpy as np
@@ -43,6 +44,8 @@ from .base import (
     drain,
 )
 from .session import Session
+
+log = logging.getLogger("netcosim.transport")
 
 __all__ = ["RemoteNode", "RemotePlantIO", "RemoteFault", "drain", "HIL_COLUMNS", "REQUEST_COLUMNS", "OUTCOMES",
            "LOSS_POLICIES", "DROP_REASONS", "LOSS_EVENTS", "AGGREGATE"]
@@ -150,6 +153,10 @@ class RemoteNode(BaseRemote):
         self.network = iface.network
         self._table = {i.name: i.index for i in self.network._ifaces}
         self._allowed = self._destinations(destinations)
+        if self.reply_values is None and self._allowed - {wire.LOCAL}:
+            log.warning("remote node %r: replies of any number of values are sent on to the network; give "
+                        "reply_values= (netcosim hil --reply-values) so that a short or long one is dropped "
+                        "instead of reaching a receiving task", name)
         self._last: dict[Any, int] = {}      # destination -> length of the last payload sent to it
         iface.handlers[:] = [self._deliver]
         iface.use_mailbox = False
