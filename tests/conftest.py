@@ -55,11 +55,12 @@ class SteppingClock:
         return self.t
 
 
-def run_hil_cli(args, *, module, node, messages, timeout=120):
+def run_hil_cli(args, *, module, node, messages, timeout=120, expect=()):
     """Run ``netcosim hil ARGS --remote-cmd 'python -m MODULE'`` and the remote command it
     prints, as two real processes; check that the printed command starts *module* for
     *node* and that both sides counted *messages* messages each way (replies in flight
-    at the end count as ``after the end``).  Returns the process's last stdout."""
+    at the end count as ``after the end``), and that every regular expression of *expect*
+    matches the simulation side's output.  Returns the process's last stdout."""
     import ast
     import re
     import subprocess
@@ -93,6 +94,8 @@ def run_hil_cli(args, *, module, node, messages, timeout=120):
         assert int(m[1]) + int(m[2]) + late == messages and set(ast.literal_eval(m[4])) <= {"late"}, out
         assert re.search(r"response time \(simulated\): median [0-9.]+ ms, p90 [0-9.]+ ms, p99", out), out
         assert "trace and counters written to" in out
+        for pattern in expect:
+            assert re.search(pattern, out), (pattern, out)
         r_out, _ = remote.communicate(timeout=30)
         assert f'"received": {messages}, "published": {messages}' in r_out
         return r_out

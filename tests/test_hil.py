@@ -222,6 +222,17 @@ def test_cli_prints_the_remote_command_and_runs_with_it(encoding):
 
 
 @needs_zenoh
+def test_cli_compares_with_the_simulated_run_and_the_replay():
+    # the replay reproduces the HIL run bit for bit; the all-simulated run differs by what the
+    # measured response times (not the simulated 0.5 ms of CPU time) explain
+    run_hil_cli(["experiments.networked_servo:build", "--remote", "controller", "--period", "0.01", "--until", "0.5",
+                 "--reply-values", "2", "--wait", "30", "--compare", "--replay", "experiments.hil_servo:run_replay"],
+                module="experiments.hil_servo_controller", node="controller", messages=50, timeout=60,
+                expect=[r"max deviation from the all-simulated run: [1-9]\.\d+e-0\d \(servo\.y\.y\)",
+                        r"max deviation from the replay with the measured response times: 0\.000e\+00"])
+
+
+@needs_zenoh
 def test_hil_servo_example_writes_its_results(tmp_path):
     summary = _hil().main(outdir=str(tmp_path), quick=True)
     row = summary.iloc[0]
