@@ -20,6 +20,12 @@ from .errors import ConfigurationError, ConfigurationTypeError
 RESOLUTION = 1e-12
 #: Ticks per second.
 TICKS_PER_SECOND = 10**12
+#: The largest instant (and duration) in ticks: traces store ticks as signed 64-bit
+#: integers, so every instant of a run stays readable up to 2**63 - 1 ps, about 9.22e6 s
+#: (106.7 simulated days).
+MAX_TICKS = 2**63 - 1
+#: :data:`MAX_TICKS` in seconds.
+MAX_SECONDS = MAX_TICKS / TICKS_PER_SECOND
 
 
 def to_ticks(seconds: float, what: str = "time", *, allow_negative: bool = False) -> int:
@@ -28,9 +34,10 @@ def to_ticks(seconds: float, what: str = "time", *, allow_negative: bool = False
     Raises :class:`~netcosim.errors.ConfigurationTypeError` (a ``TypeError``) if the
     value is not a real number, and :class:`~netcosim.errors.ConfigurationError` (a
     ``ValueError``) naming *what* and the value if it is not finite, is negative when
-    ``allow_negative`` is false, or is non-zero but smaller in magnitude than
+    ``allow_negative`` is false, is non-zero but smaller in magnitude than
     :data:`RESOLUTION` (it would round to an instant or a duration it does not mean:
-    a period of 1e-13 s would release forever at the same instant).
+    a period of 1e-13 s would release forever at the same instant), or is larger in
+    magnitude than :data:`MAX_SECONDS` (the traces could not hold it).
     """
     if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real):
         raise ConfigurationTypeError(f"{what} must be a real number of seconds, got {seconds!r}")
@@ -42,6 +49,9 @@ def to_ticks(seconds: float, what: str = "time", *, allow_negative: bool = False
     if s != 0.0 and abs(s) < RESOLUTION:
         raise ConfigurationError(f"{what}={seconds!r} s is non-zero but below the time resolution "
                                  f"{RESOLUTION} s (netcosim.RESOLUTION); use 0 or at least {RESOLUTION} s")
+    if abs(s) > MAX_SECONDS:
+        raise ConfigurationError(f"{what}={seconds!r} s lies beyond netcosim's time range, {MAX_SECONDS:.6g} s "
+                                 f"(106.7 days: 2**63 - 1 ticks of {RESOLUTION} s, what the traces store)")
     return int(round(s * TICKS_PER_SECOND))
 
 
