@@ -19,6 +19,11 @@ def test_ch2_landing_quick(quick):
                  "scheduled_landing.png", "delay_sweep.png", "fig2_5_sigmoid.png", "signals.parquet",
                  "nmpc_steps.parquet", "jobs.parquet", "metrics.parquet", "delay_sweep.parquet"):
         assert (tmp_path / name).stat().st_size > 1000, name
+    # the host's wall-clock times are kept apart from what the run reproduces
+    steps = pd.read_parquet(tmp_path / "nmpc_steps.parquet")
+    wall = pd.read_parquet(tmp_path / "nmpc_wall_clock.parquet")
+    assert not {"t_feedback", "t_prepare"} & set(steps.columns) and {"c_feedback", "c_prepare"} <= set(steps.columns)
+    assert list(wall.columns) == ["run", "time", "t_feedback", "t_prepare"] and len(wall) == len(steps)
     saved = pd.read_parquet(tmp_path / "metrics.parquet").set_index("run")
     assert set(saved.index) == set(metrics.index)
     # Fig. 2.11 with the thesis's scheme (1 s runs): the 2LC reduces the wind-induced
