@@ -51,6 +51,11 @@ class UsageError(Exception):
     """A command-line argument the command cannot use; the message names it (exit status 2)."""
 
 
+def _syntax_error(exc: SyntaxError) -> UsageError:
+    """One line naming the file and line of *exc* (``file.py:3: SyntaxError: invalid syntax``)."""
+    return UsageError(f"{exc.filename or '<unknown file>'}:{exc.lineno}: {type(exc).__name__}: {exc.msg}")
+
+
 def _load_module_from_file(given: str):
     path = Path(given)
     if not path.is_file():
@@ -65,7 +70,11 @@ def _load_module_from_file(given: str):
     assert spec is not None and spec.loader is not None  # a .py path that exists always has one
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
-    spec.loader.exec_module(module)
+    try:
+        spec.loader.exec_module(module)
+    except SyntaxError as exc:
+        del sys.modules[name]
+        raise _syntax_error(exc) from None
     return module
 
 
@@ -78,6 +87,22 @@ def _import_module(name: str, what: str):
         if exc.name in {".".join(parts[:i]) for i in range(1, len(parts) + 1)}:
             raise UsageError(what) from None
         raise
+    except SyntaxError as exc:
+        raise _syntax_error(exc) from None
+
+
+def available_experiments() -> list[str]:
+    """The NAMEs ``netcosim run NAME`` accepts: the modules of the ``experiments`` package
+    whose ``main`` takes ``outdir`` first (read from the sources, nothing is imported)."""
+    import re
+    spec = importlib.util.find_spec("experiments")
+    names = set()
+    for directory in (spec.submodule_search_locations or []) if spec is not None else []:
+        for f in Path(directory).glob("*.py"):
+            if not f.stem.startswith("_") and re.search(r"^def main\(\s*outdir\b",
+                                                        f.read_text(encoding="utf-8", errors="replace"), re.M):
+                names.add(f.stem)
+    return sorted(names)
 
 
 def resolve_experiment(spec: str):
@@ -102,8 +127,15 @@ def resolve_experiment(spec: str):
         where = f"module {target!r}"
     else:
         name = target.removeprefix("experiments.")
-        module = _import_module(f"experiments.{name}",
-                                f"no experiment {name!r} (looked for module experiments.{name})")
+        try:
+            module = _import_module(f"experiments.{name}", "")
+        except UsageError:
+            import difflib
+            known = available_experiments()
+            close = difflib.get_close_matches(name, known, n=1)
+            raise UsageError(f"no experiment {name!r} (no module experiments.{name})"
+                             + (f"; did you mean {close[0]!r}?" if close else "")
+                             + f" The experiments are: {', '.join(known) or 'none found'}") from None
         where = f"experiments.{name}"
     fn = getattr(module, func, None)
     if fn is None:
@@ -121,18 +153,94 @@ def _accepts(fn, keyword: str) -> bool:
     return keyword in params or any(p.kind is p.VAR_KEYWORD for p in params.values())
 
 
+def check_writable_dir(given: str | os.PathLike, what: str) -> Path:
+    """*given* as a Path if it is, or could be made, a directory this process can write in.
+
+    Nothing is created: the nearest existing ancestor must be a directory in which a
+    (nameless, at once removed) temporary file can be made.  Raises :class:`UsageError`
+    naming *what* and *given* otherwise.
+    """
+    import tempfile
+    if not os.fspath(given).strip():
+        raise UsageError(f"{what} must name a directory, got {os.fspath(given)!r}")
+    path = Path(given)
+    probe = path
+    while not probe.exists() and probe.parent != probe:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UsageError(f"{what} {os.fspath(given)!r} cannot be a directory: {str(probe)!r} is a file")
+    try:
+        tempfile.TemporaryFile(dir=probe).close()
+    except OSError as exc:
+        raise UsageError(f"{what} {os.fspath(given)!r} is not writable: cannot write in {str(probe)!r} "
+                         f"({exc.strerror or exc})") from None
+    return path
+
+
+def _files(directory: str | os.PathLike | None) -> dict[str, int]:
+    """``{path: mtime_ns}`` of every file under *directory* (none if it does not exist)."""
+    out: dict[str, int] = {}
+    if directory is None:
+        return out
+    for root, _, names in os.walk(os.fspath(directory)):
+        for n in names:
+            f = os.path.join(root, n)
+            try:
+                out[f] = os.stat(f).st_mtime_ns
+            except OSError:
+                pass
+    return out
+
+
+def _short(value) -> str:
+    """A one-line description of a returned value, at most ~80 characters."""
+    shape = getattr(value, "shape", None)
+    if shape is not None and not callable(shape):
+        return f"a {type(value).__name__} of shape {tuple(shape)}"
+    text = " ".join(repr(value).split())
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def _run(args) -> int:
     fn = resolve_experiment(args.experiment)
+    label = f"{getattr(fn, '__module__', None) or '?'}.{getattr(fn, '__qualname__', None) or args.experiment}"
+    if not _accepts(fn, "outdir"):
+        try:
+            sig = str(inspect.signature(fn))
+        except (TypeError, ValueError):
+            sig = "(...)"
+        raise UsageError(f"{args.experiment!r} is not an experiment entry point: {label}{sig} takes no 'outdir' "
+                         "(netcosim run calls FUNCTION(outdir=..., quick=...) and reports what it wrote)")
     kwargs = {}
     if args.outdir is not None:
-        if not args.outdir.strip():
-            raise UsageError(f"--outdir must name a directory, got {args.outdir!r}")
+        outdir: str | os.PathLike | None = check_writable_dir(args.outdir, "--outdir")
         kwargs["outdir"] = args.outdir
+    else:
+        try:
+            param = inspect.signature(fn).parameters.get("outdir")
+        except (TypeError, ValueError):
+            param = None
+        outdir = None
+        if param is not None and param.default is param.empty and param.kind is not param.VAR_KEYWORD:
+            raise UsageError(f"experiment {args.experiment!r} has no default output directory: give --outdir DIR")
+        if param is not None and isinstance(param.default, (str, os.PathLike)) and os.fspath(param.default):
+            outdir = param.default
+            check_writable_dir(outdir, f"the output directory of {args.experiment!r} (change it with --outdir)")
     if args.quick:
         if not _accepts(fn, "quick"):
             raise UsageError(f"experiment {args.experiment!r} has no quick mode (its function takes no 'quick')")
         kwargs["quick"] = True
-    fn(**kwargs)
+    call = f"{label}({', '.join(f'{k}={v!r}' for k, v in kwargs.items())})"
+    before = _files(outdir)
+    result = fn(**kwargs)
+    after = _files(outdir)
+    written = sum(1 for f, t in after.items() if before.get(f) != t)
+    if outdir is None:
+        print(f"ran {call}: it returned {_short(result)}")
+    elif written:
+        print(f"ran {call}: wrote {written} file{'s' * (written != 1)} to {os.fspath(outdir)}")
+    else:
+        print(f"ran {call}: it returned {_short(result)} and wrote no file to {os.fspath(outdir)}")
     return 0
 
 
@@ -295,6 +403,91 @@ def _hil_report(run, args, compare_with) -> None:
                                                        "no plant signal logged in both runs"))
 
 
+def _checked(check, value, flag: str, **kw):
+    """``check(value, flag, **kw)`` (a :mod:`netcosim.validate` function), its error a :class:`UsageError`."""
+    from .errors import ConfigurationError, ConfigurationTypeError
+    try:
+        return check(value, flag, **kw)
+    except (ConfigurationError, ConfigurationTypeError) as exc:
+        raise UsageError(str(exc)) from None
+
+
+#: Zenoh link protocols whose address is HOST:PORT.
+_HOST_PORT_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
+
+
+def check_endpoint(endpoint: str, flag: str) -> str:
+    """*endpoint* if it reads as a Zenoh endpoint ``<protocol>/<address>[?<metadata>][#<config>]``
+    (HOST:PORT for tcp, udp, tls, quic, ws; port 0, "any", only for ``--listen``); raises
+    :class:`UsageError` naming *flag* and *endpoint* otherwise."""
+    import re
+    m = re.fullmatch(r"([a-z][a-z0-9-]*)/([^?#]+)(\?[^#]*)?(#.*)?", endpoint)
+    if m is None:
+        raise UsageError(f"{flag} {endpoint!r} is not a Zenoh endpoint <protocol>/<address> "
+                         "(e.g. tcp/127.0.0.1:7447)")
+    if m.group(1) in _HOST_PORT_PROTOCOLS:
+        host, colon, port = m.group(2).rpartition(":")
+        lowest = 0 if flag == "--listen" else 1
+        if not (colon and host and port.isdigit() and lowest <= int(port) <= 65535):
+            raise UsageError(f"{flag} {endpoint!r}: a {m.group(1)} address is HOST:PORT with a port in "
+                             f"{lowest}..65535")
+    return endpoint
+
+
+def _check_hil_options(args) -> None:
+    """Every ``hil`` option that does not need the scenario, before anything is built or opened."""
+    import shlex
+
+    from . import validate
+    from .transport.wire import MAX_VALUES
+    _checked(validate.duration, args.until, "--until", positive=True, kind="a positive number of seconds")
+    _checked(validate.positive, args.factor, "--factor",
+             kind="a positive finite number (wall-clock seconds per simulated second)")
+    for flag, value in (("--period", args.period), ("--deadline", args.deadline)):
+        if value is not None:
+            _checked(validate.duration, value, flag, positive=True, kind="a positive number of seconds")
+    if args.max_outstanding is not None:
+        _checked(validate.count, args.max_outstanding, "--max-outstanding", minimum=1)
+    if args.reply_values is not None:
+        _checked(validate.count, args.reply_values, "--reply-values", minimum=0, maximum=MAX_VALUES)
+    _checked(validate.bits, args.size_bits, "--size-bits", allow_zero=False)
+    _checked(validate.real, args.lease, "--lease", lo=0.01, hi=3600.0, kind="a number of seconds in [0.01, 3600]")
+    _checked(validate.non_negative, args.wait, "--wait", kind="a non-negative finite number of seconds")
+    for flag, endpoints in (("--listen", args.listen), ("--connect", args.connect)):
+        for e in endpoints:
+            check_endpoint(e, flag)
+    if args.zenoh_config is not None and not Path(args.zenoh_config).is_file():
+        raise UsageError(f"--zenoh-config {args.zenoh_config!r}: no such file")
+    try:
+        words = shlex.split(args.remote_cmd)
+    except ValueError as exc:
+        raise UsageError(f"--remote-cmd {args.remote_cmd!r}: {exc}") from None
+    if not words:
+        raise UsageError(f"--remote-cmd must name a program, got {args.remote_cmd!r}")
+    for flag, names in (("--outputs", args.outputs), ("--inputs", args.inputs), ("--abort-on", args.abort_on)):
+        if names is not None and not _names(names):
+            raise UsageError(f"{flag} {names!r} names nothing (give NAME[,NAME...])")
+    check_writable_dir(args.out, "--out")
+
+
+def _zenoh_reason(exc: BaseException) -> str:
+    """The first line of a Zenoh error without the Rust source location it ends with."""
+    import re
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return re.sub(r"\s+at \S+\.rs:\d+\.?$", "", text)
+
+
+def _check_plant_ports(plant, args) -> None:
+    """``--outputs`` / ``--inputs`` name ports of *plant*."""
+    from .errors import ConfigurationTypeError
+    for flag, given, select in (("--outputs", args.outputs, plant.output), ("--inputs", args.inputs, plant.input)):
+        if given is not None:
+            try:
+                select(_names(given))
+            except (KeyError, IndexError, ConfigurationTypeError) as exc:
+                raise UsageError(f"{flag} {given!r}: {exc.args[0] if exc.args else exc}") from None
+
+
 def _hil(args) -> int:
     import shlex
     from pathlib import Path
@@ -306,6 +499,7 @@ def _hil(args) -> int:
 
     if ":" not in args.scenario:
         raise UsageError(f"scenario {args.scenario!r}: give package.module:function or path/to/file.py:function")
+    _check_hil_options(args)
     if os.getcwd() not in sys.path:
         sys.path.insert(0, os.getcwd())
     build = resolve_experiment(args.scenario)
@@ -320,6 +514,8 @@ def _hil(args) -> int:
         raise UsageError(f"{args.remote!r} is a node, not a plant: {', '.join(plant_options)} given")
     if not is_node and args.period is None:
         raise UsageError(f"{args.remote!r} is a plant: give its sampling period with --period SECONDS")
+    if not is_node:
+        _check_plant_ports(sim.plants[args.remote], args)
     if is_node and args.period is None and args.deadline is None:
         raise UsageError(f"{args.remote!r} is a node: give the period of the requests it serves with "
                          "--period SECONDS (the default deadline), or --deadline SECONDS")
@@ -338,6 +534,12 @@ def _hil(args) -> int:
         session = open_session(listen=listen, connect=args.connect, lease=args.lease, **kw)
     except (OSError, ValueError, RuntimeError) as e:
         raise UsageError(str(e)) from None
+    except Exception as e:      # zenoh.ZError (not importable without the zenoh extra): an endpoint Zenoh refuses
+        if type(e).__name__ != "ZError":
+            raise
+        where = " ".join(f"--listen {x}" for x in args.listen) + " ".join(f" --connect {x}" for x in args.connect)
+        raise UsageError(f"cannot open a Zenoh session ({where.strip() or 'default endpoints'}): "
+                         f"{_zenoh_reason(e)}") from None
     try:
         common = dict(deadline=args.deadline, max_outstanding=args.max_outstanding, loss_policy=args.loss_policy,
                       abort_on=abort_on, encoding=args.encoding, factor=args.factor)

@@ -1,0 +1,149 @@
+"""Bad input to every ``netcosim`` command: one line on stderr naming the value, exit status 2,
+no traceback (issue 23); and what ``run`` and ``plot network`` print and write.
+
+The ``hil`` cases need no Zenoh: every one must fail before a session is opened (the
+test replaces ``open_session`` by a function that fails the test).
+"""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+from netcosim.cli import main
+
+SCENARIO = "experiments.networked_servo:build"      # nodes sensor, controller, interferer; plant servo (y; u)
+NODE = [SCENARIO, "--remote", "controller", "--period", "0.01"]
+PLANT = [SCENARIO, "--remote", "servo", "--period", "0.01"]
+
+
+def _one_line_exit_2(argv, named, capsys):
+    code = main(argv)
+    out, err = capsys.readouterr()
+    lines = err.strip().splitlines()
+    assert code == 2, (argv, code, err)
+    assert len(lines) == 1, err
+    assert "Traceback" not in err + out
+    assert named in lines[0], (named, lines[0])
+    return lines[0]
+
+
+@pytest.fixture
+def no_session(monkeypatch):
+    import netcosim.transport.session as session
+
+    def fail(*a, **kw):
+        raise AssertionError("a Zenoh session was opened before the arguments were checked")
+    monkeypatch.setattr(session, "open_session", fail)
+
+
+@pytest.mark.parametrize("args, named", [
+    (NODE + ["--factor", "0"], "--factor"),
+    (NODE + ["--factor", "nan"], "nan"),
+    (NODE + ["--lease", "0"], "--lease"),
+    (NODE + ["--size-bits", "0"], "--size-bits"),
+    (NODE[:-1] + ["0"], "--period"),
+    (NODE[:-1] + ["-0.01"], "-0.01"),
+    (PLANT + ["--outputs", "x"], "'x'"),
+    (PLANT + ["--inputs", "x"], "'x'"),
+    (PLANT + ["--outputs", ","], "--outputs ','"),
+    (NODE + ["--listen", "x"], "--listen 'x'"),
+    (NODE + ["--listen", "tcp/127.0.0.1"], "'tcp/127.0.0.1'"),
+    (NODE + ["--connect", "tcp/127.0.0.1:0"], "--connect 'tcp/127.0.0.1:0'"),
+    (NODE + ["--until", "-1"], "--until"),
+    (NODE + ["--until", "nan"], "nan"),
+    (NODE + ["--until", "0"], "--until"),
+    (NODE + ["--deadline", "0"], "--deadline"),
+    (NODE + ["--max-outstanding", "0"], "--max-outstanding"),
+    (NODE + ["--reply-values", "-1"], "--reply-values"),
+    (NODE + ["--wait", "-1"], "--wait"),
+    (NODE + ["--remote-cmd", "'unclosed"], "--remote-cmd"),
+    (NODE + ["--zenoh-config", "/no/such/zenoh.json5"], "'/no/such/zenoh.json5'"),
+    (NODE + ["--out", "{file}/sub"], "{file}"),
+])
+def test_hil_rejects_bad_options_before_opening_a_session(args, named, tmp_path, capsys, no_session):
+    a_file = tmp_path / "a_file"
+    a_file.write_text("")
+    args = [a.format(file=a_file) for a in args]
+    _one_line_exit_2(["hil", *args], named.format(file=a_file), capsys)
+
+
+def test_hil_rejects_an_unwritable_out(tmp_path, capsys, no_session):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        import os
+        if os.access(locked, os.W_OK) and os.geteuid() == 0:
+            pytest.skip("root writes in a read-only directory")
+        _one_line_exit_2(["hil", *NODE, "--out", str(locked / "hil")], str(locked / "hil"), capsys)
+    finally:
+        locked.chmod(0o700)
+
+
+STUDY = '''
+def build(seed=0):
+    return "a simulation"
+
+def writes_nothing(outdir="never_written"):
+    return {"answer": 42}
+
+def needs_outdir(outdir):
+    return None
+'''
+
+
+@pytest.fixture
+def study(tmp_path, monkeypatch):
+    (tmp_path / "my_study.py").write_text(STUDY)
+    (tmp_path / "broken_study.py").write_text("def main(outdir='o'):\n    x = (\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    for name in ("my_study", "broken_study"):
+        monkeypatch.delitem(sys.modules, name, raising=False)
+    return tmp_path
+
+
+@pytest.mark.parametrize("args, named", [
+    (["my_study.py:build"], "'my_study.py:build'"),
+    (["my_study.py:needs_outdir"], "--outdir"),
+    (["broken_study.py"], "broken_study.py:2"),
+    (["srevo"], "'srevo'"),
+    (["servo", "--outdir", "{file}/out"], "{file}"),
+    (["servo", "--outdir", " "], "' '"),
+])
+def test_run_rejects_bad_input(study, args, named, capsys):
+    a_file = study / "my_study.py"
+    line = _one_line_exit_2(["run", *[a.format(file=a_file) for a in args]], named.format(file=a_file), capsys)
+    if args == ["srevo"]:
+        assert "did you mean 'servo'?" in line
+        assert "networked_servo" in line and "hil_servo_controller" not in line
+
+
+def test_run_says_what_it_ran_when_nothing_was_written(study, capsys):
+    assert main(["run", "my_study.py:writes_nothing"]) == 0
+    out = capsys.readouterr().out
+    assert "my_study.writes_nothing()" in out and "{'answer': 42}" in out and "wrote no file to never_written" in out
+
+
+def test_run_servo_says_where_it_wrote(tmp_path, capsys):
+    out = tmp_path / "servo"
+    assert main(["run", "servo", "--quick", "--outdir", str(out)]) == 0
+    printed = capsys.readouterr().out.strip().splitlines()
+    assert len(printed) == 1 and printed[0].endswith(f"to {out}"), printed
+    assert "experiments.servo.main(" in printed[0] and "quick=True" in printed[0]
+    assert (out / "schedule.parquet").is_file()
+
+
+def test_a_scenario_with_a_syntax_error_is_one_line(tmp_path, monkeypatch, capsys, no_session):
+    (tmp_path / "broken_scenario.py").write_text("def build():\n    return [\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    monkeypatch.delitem(sys.modules, "broken_scenario", raising=False)
+    _one_line_exit_2(["hil", "broken_scenario.py:build", "--remote", "x"], "broken_scenario.py:2", capsys)
+
+
+def test_run_from_python_keeps_no_stale_module(study, capsys):
+    _one_line_exit_2(["run", "broken_study.py"], "broken_study.py", capsys)
+    assert "broken_study" not in sys.modules
