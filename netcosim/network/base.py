@@ -37,6 +37,7 @@ is done by the life-cycle steps below (``_next_frame``, ``_attempt_start``,
 from __future__ import annotations
 
 import math
+import warnings
 from typing import TYPE_CHECKING, Any
 
 from .. import validate
@@ -46,7 +47,8 @@ from ..kernel.task import Task
 from ..timebase import RESOLUTION, TICKS_PER_SECOND
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
-from .loss import as_loss_model
+from .loss import Bernoulli, MaskedLossWarning, as_loss_model
+from .stats import LinkStats, stats_frame, total
 
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
                  "bits", "backoff")
@@ -110,7 +112,31 @@ class Network:
         unicast on the radio networks retries it, up to ``retry_limit`` attempts in all
         on 802.11b and ``max_frame_retries + 1`` on 802.15.4, so with independent
         losses and no other failures a message is lost with probability ``p**attempts``
-        (``0.5**7 < 1 %`` with 802.11b's default of 7).
+        (``0.5**7 < 1 %`` with 802.11b's default of 7).  A unicast frame loss of at
+        least 0.05 that retries hide so that the expected message loss ``p**attempts``
+        is below a tenth of ``p`` is noted once per network, at its first unicast
+        message (:class:`~netcosim.network.loss.MaskedLossWarning`).
+    message_loss:
+        A probability or loss model like ``loss``, but drawn once per *message* and
+        link when it is sent (TrueTime's wireless loss): a message drawn lost is
+        silenced before medium access -- it never occupies the medium, is never
+        retried, is traced ``lost`` with outcome ``message_loss`` at the receiver whose
+        link was silenced, and the sender's ``on_done`` callbacks see it dropped.  A
+        message loss ``p`` is a message loss ``p`` whatever the MAC (a broadcast is
+        silenced per receiver and still sent to the others).  Draws come from the
+        stream ``<net>/message_loss/<src>-><dst>``, so the same seed gives the same
+        results and the frame-loss draws are unchanged.
+
+        ===========================  =========================  ====================
+        option                       message loss, Bernoulli p  medium occupied
+        ===========================  =========================  ====================
+        ``loss=p``, 1 attempt        ``p``                      yes, every attempt
+        ``loss=p``, r attempts       ``p**r``                   yes, every attempt
+        ``message_loss=p``           ``p``                      no, silenced message
+        ===========================  =========================  ====================
+
+        ``stats`` (and :meth:`link_stats`) counts both per link: messages sent,
+        delivered, lost and the frame (attempt) losses; see :mod:`netcosim.network.stats`.
     queue, queue_capacity:
         Sender queue discipline (``"fifo"`` or ``"priority"``) and size in frames.
     mailbox_capacity:
@@ -125,7 +151,7 @@ class Network:
 
     def __init__(self, sim, name: str, *, data_rate: float, min_frame_bits: int = 0,
                  max_frame_bits: int | None = None, pre_delay: float = 0.0, post_delay: float = 0.0,
-                 propagation_delay: float = 0.0, loss: Any = None, queue: str | None = None,
+                 propagation_delay: float = 0.0, loss: Any = None, message_loss: Any = None, queue: str | None = None,
                  queue_capacity: int | None = None, mailbox_capacity: int | None = None, trace: bool = True):
         self.sim = sim
         self._env = sim.env
@@ -144,6 +170,9 @@ class Network:
         self._prop = validate.duration(propagation_delay, f"{w}: propagation_delay (s)")
         self.pre_delay, self.post_delay, self.propagation_delay = pre_delay, post_delay, propagation_delay
         self.loss = as_loss_model(loss)
+        self.message_loss = as_loss_model(message_loss)
+        # the once-per-network notice of a frame loss hidden by retries (checked at the first unicast)
+        self._mask_check = isinstance(self.loss, Bernoulli) and self.loss.p >= 0.05
         self.queue = queue or self.default_queue
         TxQueue(self.queue, queue_capacity, what=w)  # validate now, not at attach
         self.queue_capacity = queue_capacity
@@ -154,6 +183,8 @@ class Network:
         self.interfaces: dict[str, Interface] = {}
         self._ifaces: list[Interface] = []
         self._links: dict = {}
+        self._mlinks: dict = {}
+        self._lstats: dict[tuple[int, int], LinkStats] = {}
         self._dur: dict = {}
         self._next_id = 0
         self._frames_rec = sim.trace.table("frames", FRAME_COLUMNS,
@@ -288,11 +319,60 @@ class Network:
         if self._trace_on:
             self._rows.append((now, self.name, frame.id, "created", iface.name, frame.dname, iface.name, 0, "",
                                size, _NAN))
+        if d is BROADCAST:
+            for r in self._ifaces:
+                if r is not iface:
+                    self._open_link(frame, iface, r)
+        else:
+            if self._mask_check:
+                self._check_masked_loss()
+            self._open_link(frame, iface, d)
+        if frame.silenced is not None and not frame.lstats:     # silenced on every link: never queued
+            self._finish(frame, False)
+            return msg
         if self._pre:
             self.sim.call_in_ticks(self._pre, self._enqueue, arg=frame)
         else:
             self._enqueue(frame)
         return msg
+
+    def _open_link(self, frame: Frame, src: Interface, rx: Interface) -> None:
+        """Count *frame*'s message on the link *src* -> *rx*; draw ``message_loss`` for it."""
+        key = (src.index, rx.index)
+        ls = self._lstats.get(key)
+        if ls is None:
+            ls = self._lstats[key] = LinkStats(src.name, rx.name)
+        ls.sent += 1
+        if self.message_loss is not None:
+            lk = self._mlinks.get(key)
+            if lk is None:
+                lk = self._mlinks[key] = self.message_loss.link(
+                    self.sim.rng(f"{self.name}/message_loss/{src.name}->{rx.name}"))
+            if lk.lost():
+                ls.lost += 1
+                ls.silenced += 1
+                if frame.silenced is None:
+                    frame.silenced = set()
+                frame.silenced.add(rx.index)
+                self._lost(frame, rx, "message_loss")
+                return
+        frame.lstats[rx.index] = ls
+        frame.pend.add(rx.index)
+
+    def _check_masked_loss(self) -> None:
+        """Note once if retries hide the frame loss: expected message loss p**attempts < p / 10."""
+        self._mask_check = False
+        if not getattr(self, "use_ack", False):
+            return
+        assert isinstance(self.loss, Bernoulli)
+        p, n = self.loss.p, int(getattr(self, "max_attempts", 1) or 1)
+        if n > 1 and p < 1.0 and p ** n < 0.1 * p:
+            warnings.warn(
+                f"network {self.name!r}: loss={p:g} is a frame loss, drawn per attempt; with up to {n} attempts "
+                f"per unicast message the expected message loss is only {p:g}**{n} = {p ** n:.3g} if nothing "
+                f"else fails an attempt.  For a loss of whole messages use message_loss={p:g} (silenced before "
+                f"medium access, as TrueTime's wireless loss); network.stats reports both losses",
+                MaskedLossWarning, stacklevel=4)
 
     def _enqueue(self, frame: Frame) -> None:
         iface = frame.src
@@ -339,6 +419,8 @@ class Network:
         default the frame's; ``backoff`` slots drawn before it)."""
         if iface.current is not frame:
             self._not_in_service(iface, frame, "starts an attempt of")
+        if frame.attempts:
+            self._attempt_over(frame)
         frame.attempts += 1
         frame.sent = self._env._now
         if self._trace_on:
@@ -412,8 +494,30 @@ class Network:
         """Count *frame* as sent or dropped at its sender and call the ``on_done`` callbacks."""
         src = frame.src
         src.stats["sent" if ok else "dropped"] += 1
+        self._let_go(frame)
         for cb in src.on_done:
             cb(frame, ok)
+
+    def _attempt_over(self, frame: Frame) -> None:
+        """The last attempt of *frame* is over: count it per link, lost where not received."""
+        rx = frame.rx_now
+        for i, ls in frame.lstats.items():
+            ls.attempts += 1
+            if i not in rx:
+                ls.frames_lost += 1
+        rx.clear()
+
+    def _let_go(self, frame: Frame) -> None:
+        """One of the holders of *frame* (its sender, a pending hand-over, a copy in a switch) is
+        done with it; when the last one is, its fate is final: the receivers it was not
+        delivered to count a message loss."""
+        frame.holds -= 1
+        if frame.holds == 0:
+            if frame.attempts:
+                self._attempt_over(frame)
+            for i in frame.pend:
+                frame.lstats[i].lost += 1
+            frame.pend.clear()
 
     def _link(self, src: Interface, dst: Interface):
         key = (src.index, dst.index)
@@ -432,9 +536,11 @@ class Network:
         if self.loss is not None and self._link(frame.src, rx).lost():
             self._lost(frame, rx, "random_loss")
             return False
+        frame.rx_now.add(rx.index)
         delay = self._post + self._prop       # as _accept (inlined: once per frame and receiver)
         if delay:
-            self.sim.call_in_ticks(delay, self._hand_over, arg=(frame, rx))
+            frame.holds += 1
+            self.sim.call_in_ticks(delay, self._hand_over_later, arg=(frame, rx))
         else:
             self._hand_over((frame, rx))
         return True
@@ -444,12 +550,19 @@ class Network:
         MACs that draw the loss themselves, before an ACK, call this)."""
         delay = self._post + self._prop
         if delay:
-            self.sim.call_in_ticks(delay, self._hand_over, arg=(frame, rx))
+            frame.holds += 1
+            self.sim.call_in_ticks(delay, self._hand_over_later, arg=(frame, rx))
         else:
             self._hand_over((frame, rx))
 
+    def _hand_over_later(self, item) -> None:
+        self._hand_over(item)
+        self._let_go(item[0])
+
     def _hand_over(self, item) -> None:
         frame, rx = item
+        if frame.silenced is not None and rx.index in frame.silenced:
+            return                            # this link was silenced at send (traced then)
         msg = frame.msg.copy() if frame.dst is BROADCAST else frame.msg
         now = self._env._now
         msg.delivered = now * RESOLUTION
@@ -463,6 +576,10 @@ class Network:
             self._rows.append((now, self.name, frame.id, "delivered", frame.src.name, frame.dname, rx.name,
                                frame.attempts, "", frame.bits, _NAN))
         rx.stats["received"] += 1
+        pend = frame.pend
+        if rx.index in pend:
+            pend.discard(rx.index)
+            frame.lstats[rx.index].delivered += 1
         for h in rx.handlers:
             if isinstance(h, Task):
                 h.release()
@@ -470,6 +587,27 @@ class Network:
                 h(msg)
 
     # ------------------------------------------------------------------ results
+    @property
+    def stats(self) -> dict:
+        """Message loss next to frame loss: ``{"links": {"src->dst": counters}, "total": counters}``.
+
+        Counters (see :mod:`netcosim.network.stats`): ``messages_sent`` (a broadcast
+        counts once per receiver), ``messages_delivered`` (handed to the receiver's
+        interface: mailbox and handlers), ``messages_lost`` (never delivered, after every
+        retry; includes ``messages_silenced`` by ``message_loss``),
+        ``messages_in_flight``, ``message_loss`` = lost / (delivered + lost);
+        ``frame_attempts`` (completed transmission attempts), ``frames_lost`` (attempts the
+        receiver did not receive), ``frame_loss`` = frames_lost / frame_attempts.  Links
+        appear once a message was sent on them.
+        """
+        links = sorted(self._lstats.items())
+        return {"links": {f"{ls.src}->{ls.dst}": ls.as_dict() for _, ls in links},
+                "total": total(ls for _, ls in links)}
+
+    def link_stats(self) -> pd.DataFrame:
+        """:attr:`stats` of every link as a DataFrame (one row per link, ``src``, ``dst`` first)."""
+        return stats_frame(ls for _, ls in sorted(self._lstats.items()))
+
     def frames(self) -> pd.DataFrame:
         """This network's rows of the ``frames`` trace."""
         df = self.sim.trace.frame("frames")

@@ -45,6 +45,7 @@ LOSS_REASONS = (
     "queue_overflow",   # sender queue (or switch memory) full
     "mailbox_full",     # receiver mailbox full at delivery
     "channel_access",   # 802.15.4: CSMA/CA found the channel busy too often
+    "message_loss",     # silenced before medium access by the network's message_loss (never sent)
 )
 
 
@@ -98,7 +99,7 @@ class Frame:
     """A message in transit (internal).  Times in ticks."""
 
     __slots__ = ("msg", "id", "src", "dst", "dname", "bits", "priority", "seq", "attempts", "created",
-                 "queued", "sent", "remaining")
+                 "queued", "sent", "remaining", "holds", "lstats", "pend", "rx_now", "silenced")
 
     def __init__(self, msg: Message, src, dst, bits: int, priority, seq: int, created: int):
         self.msg = msg
@@ -114,6 +115,12 @@ class Frame:
         self.queued = None
         self.sent = None
         self.remaining = None     # ticks of transmission left (TDMA suspension)
+        # message/frame loss bookkeeping (netcosim.network.stats):
+        self.holds = 1            # who still works on it: the sender, pending hand-overs, switch copies
+        self.lstats: dict = {}    # receiver index -> LinkStats, for the receivers the message goes to
+        self.pend: set = set()    # receiver indices it was not yet delivered to
+        self.rx_now: set = set()  # receiver indices that received the current attempt
+        self.silenced: set | None = None  # receiver indices silenced by message_loss (None: none)
 
     @property
     def broadcast(self) -> bool:

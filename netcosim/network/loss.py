@@ -33,6 +33,11 @@ from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
 
 
+class MaskedLossWarning(UserWarning):
+    """A frame loss that the MAC's retries hide almost completely: the expected message loss
+    ``p**attempts`` is below a tenth of ``p`` (issued once per network)."""
+
+
 class LossModel:
     """Base class.  :meth:`link` returns the per-link state object with ``lost() -> bool``."""
 

@@ -100,6 +100,7 @@ class SwitchedEthernet(Network):
             o.mac.used += f.bits
         self.memory_used += f.bits * len(outs)
         self.memory_peak = max(self.memory_peak, self.memory_used)
+        f.holds += len(outs)        # the copies in the switch keep the message's fate open (stats)
         self._done(src, f, True, restart=False)
         if self._switch_delay:
             self.sim.call_in_ticks(self._switch_delay, self._forward, arg=(f, outs))
@@ -130,5 +131,6 @@ class SwitchedEthernet(Network):
         self.memory_used -= f.bits
         o._state()
         self._deliver(f, o)
+        self._let_go(f)
         if port.queue._q:
             self._port_start(o)

@@ -278,6 +278,7 @@ class RadioNetwork(Network):
             if not ack:
                 self._lost(f, r.iface, "random_loss")
             return
+        f.rx_now.add(r.iface.index)
         tx.acked = ack
         if r.last_seq.get(f.src.index) != f.seq:
             r.last_seq[f.src.index] = f.seq

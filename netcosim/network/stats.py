@@ -1,0 +1,115 @@
+"""Message loss next to frame loss: per-link counters of every network.
+
+Two losses, counted side by side for every directed link (sender -> receiver):
+
+*frame loss*
+    A transmission **attempt** that the receiver did not receive: it collided, was below
+    the receiver's threshold, had bit errors, was dropped by the network's ``loss`` model,
+    or never reached the receiver (refused or dropped by a switch).  An attempt whose
+    data frame was received counts as received even if its ACK was lost.  A broadcast
+    attempt is one attempt on the link to every receiver.
+*message loss*
+    A **message** (one ``send``, per receiver) that was never handed to the receiver's
+    interface -- posted to its mailbox and given to its receive handlers -- after
+    everything the MAC did about it: every retry failed (``retry_limit``), the sender
+    queue or the switch overflowed, 802.15.4 found no clear channel, the receiver's
+    mailbox was full, or ``message_loss`` silenced it before medium access.
+
+With retries the two differ by orders of magnitude: frame loss ``p`` on 802.11b unicast
+with 7 attempts is a message loss of ``p**7`` (0.8 % for ``p = 0.5``).
+
+``network.stats`` returns ``{"links": {"src->dst": counters}, "total": counters}``,
+``network.link_stats()`` the same as a DataFrame and :func:`loss_summary` flat totals
+over every network of a simulation (scalars, ready to be returned as sweep metrics).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+#: Counters of a link (and of the totals), in the order of :meth:`LinkStats.as_dict`.
+STATS_KEYS = ("messages_sent", "messages_delivered", "messages_lost", "messages_silenced", "messages_in_flight",
+              "message_loss", "frame_attempts", "frames_lost", "frame_loss")
+
+
+def _ratio(num: int, den: int) -> float:
+    return num / den if den else math.nan
+
+
+class LinkStats:
+    """Counters of one directed link (sender ``src`` -> receiver ``dst``).
+
+    ``sent``: messages sent on the link (a broadcast counts once per receiver attached
+    when it was sent); ``delivered``: handed to the receiver's interface; ``lost``:
+    message losses (never delivered, final); ``silenced``: of those, silenced by
+    ``message_loss`` before medium access; ``attempts``: completed transmission attempts
+    of the link's messages (an attempt counts once it is over: the next attempt started
+    or the sender and the network are done with the frame); ``frames_lost``: of those,
+    attempts the receiver did not receive.
+    """
+
+    __slots__ = ("src", "dst", "sent", "delivered", "lost", "silenced", "attempts", "frames_lost")
+
+    def __init__(self, src: str, dst: str):
+        self.src, self.dst = src, dst
+        self.sent = self.delivered = self.lost = self.silenced = 0
+        self.attempts = self.frames_lost = 0
+
+    def as_dict(self) -> dict:
+        """The counters and ratios under the names of :data:`STATS_KEYS`."""
+        return _counters(self.sent, self.delivered, self.lost, self.silenced, self.attempts, self.frames_lost)
+
+    def __repr__(self) -> str:
+        return (f"<LinkStats {self.src}->{self.dst} messages {self.delivered}/{self.sent} delivered, "
+                f"{self.lost} lost; frames {self.frames_lost}/{self.attempts} lost>")
+
+
+def _counters(sent: int, delivered: int, lost: int, silenced: int, attempts: int, frames_lost: int) -> dict:
+    """Counters and ratios: ``message_loss`` = lost / (delivered + lost), the share of the
+    messages whose fate is known (NaN before any); ``frame_loss`` = frames_lost / attempts."""
+    return {"messages_sent": sent, "messages_delivered": delivered, "messages_lost": lost,
+            "messages_silenced": silenced, "messages_in_flight": sent - delivered - lost,
+            "message_loss": _ratio(lost, delivered + lost), "frame_attempts": attempts,
+            "frames_lost": frames_lost, "frame_loss": _ratio(frames_lost, attempts)}
+
+
+def total(links) -> dict:
+    """Sum of the counters of *links* (an iterable of :class:`LinkStats`), with the ratios."""
+    s = [0] * 6
+    for ls in links:
+        s[0] += ls.sent
+        s[1] += ls.delivered
+        s[2] += ls.lost
+        s[3] += ls.silenced
+        s[4] += ls.attempts
+        s[5] += ls.frames_lost
+    return _counters(*s)
+
+
+def stats_frame(links) -> "pd.DataFrame":
+    """One row per link: ``src, dst`` and the :data:`STATS_KEYS` columns."""
+    import pandas as pd
+
+    rows = [{"src": ls.src, "dst": ls.dst, **ls.as_dict()} for ls in links]
+    return pd.DataFrame(rows, columns=["src", "dst", *STATS_KEYS])
+
+
+def loss_summary(sim, network=None) -> dict:
+    """Message and frame loss over every network of *sim* (or only *network*, a name or a network).
+
+    Flat scalars, e.g. to return from a sweep scenario next to its own metrics:
+    ``message_loss`` (messages never delivered / messages whose fate is known),
+    ``frame_loss`` (attempts not received / completed attempts), ``messages_sent``,
+    ``messages_delivered``, ``messages_lost``, ``messages_silenced``,
+    ``messages_in_flight``, ``frame_attempts``, ``frames_lost``.  A broadcast counts once
+    per receiver.  See :mod:`netcosim.network.stats` for the definitions.
+    """
+    if network is None:
+        nets = list(sim.networks.values())
+    else:
+        nets = [sim.networks[getattr(network, "name", network)]]
+    return total(ls for net in nets for ls in net._lstats.values())
