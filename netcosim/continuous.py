@@ -41,12 +41,34 @@ from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NotConnectedError
 from .timebase import RESOLUTION, TICKS_PER_SECOND
 
-__all__ = ["EVENT_REARM", "HybridEvent", "ContinuousSystem", "RK4", "SolveIVP", "ExactZOH", "SOLVE_IVP_METHODS",
+__all__ = ["EVENT_REARM", "DEFAULT_LOG_INTERVAL", "default_log_interval", "HybridEvent", "ContinuousSystem", "RK4",
+           "SolveIVP", "ExactZOH", "SOLVE_IVP_METHODS",
            "OutputPort", "InputPort", "PlantInstance", "NotConnectedError", "IntegrationError"]
 
 #: Events firing again within this many seconds of the previous firing of the same
 #: event are treated as the same crossing (numerical chatter at the located root).
 EVENT_REARM = 1e-9
+
+#: Grid (s) on which a plant is logged while no task has read or written it yet, when
+#: neither ``log_interval`` nor ``log="none"`` is given (see :func:`default_log_interval`).
+DEFAULT_LOG_INTERVAL = 1e-3
+
+
+def default_log_interval(integrator: Any) -> float:
+    """The default logging grid (s) of a plant integrated by *integrator* (the one that
+    advances it: an :class:`ExactZOH` that falls back is its fallback):
+    ``max(DEFAULT_LOG_INTERVAL, dt)`` for a fixed-step integrator with a step ``dt``
+    (:class:`RK4`), else :data:`DEFAULT_LOG_INTERVAL` (1 ms).
+
+    1 ms is the grid the project's experiments log on when they choose one
+    (``log_interval=1e-3``) and ten or more samples per period of the loops they run;
+    a fixed-step integrator is not sampled finer than its own step (there is no state
+    between its steps, only an interpolation).
+    """
+    dt = getattr(integrator, "dt", None)
+    if isinstance(dt, (int, float)) and not isinstance(dt, bool) and math.isfinite(dt) and dt > 0:
+        return max(DEFAULT_LOG_INTERVAL, float(dt))
+    return DEFAULT_LOG_INTERVAL
 
 
 @dataclass(frozen=True)
@@ -460,11 +482,15 @@ class SolveIVP:
         """Hook for subclasses: the states ``x`` (nx, k; in the states' units) at the
         instants ``t`` (k,; s) asked by :meth:`t_eval` (up to a terminal event)."""
 
-    def integrate(self, rhs, t0, x0, t1, gs, jac=None):
+    def integrate(self, rhs, t0, x0, t1, gs, jac=None, dense=None):
         """Integrate ``dx/dt = rhs(t, x)`` from ``(t0, x0)`` to *t1* (s) with :func:`scipy.integrate.solve_ivp`.
 
         The guards *gs* (pairs ``(g, direction)``) are terminal events; *jac* is the
-        Jacobian of *rhs* for the implicit methods.  Returns ``(t_end, x_end, index of the
+        Jacobian of *rhs* for the implicit methods.  *dense* (optional) is a pair
+        ``(times, report)``: *times* increasing instants (s) in ``(t0, t1]``, and
+        ``report(t, x)`` receives those up to the end of this advance with the states
+        there (x: nx by k) from the solver's dense output -- the steps, and so
+        ``x_end``, are the same as without it.  Returns ``(t_end, x_end, index of the
         fired guard or None)``.
         """
         events = []
@@ -489,6 +515,8 @@ class SolveIVP:
         t_eval = self.t_eval(t0, t1)
         if t_eval is not None:
             kw["t_eval"] = t_eval
+        if dense is not None:
+            kw["dense_output"] = True
         try:
             from scipy.integrate import solve_ivp  # loaded on first use
             sol = solve_ivp(counted, (t0, t1), x0, method=self.method, rtol=self.rtol, atol=self.atol,
@@ -511,8 +539,21 @@ class SolveIVP:
             for j, te in enumerate(sol.t_events):
                 if len(te) and (first is None or te[0] < first[0]):
                     first = (te[0], j, sol.y_events[j][0])
+            if dense is not None:
+                _report_dense(sol, dense, first[0])
             return first[0], np.asarray(first[2], dtype=float), first[1]
+        if dense is not None:
+            _report_dense(sol, dense, t1)
         return t1, sol.y[:, -1].copy(), None
+
+
+def _report_dense(sol, dense, t_end: float) -> None:
+    """Hand ``dense = (times, report)`` the states at the *times* up to *t_end* (s)."""
+    times, report = dense
+    ts = np.asarray(times, dtype=float)
+    ts = ts[ts <= t_end]
+    if ts.size and sol.sol is not None:
+        report(ts, np.asarray(sol.sol(ts), dtype=float).reshape(-1, ts.size))
 
 
 #: most ``(Φ, Γ)`` pairs kept by the process-wide transition cache (see :class:`ExactZOH`)
@@ -784,8 +825,15 @@ class PlantInstance:
         method returning the integrator to use for this plant).
     params: passed as ``params`` to f, h and events (default ``system.params``).
     disturbance: ``d(t) -> array`` of length ``system.nd`` (default zeros); ``t`` in s.
-    log_interval: log states, inputs and outputs every ``log_interval`` s; when None,
-        ``log="io"`` logs at every read and write instant, ``log="none"`` not at all.
+    log_interval: log states, inputs and outputs every ``log_interval`` s (the plant
+        is advanced to each grid instant); when None, ``log="io"`` (the default) logs at
+        every read and write instant and, until a task first reads or writes the plant,
+        on the default grid of :func:`default_log_interval` (1 ms, or the RK4 step if
+        longer) and at the end of each run, so that a plant no task touches (a starved
+        loop, an open-loop plant) still has a trajectory; ``log="none"`` logs nothing.
+        The default grid is read off the integration (SolveIVP's dense output, or a
+        second integration from grid point to grid point on a copy of the state for the
+        other integrators): it never changes the plant's own steps or states.
 
     A non-finite state, derivative ``f`` or output ``h`` (returned by a read or
     logged) raises :class:`~netcosim.errors.IntegrationError` naming the plant, the
@@ -838,6 +886,25 @@ class PlantInstance:
         self.prediction_horizon = 0.05
         validate.choice(log, f"plant {name!r}: log", ("io", "none"))
         self._log_io = log_interval is None and log == "io"
+        #: default grid in ticks while no task has read or written the plant (None: off)
+        self._grid: int | None = None
+        self._grid_last: float | None = None  # time (s) of the last row logged on it
+        self._grid_dense = False
+        if self._log_io:
+            stepper = self._stepper
+            every = default_log_interval(stepper.owner if isinstance(stepper, _RK4Stepper) else stepper)
+            self._grid = max(1, round(every * TICKS_PER_SECOND))
+            # SolveIVP reports grid states from its dense output; others integrate a copy
+            self._grid_dense = (isinstance(self._stepper, SolveIVP)
+                                and type(self._stepper).integrate is SolveIVP.integrate)
+        #: how this plant's signals are sampled (also in ``sim.trace.grids``)
+        self.log_grid = (f"log_interval {_seconds_text(log_interval)}" if log_interval is not None
+                         else "none" if log == "none" else
+                         f"default grid {_seconds_text(self._grid / TICKS_PER_SECOND)} until the first read or "
+                         f"write, then read/write instants")
+        grids = getattr(sim.trace, "grids", None)
+        if isinstance(grids, dict):
+            grids[name] = self.log_grid
         self._rec = sim.trace.signal_rec
         self._log_names = ([f"x.{s}" for s in system.state_names] + [f"u.{s}" for s in system.input_names]
                            + [f"y.{s}" for s in system.output_names])
@@ -892,9 +959,14 @@ class PlantInstance:
                 f"(x={np.asarray(x).tolist()!r}, u={self._u_full(t).tolist()!r}): f returned {dx.tolist()!r}")
         return dx
 
-    def _integrate(self, t0, x0, t1, gs):
-        """One integrator call, with the plant named in any IntegrationError."""
+    def _integrate(self, t0, x0, t1, gs, dense=None):
+        """One integrator call, with the plant named in any IntegrationError (*dense*: see
+        :meth:`SolveIVP.integrate`, only for a SolveIVP)."""
         try:
+            if dense is not None:
+                if self._jac is not None:
+                    return self._stepper.integrate(self._rhs, t0, x0, t1, gs, jac=self._jac, dense=dense)
+                return self._stepper.integrate(self._rhs, t0, x0, t1, gs, dense=dense)
             if self._jac is not None:
                 return self._stepper.integrate(self._rhs, t0, x0, t1, gs, jac=self._jac)
             return self._stepper.integrate(self._rhs, t0, x0, t1, gs)
@@ -903,10 +975,12 @@ class PlantInstance:
                 raise
             raise IntegrationError(f"plant {self.name!r}: {exc}") from None
 
-    def _outputs(self, t) -> np.ndarray:
-        """``h(t, x, u, params)`` at the current state, checked (length ``ny``, finite)."""
+    def _outputs(self, t, x=None) -> np.ndarray:
+        """``h(t, x, u, params)`` at the current state (or at *x*), checked (length ``ny``, finite)."""
+        if x is None:
+            x = self.x
         u = self.u if self.disturbance is None else self._u_full(t)
-        y = np.asarray(self.system.h(t, self.x, u, self.params), dtype=float).reshape(-1)
+        y = np.asarray(self.system.h(t, x, u, self.params), dtype=float).reshape(-1)
         if y.shape[0] != self.system.ny:
             raise ConfigurationError(
                 f"plant {self.name!r}: h returned {y.shape[0]} values {y.tolist()!r} at t={t!r} s, the system "
@@ -915,7 +989,7 @@ class PlantInstance:
             bad = [n for n, v in zip(self.system.output_names, y.tolist()) if not math.isfinite(v)]
             raise IntegrationError(
                 f"plant {self.name!r}: output {', '.join(bad)} is non-finite at t={t!r} s: y={y.tolist()!r} "
-                f"(x={self.x.tolist()!r}, u={self._u_full(t).tolist()!r})")
+                f"(x={np.asarray(x).tolist()!r}, u={self._u_full(t).tolist()!r})")
         return y
 
     def _gs(self):
@@ -930,12 +1004,29 @@ class PlantInstance:
             t_target = self.sim.env._now / TICKS_PER_SECOND
         if t_target <= self.t:
             return
+        if self._grid is not None:
+            self._advance_on_grid(t_target)
+            return
+        self.t, self.x = t_target, self._flow(self.t, self.x, t_target)
+
+    def _flow(self, t, x, t_target, effects: bool = True, dense=None):
+        """The state at *t_target* (s) integrated from ``(t, x)``, hybrid events handled.
+
+        ``effects=False`` integrates a copy: events reset the state but are neither
+        counted, logged nor notified, and a failure is not recorded on the plant.
+        *dense*: ``(times, report)`` for the SolveIVP dense output (see
+        :meth:`SolveIVP.integrate`)."""
         gs = self._gs() if self.system.events else []
-        t, x = self.t, self.x
+        last_fire = self._last_fire if effects else dict(self._last_fire)
         progress_guard = 0
         while t < t_target:
             try:
-                t_new, x_new, j = self._integrate(t, x, t_target, gs)
+                part = None
+                if dense is not None:
+                    times = dense[0]
+                    times = times[times > t]
+                    part = (times, dense[1]) if times.size else None
+                t_new, x_new, j = self._integrate(t, x, t_target, gs, part)
                 if not _all_finite(x_new):
                     bad = [n for n, v in zip(self.system.state_names, np.ravel(x_new)) if not math.isfinite(v)]
                     raise IntegrationError(
@@ -943,35 +1034,77 @@ class PlantInstance:
                         f"x={np.asarray(x_new).tolist()!r}")
             except Exception as exc:
                 # the state stays the last finite one (at self.t); the end-of-run update skips this plant
-                self.failure = exc
+                if effects:
+                    self.failure = exc
                 raise
             if j is not None:
                 ev = self.system.events[j]
-                last = self._last_fire.get(j)
+                last = last_fire.get(j)
                 if last is None or t_new - last > EVENT_REARM:
-                    self._last_fire[j] = t_new
+                    last_fire[j] = t_new
                     if ev.reset is not None:
                         x_new = np.asarray(ev.reset(t_new, x_new, self._u_full(t_new), self.params), dtype=float)
-                    self.event_counts[ev.name] += 1
-                    self.event_log.append((t_new, ev.name))
-                    for cb in self._subscribers.get(ev.name, ()):
-                        cb(t_new)
+                    if effects:
+                        self.event_counts[ev.name] += 1
+                        self.event_log.append((t_new, ev.name))
+                        for cb in self._subscribers.get(ev.name, ()):
+                            cb(t_new)
                 if t_new <= t:
                     progress_guard += 1
                     if progress_guard > 100:
-                        self.failure = IntegrationError(f"plant {self.name!r}: event {ev.name!r} chatters at t={t} s")
-                        raise self.failure
+                        exc = IntegrationError(f"plant {self.name!r}: event {ev.name!r} chatters at t={t} s")
+                        if effects:
+                            self.failure = exc
+                        raise exc
                     # step over the located root on the integrator's own scale
                     t_new = min(t_target, t + EVENT_REARM)
                     x_new = x_new + (t_new - t) * self._rhs(t, x_new)
                 else:
                     progress_guard = 0
             t, x = t_new, x_new
-        self.t, self.x = t_target, x
+        return x
+
+    def _advance_on_grid(self, t_target: float) -> None:
+        """:meth:`advance` while no task has read or written the plant: the same
+        integration, and rows on the default grid strictly between the last row and
+        *t_target* (the state the plant starts from first)."""
+        t0, x0 = self.t, self.x
+        if self._grid_last is None:
+            self._log_state(t0, x0)
+            self._grid_last = t0
+        every = self._grid
+        first = round(self._grid_last * TICKS_PER_SECOND) // every + 1
+        end = math.ceil(round(t_target * TICKS_PER_SECOND) / every)  # grid index of the first instant >= t_target
+        times = np.arange(first, end, dtype=np.int64) * every / TICKS_PER_SECOND
+        times = times[times < t_target]
+        if not times.size:
+            self.t, self.x = t_target, self._flow(t0, x0, t_target)
+            return
+        if self._grid_dense and not self.system.events:
+            seen: list = []
+            x1 = self._flow(t0, x0, t_target, dense=(times, lambda ts, xs: seen.append((ts, xs))))
+            self.t, self.x = t_target, x1
+            for ts, xs in seen:
+                for k, tk in enumerate(ts.tolist()):
+                    self._log_state(tk, xs[:, k])
+        else:
+            self.t, self.x = t_target, self._flow(t0, x0, t_target)
+            t, x = t0, x0
+            for tk in times.tolist():
+                x = self._flow(t, x, tk, effects=False)
+                t = tk
+                self._log_state(tk, x)
+        self._grid_last = float(times[-1])
+
+    def _touched(self) -> None:
+        """A task read or wrote the plant: from now on it is logged at its I/O instants."""
+        self._grid = None
 
     def output_now(self) -> np.ndarray:
         """Advance to now and return ``h(t, x, u)``."""
         self.advance()
+        if self._grid is not None:
+            self._touched()
         t = self.t
         y = self._outputs(t)
         if self._log_io:
@@ -989,6 +1122,8 @@ class PlantInstance:
         if type(value) is float and type(index) is int and math.isfinite(value) and -len(self.u) <= index < len(self.u):
             # one finite number on one input: what the generic path below would accept as is
             self.advance()
+            if self._grid is not None:
+                self._touched()
             if self._log_io:
                 self._log(self.t)
             self.u[index] = value
@@ -1010,6 +1145,8 @@ class PlantInstance:
             raise ConfigurationError(f"plant {self.name!r}: input {label} takes {int(np.prod(target_shape))} "
                                      f"value(s), got {value!r}")
         self.advance()
+        if self._grid is not None:
+            self._touched()
         if self._log_io:
             self._log(self.t)
         self.u[index] = v.reshape(target_shape)
@@ -1026,6 +1163,12 @@ class PlantInstance:
         self._rec.rows.extend(zip(repeat(t), repeat(self.name), self._log_names,
                                   self.x.tolist() + self.u.tolist() + y.tolist()))
 
+    def _log_state(self, t, x):
+        """Log the state *x* at *t* (s) under the input held now (a default-grid row)."""
+        y = self._outputs(t, x)
+        self._rec.rows.extend(zip(repeat(t), repeat(self.name), self._log_names,
+                                  np.asarray(x, dtype=float).tolist() + self.u.tolist() + y.tolist()))
+
     def _log_tick(self):
         ticks = self._log_k * self._log_every
         self.advance(ticks / TICKS_PER_SECOND)
@@ -1038,6 +1181,10 @@ class PlantInstance:
         unless this plant's own integration failed (its state stays the last finite one)."""
         if self.failure is None:
             self.advance()
+            if self._grid is not None and (self._grid_last is None or self.t > self._grid_last):
+                # close the default grid at the end of the run, so that its window ends there
+                self._log_state(self.t, self.x)
+                self._grid_last = self.t
 
     # Event subscription -------------------------------------------------------
     def on_event(self, name: str, callback: Callable[[float], None]) -> None:
@@ -1068,6 +1215,14 @@ class PlantInstance:
         self._predict_timer = None
         self.advance()
         self._schedule_prediction()
+
+
+def _seconds_text(seconds: float) -> str:
+    """A duration for people: ``1 ms``, ``100 us``, ``0.25 s``."""
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)):
+        if seconds >= scale or unit == "ns":
+            return f"{seconds / scale:g} {unit}"
+    return f"{seconds:g} s"  # pragma: no cover
 
 
 def _as_system(system, name) -> ContinuousSystem:
