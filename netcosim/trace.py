@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Callable, Iterable, Sequence
 
 from . import validate
 from .columns import ColumnStore
-from .errors import ConfigurationError, ConfigurationTypeError
+from .errors import ConfigurationError, ConfigurationTypeError, NetcosimError
 from .timebase import TICKS_PER_SECOND
 
 if TYPE_CHECKING:  # pandas is imported on first use: a simulation does not need it
@@ -137,6 +137,23 @@ def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
         df[c] = df[c].astype(bool)
     df["job"] = df["job"].astype(int)
     return df[list(JOB_COLUMNS)]
+
+
+class UnknownSignalError(NetcosimError, KeyError):
+    """:meth:`Trace.signal` was asked for a source or a signal that was not logged; the
+    message lists what was (a :class:`KeyError`, so ``except KeyError`` still catches it)."""
+
+    def __str__(self) -> str:
+        # KeyError quotes its argument like a key; this one is a sentence
+        return str(self.args[0]) if self.args else ""
+
+
+def _closest(name: str, names: Sequence[str]) -> list[str]:
+    """Names of *names* that *name* probably meant: those ending in ``.name`` (``"y"`` ->
+    ``"y.y"``), then close spellings."""
+    import difflib
+    tail = [n for n in names if n.rsplit(".", 1)[-1] == name]
+    return tail + [n for n in difflib.get_close_matches(name, names, n=3) if n not in tail]
 
 
 #: ``().count(row)`` is a C-level call that ignores its argument: the ``off`` mode's append.
@@ -497,6 +514,10 @@ class Trace:
         self._tables: dict[str, Recorder] = {}
         self._clock = clock
         self._default: dict | None = None
+        #: how each source's signals are sampled, as its producer describes it (a plant:
+        #: ``"log_interval 1 ms"``, ``"default grid 1 ms until the first read or write, then
+        #: read/write instants"``, ``"none"``); :meth:`signal` puts it in ``Series.attrs["grid"]``
+        self.grids: dict[str, str] = {}
         self.signal_rec = self.table("signals", ("time", "source", "signal", "value"),
                                      categorical=("source", "signal"), time_unit="s", key=("source", "signal"),
                                      dtypes=("float", None, None, "float"))
@@ -667,21 +688,44 @@ class Trace:
 
     # Convenience accessors -------------------------------------------------
     def signals(self, wide: bool = False) -> pd.DataFrame:
-        """Logged signals; ``wide=True`` pivots to one column per ``source.signal``."""
+        """Logged signals; ``wide=True`` pivots to one column per ``source.signal``.
+
+        ``attrs["grids"]`` holds :attr:`grids` (how each source is sampled)."""
         df = self.frame("signals")
-        if not wide:
-            return df
-        df = df.assign(column=df["source"].astype(str) + "." + df["signal"].astype(str))
-        return df.pivot_table(index="time", columns="column", values="value", aggfunc="last")
+        if wide:
+            df = df.assign(column=df["source"].astype(str) + "." + df["signal"].astype(str))
+            df = df.pivot_table(index="time", columns="column", values="value", aggfunc="last")
+        df.attrs["grids"] = dict(self.grids)
+        return df
 
     def signal(self, source: str, signal: str) -> pd.Series:
-        """One logged signal as a Series indexed by time."""
+        """One logged signal as a Series indexed by time (s), named ``"source.signal"``.
+
+        ``attrs["grid"]`` says how the source is sampled (:attr:`grids`; absent when its
+        producer did not say).  A source or signal that was not logged raises
+        :class:`UnknownSignalError` (a ``KeyError``) listing the signals of the source,
+        or the sources, that were."""
         import pandas as pd
         df = self.frame("signals")
-        sel = df[(df["source"] == source) & (df["signal"] == signal)]
+        src = df["source"].astype(str).to_numpy()
+        sel = df[(src == source) & (df["signal"].astype(str).to_numpy() == signal)]
         if sel.empty:
-            raise KeyError(f"no signal {signal!r} logged by {source!r}")
-        return pd.Series(sel["value"].to_numpy(), index=sel["time"].to_numpy(), name=f"{source}.{signal}")
+            sources = sorted(set(src.tolist()))
+            if source not in sources:
+                hint = _closest(str(source), sources)
+                raise UnknownSignalError(
+                    f"no source {source!r} in the signals table; "
+                    + (f"sources are {sources}" if sources else "nothing was logged")
+                    + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                    + ("" if source not in self.grids else f"; {source!r} is logged: {self.grids[source]}"))
+            names = sorted(set(df.loc[src == source, "signal"].astype(str).tolist()))
+            hint = _closest(str(signal), names)
+            raise UnknownSignalError(f"no signal {signal!r} logged by {source!r}; its signals are {names}"
+                                     + (f" (did you mean {hint[0]!r}?)" if hint else ""))
+        out = pd.Series(sel["value"].to_numpy(), index=sel["time"].to_numpy(), name=f"{source}.{signal}")
+        if source in self.grids:
+            out.attrs["grid"] = self.grids[source]
+        return out
 
     def schedule(self) -> pd.DataFrame:
         """The ``schedule`` table: one row per state change of a kernel task (``time`` in s,
