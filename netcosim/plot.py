@@ -54,14 +54,39 @@ def time_window(times, t_range) -> tuple[float, float]:
     return start, end
 
 
+def check_table(df: pd.DataFrame, levels: dict[str, float]) -> None:
+    """Check the ``time`` and ``state`` columns of a schedule table before plotting it.
+
+    Raises :class:`~netcosim.errors.ConfigurationTypeError` if ``time`` does not hold
+    numbers (e.g. strings), :class:`~netcosim.errors.ConfigurationError` if a time is
+    NaN or infinite, or if a ``state`` is not one of *levels* (naming the unknown ones).
+    """
+    import pandas as pd
+    times = df["time"]
+    if not pd.api.types.is_numeric_dtype(times) or pd.api.types.is_bool_dtype(times):
+        example = times.iloc[0] if len(times) else None
+        raise ConfigurationTypeError(f"column 'time' must hold numbers of seconds, got {times.dtype} values "
+                                     f"(e.g. {example!r})")
+    values = times.to_numpy(dtype=float)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        raise ConfigurationError(f"column 'time' must hold finite seconds, got {values[bad][0]!r} "
+                                 f"({int(bad.sum())} of {len(values)} rows)")
+    unknown = sorted(set(df["state"].astype(str)) - set(levels))
+    if unknown:
+        raise ConfigurationError(f"unknown states {unknown} in column 'state'; the states are {list(levels)}")
+
+
 def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, order=None, t_range=None,
                     ax=None, what: str = "row"):
     """One TrueTime staircase per distinct ``df[label]`` (top row first).
 
     ``df`` has columns ``time`` (s), *label* and ``state``; ``levels`` maps each state
-    to its offset above the row; ``t_range`` is checked by :func:`time_window`.
+    to its offset above the row (both columns are checked by :func:`check_table`);
+    ``t_range`` is checked by :func:`time_window`.
     Returns ``(ax, row_of, (t0, t1))``.
     """
+    check_table(df, levels)
     labels = df[label].astype(str)
     order = list(order) if order is not None else list(dict.fromkeys(labels))
     t0, t1 = time_window(df["time"].to_numpy(dtype=float), t_range)

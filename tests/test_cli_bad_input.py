@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import sys
 
+import pandas as pd
 import pytest
 
 from netcosim.cli import main
@@ -147,3 +148,76 @@ def test_a_scenario_with_a_syntax_error_is_one_line(tmp_path, monkeypatch, capsy
 def test_run_from_python_keeps_no_stale_module(study, capsys):
     _one_line_exit_2(["run", "broken_study.py"], "broken_study.py", capsys)
     assert "broken_study" not in sys.modules
+
+
+def _schedule_frame(**columns) -> pd.DataFrame:
+    frame = {"time": [0.0, 0.002, 0.010, 0.012], "node": "cpu", "task": "t",
+             "state": ["running", "idle", "running", "idle"]}
+    frame.update(columns)
+    return pd.DataFrame(frame)
+
+
+def _network_trace(directory):
+    """A small simulated network trace (IdealLink a -> b, half the frames lost) written by to_parquet."""
+    from netcosim import Simulation
+    from netcosim.network import IdealLink
+    sim = Simulation(seed=3)
+    net = IdealLink(sim, "link", data_rate=1e6, loss=0.5)
+    a = net.attach("a")
+    net.attach("b")
+    for k in range(10):
+        sim.call_at(k * 1e-3, lambda: a.send("b", None, 300))
+    sim.run(0.02)
+    sim.trace.to_parquet(directory)
+    return directory / "network_schedule.parquet"
+
+
+@pytest.mark.parametrize("kind, frame, options, named", [
+    ("schedule", {"state": ["running", "idle", "sleeping", "idle"]}, [], "'sleeping'"),
+    ("schedule", {"time": ["0", "0.002", "0.010", "0.012"]}, [], "'0'"),
+    ("schedule", {"time": [0.0, float("nan"), 0.01, 0.012]}, [], "nan"),
+    ("schedule", {}, ["-o", "{tmp}/no_such_folder/s.png"], "no_such_folder"),
+    ("schedule", {}, ["-o", ""], "''"),
+    ("schedule", {}, ["--network", "link"], "--network"),
+    ("schedule", {}, ["--t0", "0.02"], "(0.02, None)"),
+    ("network", {"network": "link", "state": ["sending", "idle", "sending", "asleep"]}, [], "'asleep'"),
+    ("network", {"network": ["x", "x", "y", "y"], "state": "idle"}, [], "--network"),
+    ("network", {"network": "link", "state": "idle"}, ["--network", "lnk"], "'lnk'"),
+    ("network", {"network": "link", "state": "idle"}, ["--node", "gpu"], "'gpu'"),
+    ("network", {}, [], "['network']"),
+])
+def test_plot_rejects_bad_input(kind, frame, options, named, tmp_path, capsys):
+    trace = tmp_path / "trace.parquet"
+    _schedule_frame(**frame).to_parquet(trace)
+    out = tmp_path / "p.png"
+    options = [o.format(tmp=tmp_path) for o in options]
+    _one_line_exit_2(["plot", kind, str(trace), "-o", str(out), *options], named, capsys)
+    assert not out.exists()
+
+
+def test_plot_t0_alone_plots_to_the_end(tmp_path, capsys):
+    trace = tmp_path / "trace.parquet"
+    _schedule_frame().to_parquet(trace)
+    assert main(["plot", "schedule", str(trace), "-o", str(tmp_path / "s.png"), "--t0", "0.005"]) == 0
+    assert (tmp_path / "s.png").stat().st_size > 1000
+
+
+def test_plot_network_draws_a_simulated_trace(tmp_path, monkeypatch, capsys):
+    import netcosim.network.plot as network_plot
+    trace = _network_trace(tmp_path / "trace")
+    drawn = []
+    real = network_plot.plot_network_schedule
+
+    def spy(*a, **kw):
+        ax = real(*a, **kw)
+        drawn.append([t.get_text() for t in ax.get_legend().get_texts()])
+        return ax
+    monkeypatch.setattr(network_plot, "plot_network_schedule", spy)
+    out = tmp_path / "network.png"
+    assert main(["plot", "network", str(trace), "-o", str(out), "--t1", "0.01"]) == 0
+    assert capsys.readouterr().out.strip() == str(out)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5_000
+    assert "frame lost" in drawn[0]          # the frames.parquet next to the trace adds the markers
+    (tmp_path / "trace" / "frames.parquet").unlink()
+    assert main(["plot", "network", str(trace), "-o", str(out), "--node", "a"]) == 0
+    assert "frame lost" not in drawn[1]
