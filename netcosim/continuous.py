@@ -1052,10 +1052,10 @@ class PlantInstance:
                 if t_new <= t:
                     progress_guard += 1
                     if progress_guard > 100:
-                        exc = IntegrationError(f"plant {self.name!r}: event {ev.name!r} chatters at t={t} s")
+                        chatter = IntegrationError(f"plant {self.name!r}: event {ev.name!r} chatters at t={t} s")
                         if effects:
-                            self.failure = exc
-                        raise exc
+                            self.failure = chatter
+                        raise chatter
                     # step over the located root on the integrator's own scale
                     t_new = min(t_target, t + EVENT_REARM)
                     x_new = x_new + (t_new - t) * self._rhs(t, x_new)
@@ -1073,6 +1073,7 @@ class PlantInstance:
             self._log_state(t0, x0)
             self._grid_last = t0
         every = self._grid
+        assert every is not None
         first = round(self._grid_last * TICKS_PER_SECOND) // every + 1
         end = math.ceil(round(t_target * TICKS_PER_SECOND) / every)  # grid index of the first instant >= t_target
         times = np.arange(first, end, dtype=np.int64) * every / TICKS_PER_SECOND
