@@ -40,6 +40,17 @@ The window is ``[start, until]`` (s): ``start`` defaults to the first sample, ``
 to the last one; beyond the last sample the last value is held.  ITAE weighs the error
 by the time elapsed since ``start``.
 
+Which grid
+----------
+A metric is only as good as its samples, so every result is a :class:`Cost`: a
+``float`` that also carries ``grid``, a sentence naming the samples it integrated
+(how the source was logged, when known, then how many samples on which window and
+their spacing), and ``times``, those instants (s).  A plant is logged at the
+instants tasks read and write it, on ``log_interval`` if given, and on the default
+grid (:data:`netcosim.continuous.DEFAULT_LOG_INTERVAL`, 1 ms) until a task first
+touches it, so a starved loop (its controller never runs) still has a cost: the
+open-loop trajectory on that grid.
+
 Conventions
 -----------
 ``J = integral of x'Qx + u'Ru + 2 x'Nu dt`` is the cost of python-control's
@@ -68,8 +79,8 @@ from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["HOLDS", "DIVERGENCE_ERRORS", "iae", "ise", "itae", "quadratic_cost", "settling_time", "diverged",
-           "samples"]
+__all__ = ["HOLDS", "DIVERGENCE_ERRORS", "Cost", "iae", "ise", "itae", "quadratic_cost", "settling_time",
+           "diverged", "samples"]
 
 #: The ways a sampled signal is completed between samples (see the module docstring).
 HOLDS = ("zoh", "linear")
@@ -78,6 +89,72 @@ HOLDS = ("zoh", "linear")
 DIVERGENCE_ERRORS: tuple[type[BaseException], ...] = (FloatingPointError, OverflowError, IntegrationError)
 
 _TIDY = ("time", "source", "signal", "value")
+
+
+class Cost(float):
+    """The value of a metric (a ``float``, in the metric's unit) that says which samples
+    it was computed from.
+
+    ``grid``: a sentence: how the signal's source is logged (``Trace.grids``, when the
+    signal came from a trace and its source said), then the number of samples
+    integrated, the window and their spacing, e.g. ``"default grid 1 ms until the first
+    read or write, then read/write instants; 1001 samples on [0, 1] s, every 1 ms"``.
+    ``times``: the sample instants integrated (s), window ends included.  Arithmetic on
+    a Cost gives plain floats; ``float(cost)`` drops the rest.
+    """
+
+    grid: str
+    times: np.ndarray
+
+    def __new__(cls, value: float, grid: str = "", times: Any = ()) -> "Cost":
+        self = super().__new__(cls, value)
+        self.grid = grid
+        self.times = np.asarray(times, dtype=float)
+        return self
+
+    def __reduce__(self):
+        return (Cost, (float(self), self.grid, self.times))
+
+
+def _seconds(x: float) -> str:
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)):
+        if abs(x) >= scale:
+            return f"{x / scale:.6g} {unit}"
+    return f"{x:.6g} s"
+
+
+def _grid_text(t: np.ndarray, rule: str | None) -> str:
+    """``grid`` of a :class:`Cost` integrated over the instants *t* (s)."""
+    t = np.asarray(t, dtype=float)
+    h = np.diff(t)
+    h = h[h > 0]
+    if not h.size:
+        spacing = "no spacing"
+    elif float(h.max() - h.min()) <= 1e-9 * float(h.max()):
+        spacing = f"every {_seconds(float(h.max()))}"
+    else:
+        spacing = f"spacing {_seconds(float(h.min()))} to {_seconds(float(h.max()))}"
+    text = f"{t.size} samples on [{t[0]:.6g}, {t[-1]:.6g}] s, {spacing}"
+    return f"{rule}; {text}" if rule else text
+
+
+def _rule(data: Any, signal: Any) -> str | None:
+    """How the source of the signal is logged, when the data says (``Trace.grids``)."""
+    attrs = getattr(data, "attrs", None)
+    if not isinstance(attrs, dict):
+        return None
+    if isinstance(attrs.get("grid"), str):
+        return attrs["grid"]
+    grids = attrs.get("grids")
+    if isinstance(grids, dict) and isinstance(signal, str):
+        for source in sorted(grids, key=len, reverse=True):
+            if signal.startswith(f"{source}."):
+                return f"{source}: {grids[source]}"
+    return None
+
+
+def _cost(value: float, t: np.ndarray, data: Any, signal: Any) -> Cost:
+    return Cost(value, _grid_text(t, _rule(data, signal)), t)
 
 
 # ---------------------------------------------------------------------- input handling
@@ -217,24 +294,25 @@ def _prepare(data, signal, reference, start, until, hold, what):
 
 # ---------------------------------------------------------------------- integral criteria
 def iae(data: Any, signal: Any = None, *, reference: Any = None, start: float | None = None,
-        until: float | None = None, hold: str = "zoh") -> float:
+        until: float | None = None, hold: str = "zoh") -> Cost:
     """Integral of the absolute error ``IAE = integral of |e(t)| dt`` over ``[start, until]`` (s).
 
     *data*, *signal*: the samples (times in s), in any form of :func:`samples`;
     ``reference``: a number or ``r(t)`` (t in s) making the error ``r - y``; ``hold``:
     ``"zoh"`` or ``"linear"`` (the integral is exact for the held or interpolated signal).
-    Result in (signal unit) x s.
+    Result in (signal unit) x s, a :class:`Cost` (its ``grid`` names the samples used).
     """
     t, e, _, hold = _prepare(data, signal, reference, start, until, hold, "iae")
     if hold == "zoh":
-        return float(np.sum(np.abs(e[:-1]) * np.diff(t)))
+        return _cost(float(np.sum(np.abs(e[:-1]) * np.diff(t))), t, data, signal)
+    used = t
     t, e = _split_at_zeros(t, e)
     a = np.abs(e)
-    return float(np.sum((a[:-1] + a[1:]) * np.diff(t)) / 2)
+    return _cost(float(np.sum((a[:-1] + a[1:]) * np.diff(t)) / 2), used, data, signal)
 
 
 def ise(data: Any, signal: Any = None, *, reference: Any = None, start: float | None = None,
-        until: float | None = None, hold: str = "zoh") -> float:
+        until: float | None = None, hold: str = "zoh") -> Cost:
     """Integral of the squared error ``ISE = integral of e(t)^2 dt`` over ``[start, until]`` (s).
 
     Arguments as :func:`iae`; with ``hold="linear"`` each segment contributes exactly
@@ -244,12 +322,12 @@ def ise(data: Any, signal: Any = None, *, reference: Any = None, start: float | 
     h = np.diff(t)
     a, b = e[:-1], e[1:]
     if hold == "zoh":
-        return float(np.sum(a * a * h))
-    return float(np.sum((a * a + a * b + b * b) * h) / 3)
+        return _cost(float(np.sum(a * a * h)), t, data, signal)
+    return _cost(float(np.sum((a * a + a * b + b * b) * h) / 3), t, data, signal)
 
 
 def itae(data: Any, signal: Any = None, *, reference: Any = None, start: float | None = None,
-         until: float | None = None, hold: str = "zoh") -> float:
+         until: float | None = None, hold: str = "zoh") -> Cost:
     """Integral of time-weighted absolute error ``ITAE = integral of (t - start) |e(t)| dt``
     over ``[start, until]`` (s).
 
@@ -260,10 +338,10 @@ def itae(data: Any, signal: Any = None, *, reference: Any = None, start: float |
     t, e, s, hold = _prepare(data, signal, reference, start, until, hold, "itae")
     tau = t - s
     if hold == "zoh":
-        return float(np.sum(np.abs(e[:-1]) * (tau[1:] ** 2 - tau[:-1] ** 2)) / 2)
+        return _cost(float(np.sum(np.abs(e[:-1]) * (tau[1:] ** 2 - tau[:-1] ** 2)) / 2), t, data, signal)
     tau, e = _split_at_zeros(tau, e)
     a, b, h, t0 = np.abs(e[:-1]), np.abs(e[1:]), np.diff(tau), tau[:-1]
-    return float(np.sum(h * t0 * (a + b) / 2 + h * h * (a + 2 * b) / 6))
+    return _cost(float(np.sum(h * t0 * (a + b) / 2 + h * h * (a + 2 * b) / 6)), t, data, signal)
 
 
 # ---------------------------------------------------------------------- quadratic cost
@@ -315,7 +393,7 @@ def _names(x: Any, what: str) -> list[str]:
 
 
 def quadratic_cost(data: Any, x: Any, u: Any = None, *, Q: Any = None, R: Any = None, N: Any = None,
-                   start: float | None = None, until: float | None = None, hold: str = "zoh") -> float:
+                   start: float | None = None, until: float | None = None, hold: str = "zoh") -> Cost:
     """The quadratic cost ``J = integral of x'Qx + u'Ru + 2 x'Nu dt`` over ``[start, until]`` (s).
 
     Arrays: ``quadratic_cost(t, x, u, Q=..., R=...)`` with sample times *t* (s), *x* of
@@ -369,16 +447,20 @@ def quadratic_cost(data: Any, x: Any, u: Any = None, *, Q: Any = None, R: Any = 
     h = np.diff(t)
     a, b = z[:-1], z[1:]
     qa = np.einsum("ki,ij,kj->k", a, w, a)
+    rule = None
+    if isinstance(data, pd.DataFrame):
+        rules = sorted({r for r in (_rule(data, n) for n in xn + un) if r})
+        rule = "; ".join(rules) or None
     if hold == "zoh":
-        return float(np.sum(qa * h))
+        return Cost(float(np.sum(qa * h)), _grid_text(t, rule), t)
     qb = np.einsum("ki,ij,kj->k", b, w, b)
     qab = np.einsum("ki,ij,kj->k", a, w, b)
-    return float(np.sum((qa + qab + qb) * h) / 3)
+    return Cost(float(np.sum((qa + qab + qb) * h) / 3), _grid_text(t, rule), t)
 
 
 # ---------------------------------------------------------------------- settling, divergence
 def settling_time(data: Any, signal: Any = None, *, final: float | None = None, band: float = 0.02,
-                  abs_band: float | None = None, start: float | None = None, hold: str = "zoh") -> float:
+                  abs_band: float | None = None, start: float | None = None, hold: str = "zoh") -> Cost:
     """Time (s, counted from ``start``) after which the signal stays within the band
     around its final value, up to the last sample.
 
@@ -394,6 +476,10 @@ def settling_time(data: Any, signal: Any = None, *, final: float | None = None, 
     hold = _check_hold(hold)
     t, y = samples(data, signal, what="settling_time")
     t, y, s = _window(t, y, start, None, hold)
+    return _cost(_settling(t, y, s, final, band, abs_band, hold), t, data, signal)
+
+
+def _settling(t: np.ndarray, y: np.ndarray, s: float, final, band, abs_band, hold: str) -> float:
     yf = y[-1] if final is None else validate.finite(final, "settling_time: final")
     if abs_band is not None:
         width = validate.non_negative(abs_band, "settling_time: abs_band")
