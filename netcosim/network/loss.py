@@ -15,7 +15,9 @@ A loss model gives *frame* loss (per attempt and receiver).  The *message* loss 
 by the application is the same on networks that send a frame once, and far smaller
 on WLAN unicast, which retries: ``p**retry_limit`` for independent losses (see
 ``retry_limit`` of :class:`~netcosim.network.wlan.WLAN80211b` and "Frame loss and
-message loss" in ``docs/networks.md``).
+message loss" in ``docs/networks.md``).  A network's ``message_loss=`` takes the same
+models but draws them once per message and link, before medium access (TrueTime's
+wireless loss); ``network.stats`` counts both losses (:mod:`netcosim.network.stats`).
 
 Models: :class:`Bernoulli` (independent losses), :class:`GilbertElliott` (a two-state
 Markov channel for bursts), :class:`TraceLoss` (replay a recorded 0/1 sequence).

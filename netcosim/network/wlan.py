@@ -141,7 +141,10 @@ class WLAN80211b(RadioNetwork):
         ``retry_limit=1`` means no retransmission.  A frame ``loss`` p then gives a
         message loss of ``p**retry_limit`` if nothing else fails an attempt.  A retry
         limit that counts retransmissions after the first attempt (TrueTime's reading
-        of its default 5, message loss ``p**6``) is ``retry_limit=6`` here.  Broadcast
+        of its default 5, message loss ``p**6``) is ``retry_limit=6`` here.  For a loss
+        of whole messages, TrueTime's wireless loss, pass ``message_loss=p`` instead: the
+        message is silenced before medium access, never retried, message loss ``p``
+        (see :class:`~netcosim.network.base.Network`); ``stats`` counts both.  Broadcast
         frames (destination :data:`~netcosim.network.BROADCAST`; the trace writes it
         ``*``, which is not an address) are sent once, never acknowledged.
     eifs:
