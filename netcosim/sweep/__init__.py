@@ -15,6 +15,6 @@ bands and counts across seeds; :func:`~netcosim.sweep.aggregate.plot_sweep`).
 
 from .aggregate import plot_sweep, summarize
 from .result import SweepResult
-from .runner import load_sweep, run_sweep
+from .runner import load_sweep, run_sweep, verify_sweep
 
-__all__ = ["run_sweep", "load_sweep", "SweepResult", "summarize", "plot_sweep"]
+__all__ = ["run_sweep", "load_sweep", "verify_sweep", "SweepResult", "summarize", "plot_sweep"]

@@ -2,15 +2,43 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 __all__ = ["SweepResult", "run_frame"]
 
 
+def _column(values: list[Any]):
+    """*values* as one typed column: ints (``Int64`` if some are None), bools (``boolean``
+    if some are None), ints and floats as ``float64``; None for anything else (left as
+    pandas infers it)."""
+    import pandas as pd
+
+    present = [v for v in values if v is not None]
+    missing = len(present) < len(values)
+    dtype = None
+    if present and all(type(v) is bool for v in present):
+        dtype = "boolean" if missing else "bool"
+    elif present and all(type(v) is int for v in present):
+        dtype = "Int64" if missing else "int64"
+    elif present and all(type(v) in (int, float) for v in present):
+        dtype = "float64"
+    if dtype is None:
+        return None
+    try:
+        return pd.array([math.nan if v is None and dtype == "float64" else v for v in values], dtype=dtype)
+    except (OverflowError, TypeError, ValueError):
+        return None
+
+
 def run_frame(records: list[dict[str, Any]], params: list[str]):
     """The tidy run table of *records* (in the order given): parameter columns,
     ``seed_index``, ``seed``, the metrics (in order of first appearance), ``status``,
-    ``error``, ``traceback``, ``wall_time``."""
+    ``error``, ``traceback``, ``wall_time``.
+
+    Each column has one type whatever runs failed: a metric that failed runs lack (or
+    a parameter with None in some cases) keeps its int or bool type as pandas'
+    nullable ``Int64`` / ``boolean`` rather than turning into floats."""
     import pandas as pd
 
     head = [*params, "seed_index", "seed"]
@@ -21,7 +49,14 @@ def run_frame(records: list[dict[str, Any]], params: list[str]):
             if k not in metrics and k not in head and k not in tail:
                 metrics[k] = None
     columns = head + list(metrics) + tail
-    return pd.DataFrame.from_records(records, columns=columns) if records else pd.DataFrame(columns=columns)
+    if not records:
+        return pd.DataFrame(columns=columns)
+    frame = pd.DataFrame.from_records(records, columns=columns)
+    for col in [*params, *metrics]:
+        typed = _column([r.get(col) for r in records])
+        if typed is not None:
+            frame[col] = typed
+    return frame
 
 
 class SweepResult:

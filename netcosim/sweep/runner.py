@@ -11,6 +11,7 @@ order they finished in, so every executor gives the same table.
 from __future__ import annotations
 
 import os
+import sys
 from typing import Any, Callable
 
 from .. import validate
@@ -19,11 +20,11 @@ from . import grid as _grid
 from .executors import DaskExecutor, PoolExecutor, SerialExecutor, cpu_count
 from .result import SweepResult, run_frame
 from .run import Outcome
-from .scenario import reference, source_sha256
+from .scenario import code_digest, reference
 from .seeds import run_seed, seed_list
-from .store import FORMAT, Store
+from .store import FORMAT, Damage, DamagedSweepError, Lock, Store, describe_damage, param_dtypes
 
-__all__ = ["run_sweep", "load_sweep", "EXECUTORS"]
+__all__ = ["run_sweep", "load_sweep", "verify_sweep", "validate_cases", "EXECUTORS"]
 
 #: Executors by name (a ``dask.distributed.Client`` may be given instead).
 EXECUTORS = ("serial", "pool", "dask")
@@ -56,10 +57,38 @@ def _summary(records: list[dict[str, Any]], total: int, skipped: int) -> dict[st
             "timeout": status.count("timeout"), "skipped": skipped, "missing": total - len(records)}
 
 
+def validate_cases(fn: Callable, cases: list[dict[str, Any]]) -> None:
+    """Call the scenario's optional ``validate(params)`` attribute for every case, before
+    any run; raise one :class:`~netcosim.errors.ConfigurationError` listing every case
+    it refused (it raises) with the reason.  A scenario without ``validate`` is not
+    checked."""
+    check = getattr(fn, "validate", None)
+    if check is None:
+        return
+    if not callable(check):
+        raise ConfigurationTypeError(f"scenario {getattr(fn, '__name__', fn)!r}: its 'validate' attribute must be "
+                                     f"a function validate(params), got {check!r}")
+    bad = []
+    for i, params in enumerate(cases):
+        try:
+            check(dict(params))
+        except Exception as exc:
+            bad.append(f"case {i} {params}: {type(exc).__name__}: {exc}")
+    if bad:
+        shown = bad[:20] + ([f"... and {len(bad) - 20} more"] if len(bad) > 20 else [])
+        raise ConfigurationError(f"{len(bad)} of {len(cases)} grid cases are refused by the scenario's validate(); "
+                                 f"no run started:\n  " + "\n  ".join(shown))
+
+
+def _stderr(message: str) -> None:
+    print(f"sweep: {message}", file=sys.stderr, flush=True)
+
+
 def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *, root_seed: int = 0,
               executor: Any = "pool", workers: int | None = None, scheduler: str | None = None,
               out: str | os.PathLike | None = None, fresh: bool = False, timeout: float | None = None,
-              quiet: bool = False) -> SweepResult:
+              retry_errors: bool = False, quiet: bool = False,
+              notify: Callable[[str], None] | None = None) -> SweepResult:
     """Run *scenario* for every case of *grid* and every seed; returns a :class:`SweepResult`.
 
     Parameters
@@ -71,6 +100,9 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
         anything else, or a return value that is not a dict, records the run as an
         error naming the type.  A scenario may declare the parameters it accepts as
         ``fn.params = {...}``; a grid parameter outside it is refused before any run.
+        It may also have ``fn.validate = check``, ``check(params)`` raising for a case
+        it cannot run: every case is checked before any run, and the sweep stops with
+        one error listing the refused cases.
     grid:
         The cases (:mod:`netcosim.sweep.grid`): a dict of lists (their product), a list
         of dicts, or a DataFrame (one case per row).
@@ -94,16 +126,24 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
     out:
         Directory of the sweep's Parquet dataset (:mod:`netcosim.sweep.store`), written
         as runs finish.  If it already holds this sweep, its finished runs are kept and
-        not rerun; if it holds another sweep, ``ConfigurationError`` names what differs.
-        None: results in memory only.
+        not rerun (a run whose files do not match their recorded SHA-256 is run again,
+        and said so); if it holds another sweep, ``ConfigurationError`` names what
+        differs; if another sweep is writing into it, :class:`~netcosim.sweep.store.SweepLockedError`
+        names that process.  None: results in memory only.
     fresh:
         Discard a different (or the same) sweep found in *out* and start over.
     timeout:
         Wall-clock seconds one run may take (None: unlimited); a run still going then is
         stopped and recorded with status ``"timeout"``.
+    retry_errors:
+        Run again the runs stored in *out* with status ``"error"`` or ``"timeout"``.
     quiet:
-        No progress bar (it is also off when stderr is not a terminal).
+        No progress bar (it is also off when stderr is not a terminal) and no messages.
+    notify:
+        Called with each message (runs found done, damaged files re-run); default: a
+        line on stderr unless *quiet*.
     """
+    say: Callable[[str], None] = notify if notify is not None else ((lambda m: None) if quiet else _stderr)
     # --- check everything before the first run ---------------------------------------
     cases = _grid.cases(grid)
     names = list(cases[0])
@@ -113,8 +153,9 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
         timeout = validate.real(timeout, "timeout", lo=0.0, lo_open=True, kind="a positive number of seconds")
     if workers is not None:
         workers = validate.integer(workers, "workers", lo=1, kind="a number of worker processes (an integer >= 1)")
-    if not isinstance(fresh, bool):
-        raise ConfigurationTypeError(f"fresh must be True or False, got {fresh!r}")
+    for flag, value in (("fresh", fresh), ("retry_errors", retry_errors)):
+        if not isinstance(value, bool):
+            raise ConfigurationTypeError(f"{flag} must be True or False, got {value!r}")
     if scheduler is not None:
         if not isinstance(scheduler, str) or not scheduler.strip():
             raise ConfigurationTypeError(f"scheduler must be an address such as 'tcp://host:8786', got {scheduler!r}")
@@ -132,9 +173,11 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
                                  f"function, a function typed in an interactive session): define it at the top "
                                  f"level of a module or file, or use executor='serial' "
                                  f"without a timeout")
+    validate_cases(fn, cases)
 
+    code_sha, code_parts = code_digest(fn)
     meta = {"format": FORMAT, "scenario": ref.spec if ref else repr(fn),
-            "scenario_file": ref.file if ref else None, "scenario_sha256": source_sha256(fn),
+            "scenario_file": ref.file if ref else None, "scenario_sha256": code_sha, "scenario_code": code_parts,
             "params": names, "cases": cases, "seeds": explicit if explicit is not None else n_seeds,
             "root_seed": root_seed, "netcosim_version": _version()}
     tasks_all = []
@@ -143,12 +186,15 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
             seed = explicit[s] if explicit is not None else run_seed(root_seed, params, s)
             tasks_all.append((c, s, params, seed))
 
-    store = None
+    store = lock = None
     done: set[tuple[int, int]] = set()
     if out is not None:
         validate.path(out, "out")
         store = Store(out)
+        store.dtypes = param_dtypes(cases)
         store.check(meta, fresh)
+        lock = Lock(store.root)
+        lock.check()                      # a live sweep there: stop before starting anything
     # connect before touching the directory: an unreachable scheduler changes nothing
     if executor == "serial":
         ex: Any = SerialExecutor(fn, ref, timeout)
@@ -161,23 +207,70 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
                           scheduler=scheduler, workers=workers)
         ex.start()
     try:
-        if store is not None:
+        if store is not None and lock is not None:
+            store.root.mkdir(parents=True, exist_ok=True)
+            lock.acquire()
             done = store.open(meta, fresh)
-        return _execute(ex, tasks_all, done, store, names, meta, quiet)
+            done = _repair(store, meta, done, say)
+        return _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors, say)
     finally:
-        if isinstance(ex, DaskExecutor):
-            ex.close()
+        try:
+            if isinstance(ex, DaskExecutor):
+                ex.close()
+        finally:
+            if lock is not None:
+                lock.release()
 
 
-def _execute(ex, tasks_all, done, store, names, meta, quiet) -> SweepResult:
+def _repair(store: Store, meta: dict[str, Any], done: set[tuple[int, int]],
+            say: Callable[[str], None]) -> set[tuple[int, int]]:
+    """Verify the runs found in the directory; delete the damaged ones (they are run
+    again) and say so.  Returns the runs still done."""
+    damage = store.verify()
+    if not damage:
+        return done
+    keys = {k for d in damage if d.file != "runs.parquet" for k in d.keys}
+    for d in damage:
+        if d.file == "runs.parquet":
+            (store.root / "runs.parquet").unlink(missing_ok=True)      # rebuilt at the end
+    for key in keys:
+        store.remove_run(*key)
+    lines = describe_damage(meta, damage)
+    say(f"{len(damage)} damaged file(s) in {store.root}; re-running {len(keys)} run(s):\n  " + "\n  ".join(lines))
+    return done - keys
+
+
+def _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors=False, say=None) -> SweepResult:
     from tqdm.auto import tqdm
 
     records: dict[tuple[int, int], dict[str, Any]] = {}
     tables: dict[tuple[int, int], dict[str, Any]] = {}
+    unreadable: list[Damage] = []
     for c, s, _params, _seed in tasks_all:
         if (c, s) in done:
-            records[(c, s)] = store.read_run(c, s)
-    todo = [(c, s, p, seed) for c, s, p, seed in tasks_all if (c, s) not in done]
+            try:
+                records[(c, s)] = store.read_run(c, s)
+            except Exception as exc:          # a directory without digests (format 1): found when read
+                unreadable.append(Damage(f"parts/{store.part_name(c, s)}", f"cannot be read: {exc}", ((c, s),)))
+    if unreadable:
+        for d in unreadable:
+            store.remove_run(*d.keys[0])
+        if say is not None:
+            say(f"re-running {len(unreadable)} run(s) whose file cannot be read:\n  "
+                + "\n  ".join(describe_damage(meta, unreadable)))
+    if retry_errors:
+        again = [k for k, r in records.items() if r["status"] in ("error", "timeout")]
+        for k in again:
+            del records[k]
+        if again and say is not None:
+            say(f"retrying {len(again)} run(s) that failed (error or timeout)")
+    skipped = len(records)
+    todo = [(c, s, p, seed) for c, s, p, seed in tasks_all if (c, s) not in records]
+    if store is not None and say is not None and skipped:
+        if todo:
+            say(f"resuming: {len(todo)} of {len(tasks_all)} runs to do ({store.root})")
+        else:
+            say(f"{skipped} of {len(tasks_all)} runs already done; nothing to run ({store.root})")
     keys = {i: (c, s, p, seed) for i, (c, s, p, seed) in enumerate(todo)}
     failed = sum(r["status"] != "ok" for r in records.values())
     bar = tqdm(total=len(tasks_all), initial=len(records), disable=True if quiet else None, unit="run",
@@ -207,27 +300,51 @@ def _execute(ex, tasks_all, done, store, names, meta, quiet) -> SweepResult:
     frame = run_frame([records[k] for k in order], names)
     if store is not None:
         store.write_runs(frame)
-    summary = _summary(list(records.values()), len(tasks_all), len(done))
+    summary = _summary(list(records.values()), len(tasks_all), skipped)
     return SweepResult(frame, names, meta, summary, tables=tables, store=store, keys=order)
 
 
-def load_sweep(path: str | os.PathLike) -> SweepResult:
+def verify_sweep(path: str | os.PathLike) -> list[Damage]:
+    """The damaged files of the sweep stored in directory *path* (empty: intact): each
+    finished run's files are compared with the SHA-256 recorded when they were written
+    (:meth:`~netcosim.sweep.store.Store.verify`).  Raises
+    :class:`~netcosim.errors.ConfigurationError` if *path* holds no sweep."""
+    store = Store(validate.path(path, "path"))
+    if store.read_metadata() is None:
+        raise ConfigurationError(f"{str(path)!r} holds no sweep (no {store.root / 'sweep.json'})")
+    return store.verify()
+
+
+def load_sweep(path: str | os.PathLike, verify: bool = True) -> SweepResult:
     """The sweep stored in directory *path* (finished or not: runs not finished are
     missing from ``runs`` and counted in ``summary["missing"]``).
 
-    Raises :class:`~netcosim.errors.ConfigurationError` naming *path* if it holds no sweep.
+    With *verify* (default) every file is first compared with the SHA-256 recorded when
+    it was written; a damaged, truncated or missing file raises
+    :class:`~netcosim.sweep.store.DamagedSweepError` naming the files and the runs they
+    hold (``.damage``, ``.keys``).  ``verify=False`` skips that (a file that cannot be
+    read still raises it).  Raises :class:`~netcosim.errors.ConfigurationError` naming
+    *path* if it holds no sweep.
     """
     store = Store(validate.path(path, "path"))
     meta = store.read_metadata()
     if meta is None:
         raise ConfigurationError(f"{str(path)!r} holds no sweep (no {store.root / 'sweep.json'})")
+    if verify:
+        damage = store.verify()
+        if damage:
+            raise DamagedSweepError(store.root, damage, meta)
     finished = store.finished()
     seeds = meta["seeds"]
     n = len(seeds) if isinstance(seeds, list) else int(seeds)
     order = [(c, s) for c in range(len(meta["cases"])) for s in range(n) if (c, s) in finished]
-    records = [store.read_run(c, s) for c, s in order]
+    records = []
+    for c, s in order:
+        try:
+            records.append(store.read_run(c, s))
+        except Exception as exc:
+            raise DamagedSweepError(store.root, [Damage(f"parts/{store.part_name(c, s)}",
+                                                        f"cannot be read: {exc}", ((c, s),))], meta) from None
     frame = run_frame(records, meta["params"])
     summary = _summary(records, len(meta["cases"]) * n, 0)
     return SweepResult(frame, meta["params"], meta, summary, store=store, keys=order)
-
-

@@ -14,18 +14,20 @@ serial executor.
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import importlib
 import importlib.util
 import inspect
 import sys
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import ConfigurationError, ConfigurationTypeError
 
-__all__ = ["ScenarioRef", "resolve", "reference", "source_sha256"]
+__all__ = ["ScenarioRef", "resolve", "reference", "source_sha256", "code_digest"]
 
 
 @dataclass(frozen=True)
@@ -150,14 +152,53 @@ def reference(scenario: Any) -> tuple[Callable, ScenarioRef | None]:
     return scenario, ScenarioRef(module, qualname, file)
 
 
-def source_sha256(fn: Callable) -> str | None:
-    """SHA-256 (hex) of the source of the module defining *fn* (of *fn* alone if the
-    module's source is not available); ``None`` if neither is."""
+def _strip_docstrings(tree: ast.AST) -> ast.AST:
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+                    and isinstance(body[0].value.value, str):
+                node.body = body[1:]
+    return tree
+
+
+def _definition_name(stmt: ast.stmt) -> str:
+    if isinstance(stmt, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+        return stmt.name
+    if isinstance(stmt, ast.Assign):
+        return ", ".join(ast.unparse(t) for t in stmt.targets)
+    if isinstance(stmt, (ast.AnnAssign, ast.AugAssign)):
+        return ast.unparse(stmt.target)
+    if isinstance(stmt, (ast.Import, ast.ImportFrom)):
+        return "imports"
+    return "module-level statements"
+
+
+def code_digest(fn: Callable) -> tuple[str | None, dict[str, str]]:
+    """The identity of the code of the module defining *fn* (of *fn* alone if the
+    module's source is not available): ``(sha256, {definition: sha256})``, the SHA-256
+    (hex) of the module's syntax tree without docstrings (``ast.dump``: comments,
+    docstrings, blank lines and formatting do not count, a changed statement or constant
+    does), and the same per top-level definition (function, class, assignment,
+    ``imports``), to say what changed.  ``(None, {})`` if no source is available."""
     for obj in (inspect.getmodule(fn), fn):
         if obj is None:
             continue
         try:
-            return hashlib.sha256(inspect.getsource(obj).encode()).hexdigest()
-        except (OSError, TypeError):
+            source = textwrap.dedent(inspect.getsource(obj))
+            tree = _strip_docstrings(ast.parse(source))
+        except (OSError, TypeError, SyntaxError, ValueError):
             continue
-    return None
+        assert isinstance(tree, ast.Module)
+        parts: dict[str, list[str]] = {}
+        for stmt in tree.body:
+            parts.setdefault(_definition_name(stmt), []).append(ast.dump(stmt))
+        per = {k: hashlib.sha256("\n".join(v).encode()).hexdigest() for k, v in parts.items()}
+        return hashlib.sha256(ast.dump(tree).encode()).hexdigest(), per
+    return None, {}
+
+
+def source_sha256(fn: Callable) -> str | None:
+    """The SHA-256 of the code of the module defining *fn* (:func:`code_digest`):
+    comments, docstrings and formatting do not change it."""
+    return code_digest(fn)[0]
