@@ -249,3 +249,23 @@ def test_a_full_mailbox_is_a_message_loss_and_a_frame_received():
     assert (link["frame_attempts"], link["frames_lost"]) == (3, 0)
     df = net.link_stats()
     assert list(df[["src", "dst"]].iloc[0]) == ["a", "b"] and int(df["messages_lost"].iloc[0]) == 2
+
+
+def test_message_loss_per_link():
+    n = 3000
+    sim = Simulation(seed=5)
+    net = IdealLink(sim, "link", data_rate=1e6, message_loss={("a", "b"): 0.25, ("a", "c"): 0.0})
+    a = net.attach("a")
+    net.attach("b")
+    net.attach("c")
+    for k in range(n):
+        sim.call_at(k * 1e-3, lambda: a.send(BROADCAST, None, 100))
+    sim.run(n * 1e-3 + 0.01)
+    links = net.stats["links"]
+    lo, hi = wilson(links["a->b"]["messages_lost"], n)
+    assert lo <= 0.25 <= hi
+    assert links["a->c"]["messages_lost"] == 0 and links["a->c"]["messages_delivered"] == n
+    with pytest.raises(TypeError, match="node-name pairs"):
+        IdealLink(sim, "bad", data_rate=1e6, message_loss={"a": 0.1})
+    with pytest.raises(ValueError, match="probability"):
+        IdealLink(sim, "bad2", data_rate=1e6, message_loss={("a", "b"): 1.5})

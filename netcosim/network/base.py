@@ -47,7 +47,7 @@ from ..kernel.task import Task
 from ..timebase import RESOLUTION, TICKS_PER_SECOND
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
-from .loss import Bernoulli, MaskedLossWarning, as_loss_model
+from .loss import Bernoulli, LossModel, MaskedLossWarning, as_loss_model
 from .stats import LinkStats, stats_frame, total
 
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
@@ -57,6 +57,7 @@ SCHEDULE_COLUMNS = ("time", "network", "node", "state")
 NETWORK_STATES = {"idle": 0.0, "receiving": 0.2, "waiting": 0.4, "sending": 0.7}
 
 _NAN = math.nan
+_UNSET = object()
 
 
 if TYPE_CHECKING:
@@ -81,6 +82,21 @@ def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
     else:
         df["time"] = df["time"].astype(float)
     return df
+
+
+def _message_loss(value: Any, what: str) -> LossModel | dict | None:
+    """``message_loss``: None, a probability / model / list (every link), or a dict per link."""
+    if not isinstance(value, dict):
+        return as_loss_model(value)
+    links = {}
+    for key, m in value.items():
+        if not (isinstance(key, tuple) and len(key) == 2 and all(isinstance(k, str) for k in key)):
+            raise ConfigurationTypeError(f"{what}: message_loss per link needs (src, dst) node-name pairs as keys, "
+                                         f"got {key!r}")
+        model = as_loss_model(m)
+        if model is not None:
+            links[key] = model
+    return links or None
 
 
 class Network:
@@ -125,7 +141,8 @@ class Network:
         message loss ``p`` is a message loss ``p`` whatever the MAC (a broadcast is
         silenced per receiver and still sent to the others).  Draws come from the
         stream ``<net>/message_loss/<src>-><dst>``, so the same seed gives the same
-        results and the frame-loss draws are unchanged.
+        results and the frame-loss draws are unchanged.  Per link: a dict
+        ``{(src, dst): p or model}`` of node names; links not listed lose no message.
 
         ===========================  =========================  ====================
         option                       message loss, Bernoulli p  medium occupied
@@ -170,7 +187,7 @@ class Network:
         self._prop = validate.duration(propagation_delay, f"{w}: propagation_delay (s)")
         self.pre_delay, self.post_delay, self.propagation_delay = pre_delay, post_delay, propagation_delay
         self.loss = as_loss_model(loss)
-        self.message_loss = as_loss_model(message_loss)
+        self.message_loss = _message_loss(message_loss, w)
         # the once-per-network notice of a frame loss hidden by retries (checked at the first unicast)
         self._mask_check = isinstance(self.loss, Bernoulli) and self.loss.p >= 0.05
         self.queue = queue or self.default_queue
@@ -343,12 +360,14 @@ class Network:
         if ls is None:
             ls = self._lstats[key] = LinkStats(src.name, rx.name)
         ls.sent += 1
-        if self.message_loss is not None:
-            lk = self._mlinks.get(key)
-            if lk is None:
-                lk = self._mlinks[key] = self.message_loss.link(
+        ml = self.message_loss
+        if ml is not None:
+            lk = self._mlinks.get(key, _UNSET)
+            if lk is _UNSET:                # first message on the link
+                model = ml.get((src.name, rx.name)) if isinstance(ml, dict) else ml
+                lk = self._mlinks[key] = None if model is None else model.link(
                     self.sim.rng(f"{self.name}/message_loss/{src.name}->{rx.name}"))
-            if lk.lost():
+            if lk is not None and lk.lost():
                 ls.lost += 1
                 ls.silenced += 1
                 if frame.silenced is None:
