@@ -701,8 +701,8 @@ class Trace:
     def signal(self, source: str, signal: str) -> pd.Series:
         """One logged signal as a Series indexed by time (s), named ``"source.signal"``.
 
-        ``attrs["grid"]`` says how the source is sampled (:attr:`grids`; absent when its
-        producer did not say).  A source or signal that was not logged raises
+        ``attrs["grid"]`` says how the source is sampled (``"source: "`` and its entry in
+        :attr:`grids`; absent when its producer did not say).  A source or signal that was not logged raises
         :class:`UnknownSignalError` (a ``KeyError``) listing the signals of the source,
         or the sources, that were."""
         import pandas as pd
@@ -724,7 +724,7 @@ class Trace:
                                      + (f" (did you mean {hint[0]!r}?)" if hint else ""))
         out = pd.Series(sel["value"].to_numpy(), index=sel["time"].to_numpy(), name=f"{source}.{signal}")
         if source in self.grids:
-            out.attrs["grid"] = self.grids[source]
+            out.attrs["grid"] = f"{source}: {self.grids[source]}"
         return out
 
     def schedule(self) -> pd.DataFrame:
