@@ -435,8 +435,8 @@ def _sweep(args) -> int:
         raise UsageError(str(exc)) from None
     except KeyboardInterrupt:
         kept = len(Store(out).finished()) if out is not None and Path(out).is_dir() else 0
-        print(f"\nnetcosim sweep: interrupted; the {kept} finished runs are kept in {out}; resume with: "
-              f"netcosim sweep --resume {out}", file=sys.stderr)
+        print(f"{chr(10) if sys.stderr.isatty() else ''}netcosim sweep: interrupted; the {kept} finished runs are "
+              f"kept in {out}; resume with: netcosim sweep --resume {out}", file=sys.stderr)
         return 130
     s = res.summary
     print(f"{s['total']} runs: {s['ok']} ok, {s['error']} error, {s['timeout']} timeout, "
