@@ -393,6 +393,9 @@ def _sweep(args) -> int:
             meta = Store(args.dir).read_metadata()
         except NetcosimError as exc:
             raise UsageError(str(exc)) from None
+        if meta is not None and meta.get("format", 1) < 2:
+            raise UsageError(f"{args.dir!r} holds a sweep of format {meta.get('format', 1)}, written without the "
+                             f"SHA-256 of its files: it cannot be verified")
         if not damage:
             print(f"ok: {args.dir}: {len(Store(args.dir).finished())} runs, every file matches its SHA-256")
             return 0

@@ -334,3 +334,18 @@ def test_ctrl_c_on_the_command_prints_one_line_and_exits_130_and_resume_complete
     assert result.returncode == 0, result.stderr
     assert "4 runs: 4 ok, 0 error, 0 timeout, 2 already done" in result.stdout
     assert f"resuming: 2 of 4 runs to do ({out})" in result.stderr
+
+
+def test_a_sweep_written_without_digests_is_read_but_not_continued_without_fresh(tmp_path, capsys):
+    out = tmp_path / "sweep"
+    run_sweep(sc.cheap, GRID, 1, executor="serial", out=out, quiet=True)
+    meta = json.loads((out / "sweep.json").read_text())
+    (out / "sweep.json").write_text(json.dumps({**meta, "format": 1}))
+    (out / "digests.jsonl").unlink()
+    assert len(load_sweep(out).runs) == 4
+    with pytest.raises(ConfigurationError, match="holds a sweep of format 1, written by an earlier netcosim"):
+        run_sweep(sc.cheap, GRID, 1, executor="serial", out=out, quiet=True)
+    assert main(["sweep", "verify", str(out)]) == 2
+    assert "cannot be verified" in capsys.readouterr().err
+    assert run_sweep(sc.cheap, GRID, 1, executor="serial", out=out, quiet=True, fresh=True).summary["ok"] == 4
+    assert verify_sweep(out) == []

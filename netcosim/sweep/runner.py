@@ -236,7 +236,9 @@ def _repair(store: Store, meta: dict[str, Any], done: set[tuple[int, int]],
     for key in keys:
         store.remove_run(*key)
     lines = describe_damage(meta, damage)
-    say(f"{len(damage)} damaged file(s) in {store.root}; re-running {len(keys)} run(s):\n  " + "\n  ".join(lines))
+    rebuilt = " and rebuilding runs.parquet" if any(d.file == "runs.parquet" for d in damage) else ""
+    say(f"{len(damage)} damaged file(s) in {store.root}; re-running {len(keys)} run(s){rebuilt}:\n  "
+        + "\n  ".join(lines))
     return done - keys
 
 

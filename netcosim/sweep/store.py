@@ -327,6 +327,12 @@ class Store:
         if old is None and self.root.is_dir() and any(p.name not in _HOUSEKEEPING for p in self.root.iterdir()):
             raise ConfigurationError(f"sweep output directory {str(self.root)!r} is not empty and holds no "
                                      f"{METADATA}: choose a new or an empty directory")
+        if old is not None and not fresh and old.get("format", 1) != FORMAT:
+            raise ConfigurationError(
+                f"sweep output directory {str(self.root)!r} holds a sweep of format {old.get('format', 1)}, written "
+                f"by an earlier netcosim without the SHA-256 of its files (this one writes format {FORMAT}): "
+                f"load_sweep still reads it; pass fresh=True (--fresh) to run it again from the start, or choose "
+                f"another directory")
         if old is not None:
             differ = [k for k in COMPARED if old.get(k) != meta.get(k)]
             if differ and not fresh:
