@@ -45,3 +45,14 @@ class UnyieldedExecuteError(NetcosimError, RuntimeError):
 
 class IntegrationError(NetcosimError, RuntimeError):
     """A plant could not be advanced (non-finite state or output, too many steps)."""
+
+
+class OverloadError(NetcosimError, RuntimeError):
+    """A bounded queue overflowed where the user asked for an error rather than a counted
+    drop (a task's pending jobs, ``on_queue_full="error"``)."""
+
+
+class OverloadWarning(UserWarning):
+    """The first counted drop of a bounded queue (a task's pending jobs): the run goes on,
+    the drops are counted (``task.dropped``)."""
+

@@ -14,6 +14,7 @@ with its next segment, or resumes when nothing else ran since it stopped, pays n
 from __future__ import annotations
 
 import math
+import warnings
 from heapq import heappop, heappush
 from typing import Any, Callable
 
@@ -21,14 +22,14 @@ import simpy
 
 from .. import validate
 from ..clock import DISPATCH, NORMAL, Timer
-from ..errors import ConfigurationError, ConfigurationTypeError
+from ..errors import ConfigurationError, ConfigurationTypeError, OverloadError, OverloadWarning
 from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
 from ..trace import STATE_CODES
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
 from .ready import ReadyQueue
 from .releases import arm_periodic
-from .task import HANDLER, Blocking, Job, Task
+from .task import DEFAULT_MAX_PENDING, HANDLER, Blocking, Job, Task
 from .timers import KernelTimer, Trigger
 
 _INF = math.inf
@@ -101,31 +102,38 @@ class Node:
     def periodic(self, body: Callable | None = None, *, period: float, offset: float = 0.0, priority=None,
                  deadline: float | None = None, wcet: float | None = None, name: str | None = None,
                  preemptible: bool = True, on_busy: str = "queue", on_deadline_miss=None,
-                 on_budget_overrun=None):
+                 on_budget_overrun=None, max_pending: int | None = DEFAULT_MAX_PENDING,
+                 on_queue_full: str = "drop"):
         """Add a periodic task released at ``offset + k*period`` (s).  Usable as a decorator.
 
         ``priority``: small = high (fixed-priority policy; ignored by RM/DM/EDF).
-        ``deadline``: relative deadline (default: the period).
+        ``deadline``: relative deadline (default: the period).  ``max_pending`` (jobs,
+        None: unbounded) and ``on_queue_full`` (``"drop"`` or ``"error"``): the bound on
+        queued jobs (:class:`~netcosim.kernel.task.Task`).
         """
         def make(fn):
             task = self._add_task(fn, "periodic", name, priority=priority, period=period, offset=offset,
                                   deadline=deadline, wcet=wcet, preemptible=preemptible, on_busy=on_busy,
-                                  on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun)
+                                  on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun,
+                                  max_pending=max_pending, on_queue_full=on_queue_full)
             arm_periodic(self, task)
             return task
         return make if body is None else make(body)
 
     def aperiodic(self, body: Callable | None = None, *, priority=None, deadline: float | None = None,
                   wcet: float | None = None, name: str | None = None, preemptible: bool = True,
-                  on_busy: str = "queue", on_deadline_miss=None, on_budget_overrun=None):
+                  on_busy: str = "queue", on_deadline_miss=None, on_budget_overrun=None,
+                  max_pending: int | None = DEFAULT_MAX_PENDING, on_queue_full: str = "drop"):
         """Add a task whose jobs are released by ``task.release()``, triggers, timers or messages.
 
-        ``deadline``: relative deadline (s) of each job; ``wcet``: execution budget (s).
+        ``deadline``: relative deadline (s) of each job; ``wcet``: execution budget (s);
+        ``max_pending``, ``on_queue_full``: the bound on queued jobs, as for :meth:`periodic`.
         """
         def make(fn):
             return self._add_task(fn, "aperiodic", name, priority=priority, deadline=deadline, wcet=wcet,
                                   preemptible=preemptible, on_busy=on_busy, on_deadline_miss=on_deadline_miss,
-                                  on_budget_overrun=on_budget_overrun)
+                                  on_budget_overrun=on_budget_overrun, max_pending=max_pending,
+                                  on_queue_full=on_queue_full)
         return make if body is None else make(body)
 
     def handler(self, body: Callable | None = None, *, priority: float = 0, name: str | None = None,
@@ -201,10 +209,27 @@ class Node:
                 if job.deadline_timer is not None:
                     job.deadline_timer.cancel()
                 return None
+            if task.max_pending is not None and len(task.pending) >= task.max_pending:
+                return self._queue_full(task, job)
             task.pending.append(job)
             return job
         self._activate(job)
         return job
+
+    def _queue_full(self, task: Task, job: Job) -> None:
+        """A release finds ``max_pending`` jobs queued: drop it (counted) or raise."""
+        if job.deadline_timer is not None:
+            job.deadline_timer.cancel()
+        what = (f"task {self.name}.{task.name}: {task.max_pending} jobs already queued (max_pending) at "
+                f"t = {self.sim.now:.9g} s")
+        if task.on_queue_full == "error":
+            raise OverloadError(f"{what}: the task is overloaded (on_queue_full='error')")
+        task.dropped += 1
+        if task.dropped == 1:
+            warnings.warn(f"{what}: this release and further ones while the queue is full are dropped and counted "
+                          f"(task.dropped); pass max_pending=None for TrueTime's unbounded queue, or "
+                          f"on_queue_full='error'", OverloadWarning, stacklevel=2)
+        return None
 
     def _activate(self, job: Job) -> None:
         task = job.task
