@@ -375,8 +375,12 @@ class _RK4Stepper:
             raise IntegrationError(f"plant {self.name!r}: derivative {k!r} is non-finite at t={t!r} s")
         return k
 
-    def integrate(self, rhs, t0, x0, t1, gs):
-        """:meth:`RK4.integrate` of the bound plant (*rhs* is the plant's; not called when *gs* is empty)."""
+    def integrate(self, rhs, t0, x0, t1, gs, dense=None):
+        """:meth:`RK4.integrate` of the bound plant (*rhs* is the plant's; not called when *gs* is empty).
+
+        *dense* (optional, without *gs*): ``(times, report)`` as for
+        :meth:`SolveIVP.integrate`, with *times* among the step instants ``t0 + i dt``
+        (and *t1*): ``report`` receives the states of those steps, as computed."""
         owner = self.owner
         if gs:
             return owner.integrate(rhs, t0, x0, t1, gs)
@@ -386,6 +390,8 @@ class _RK4Stepper:
         u = plant.u if plant.disturbance is None else None  # held: read once per advance
         deriv = self._deriv
         t, x = t0, x0.tolist()
+        wanted = dense[0].tolist() if dense is not None else []
+        j, seen_t, seen_x = 0, [], []
         for i in range(n):
             tn = t1 if i == n - 1 else t0 + (i + 1) * dt
             h = tn - t
@@ -397,6 +403,13 @@ class _RK4Stepper:
             h6 = h / 6.0
             x = [a + h6 * (((p + 2.0 * q) + 2.0 * r) + s) for a, p, q, r, s in zip(x, k1, k2, k3, k4)]
             t = tn
+            while j < len(wanted) and wanted[j] <= tn + 1e-6 * dt:
+                if abs(wanted[j] - tn) <= 1e-6 * dt:
+                    seen_t.append(wanted[j])
+                    seen_x.append(x)
+                j += 1
+        if seen_t:
+            dense[1](np.array(seen_t), np.array(seen_x).T)
         return t1, np.array(x), None
 
 
@@ -894,9 +907,10 @@ class PlantInstance:
             stepper = self._stepper
             every = default_log_interval(stepper.owner if isinstance(stepper, _RK4Stepper) else stepper)
             self._grid = max(1, round(every * TICKS_PER_SECOND))
-            # SolveIVP reports grid states from its dense output; others integrate a copy
-            self._grid_dense = (isinstance(self._stepper, SolveIVP)
-                                and type(self._stepper).integrate is SolveIVP.integrate)
+            # SolveIVP reports grid states from its dense output, RK4 those of its own steps
+            # when the grid falls on them; others integrate a copy
+            self._grid_dense = ((isinstance(stepper, SolveIVP) and type(stepper).integrate is SolveIVP.integrate)
+                                or type(stepper) is _RK4Stepper)
         #: how this plant's signals are sampled (also in ``sim.trace.grids``)
         self.log_grid = (f"log_interval {_seconds_text(log_interval)}" if log_interval is not None
                          else "none" if log == "none" else
@@ -1081,7 +1095,7 @@ class PlantInstance:
         if not times.size:
             self.t, self.x = t_target, self._flow(t0, x0, t_target)
             return
-        if self._grid_dense and not self.system.events:
+        if self._grid_dense and not self.system.events and self._on_steps(t0, times):
             seen: list = []
             x1 = self._flow(t0, x0, t_target, dense=(times, lambda ts, xs: seen.append((ts, xs))))
             self.t, self.x = t_target, x1
@@ -1096,6 +1110,15 @@ class PlantInstance:
                 t = tk
                 self._log_state(tk, x)
         self._grid_last = float(times[-1])
+
+    def _on_steps(self, t0: float, times: np.ndarray) -> bool:
+        """True unless the plant is stepped by RK4 and some of *times* (s) are not among the
+        step instants ``t0 + i dt`` of an advance from *t0*."""
+        stepper = self._stepper
+        if type(stepper) is not _RK4Stepper:
+            return True
+        k = (times - t0) / stepper.owner.dt
+        return bool(np.all(np.abs(k - np.round(k)) <= 1e-6))
 
     def _touched(self) -> None:
         """A task read or wrote the plant: from now on it is logged at its I/O instants."""
