@@ -180,7 +180,9 @@ def code_digest(fn: Callable) -> tuple[str | None, dict[str, str]]:
     (hex) of the module's syntax tree without docstrings (``ast.dump``: comments,
     docstrings, blank lines and formatting do not count, a changed statement or constant
     does), and the same per top-level definition (function, class, assignment,
-    ``imports``), to say what changed.  ``(None, {})`` if no source is available."""
+    ``imports``), to say what changed.  Without source (a lambda inside a longer
+    expression, a function built at run time): the SHA-256 of its code object's
+    instructions, constants and names.  ``(None, {})`` if it has neither."""
     for obj in (inspect.getmodule(fn), fn):
         if obj is None:
             continue
@@ -195,7 +197,18 @@ def code_digest(fn: Callable) -> tuple[str | None, dict[str, str]]:
             parts.setdefault(_definition_name(stmt), []).append(ast.dump(stmt))
         per = {k: hashlib.sha256("\n".join(v).encode()).hexdigest() for k, v in parts.items()}
         return hashlib.sha256(ast.dump(tree).encode()).hexdigest(), per
+    code = getattr(fn, "__code__", None)
+    if code is not None:            # no source (a lambda inside an expression, a compiled function): its bytecode
+        name = getattr(fn, "__qualname__", "function")
+        sha = hashlib.sha256(_code_text(code).encode()).hexdigest()
+        return sha, {name: sha}
     return None, {}
+
+
+def _code_text(code: Any) -> str:
+    """The instructions, constants and names of a code object (not its line numbers)."""
+    consts = [_code_text(c) if inspect.iscode(c) else repr(c) for c in code.co_consts]
+    return repr((code.co_code.hex(), consts, code.co_names, code.co_varnames))
 
 
 def source_sha256(fn: Callable) -> str | None:

@@ -204,9 +204,11 @@ class Lock:
                     raise self._refuse(info) from None
                 self._take_over(info)
                 continue
-            with os.fdopen(fd, "w") as f:
-                json.dump({"pid": os.getpid(), "host": socket.gethostname(), "token": self.token,
-                           "since": time.time()}, f)
+            try:                                   # one write: a reader sees the owner or an empty file
+                os.write(fd, json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "token": self.token,
+                                         "since": time.time()}).encode())
+            finally:
+                os.close(fd)
             self.held = True
             return
         raise self._refuse(self.owner() or {})
