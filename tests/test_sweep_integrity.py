@@ -150,6 +150,8 @@ def test_a_deleted_table_file_and_an_unreadable_part_are_damage_too(tmp_path):
     res = run_sweep(sc.cheap, GRID, 1, executor="serial", out=out, quiet=True, notify=messages.append)
     assert res.summary["skipped"] == 2 and res.summary["ok"] == 4
     assert "re-running 2 run(s)" in messages[0] and verify_sweep(out) == []
+    assert sorted(d.file for d in res.repaired) == ["parts/run-000000-000000.parquet",
+                                                    "tables/trajectory/run-000003-000000.parquet"]
     fresh = run_sweep(sc.cheap, GRID, 1, executor="serial", quiet=True)
     pdt.assert_frame_equal(load_sweep(out).table("trajectory"), fresh.table("trajectory"))
 

@@ -66,7 +66,9 @@ class SweepResult:
     (see :func:`run_frame`; ``wall_time`` in s); ``summary``: counts ``total``, ``ok``,
     ``error``, ``timeout``, ``skipped`` (runs found finished on disk and not rerun) and
     ``missing`` (runs not finished, for a sweep read back before its end); ``meta``: the
-    sweep's metadata; ``path``: its directory (None for a sweep kept in memory).
+    sweep's metadata; ``path``: its directory (None for a sweep kept in memory);
+    ``repaired``: the damaged files (:class:`~netcosim.sweep.store.Damage`) a sweep
+    found in its directory and whose runs it ran again (empty if none).
     """
 
     def __init__(self, runs, params: list[str], meta: dict[str, Any], summary: dict[str, int],
@@ -80,6 +82,7 @@ class SweepResult:
         self._store = store
         self._keys = keys or []
         self.path = None if store is None else store.root
+        self.repaired: list[Any] = []
 
     def to_pandas(self):
         """The run table (:attr:`runs`)."""

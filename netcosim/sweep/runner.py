@@ -188,6 +188,7 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
 
     store = lock = None
     done: set[tuple[int, int]] = set()
+    repaired: list[Damage] = []
     if out is not None:
         validate.path(out, "out")
         store = Store(out)
@@ -211,8 +212,9 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
             store.root.mkdir(parents=True, exist_ok=True)
             lock.acquire()
             done = store.open(meta, fresh)
-            done = _repair(store, meta, done, say)
-        return _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors, say)
+            repaired = store.verify()
+            done = _repair(store, meta, done, repaired, say)
+        return _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors, say, repaired)
     finally:
         try:
             if isinstance(ex, DaskExecutor):
@@ -222,11 +224,10 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
                 lock.release()
 
 
-def _repair(store: Store, meta: dict[str, Any], done: set[tuple[int, int]],
+def _repair(store: Store, meta: dict[str, Any], done: set[tuple[int, int]], damage: list[Damage],
             say: Callable[[str], None]) -> set[tuple[int, int]]:
-    """Verify the runs found in the directory; delete the damaged ones (they are run
-    again) and say so.  Returns the runs still done."""
-    damage = store.verify()
+    """Delete the runs of the *damage* found in the directory (they are run again) and
+    say so.  Returns the runs still done."""
     if not damage:
         return done
     keys = {k for d in damage if d.file != "runs.parquet" for k in d.keys}
@@ -242,7 +243,8 @@ def _repair(store: Store, meta: dict[str, Any], done: set[tuple[int, int]],
     return done - keys
 
 
-def _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors=False, say=None) -> SweepResult:
+def _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors=False, say=None,
+             repaired=None) -> SweepResult:
     from tqdm.auto import tqdm
 
     records: dict[tuple[int, int], dict[str, Any]] = {}
@@ -255,6 +257,7 @@ def _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors=False,
             except Exception as exc:          # a directory without digests (format 1): found when read
                 unreadable.append(Damage(f"parts/{store.part_name(c, s)}", f"cannot be read: {exc}", ((c, s),)))
     if unreadable:
+        repaired = [*(repaired or []), *unreadable]
         for d in unreadable:
             store.remove_run(*d.keys[0])
         if say is not None:
@@ -303,7 +306,9 @@ def _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors=False,
     if store is not None:
         store.write_runs(frame)
     summary = _summary(list(records.values()), len(tasks_all), skipped)
-    return SweepResult(frame, names, meta, summary, tables=tables, store=store, keys=order)
+    result = SweepResult(frame, names, meta, summary, tables=tables, store=store, keys=order)
+    result.repaired = list(repaired or [])
+    return result
 
 
 def verify_sweep(path: str | os.PathLike) -> list[Damage]:
