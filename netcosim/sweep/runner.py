@@ -254,7 +254,7 @@ def _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors=False,
         if (c, s) in done:
             try:
                 records[(c, s)] = store.read_run(c, s)
-            except Exception as exc:          # a directory without digests (format 1): found when read
+            except Exception as exc:          # matched its digest yet cannot be read: written damaged
                 unreadable.append(Damage(f"parts/{store.part_name(c, s)}", f"cannot be read: {exc}", ((c, s),)))
     if unreadable:
         repaired = [*(repaired or []), *unreadable]
