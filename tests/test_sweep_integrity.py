@@ -176,6 +176,8 @@ def test_a_second_sweep_into_a_live_directory_stops_at_once_naming_the_owner(tmp
             run_sweep(gated, {"a": [0, 1, 2]}, 2, executor="serial", out=out, quiet=True)
         assert main(["sweep", "--resume", str(out), "--executor", "serial", "--quiet"]) == 2
         assert f"process {first.pid}" in capsys.readouterr().err
+        partial = load_sweep(out)                                      # readers take no lock
+        assert partial.summary["missing"] == 4 and verify_sweep(out) == []
     finally:
         gate.touch()
         stdout, stderr = first.communicate(timeout=120)
