@@ -112,6 +112,8 @@ def scenario(params: dict, seed: int) -> dict:
 
 
 scenario.params = set(PARAMS)  # type: ignore[attr-defined]  # the sweep engine checks the grid against it
+# ...and every case before any run starts (a negative loss stops the sweep with its reason)
+scenario.validate = lambda params: config_of(params, 0)  # type: ignore[attr-defined]
 
 
 def run_grid(losses=GRID_LOSSES, seeds: int = 20, strategies=STRATEGIES, horizon: float = HORIZON,

@@ -99,6 +99,21 @@ def _counts(net) -> dict[str, int]:
             "messages": finished, "messages_lost": finished - received}
 
 
+def check_params(params: dict) -> None:
+    """Raise :class:`~netcosim.errors.ConfigurationError` naming what is wrong with one
+    case's *params* (keys, the loss probability, the mode); the sweep calls it for every
+    case before any run (``scenario.validate``)."""
+    if not isinstance(params, dict):
+        raise ConfigurationError(f"params must be a dict with keys {PARAMS}, got {params!r}")
+    unknown = sorted(set(params) - set(PARAMS))
+    missing = sorted(set(PARAMS) - set(params))
+    if unknown or missing:
+        raise ConfigurationError(f"params {params!r}: unknown key(s) {unknown}, missing {missing}; "
+                                 f"expected {PARAMS}")
+    validate.probability(params["loss"], "loss (frame loss probability)")
+    validate.choice(params["mode"], "mode", MODES)
+
+
 def scenario(params: dict, seed: int) -> dict[str, Any]:
     """One run: ``params`` = ``{"loss": p, "mode": "broadcast" | "unicast"}``; ``seed``
     the simulation's root seed.
@@ -109,13 +124,7 @@ def scenario(params: dict, seed: int) -> dict[str, Any]:
     ``messages_lost``), ``diverged`` (bool), and ``trajectory``: a DataFrame of the error every 20 ms
     (columns ``time`` in s, ``error`` in rad).
     """
-    if not isinstance(params, dict):
-        raise ConfigurationError(f"params must be a dict with keys {PARAMS}, got {params!r}")
-    unknown = sorted(set(params) - set(PARAMS))
-    missing = sorted(set(PARAMS) - set(params))
-    if unknown or missing:
-        raise ConfigurationError(f"params {params!r}: unknown key(s) {unknown}, missing {missing}; "
-                                 f"expected {PARAMS}")
+    check_params(params)
     sim, net, reference = build(params["loss"], params["mode"], seed)
     for table in ("schedule", "jobs", "network_schedule"):     # only signals and frames are read
         sim.trace.configure(table, mode="off")
@@ -147,6 +156,7 @@ def scenario(params: dict, seed: int) -> dict[str, Any]:
 
 #: The parameters the scenario reads (a sweep refuses any other grid key before running).
 scenario.params = PARAMS  # type: ignore[attr-defined]
+scenario.validate = check_params  # type: ignore[attr-defined]
 
 
 def main(outdir: str = "results/loss_sweep_servo", quick: bool = False, executor: str = "pool") -> pd.DataFrame:
