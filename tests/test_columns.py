@@ -210,8 +210,9 @@ def plant_logging_sim(**configure):
 ])
 def test_plant_logs_written_several_rows_at_once_obey_every_mode(configure, pick):
     keep = plant_logging_sim()
-    # 50 jobs: a read (one log) and a write (two logs), 4 signals each
-    assert len(keep) == 50 * 3 * 4
+    # 50 jobs: a read (one log) and a write (two logs), 4 signals each, and the state at
+    # t = 0 (the first read comes after the 20 us context switch: default grid until then)
+    assert len(keep) == 50 * 3 * 4 + 4
     got = plant_logging_sim(**configure)
     if pick == "empty":
         assert len(got) == 0 and list(got.columns) == list(keep.columns)
