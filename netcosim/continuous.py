@@ -1083,6 +1083,9 @@ class PlantInstance:
         integration, and rows on the default grid strictly between the last row and
         *t_target* (the state the plant starts from first)."""
         t0, x0 = self.t, self.x
+        if self._rec.mode == "off":  # nothing would be kept: integrate only
+            self.t, self.x = t_target, self._flow(t0, x0, t_target)
+            return
         if self._grid_last is None:
             self._log_state(t0, x0)
             self._grid_last = t0

@@ -208,6 +208,15 @@ def test_default_grid_rows_are_bounded_by_the_trace_mode():
     sig = sim.trace.signals()
     assert len(sig) == 100
     assert sig["time"].max() == 1.0
+    off = Simulation()
+    off.trace.configure("signals", "off")
+    p = off.plant(DCServo(), x0=[0.3, 1.0], name="servo")
+    off.run(until=1.0)  # no grid work at all, and the same state
+    assert len(off.trace.signals()) == 0
+    quiet = Simulation()
+    q = quiet.plant(DCServo(), x0=[0.3, 1.0], name="servo", log="none")
+    quiet.run(until=1.0)
+    assert p.x.tobytes() == q.x.tobytes()
 
 
 def test_unknown_signal_names_the_signals_that_exist():
