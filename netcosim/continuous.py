@@ -844,9 +844,10 @@ class PlantInstance:
         on the default grid of :func:`default_log_interval` (1 ms, or the RK4 step if
         longer) and at the end of each run, so that a plant no task touches (a starved
         loop, an open-loop plant) still has a trajectory; ``log="none"`` logs nothing.
-        The default grid is read off the integration (SolveIVP's dense output, or a
-        second integration from grid point to grid point on a copy of the state for the
-        other integrators): it never changes the plant's own steps or states.
+        The default grid is read off the integration (SolveIVP's dense output, RK4's own
+        steps when the grid falls on them, else a second integration from grid point to
+        grid point on a copy of the state): it never changes the plant's own steps or
+        states.  Nothing is computed for it while the ``signals`` table is ``off``.
 
     A non-finite state, derivative ``f`` or output ``h`` (returned by a read or
     logged) raises :class:`~netcosim.errors.IntegrationError` naming the plant, the
@@ -975,7 +976,7 @@ class PlantInstance:
 
     def _integrate(self, t0, x0, t1, gs, dense=None):
         """One integrator call, with the plant named in any IntegrationError (*dense*: see
-        :meth:`SolveIVP.integrate`, only for a SolveIVP)."""
+        :meth:`SolveIVP.integrate`; only for a SolveIVP or an RK4 bound to the plant)."""
         try:
             if dense is not None:
                 if self._jac is not None:
@@ -1028,8 +1029,8 @@ class PlantInstance:
 
         ``effects=False`` integrates a copy: events reset the state but are neither
         counted, logged nor notified, and a failure is not recorded on the plant.
-        *dense*: ``(times, report)`` for the SolveIVP dense output (see
-        :meth:`SolveIVP.integrate`)."""
+        *dense*: ``(times, report)`` for the dense output of a SolveIVP or the steps of
+        an RK4 (see :meth:`SolveIVP.integrate`)."""
         gs = self._gs() if self.system.events else []
         last_fire = self._last_fire if effects else dict(self._last_fire)
         progress_guard = 0
