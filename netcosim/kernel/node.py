@@ -210,7 +210,8 @@ class Node:
                     job.deadline_timer.cancel()
                 return None
             if task.max_pending is not None and len(task.pending) >= task.max_pending:
-                return self._queue_full(task, job)
+                self._queue_full(task, job)
+                return None
             task.pending.append(job)
             return job
         self._activate(job)
@@ -229,7 +230,6 @@ class Node:
             warnings.warn(f"{what}: this release and further ones while the queue is full are dropped and counted "
                           f"(task.dropped); pass max_pending=None for TrueTime's unbounded queue, or "
                           f"on_queue_full='error'", OverloadWarning, stacklevel=2)
-        return None
 
     def _activate(self, job: Job) -> None:
         task = job.task
