@@ -1141,8 +1141,10 @@ class PlantInstance:
 
     @property
     def state(self) -> np.ndarray:
-        """The state at ``now`` (advances the plant)."""
-        self.advance()
+        """The state at ``now`` (advances the plant).  After the plant's integration
+        failed (``failure`` set), its last finite state, at ``t`` (s), without advancing."""
+        if self.failure is None:
+            self.advance()
         return self.x.copy()
 
     def set_input(self, index, value, label="inputs") -> None:

@@ -71,6 +71,10 @@ def test_non_finite_derivative_raises_integration_error_naming_the_state(integra
     sim.call_at(3.0, lambda: p.state)
     with pytest.raises(IntegrationError, match=r"plant 'p': derivative of \['x'\] is non-finite at t="):
         sim.run(until=5.0)
+    # afterwards the plant shows its last finite state -- where the failing advance (0 -> 3 s)
+    # began -- and reading it does not raise again
+    assert p.failure is not None
+    assert p.state.tolist() == [0.0] and p.t == 0.0
 
 
 LAMBDA = 1e9  # 1/s: a mode a million times faster than the 1 ms sampling
