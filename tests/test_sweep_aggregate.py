@@ -116,3 +116,18 @@ def test_plot_sweep_on_given_axes_without_hue():
     assert ax.get_yscale() == "log"
     np.testing.assert_allclose(ax.get_lines()[0].get_ydata(), [5.0, 4.0])
     plt.close(fig)
+
+
+def _no_divergence_flag(params, seed):
+    return {"J": params["loss"] * 10 + seed % 3}
+
+
+def test_sweep_result_plots_a_scenario_that_returns_no_diverged_column(tmp_path):
+    from netcosim.sweep import run_sweep
+    res = run_sweep(_no_divergence_flag, {"loss": [0.0, 0.5], "mode": ["a", "b"]}, seeds=3, executor="serial",
+                    quiet=True)
+    assert "diverged" not in res.runs.columns
+    ax = res.plot(y="J", hue="mode")
+    assert len(ax.get_lines()) >= 2
+    with pytest.raises(ConfigurationError, match="diverged='diverged' is not a column"):
+        res.plot(y="J", hue="mode", diverged="diverged")

@@ -115,8 +115,11 @@ class SweepResult:
 
     def plot(self, y: str, x: str | None = None, hue: str | None = None, **kw):
         """``plot_sweep(self.runs, x, y, hue)``: median and band of *y* across seeds
-        (:func:`netcosim.sweep.aggregate.plot_sweep`); *x* defaults to the first parameter."""
+        (:func:`netcosim.sweep.aggregate.plot_sweep`); *x* defaults to the first parameter;
+        runs flagged by a ``diverged`` column, if the scenario returns one, are counted
+        apart (``diverged=`` overrides)."""
         from .aggregate import plot_sweep
+        kw.setdefault("diverged", "diverged" if "diverged" in self.runs.columns else None)
         return plot_sweep(self.runs, x=x or self.params[0], y=y, hue=hue, **kw)
 
     def __repr__(self) -> str:
