@@ -42,13 +42,18 @@ from typing import TYPE_CHECKING, Any
 
 from .. import validate
 from ..clock import ARBITRATE  # noqa: F401 (re-exported: MAC arbitration priority)
-from ..errors import ConfigurationError, ConfigurationTypeError
+from ..errors import ConfigurationError, ConfigurationTypeError, OverloadError, OverloadWarning
 from ..kernel.task import Task
 from ..timebase import RESOLUTION, TICKS_PER_SECOND
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
 from .loss import Bernoulli, LossModel, MaskedLossWarning, as_loss_model
 from .stats import LinkStats, stats_frame, total
+
+#: default size (frames) of a sender queue: far beyond any load a network drains (tests
+#: queue 30 000 messages at once); a sender that outruns its network then holds about
+#: 150 MB (1.4 kB per queued message with its trace rows, measured), not the machine
+DEFAULT_QUEUE_CAPACITY = 100_000
 
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
                  "bits", "backoff")
@@ -154,8 +159,14 @@ class Network:
 
         ``stats`` (and :meth:`link_stats`) counts both per link: messages sent,
         delivered, lost and the frame (attempt) losses; see :mod:`netcosim.network.stats`.
-    queue, queue_capacity:
-        Sender queue discipline (``"fifo"`` or ``"priority"``) and size in frames.
+    queue, queue_capacity, on_queue_full:
+        Sender queue discipline (``"fifo"`` or ``"priority"``) and size in frames
+        (default :data:`DEFAULT_QUEUE_CAPACITY`; None: unbounded, as TrueTime).  A
+        message that finds the queue full is lost with reason ``queue_overflow``
+        (counted in the frames table and ``stats``) with an
+        :class:`~netcosim.errors.OverloadWarning` the first time (``on_queue_full="drop"``,
+        the default), or raises :class:`~netcosim.errors.OverloadError`
+        (``on_queue_full="error"``).
     mailbox_capacity:
         Default receive-mailbox size (None = unbounded).
     trace:
@@ -169,7 +180,8 @@ class Network:
     def __init__(self, sim, name: str, *, data_rate: float, min_frame_bits: int = 0,
                  max_frame_bits: int | None = None, pre_delay: float = 0.0, post_delay: float = 0.0,
                  propagation_delay: float = 0.0, loss: Any = None, message_loss: Any = None, queue: str | None = None,
-                 queue_capacity: int | None = None, mailbox_capacity: int | None = None, trace: bool = True):
+                 queue_capacity: int | None = DEFAULT_QUEUE_CAPACITY, on_queue_full: str = "drop",
+                 mailbox_capacity: int | None = None, trace: bool = True):
         self.sim = sim
         self._env = sim.env
         self.name = name
@@ -193,6 +205,8 @@ class Network:
         self.queue = queue or self.default_queue
         TxQueue(self.queue, queue_capacity, what=w)  # validate now, not at attach
         self.queue_capacity = queue_capacity
+        self.on_queue_full = validate.choice(on_queue_full, f"{w}: on_queue_full", ("drop", "error"))
+        self._overflowed = False
         if mailbox_capacity is not None:
             mailbox_capacity = validate.count(mailbox_capacity, f"{w}: mailbox_capacity (messages)", minimum=1)
         self.mailbox_capacity = mailbox_capacity
@@ -393,9 +407,22 @@ class Network:
                 f"medium access, as TrueTime's wireless loss); network.stats reports both losses",
                 MaskedLossWarning, stacklevel=4)
 
+    def _queue_full(self, iface: Interface) -> None:
+        """A message finds *iface*'s sender queue full: raise, or warn the first time."""
+        what = (f"network {self.name!r}: the sender queue of {iface.name!r} holds {iface.queue.capacity} frames "
+                f"(queue_capacity) at t = {self.sim.now:.9g} s")
+        if self.on_queue_full == "error":
+            raise OverloadError(f"{what}: the sender is overloaded (on_queue_full='error')")
+        if not self._overflowed:
+            self._overflowed = True
+            warnings.warn(f"{what}: this message and further ones that find a sender queue full are lost "
+                          f"(reason queue_overflow, counted in stats); pass queue_capacity=None for TrueTime's "
+                          f"unbounded queue, or on_queue_full='error'", OverloadWarning, stacklevel=4)
+
     def _enqueue(self, frame: Frame) -> None:
         iface = frame.src
         if iface.queue.full():
+            self._queue_full(iface)
             self._lost(frame, iface, "queue_overflow")
             self._finish(frame, False)
             return
