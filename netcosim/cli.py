@@ -1,5 +1,5 @@
-"""Command line: ``netcosim run EXPERIMENT``, ``netcosim sweep SCENARIO``, ``netcosim hil SCENARIO --remote NODE``
-and ``netcosim plot schedule TRACE``.
+"""Command line: ``netcosim run EXPERIMENT``, ``netcosim sweep SCENARIO``, ``netcosim sweep verify DIR``,
+``netcosim hil SCENARIO --remote NODE`` and ``netcosim plot schedule|network TRACE``.
 
 ``run`` calls an experiment's entry point with ``outdir`` (and ``quick``) keyword
 arguments.  EXPERIMENT is one of
@@ -16,17 +16,21 @@ seeds (:func:`netcosim.sweep.run_sweep`) into a Parquet dataset: SCENARIO is
 ``package.module:function`` or ``path/to/file.py:function``; ``--grid NAME=V1,V2,...``
 (repeatable, the product of the lists) with each value read as an int, else a float, else
 a bool (``true``/``false``), else a string; ``--resume DIR`` continues the sweep stored in
-DIR.  Modules are also looked up in the current directory.  Exit status 1 if a run
-failed (error or timeout).
+DIR (``--retry-errors`` also re-runs its failed runs).  Modules are also looked up in the
+current directory.  Exit status 1 if a run failed (error or timeout); Ctrl-C ends with
+one line saying what is kept and how to resume (exit status 130).  ``sweep verify DIR``
+checks every file of a stored sweep against its digest (exit status 1 if one is damaged).
 
 ``hil`` builds SCENARIO (``package.module:function`` returning a Simulation), makes node
 NAME remote (:class:`netcosim.transport.remote.RemoteNode`) -- or, if NAME is a plant,
 gives a process its outputs every ``--period`` s and its inputs
 (:class:`netcosim.transport.remote.RemotePlantIO`) --, prints the command that starts
-the remote side, waits for it and runs in real time, or ``--factor`` times slower
-(docs/hil.md).
+the remote side, waits for it and runs in real time, or ``--factor`` times slower; it
+prints the counters and response times and writes the trace to ``--out`` (``--compare``:
+also the all-simulated run and, with ``--replay``, the replay; docs/hil.md).
 
-``plot schedule`` draws a schedule table written by ``Trace.to_parquet``.
+``plot schedule`` draws a schedule table written by ``Trace.to_parquet``; ``plot network``
+its network timeline (``network_schedule``, with ``frames`` when it lies beside it).
 
 Bad arguments (unknown experiment, unreadable trace, empty time window, ...) print one
 line naming the value on stderr and exit with status 2.
