@@ -34,6 +34,8 @@ whole batches, which is what the chunks are, but would be imported by every simu
 
 from __future__ import annotations
 
+import pickle
+import tempfile
 from array import array
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
@@ -77,11 +79,11 @@ class ColumnStore:
     declared type).  ``None``: the type is found from the values.
     """
 
-    __slots__ = ("append", "extend", "ncols", "chunk_rows", "categorical", "dtypes", "_tail", "_chunks", "_n",
-                 "_codes", "_names")
+    __slots__ = ("append", "extend", "ncols", "chunk_rows", "categorical", "dtypes", "memory", "spills",
+                 "_tail", "_chunks", "_n", "_codes", "_names", "_bytes", "_limit", "_file", "_spilled")
 
     def __init__(self, ncols: int, chunk_rows: int = CHUNK_ROWS, categorical: Iterable[int] = (),
-                 dtypes: Sequence[str | None] | None = None):
+                 dtypes: Sequence[str | None] | None = None, memory: int | None = None):
         self.ncols = ncols
         self.chunk_rows = chunk_rows
         self.categorical = frozenset(categorical)
@@ -94,6 +96,15 @@ class ColumnStore:
         self._n = 0                                   # rows in chunks
         self._codes: list[dict[str, int]] = [{} for _ in range(ncols)]   # per column: string -> code
         self._names: list[list[str]] = [[] for _ in range(ncols)]        # per column: code -> string
+        #: bytes of encoded chunks held in memory before the older ones move to a temporary
+        #: file (:meth:`_spill`); None: no limit
+        self.memory = memory
+        #: how many times chunks were moved to the file
+        self.spills = 0
+        self._bytes = 0                               # encoded bytes of the chunks in memory
+        self._limit = memory                          # spill when _bytes exceeds it
+        self._file: Any = None                        # the temporary file, once something is spilled
+        self._spilled = 0                             # rows in the file
         # the hot path: C-level list methods; encoding waits for maintain()
         self.append = self._tail.append
         self.extend = self._tail.extend
@@ -120,8 +131,76 @@ class ColumnStore:
         k = self.chunk_rows
         rows = self._tail[:k]
         del self._tail[:k]
-        self._chunks.append((k, self._encode(rows)))
+        chunk = self._encode(rows)
+        self._chunks.append((k, chunk))
         self._n += k
+        if self._limit is not None:
+            self._bytes += _chunk_bytes(chunk)
+            if self._bytes > self._limit:
+                self._spill()
+
+    # -- spilling --------------------------------------------------------------------
+    def _spill(self) -> None:
+        """Move the encoded chunks held in memory, but the newest (:meth:`replace` may
+        still change it), to the temporary file, as segments of consecutive chunks.
+
+        A chunk of plain values (numbers, None, coded strings) is spilled; one holding
+        arbitrary objects (``obj`` columns, ``rows`` chunks) stays in memory, so that
+        every value read back is the very object appended.  The category tables stay in
+        memory: a code read back from the file names the same object."""
+        if self._file is None:
+            self._file = tempfile.TemporaryFile(prefix="netcosim-trace-")  # deleted when closed
+        f = self._file
+        out: list = []
+        run: list = []
+
+        def write_run():
+            if run:
+                data = pickle.dumps(run, protocol=pickle.HIGHEST_PROTOCOL)
+                offset = f.seek(0, 2)
+                f.write(data)
+                n = sum(k for k, _ in run)
+                sig = [set() for _ in range(self.ncols)]
+                for _, (_, cols) in run:
+                    for c, (codec, _) in enumerate(cols):
+                        sig[c].add(codec)
+                out.append((n, ("spill", (offset, len(data), tuple(frozenset(x) for x in sig)))))
+                self._spilled += n
+                run.clear()
+        for entry in self._chunks[:-1]:
+            kind, data = entry[1]
+            if kind == "cols" and not any(codec == "obj" for codec, _ in data):
+                run.append(entry)
+            else:
+                write_run()
+                out.append(entry)
+        write_run()
+        out.append(self._chunks[-1])
+        self._chunks[:] = out
+        f.flush()
+        self._bytes = sum(_chunk_bytes(ch) for _, ch in out)
+        self._limit = self._bytes + self.memory if self.memory is not None else None
+        self.spills += 1
+
+    def _load(self, ref) -> list[tuple[int, Any]]:
+        """The chunks of the spilled segment *ref*."""
+        offset, length, _ = ref
+        f = self._file
+        f.seek(offset)
+        return pickle.loads(f.read(length))
+
+    def _chunks_in_order(self) -> Iterator[tuple[int, Any]]:
+        """Every encoded chunk, oldest first, spilled segments loaded one at a time."""
+        for n, chunk in self._chunks:
+            if chunk[0] == "spill":
+                yield from self._load(chunk[1])
+            else:
+                yield n, chunk
+
+    @property
+    def spilled_rows(self) -> int:
+        """Rows held in the temporary file."""
+        return self._spilled
 
     def _encode(self, rows: list[tuple]):
         try:
@@ -230,7 +309,7 @@ class ColumnStore:
         return self._n + len(self._tail)
 
     def __iter__(self) -> Iterator[tuple]:
-        for n, chunk in self._chunks:
+        for n, chunk in self._chunks_in_order():
             yield from self._decode(n, chunk)
         yield from list(self._tail)
 
@@ -246,15 +325,25 @@ class ColumnStore:
             return self._tail[i - self._n]
         for k, chunk in self._chunks:
             if i < k:
+                if chunk[0] == "spill":
+                    for k2, c2 in self._load(chunk[1]):
+                        if i < k2:
+                            return self._decode(k2, c2)[i]
+                        i -= k2
                 return self._decode(k, chunk)[i]
             i -= k
         raise AssertionError("unreachable")
 
     def clear(self) -> None:
-        """Drop every row (the category tables stay: codes remain valid)."""
+        """Drop every row (the category tables stay: codes remain valid; the temporary file
+        is deleted)."""
         self._tail.clear()
         self._chunks.clear()
         self._n = 0
+        self._bytes, self._limit, self._spilled = 0, self.memory, 0
+        if self._file is not None:
+            self._file.close()
+            self._file = None
 
     def replace(self, old: tuple, new: tuple) -> bool:
         """Overwrite row *old* with *new*; False when *old* is not held.
@@ -267,16 +356,156 @@ class ColumnStore:
             if tail[i] is old:
                 tail[i] = new
                 return True
-        if self._chunks:
+        if self._chunks and self._chunks[-1][1][0] != "spill":
             n, chunk = self._chunks[-1]
             rows = self._decode(n, chunk)
             for i in range(n - 1, -1, -1):
                 if rows[i] == old:
                     rows[i] = new
-                    self._chunks[-1] = (n, self._encode(rows))
+                    new_chunk = self._encode(rows)
+                    if self._limit is not None:
+                        self._bytes += _chunk_bytes(new_chunk) - _chunk_bytes(chunk)
+                    self._chunks[-1] = (n, new_chunk)
                     return True
         return False
 
     def __repr__(self) -> str:
-        return f"<ColumnStore {len(self)} rows: {self._n} encoded, {len(self._tail)} as tuples>"
+        return (f"<ColumnStore {len(self)} rows: {self._n} encoded ({self._spilled} in a file), "
+                f"{len(self._tail)} as tuples>")
+
+    # -- reading as columns ----------------------------------------------------------
+    def frame(self, columns: Sequence[str], extra: Sequence[tuple] = ()):
+        """The rows, followed by *extra*, as ``pandas.DataFrame.from_records(rows, columns=columns)``
+        would build them, but column by column from the encoded chunks (spilled segments
+        loaded one at a time): no tuple per row is made, so reading a long table needs
+        about the memory of the DataFrame itself.
+
+        Numeric columns stored in one codec (all ``float``, all ``int``, all ``bool``)
+        become numpy arrays directly; every other column is gathered as an object array
+        and converted by the very function ``from_records`` uses, so the frame is the same
+        value for value and dtype for dtype."""
+        import numpy as np
+        import pandas as pd
+        from pandas.core.internals.construction import convert_object_array
+
+        rest = list(self._tail) + list(extra)
+        last: list = []
+        if rest:
+            enc = self._encode(rest)
+            last = [(len(rest), enc)] if enc[0] == "cols" else [(len(rest), ("rows", rest))]
+        entries = self._chunks + last
+        total = sum(n for n, _ in entries)
+        ncols = self.ncols
+        if len(columns) != ncols:
+            raise ValueError(f"{len(columns)} column names for {ncols} columns")
+        # codecs of each column over every chunk
+        sig: list[set] = [set() for _ in range(ncols)]
+        for _, chunk in entries:
+            kind, data = chunk
+            if kind == "spill":
+                for c, s in enumerate(data[2]):
+                    sig[c] |= s
+            elif kind == "cols":
+                for c, (codec, _) in enumerate(data):
+                    sig[c].add(codec)
+            else:
+                for s in sig:
+                    s.add("rows")
+        fast = {"d": np.float64, "q": np.int64, "bool": np.bool_, "u8": np.int64}
+        out = []
+        for c in range(ncols):
+            codecs = sig[c]
+            dtype = fast[next(iter(codecs))] if len(codecs) == 1 and next(iter(codecs)) in fast else object
+            out.append(np.empty(total, dtype=dtype))
+        names_arr: list = [None] * ncols
+
+        def names(c):
+            if names_arr[c] is None or len(names_arr[c]) != len(self._names[c]):
+                a = np.empty(len(self._names[c]), dtype=object)
+                for i, v in enumerate(self._names[c]):
+                    a[i] = v
+                names_arr[c] = a
+            return names_arr[c]
+
+        def chunks():
+            for n, chunk in entries:
+                if chunk[0] == "spill":
+                    yield from self._load(chunk[1])
+                else:
+                    yield n, chunk
+        pos = 0
+        for n, chunk in chunks():
+            kind, data = chunk
+            sl = slice(pos, pos + n)
+            if kind != "cols":
+                rows = self._decode(n, chunk)
+                for c in range(ncols):
+                    col = out[c]
+                    for i, r in enumerate(rows):
+                        col[pos + i] = r[c]
+            else:
+                for c, (codec, v) in enumerate(data):
+                    col = out[c]
+                    if codec in ("d", "q"):
+                        col[sl] = np.frombuffer(v, dtype=np.float64 if codec == "d" else np.int64) \
+                            if col.dtype != object else v.tolist()
+                    elif codec in ("u8", "bool"):
+                        raw = np.frombuffer(v, dtype=np.uint8)
+                        if col.dtype != object:
+                            col[sl] = raw
+                        else:
+                            col[sl] = self._decode_column(n, codec, v, c)
+                    elif codec == "str":
+                        codes = np.frombuffer(v, dtype=np.uint8) if isinstance(v, bytes) \
+                            else np.frombuffer(v, dtype=np.dtype(v.typecode))
+                        col[sl] = names(c)[codes]
+                    else:
+                        vals = self._decode_column(n, codec, v, c)
+                        tmp = np.empty(n, dtype=object)
+                        for i, x in enumerate(vals):
+                            tmp[i] = x
+                        col[sl] = tmp
+            pos += n
+        arrays = [convert_object_array([a], dtype=None)[0] if a.dtype == object else a for a in out]
+        return pd.DataFrame(dict(zip(columns, arrays)), columns=list(columns))
+
+    def _decode_column(self, n: int, codec: str, v, c: int) -> list:
+        """One encoded column of a chunk as the list of its values."""
+        if codec == "d" or codec == "q":
+            return v.tolist()
+        if codec == "str":
+            return list(map(self._names[c].__getitem__, v))
+        if codec == "u8":
+            return list(v)
+        if codec == "bool":
+            return [b != 0 for b in v]
+        if codec == "none":
+            return [None] * n
+        if codec == "mixed":
+            tags, vals = v
+            return [_UNTAG[t](x) for t, x in zip(tags, vals.tolist())]
+        return list(v)
+
+
+def _chunk_bytes(chunk) -> int:
+    """Approximate bytes held by an encoded chunk (the buffers; 8 bytes per object reference)."""
+    kind, data = chunk
+    if kind == "spill":
+        return 0
+    if kind != "cols":
+        return 120 * len(data)   # a tuple and its values, roughly
+    size = 0
+    for codec, v in data:
+        if codec == "none":
+            continue
+        if codec == "mixed":
+            tags, vals = v
+            size += len(tags) + vals.itemsize * len(vals)
+        elif codec == "obj":
+            size += 8 * len(v)
+        elif isinstance(v, array):
+            size += v.itemsize * len(v)
+        else:
+            size += len(v)
+    return size
 

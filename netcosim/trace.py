@@ -18,11 +18,14 @@ Other components (networks, for instance) register their own tables with
 
 Memory
 ------
-By default every table keeps every row (``mode="keep"``), which grows without bound
-in a long run.  :meth:`Trace.configure` (one table) and :meth:`Trace.configure_all`
-(every table, including those created later) bound it, at any time, also mid-run:
+By default every table keeps every row (``mode="keep"``), in memory up to
+:data:`DEFAULT_MEMORY` (16 MiB of encoded rows per table) and beyond it in a temporary
+file of columnar chunks, read back when the table is read: a long run's memory stays
+bounded, its disk use grows.  :meth:`Trace.configure` (one table) and
+:meth:`Trace.configure_all` (every table, including those created later) choose, at any
+time, also mid-run:
 
-``keep``    every row (the default)
+``keep``    every row (the default; ``memory=None``: all of them in memory)
 ``off``     no rows at all
 ``ring``    the last ``rows`` rows
 ``window``  the rows whose time lies in the last ``seconds`` of simulated time
@@ -77,6 +80,9 @@ MODES = ("keep", "off", "ring", "window", "stream")
 DEFAULT_ROW_GROUP = 50_000
 #: Name pattern of the Parquet files a streamed table writes into its directory.
 PART_NAME = "part-{:06d}.parquet"
+#: Default memory budget of a ``keep``-mode table: bytes of encoded rows held in memory
+#: before the older ones move to a temporary file (``configure(..., memory=...)``).
+DEFAULT_MEMORY = 16 * 2 ** 20
 
 
 def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
@@ -221,8 +227,8 @@ class Recorder:
     """
 
     __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index",
-                 "time_scale", "key_index", "mode", "options", "_buf", "_clock", "_window", "_stream",
-                 "_counts", "_latest")
+                 "time_scale", "key_index", "mode", "options", "memory", "_buf", "_clock", "_window",
+                 "_stream", "_counts", "_latest")
 
     def __init__(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
                  transform=None, *, time: str | None = "time", time_unit: str = "ticks",
@@ -247,6 +253,8 @@ class Recorder:
         self.time_scale = TICKS_PER_SECOND if time_unit == "ticks" else 1.0
         self.key_index = tuple(self.columns.index(k) for k in key) if key else ()
         self._clock = clock
+        #: keep mode's memory budget (bytes of encoded rows; None: no limit)
+        self.memory: int | None = DEFAULT_MEMORY
         self._buf: list | deque | ColumnStore = self._column_store()
         self._window: int | float | None = None      # stored-unit width of the window
         self._stream: _Stream | None = None      # _Stream in stream mode
@@ -259,7 +267,7 @@ class Recorder:
     def _column_store(self) -> ColumnStore:
         coded = [i for i, c in enumerate(self.columns)
                  if c in self.categorical and (self.dtypes is None or self.dtypes[i] is None)]
-        return ColumnStore(len(self.columns), categorical=coded, dtypes=self.dtypes)
+        return ColumnStore(len(self.columns), categorical=coded, dtypes=self.dtypes, memory=self.memory)
 
     def append(self, row: tuple) -> None:
         """Add one *row* (a tuple in the table's column order; times in the table's stored unit) under
@@ -275,7 +283,7 @@ class Recorder:
 
     # -- configuration --------------------------------------------------------------
     def configure(self, mode: str = "keep", *, rows=None, seconds=None, every=1, path=None,
-                  row_group=DEFAULT_ROW_GROUP, overwrite: bool = False) -> None:
+                  row_group=DEFAULT_ROW_GROUP, overwrite: bool = False, memory=DEFAULT_MEMORY) -> None:
         """Set how this table stores rows (``seconds``: the window width in s); see
         :meth:`Trace.configure`."""
         w = f"trace table {self.name!r}"
@@ -296,6 +304,8 @@ class Recorder:
             if mode == "off":
                 raise ConfigurationError(f"{w}: every={every!r} does not apply to mode='off'")
         row_group = _positive_int(row_group, f"{w}: row_group")
+        if memory is not None:
+            memory = _positive_int(memory, f"{w}: memory (bytes, or None for no limit)")
         if mode == "ring":
             rows = _positive_int(rows, f"{w}: rows")
         window = None
@@ -312,9 +322,12 @@ class Recorder:
         # rows already written by an earlier stream stay in their files.
         old = list(self._buf)
         self.mode = mode
+        self.memory = memory
         self.options = {k: v for k, v in dict(rows=rows, seconds=seconds, every=every, path=path,
                                                    row_group=row_group).items()
                         if v is not None and (k != "every" or v != 1) and (k != "row_group" or mode == "stream")}
+        if mode == "keep" and memory != DEFAULT_MEMORY:
+            self.options["memory"] = memory
         self._window, self._stream, self._latest = window, stream, None
         if every == 1:
             self._counts = {}
@@ -407,6 +420,16 @@ class Recorder:
     def frame(self) -> pd.DataFrame:
         """The table as a DataFrame (a fresh copy every call)."""
         import pandas as pd
+        buf = self._buf
+        if type(buf) is ColumnStore and buf.spilled_rows:
+            # a long table partly in its temporary file: built column by column, no tuple per row
+            df = buf.frame(self.columns, [r for p in self.providers for r in p()])
+            if self.transform is not None:
+                df = self.transform(df)
+            for c in self.categorical:
+                if c in df.columns:
+                    df[c] = df[c].astype("category")
+            return df
         if self.mode == "off":
             rows: list = []
         else:
@@ -570,7 +593,8 @@ class Trace:
     # Memory bounds ---------------------------------------------------------------
     def configure(self, name: str, mode: str = "keep", *, rows: int | None = None,
                   seconds: float | None = None, every: int = 1, path: str | os.PathLike | None = None,
-                  row_group: int = DEFAULT_ROW_GROUP, overwrite: bool = False) -> None:
+                  row_group: int = DEFAULT_ROW_GROUP, overwrite: bool = False,
+                  memory: int | None = DEFAULT_MEMORY) -> None:
         """Choose how table *name* stores its rows; callable at any time, also mid-run.
 
         mode:
@@ -587,17 +611,24 @@ class Trace:
         every:
             Decimation for per-signal tables (``signals``): keep the 1st, (k+1)-th,
             (2k+1)-th, ... sample of each ``(source, signal)``; applied before the mode.
+        memory:
+            ``keep`` mode's memory budget, in bytes of encoded rows (default
+            :data:`DEFAULT_MEMORY`, 16 MiB per table): beyond it the older rows move, in
+            their columnar chunks, to an anonymous temporary file (in ``TMPDIR``, deleted
+            when the table is cleared, reconfigured or the process ends) and are read
+            back from it, the same values, when the table is read.  ``None``: no limit,
+            every row in memory.  Ignored by the other modes.
         Rows held in memory carry over to the new mode (within its bounds); rows an
         earlier stream wrote stay in its files but are no longer part of the table.
         Current-state rows from providers (unfinished jobs) are added when the table is
         read in every mode but ``off`` (in ``window`` mode only if inside the window).
         """
         self._rec(name).configure(mode, rows=rows, seconds=seconds, every=every, path=path,
-                                  row_group=row_group, overwrite=overwrite)
+                                  row_group=row_group, overwrite=overwrite, memory=memory)
 
     def configure_all(self, mode: str = "keep", *, rows: int | None = None, seconds: float | None = None,
                       path: str | os.PathLike | None = None, row_group: int = DEFAULT_ROW_GROUP,
-                      overwrite: bool = False) -> None:
+                      overwrite: bool = False, memory: int | None = DEFAULT_MEMORY) -> None:
         """Configure every table, and every table created later, like :meth:`configure`
         (``seconds``: the window width in s).
 
@@ -605,7 +636,8 @@ class Trace:
         Tables that cannot honour the mode (``window`` on a table without a time
         column) raise before any table is changed.
         """
-        options = dict(rows=rows, seconds=seconds, path=path, row_group=row_group, overwrite=overwrite)
+        options = dict(rows=rows, seconds=seconds, path=path, row_group=row_group, overwrite=overwrite,
+                       memory=memory)
         # validate everything first, so that a bad value changes no table
         if mode == "stream":
             if path is None:
@@ -617,7 +649,7 @@ class Trace:
             _positive_int(row_group, "configure_all: row_group")
         else:
             Recorder("configure_all", ("time",)).configure(mode, rows=rows, seconds=seconds, path=path,
-                                                            row_group=row_group)
+                                                            row_group=row_group, memory=memory)
         if mode == "window":
             for rec in self._tables.values():
                 if rec.time_index is None:

@@ -1,0 +1,134 @@
+"""The default trace is bounded (issue 23, "long runs"): a ``keep``-mode table holds at
+most its memory budget of encoded rows; older chunks move to a temporary file and are
+read back, bit for bit, when the table is read.  A small budget stands in for the
+default 16 MiB so that a short run spills."""
+
+import os
+
+import pandas as pd
+import pytest
+
+import netcosim.trace as trace_mod
+from benchmarks.memory import build
+from netcosim.columns import ColumnStore, _chunk_bytes
+from netcosim.errors import ConfigurationError
+
+BUDGET = 8 * 1024   # bytes of encoded rows per table
+UNTIL = 3.0         # simulated s: ~18 000 rows over five tables
+
+
+def _run(memory_default, until=UNTIL, configure=None):
+    old = trace_mod.DEFAULT_MEMORY
+    trace_mod.DEFAULT_MEMORY = memory_default
+    try:
+        sim = build("default")          # the soak scenario: servo over 802.11b, 70 % loss
+        if configure is not None:
+            configure(sim)
+        sim.run(until)
+    finally:
+        trace_mod.DEFAULT_MEMORY = old
+    return sim
+
+
+@pytest.fixture(scope="module")
+def runs():
+    return _run(BUDGET), _run(None)
+
+
+def _held(store: ColumnStore) -> int:
+    return sum(_chunk_bytes(ch) for _, ch in store._chunks)
+
+
+def test_default_budget_is_16_mib_and_keep_mode():
+    sim = build("default")
+    for name in sim.trace.tables:
+        rec = sim.trace._tables[name]
+        assert rec.mode == "keep" and rec.memory == trace_mod.DEFAULT_MEMORY == 16 * 2 ** 20
+        assert rec._buf.memory == 16 * 2 ** 20 and rec.options == {}
+
+
+def test_every_table_stays_within_its_budget_and_spills_the_rest(runs):
+    bounded, _ = runs
+    for name in ("signals", "schedule", "jobs", "frames", "network_schedule"):
+        store = bounded.trace._tables[name]._buf
+        assert type(store) is ColumnStore
+        biggest = max(_chunk_bytes(ch) for _, ch in bounded.trace._tables[name]._buf._chunks
+                      if ch[0] != "spill")
+        assert _held(store) <= BUDGET + biggest, name
+        # the rest is in the file
+        assert 0 < store.spilled_rows and store._n - store.spilled_rows == sum(
+            n for n, ch in store._chunks if ch[0] != "spill"), name
+        assert store.spills >= 1 and store._file is not None
+
+
+def test_unbounded_keep_never_spills(runs):
+    _, unbounded = runs
+    for name in unbounded.trace.tables:
+        store = unbounded.trace._tables[name]._buf
+        assert store.memory is None and store.spilled_rows == 0 and store._file is None
+
+
+@pytest.mark.parametrize("name", ["signals", "schedule", "jobs", "frames", "network_schedule"])
+def test_spilled_table_reads_back_bit_for_bit(runs, name):
+    bounded, unbounded = runs
+    a, b = bounded.trace.frame(name), unbounded.trace.frame(name)
+    assert len(a) == len(bounded.trace._tables[name]) > 500
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+    # the stored rows, by iteration and by index (both read the file too); the two runs'
+    # rows hold different task objects, so they are compared within the bounded run
+    rows = bounded.trace._tables[name].rows
+    stored = list(rows)
+    assert len(stored) == len(a)
+    for i in (0, 1, 257, len(stored) // 2, len(stored) - 1):
+        assert rows[i] is stored[i] or repr(rows[i]) == repr(stored[i])
+
+
+def test_signals_and_parquet_read_back_equal(runs, tmp_path):
+    bounded, unbounded = runs
+    pd.testing.assert_frame_equal(bounded.trace.signals(wide=True), unbounded.trace.signals(wide=True),
+                                  check_exact=True)
+    pd.testing.assert_series_equal(bounded.trace.signal("servo", "y.y"), unbounded.trace.signal("servo", "y.y"),
+                                   check_exact=True)
+    fa = bounded.trace.to_parquet(tmp_path / "a")
+    fb = unbounded.trace.to_parquet(tmp_path / "b")
+    assert [f.name for f in fa] == [f.name for f in fb]
+    for x, y in zip(fa, fb):
+        pd.testing.assert_frame_equal(pd.read_parquet(x), pd.read_parquet(y), check_exact=True)
+
+
+def test_one_temporary_file_per_table_created_once_and_deleted_by_clear():
+    sim = _run(BUDGET, until=1.0)
+    store = sim.trace._tables["frames"]._buf
+    f, spills = store._file, store.spills
+    assert f is not None and spills >= 1
+    sim.run(2.0)                       # more spills, into the same file
+    assert store.spills > spills and store._file is f
+    assert os.fstat(f.fileno()).st_size > 0
+    sim.trace.clear("frames")
+    assert store._file is None and f.closed and store.spilled_rows == 0 and len(store) == 0
+    sim.run(2.5)      # recording goes on after the clear, within the budget again
+    assert 0 < len(sim.trace.frame("frames")) == len(store)
+
+
+def test_memory_option_validation_and_options():
+    sim = build("default")
+    with pytest.raises(ConfigurationError, match="memory"):
+        sim.trace.configure("signals", "keep", memory=0)
+    with pytest.raises(ConfigurationError, match="memory"):
+        sim.trace.configure_all("keep", memory=-5)
+    sim.trace.configure("signals", "keep", memory=None)
+    assert sim.trace._tables["signals"].options == {"memory": None}
+    assert sim.trace._tables["signals"]._buf.memory is None
+    sim.trace.configure_all("keep", memory=1 << 20)
+    assert all(sim.trace._tables[n]._buf.memory == 1 << 20 for n in sim.trace.tables)
+    sim.trace.configure("jobs", "ring", rows=10)     # ignored by the other modes
+    assert sim.trace._tables["jobs"].options == {"rows": 10}
+
+
+def test_reconfiguring_a_spilled_table_keeps_its_rows():
+    sim = _run(BUDGET, until=2.0)
+    before = sim.trace.frame("frames")
+    assert sim.trace._tables["frames"]._buf.spilled_rows > 0
+    sim.trace.configure("frames", "keep", memory=None)
+    assert sim.trace._tables["frames"]._buf.spilled_rows == 0
+    pd.testing.assert_frame_equal(sim.trace.frame("frames"), before, check_exact=True)
