@@ -411,12 +411,14 @@ class ColumnStore:
             else:
                 for s in sig:
                     s.add("rows")
-        fast = {"d": np.float64, "q": np.int64, "bool": np.bool_, "u8": np.int64}
-        out = []
+        fast = {"d": np.float64, "q": np.int64, "bool": np.bool_, "u8": np.int64, "str": np.int32}
+        out: list = []
         for c in range(ncols):
             codecs = sig[c]
+            # one codec: its numpy type (coded strings: their codes, turned into values at the end)
             dtype = fast[next(iter(codecs))] if len(codecs) == 1 and next(iter(codecs)) in fast else object
             out.append(np.empty(total, dtype=dtype))
+        coded = [sig[c] == {"str"} for c in range(ncols)]
         names_arr: list = [None] * ncols
 
         def names(c):
@@ -458,7 +460,7 @@ class ColumnStore:
                     elif codec == "str":
                         codes = np.frombuffer(v, dtype=np.uint8) if isinstance(v, bytes) \
                             else np.frombuffer(v, dtype=np.dtype(v.typecode))
-                        col[sl] = names(c)[codes]
+                        col[sl] = codes if coded[c] else names(c)[codes]
                     else:
                         vals = self._decode_column(n, codec, v, c)
                         tmp = np.empty(n, dtype=object)
@@ -466,8 +468,16 @@ class ColumnStore:
                             tmp[i] = x
                         col[sl] = tmp
             pos += n
-        arrays = [convert_object_array([a], dtype=None)[0] if a.dtype == object else a for a in out]
-        return pd.DataFrame(dict(zip(columns, arrays)), columns=list(columns))
+        # object columns as from_records converts them, one at a time (one temporary object array)
+        for c in range(ncols):
+            if coded[c]:
+                obj = names(c)[out[c]]
+                out[c] = None
+                out[c] = convert_object_array([obj], dtype=None)[0]
+                del obj
+            elif out[c].dtype == object:
+                out[c] = convert_object_array([out[c]], dtype=None)[0]
+        return pd.DataFrame(dict(zip(columns, out)), columns=list(columns), copy=False)
 
     def _decode_column(self, n: int, codec: str, v, c: int) -> list:
         """One encoded column of a chunk as the list of its values."""
