@@ -180,7 +180,11 @@ class Simulation:
         ``priority`` orders calls of the same instant (:data:`~netcosim.clock.NORMAL`
         by default; smaller first).
         """
-        return self.call_at_ticks(to_ticks(t, "call_at time"), fn, priority, arg)
+        ticks = to_ticks(t, "call_at time")
+        if ticks < self.env._now:
+            raise ConfigurationError(f"call_at time t={t!r} s lies before now={self.now} s (cannot schedule "
+                                     f"in the past)")
+        return self.call_at_ticks(ticks, fn, priority, arg)
 
     def call_in(self, delay: float, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
         """Call ``fn()`` (``fn(arg)`` if *arg* is given) *delay* seconds from now; see :meth:`call_at`."""
@@ -191,7 +195,7 @@ class Simulation:
         env = self.env
         now = cast(int, env._now)
         if ticks < now:
-            raise ValueError(f"cannot schedule in the past: {to_seconds(ticks)} s < now {self.now} s")
+            raise ConfigurationError(f"cannot schedule in the past: {to_seconds(ticks)} s < now {self.now} s")
         return Timer.call(env, ticks - now, fn, arg, priority)
 
     def call_in_ticks(self, delay_ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG
@@ -303,7 +307,9 @@ class Simulation:
         if stop < self.env._now:
             raise ConfigurationError(f"until={until!r} s lies before now={self.now} s")
         try:
-            if self.realtime or stop <= self.env._now:
+            if stop == self.env._now:
+                pass            # nothing to advance (SimPy's run refuses until == now)
+            elif self.realtime:
                 self.env.run(until=stop)
             else:
                 _run_until(self.env, stop, self.trace.maintain)
