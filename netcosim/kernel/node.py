@@ -23,7 +23,7 @@ import simpy
 from .. import validate
 from ..clock import DISPATCH, NORMAL, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, OverloadError, OverloadWarning
-from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
 from ..trace import STATE_CODES
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
@@ -47,9 +47,15 @@ class Node:
         self.name = name
         self.policy = make_policy(scheduler)
         self.speed = validate.positive(speed, f"node {name!r}: speed")
+        if RESOLUTION / self.speed > MAX_SECONDS:
+            raise ConfigurationError(f"node {name!r}: speed={speed!r} is so slow that 1 ps of CPU time would "
+                                     f"last beyond netcosim's time range, {MAX_SECONDS:.6g} s")
         self._tick_scale = TICKS_PER_SECOND / self.speed
         cs = to_ticks(context_switch, f"node {name!r} context_switch")
         self.context_switch = context_switch
+        if cs / self.speed > MAX_TICKS:
+            raise ConfigurationError(f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} "
+                                     f"lasts beyond netcosim's time range, {MAX_SECONDS:.6g} s")
         self._cs_ticks: int = int(round(cs / self.speed))
         if cs and not self._cs_ticks:
             raise ConfigurationError(

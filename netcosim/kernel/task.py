@@ -22,7 +22,7 @@ from typing import Any, Callable
 from .. import validate
 from ..clock import NORMAL, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, UnyieldedExecuteError
-from ..timebase import RESOLUTION, TICKS_PER_SECOND, to_ticks
+from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
 
 HANDLER, TASK = 0, 1  # job classes: handlers always beat tasks
 
@@ -328,7 +328,8 @@ class TaskContext:
         previous request was yielded raises :class:`~netcosim.errors.UnyieldedExecuteError`.
         """
         if type(c) is float and 0.0 < c < 1e9 and self._unyielded is None:  # fast path
-            ticks = int(c * self.node._tick_scale + 0.5)
+            scaled = c * self.node._tick_scale
+            ticks = int(scaled + 0.5) if scaled < MAX_TICKS else 0   # beyond the time range: checked below
             if ticks:
                 self._unyielded = c
                 return ticks
@@ -353,7 +354,11 @@ class TaskContext:
         if 0 < c < RESOLUTION:
             raise ConfigurationError(f"{who}: execution time {c!r} s is non-zero but below the time "
                                      f"resolution {RESOLUTION} s (netcosim.RESOLUTION)")
-        ticks = int(round(c * node._tick_scale))
+        scaled = float(c) * node._tick_scale if c <= MAX_SECONDS else math.inf
+        if not scaled <= MAX_TICKS:
+            raise ConfigurationError(f"{who}: execution time {c!r} s at node speed {node.speed!r} lies beyond "
+                                     f"netcosim's time range, {MAX_SECONDS:.6g} s")
+        ticks = int(round(scaled))
         if ticks == 0 and c > 0:
             raise ConfigurationError(f"{who}: execution time {c!r} s at node speed {node.speed!r} is "
                                      f"{c / node.speed!r} s, below the time resolution {RESOLUTION} s")
