@@ -11,7 +11,7 @@ from __future__ import annotations
 
 __all__ = ["NetcosimError", "ConfigurationError", "ConfigurationTypeError", "NotConnectedError",
            "SingularConfigurationError", "SimulationFailedError", "UnyieldedExecuteError",
-           "IntegrationError"]
+           "IntegrationError", "LossTraceExhaustedError"]
 
 
 class NetcosimError(Exception):
@@ -45,6 +45,11 @@ class UnyieldedExecuteError(NetcosimError, RuntimeError):
 
 class IntegrationError(NetcosimError, RuntimeError):
     """A plant could not be advanced (non-finite state or output, too many steps)."""
+
+
+class LossTraceExhaustedError(NetcosimError, RuntimeError):
+    """A :class:`~netcosim.network.loss.TraceLoss` without ``repeat`` ran out of recorded
+    frames: the run sent more frames on a link than the trace holds."""
 
 
 class OverloadError(NetcosimError, RuntimeError):

@@ -32,7 +32,7 @@ from typing import Sequence
 import numpy as np
 
 from .. import validate
-from ..errors import ConfigurationError, ConfigurationTypeError
+from ..errors import ConfigurationError, ConfigurationTypeError, LossTraceExhaustedError
 
 
 class MaskedLossWarning(UserWarning):
@@ -162,8 +162,8 @@ class _TraceLink(LinkLoss):
     def lost(self) -> bool:
         if self.i >= len(self.seq):
             if not self.repeat:
-                raise RuntimeError(f"TraceLoss: recorded loss sequence of {len(self.seq)} frames exhausted "
-                                   f"(pass repeat=True to replay it cyclically)")
+                raise LossTraceExhaustedError(f"TraceLoss: recorded loss sequence of {len(self.seq)} frames "
+                                              f"exhausted (pass repeat=True to replay it cyclically)")
             self.i = 0
         v = self.seq[self.i]
         self.i += 1
@@ -178,7 +178,13 @@ class TraceLoss(LossModel):
     """
 
     def __init__(self, sequence: Sequence, repeat: bool = True):
-        seq = np.asarray(sequence)
+        if isinstance(sequence, (str, bytes)) or not hasattr(sequence, "__iter__"):
+            raise ConfigurationTypeError(f"TraceLoss sequence must be a 1-D sequence of 0/1, got {sequence!r}")
+        try:
+            seq = np.asarray(sequence)
+        except ValueError:          # ragged: an entry is itself a sequence
+            raise ConfigurationError(f"TraceLoss sequence must be a 1-D sequence of 0/1, got {sequence!r}") \
+                from None
         if seq.ndim != 1 or seq.size == 0:
             raise ConfigurationError(
                 f"TraceLoss sequence must be a non-empty 1-D sequence of 0/1, got shape {seq.shape}")
