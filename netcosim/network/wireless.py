@@ -29,12 +29,25 @@ from typing import Any
 
 from .. import validate
 from ..clock import Timer
-from ..errors import ConfigurationTypeError
+from ..errors import ConfigurationError, ConfigurationTypeError
 from .base import Network
 from .frame import BROADCAST
 from .interface import Interface
 from .medium import Transmission, WirelessMedium
 from .radio import LogDistance, PathLoss, as_position, db_to_ratio, dbm_to_watt, watt_to_dbm
+
+#: The largest power (dBm, either sign) and gain (dB) a radio parameter may have: far beyond
+#: any radio (+-300 dBm is 1e27 W / 1e-33 W), yet the powers in watts stay normal floats
+#: (1e300 dBm overflows, -1e300 dBm is 0 W and divides the SINR by zero).
+MAX_DB = 300.0
+
+
+def _dbm(value, what: str) -> float:
+    """A power in dBm, finite and within +-:data:`MAX_DB`."""
+    v = validate.finite(value, what, "dBm")
+    if abs(v) > MAX_DB:
+        raise ConfigurationError(f"{what} must be within +-{MAX_DB:g} dBm, got {value!r}")
+    return v
 
 
 class RadioStation:
@@ -126,13 +139,15 @@ class RadioNetwork(Network):
         if not isinstance(path_loss, PathLoss):
             raise ConfigurationTypeError(f"{w}: path_loss must be a PathLoss model, got {path_loss!r}")
         self.path_loss = path_loss
-        self.tx_power_dbm = validate.finite(tx_power_dbm, f"{w}: tx_power_dbm", "dBm")
-        self.threshold_dbm = validate.finite(threshold_dbm, f"{w}: threshold_dbm", "dBm")
+        self.tx_power_dbm = _dbm(tx_power_dbm, f"{w}: tx_power_dbm")
+        self.threshold_dbm = _dbm(threshold_dbm, f"{w}: threshold_dbm")
         self.cs_threshold_dbm = (self.threshold_dbm if cs_threshold_dbm is None
-                                 else validate.finite(cs_threshold_dbm, f"{w}: cs_threshold_dbm", "dBm"))
+                                 else _dbm(cs_threshold_dbm, f"{w}: cs_threshold_dbm"))
         self.capture_db = validate.non_negative(capture_db, f"{w}: capture_db (dB)")
+        if self.capture_db > MAX_DB:
+            raise ConfigurationError(f"{w}: capture_db (dB) must be at most {MAX_DB:g} dB, got {capture_db!r}")
         self.noise_dbm = (self.default_noise_dbm() if noise_dbm is None
-                          else validate.finite(noise_dbm, f"{w}: noise_dbm", "dBm"))
+                          else _dbm(noise_dbm, f"{w}: noise_dbm"))
         self.medium = WirelessMedium(self, path_loss=path_loss, noise_w=dbm_to_watt(self.noise_dbm),
                                      capture_ratio=db_to_ratio(self.capture_db))
         # what puts a transmission on the air and takes it off (a MAC may use a faster equivalent)
@@ -163,10 +178,9 @@ class RadioNetwork(Network):
             raise ConfigurationTypeError(f"network {self.name!r}: unknown attach option(s) {sorted(options)}")
         w = f"network {self.name!r} node {iface.name!r}"
         pos = as_position(pos, w)
-        txp = self.tx_power_dbm if txp is None else validate.finite(txp, f"{w}: tx_power_dbm", "dBm")
-        sens = dbm_to_watt(self.threshold_dbm if thr is None else validate.finite(thr, f"{w}: threshold_dbm", "dBm"))
-        cs = dbm_to_watt(self.cs_threshold_dbm if cst is None
-                         else validate.finite(cst, f"{w}: cs_threshold_dbm", "dBm"))
+        txp = self.tx_power_dbm if txp is None else _dbm(txp, f"{w}: tx_power_dbm")
+        sens = dbm_to_watt(self.threshold_dbm if thr is None else _dbm(thr, f"{w}: threshold_dbm"))
+        cs = dbm_to_watt(self.cs_threshold_dbm if cst is None else _dbm(cst, f"{w}: cs_threshold_dbm"))
         r = self.station_class(self, iface, pos, txp, sens, cs)
         self.medium.init_listener(r)
         self._stations.append(r)
