@@ -122,11 +122,20 @@ def count(value: Any, what: str, *, minimum: int = 0, maximum: int | None = None
     return integer(value, what, lo=minimum, hi=maximum)
 
 
+#: The largest number of bits :func:`bits` accepts, 2**53 (a 1 PB frame): every count up to
+#: it is exact as a float, so transmission times (bits / rate) stay finite numbers
+#: (``1e300`` bits overflowed them).
+MAX_BITS = 2**53
+
+
 def bits(value: Any, what: str, *, allow_zero: bool = True) -> int:
-    """A number of bits: an integer >= 0 (> 0 unless ``allow_zero``).  Integral floats
-    (``64.0``) are accepted."""
+    """A number of bits: an integer >= 0 (> 0 unless ``allow_zero``) and at most
+    :data:`MAX_BITS`.  Integral floats (``64.0``) are accepted."""
     kind = "a non-negative integer number of bits" if allow_zero else "a positive integer number of bits"
-    return integer(value, what, lo=0 if allow_zero else 1, integral_floats=True, kind=kind)
+    n = integer(value, what, lo=0 if allow_zero else 1, integral_floats=True, kind=kind)
+    if n > MAX_BITS:
+        raise _fail(ConfigurationError, what, "at most 2**53 bits", value)
+    return n
 
 
 def duration(value: Any, what: str, *, positive: bool = False,
