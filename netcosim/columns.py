@@ -374,7 +374,7 @@ class ColumnStore:
                 f"{len(self._tail)} as tuples>")
 
     # -- reading as columns ----------------------------------------------------------
-    def frame(self, columns: Sequence[str], extra: Sequence[tuple] = ()):
+    def frame(self, columns: Sequence[str], extra: Sequence[tuple] = (), categories: Iterable[int] = ()):
         """The rows, followed by *extra*, as ``pandas.DataFrame.from_records(rows, columns=columns)``
         would build them, but column by column from the encoded chunks (spilled segments
         loaded one at a time): no tuple per row is made, so reading a long table needs
@@ -383,7 +383,12 @@ class ColumnStore:
         Numeric columns stored in one codec (all ``float``, all ``int``, all ``bool``)
         become numpy arrays directly; every other column is gathered as an object array
         and converted by the very function ``from_records`` uses, so the frame is the same
-        value for value and dtype for dtype."""
+        value for value and dtype for dtype.
+
+        The columns whose indices are in *categories* and whose values are all strings
+        come back instead as what ``.astype("category")`` would make of that column
+        (categories sorted, only those used), built from the codes without a string per
+        row."""
         import numpy as np
         import pandas as pd
         from pandas.core.internals.construction import convert_object_array
@@ -419,6 +424,7 @@ class ColumnStore:
             dtype = fast[next(iter(codecs))] if len(codecs) == 1 and next(iter(codecs)) in fast else object
             out.append(np.empty(total, dtype=dtype))
         coded = [sig[c] == {"str"} for c in range(ncols)]
+        as_category = frozenset(categories)
         names_arr: list = [None] * ncols
 
         def names(c):
@@ -470,6 +476,11 @@ class ColumnStore:
             pos += n
         # object columns as from_records converts them, one at a time (one temporary object array)
         for c in range(ncols):
+            if coded[c] and c in as_category:
+                cat = self._categorical(out[c], names(c))
+                if cat is not None:
+                    out[c] = cat
+                    continue
             if coded[c]:
                 obj = names(c)[out[c]]
                 out[c] = None
@@ -478,6 +489,22 @@ class ColumnStore:
             elif out[c].dtype == object:
                 out[c] = convert_object_array([out[c]], dtype=None)[0]
         return pd.DataFrame(dict(zip(columns, out)), columns=list(columns), copy=False)
+
+    @staticmethod
+    def _categorical(codes, names):
+        """``pandas.Series(names[codes]).astype("category")``'s values, from the codes; None
+        unless every name used is a ``str``."""
+        import numpy as np
+        import pandas as pd
+        used = np.unique(codes)
+        used_names = names[used]
+        if not all(type(x) is str for x in used_names):
+            return None
+        order = sorted(range(len(used_names)), key=used_names.__getitem__)
+        lut = np.full(len(names), -1, dtype=np.int64)
+        lut[used[order]] = np.arange(len(order))
+        dtype = pd.CategoricalDtype(pd.Index(pd.array(used_names[order].tolist(), dtype="str")))
+        return pd.Categorical.from_codes(lut[codes], dtype=dtype)
 
     def _decode_column(self, n: int, codec: str, v, c: int) -> list:
         """One encoded column of a chunk as the list of its values."""

@@ -227,14 +227,17 @@ class Recorder:
     """
 
     __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index",
-                 "time_scale", "key_index", "mode", "options", "memory", "_buf", "_clock", "_window",
-                 "_stream", "_counts", "_latest")
+                 "time_scale", "key_index", "mode", "options", "memory", "keeps_categories", "_buf", "_clock",
+                 "_window", "_stream", "_counts", "_latest")
 
     def __init__(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
                  transform=None, *, time: str | None = "time", time_unit: str = "ticks",
                  key: Sequence[str] = (), clock: Callable[[], int] | None = None,
-                 dtypes: Sequence[str | None] | None = None):
+                 dtypes: Sequence[str | None] | None = None, keeps_categories: bool = False):
         self.name = name
+        #: the transform gives the categorical columns' values back unchanged (it may drop
+        #: rows): a table read back from disk hands them to it as pandas categoricals
+        self.keeps_categories = keeps_categories or transform is None
         self.columns = tuple(columns)
         #: the producers' promise of column types for the columnar store (see
         #: :class:`~netcosim.columns.ColumnStore`); None: found from the values
@@ -423,12 +426,16 @@ class Recorder:
         buf = self._buf
         if type(buf) is ColumnStore and buf.spilled_rows:
             # a long table partly in its temporary file: built column by column, no tuple per row
-            df = buf.frame(self.columns, [r for p in self.providers for r in p()])
+            cats = [i for i, c in enumerate(self.columns) if c in self.categorical] if self.keeps_categories else []
+            df = buf.frame(self.columns, [r for p in self.providers for r in p()], categories=cats)
             if self.transform is not None:
                 df = self.transform(df)
             for c in self.categorical:
                 if c in df.columns:
-                    df[c] = df[c].astype("category")
+                    col = df[c]
+                    # categories as astype("category") makes them: those left after the transform
+                    df[c] = col.cat.remove_unused_categories() if isinstance(col.dtype, pd.CategoricalDtype) \
+                        else col.astype("category")
             return df
         if self.mode == "off":
             rows: list = []
@@ -553,7 +560,8 @@ class Trace:
 
     def table(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
               transform=None, *, time: str | None = "time", time_unit: str = "ticks",
-              key: Sequence[str] = (), dtypes: Sequence[str | None] | None = None) -> Recorder:
+              key: Sequence[str] = (), dtypes: Sequence[str | None] | None = None,
+              keeps_categories: bool = False) -> Recorder:
         """Create (or return the existing) recorder called *name*.
 
         ``columns`` are the stored columns; ``transform(df) -> df`` (optional) derives
@@ -563,12 +571,17 @@ class Trace:
         after :meth:`configure_all` starts in that configuration.  ``dtypes`` (optional, one
         per column: None, ``"int"``, ``"float"`` or ``"bool"``) promises the producers'
         value types, which spares the columnar store checking them (see
-        :class:`~netcosim.columns.ColumnStore`).
+        :class:`~netcosim.columns.ColumnStore`).  ``keeps_categories=True`` promises that
+        ``transform`` leaves the values of the categorical columns alone (it may drop rows):
+        a table with rows on disk then hands them to it as pandas categoricals rather than
+        a string per row, which is what reading a long table back costs most (a table
+        without a transform always does).
         """
         rec = self._tables.get(name)
         if rec is None:
             rec = self._tables[name] = Recorder(name, columns, categorical, transform, time=time,
-                                                time_unit=time_unit, key=key, clock=self._clock, dtypes=dtypes)
+                                                time_unit=time_unit, key=key, clock=self._clock, dtypes=dtypes,
+                                                keeps_categories=keeps_categories)
             if self._default is not None:
                 self._apply_default(rec)
         elif rec.columns != tuple(columns):

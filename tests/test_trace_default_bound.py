@@ -132,3 +132,37 @@ def test_reconfiguring_a_spilled_table_keeps_its_rows():
     sim.trace.configure("frames", "keep", memory=None)
     assert sim.trace._tables["frames"]._buf.spilled_rows == 0
     pd.testing.assert_frame_equal(sim.trace.frame("frames"), before, check_exact=True)
+
+
+def _keep_categories(sim):
+    for name in ("frames", "network_schedule"):
+        sim.trace._tables[name].keeps_categories = True
+
+
+@pytest.mark.parametrize("name", ["frames", "network_schedule"])
+def test_network_transforms_give_the_same_frame_from_categoricals(runs, name):
+    # what Trace.table(..., keeps_categories=True) would do for the network tables: their
+    # transforms (integer time to s; dropping repeated same-instant states) see categoricals
+    _, unbounded = runs
+    sim = _run(BUDGET, configure=_keep_categories)
+    assert sim.trace._tables[name]._buf.spilled_rows > 0
+    pd.testing.assert_frame_equal(sim.trace.frame(name), unbounded.trace.frame(name), check_exact=True)
+
+
+def test_keeps_categories_with_a_transform_that_drops_rows():
+    from netcosim.trace import Trace
+
+    def drop_b(df):
+        return df[df["name"] != "b"].reset_index(drop=True)
+    frames = []
+    for memory in (64, None):
+        tr = Trace()
+        rec = tr.table("x", ("time", "name", "v"), categorical=("name",), transform=drop_b, keeps_categories=True)
+        tr.configure("x", "keep", memory=memory)
+        for i in range(3000):
+            rec.rows.append((i, "b" if i % 3 == 0 else ("z" if i % 2 else "a"), i * 0.5))
+        tr.maintain()
+        assert (rec._buf.spilled_rows > 0) == (memory is not None)
+        frames.append(tr.frame("x"))
+    pd.testing.assert_frame_equal(frames[0], frames[1], check_exact=True)
+    assert list(frames[0]["name"].cat.categories) == ["a", "z"]
