@@ -44,7 +44,7 @@ from .. import validate
 from ..clock import ARBITRATE  # noqa: F401 (re-exported: MAC arbitration priority)
 from ..errors import ConfigurationError, ConfigurationTypeError, OverloadError, OverloadWarning
 from ..kernel.task import Task
-from ..timebase import RESOLUTION, TICKS_PER_SECOND
+from ..timebase import MAX_TICKS, RESOLUTION, TICKS_PER_SECOND
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
 from .loss import Bernoulli, LossModel, MaskedLossWarning, as_loss_model
@@ -243,10 +243,11 @@ class Network:
         elif hasattr(node, "interfaces") and hasattr(node, "name"):
             name, knode = node.name, node
         else:
-            raise TypeError(f"network {self.name!r}: attach a kernel node or a station name, got {node!r}")
+            raise ConfigurationTypeError(f"network {self.name!r}: attach a kernel node or a station name, "
+                                         f"got {node!r}")
         validate.name(name, f"network {self.name!r}: station name", type_error=ConfigurationError)
         if name in self.interfaces:
-            raise ValueError(f"network {self.name!r}: node {name!r} is already attached")
+            raise ConfigurationError(f"network {self.name!r}: node {name!r} is already attached")
         if priority is not None:
             validate.real(priority, f"network {self.name!r}: default priority of node {name!r}",
                           kind="a finite number (small = high) or None")
@@ -284,15 +285,15 @@ class Network:
             return BROADCAST
         if isinstance(dst, Interface):
             if dst.network is not self:
-                raise ValueError(f"network {self.name!r}: destination {dst!r} is on another network")
+                raise ConfigurationError(f"network {self.name!r}: destination {dst!r} is on another network")
             return dst
         key = getattr(dst, "name", dst)
         iface = self.interfaces.get(key) if isinstance(key, str) else None
         if iface is None:
-            raise ValueError(f"network {self.name!r}: unknown destination node {dst!r}; "
-                             f"attached: {list(self.interfaces)}")
+            raise ConfigurationError(f"network {self.name!r}: unknown destination node {dst!r}; "
+                                     f"attached: {list(self.interfaces)}")
         if iface is src:
-            raise ValueError(f"network {self.name!r}: node {src.name!r} cannot send to itself")
+            raise ConfigurationError(f"network {self.name!r}: node {src.name!r} cannot send to itself")
         return iface
 
     def receivers(self, frame: Frame):
@@ -308,7 +309,12 @@ class Network:
         key = (bits, rate)
         d = self._dur.get(key)
         if d is None:
-            d = self._dur[key] = int(round(bits * TICKS_PER_SECOND / (rate or self.data_rate)))
+            exact = bits * TICKS_PER_SECOND / (rate or self.data_rate)
+            if not exact <= MAX_TICKS:
+                raise ConfigurationError(f"network {self.name!r}: {bits} bits at {rate or self.data_rate!r} bit/s take "
+                                         f"{exact / TICKS_PER_SECOND:.6g} s, beyond netcosim's time range "
+                                         f"({MAX_TICKS / TICKS_PER_SECOND:.6g} s)")
+            d = self._dur[key] = int(round(exact))
         return d
 
     def wire_bits(self, size_bits: int) -> int:
@@ -328,15 +334,16 @@ class Network:
     def _send(self, iface: Interface, dst, payload, size_bits, priority) -> Message:
         if size_bits is None:
             if self.min_frame_bits == 0:
-                raise ValueError(f"network {self.name!r}: send from {iface.name!r} needs size_bits")
+                raise ConfigurationError(f"network {self.name!r}: send from {iface.name!r} needs size_bits "
+                                         f"(this network has no minimum frame to default to)")
             size = self.min_frame_bits
-        elif type(size_bits) is int and (size_bits > 0 or (size_bits == 0 and self.allow_empty)):
+        elif type(size_bits) is int and (0 < size_bits <= validate.MAX_BITS or (size_bits == 0 and self.allow_empty)):
             size = size_bits        # the common case, without building the error text
         else:
             size = validate.bits(size_bits, f"network {self.name!r}: size_bits of a message from {iface.name!r}",
                                  allow_zero=self.allow_empty)
         if self.max_frame_bits is not None and size > self.max_frame_bits:
-            raise ValueError(f"network {self.name!r}: message of size_bits={size} from {iface.name!r} exceeds "
+            raise ConfigurationError(f"network {self.name!r}: message of size_bits={size} from {iface.name!r} exceeds "
                              f"the maximum frame of {self.max_frame_bits} bits")
         d = self._resolve_dst(dst, iface)
         prio = iface.priority if priority is None else priority

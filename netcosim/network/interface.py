@@ -15,7 +15,7 @@ from collections import deque
 from typing import Any, Callable
 
 from .. import validate
-from ..errors import ConfigurationError
+from ..errors import ConfigurationError, ConfigurationTypeError
 from ..kernel.sync import Mailbox
 from ..kernel.task import Task
 
@@ -137,7 +137,7 @@ class Interface:
         """
         def reg(t):
             if not (isinstance(t, Task) or callable(t)):
-                raise TypeError(f"on_receive target must be a task or a callable(msg), got {t!r}")
+                raise ConfigurationTypeError(f"on_receive target must be a task or a callable(msg), got {t!r}")
             self.handlers.append(t)
             return t
         return reg if target is None else reg(target)
