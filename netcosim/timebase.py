@@ -41,7 +41,11 @@ def to_ticks(seconds: float, what: str = "time", *, allow_negative: bool = False
     """
     if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real):
         raise ConfigurationTypeError(f"{what} must be a real number of seconds, got {seconds!r}")
-    s = float(seconds)
+    try:
+        s = float(seconds)
+    except OverflowError:           # an int beyond the float range (10**400)
+        raise ConfigurationError(f"{what}={seconds!r} s lies beyond netcosim's time range, {MAX_SECONDS:.6g} s") \
+            from None
     if not math.isfinite(s):
         raise ConfigurationError(f"{what} must be finite, got {seconds!r}")
     if s < 0 and not allow_negative:

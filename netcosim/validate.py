@@ -59,7 +59,10 @@ def real(value: Any, what: str, *, lo: float | None = None, hi: float | None = N
     """
     if not is_real(value):
         raise _fail(type_error, what, kind, value)
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:           # an int beyond the float range (10**400): out of any range
+        raise _fail(value_error, what, kind, value) from None
     if math.isnan(v) or (math.isinf(v) and not allow_inf) \
             or (lo is not None and (v < lo or (lo_open and v == lo))) \
             or (hi is not None and (v > hi or (hi_open and v == hi))):
