@@ -22,7 +22,7 @@ import simpy
 
 from .. import validate
 from ..clock import DISPATCH, NORMAL, Timer
-from ..errors import ConfigurationError, ConfigurationTypeError, OverloadError, OverloadWarning
+from ..errors import ConfigurationError, ConfigurationTypeError, NotConnectedError, OverloadError, OverloadWarning
 from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
 from ..trace import STATE_CODES
 from .io import AnalogIn, AnalogOut
@@ -36,6 +36,13 @@ _INF = math.inf
 _DONE = object()  # what a job's generator gives when it has finished
 # state codes of the schedule table's rows (netcosim.trace.SCHEDULE_RAW)
 _READY, _RUNNING, _IDLE = STATE_CODES["ready"], STATE_CODES["running"], STATE_CODES["idle"]
+
+
+def _check_target(target: Any, what: str) -> None:
+    """The task a timer or trigger releases must be a task (``node.aperiodic(...)``)."""
+    if not isinstance(target, Task):
+        raise ConfigurationTypeError(f"{what} target must be a task (from node.aperiodic or node.periodic), "
+                                     f"got {target!r}")
 
 
 class Node:
@@ -154,25 +161,35 @@ class Node:
 
     def timer(self, target: Task, *, at: float | None = None, period: float | None = None) -> "KernelTimer":
         """Release *target* at absolute time ``at`` (s), then every ``period`` s if given."""
+        _check_target(target, "timer")
         return KernelTimer(self, target, at, period)
 
     def trigger(self, target: Task, *, min_interval: float = 0.0) -> "Trigger":
         """An external trigger releasing *target*; edges closer than ``min_interval`` s are ignored."""
+        _check_target(target, "trigger")
         return Trigger(self, target, min_interval)
 
     # --------------------------------------------------------------- analog I/O
     def analog_in(self, channel: int) -> AnalogIn:
         """Analog input *channel* of this node (connect it to a plant output port)."""
-        ch = self._ain.get(channel)
+        try:
+            ch = self._ain.get(channel)
+        except TypeError:           # unhashable: AnalogIn refuses it, naming it
+            ch = None
         if ch is None:
-            ch = self._ain[channel] = AnalogIn(self, channel)
+            ch = AnalogIn(self, channel)
+            self._ain[ch.channel] = ch
         return ch
 
     def analog_out(self, channel: int) -> AnalogOut:
         """Analog output *channel* of this node (connect it to a plant input port)."""
-        ch = self._aout.get(channel)
+        try:
+            ch = self._aout.get(channel)
+        except TypeError:           # unhashable: AnalogOut refuses it, naming it
+            ch = None
         if ch is None:
-            ch = self._aout[channel] = AnalogOut(self, channel)
+            ch = AnalogOut(self, channel)
+            self._aout[ch.channel] = ch
         return ch
 
     # ---------------------------------------------------------------- networks
@@ -183,19 +200,19 @@ class Node:
         ``network`` names the interface when the node has several.
         """
         if not self.interfaces:
-            raise RuntimeError(f"node {self.name!r} has no network interface; attach it to a network first")
+            raise NotConnectedError(f"node {self.name!r} has no network interface; attach it to a network first")
         if network is None:
             if len(self.interfaces) > 1:
-                raise ValueError(f"node {self.name!r} is on several networks {sorted(self.interfaces)}; "
-                                 f"pass network=")
+                raise ConfigurationError(f"node {self.name!r} is on several networks {sorted(self.interfaces)}; "
+                                         f"pass network=")
             iface = next(iter(self.interfaces.values()))
         else:
             key = getattr(network, "name", network)
             try:
                 iface = self.interfaces[key]
-            except KeyError:
-                raise ValueError(f"node {self.name!r} is not on network {key!r}; "
-                                 f"it is on {sorted(self.interfaces)}") from None
+            except (KeyError, TypeError):       # TypeError: an unhashable network=
+                raise ConfigurationError(f"node {self.name!r} is not on network {key!r}; "
+                                         f"it is on {sorted(self.interfaces)}") from None
         return iface.send(dst, payload, size_bits, priority=priority)
 
     # ------------------------------------------------------------------ kernel

@@ -207,6 +207,8 @@ class Task:
                  max_pending: int | None = DEFAULT_MAX_PENDING, on_queue_full: str = "drop"):
         validate.callable_(body, "task body", kind="a callable body(ctx)")
         self.node = node
+        if name is not None and name != "":
+            validate.name(name, "task name")
         self.name: str = name if name else getattr(body, "__name__", "task")
         self.kind = kind
         self.cls = HANDLER if kind == "handler" else TASK
