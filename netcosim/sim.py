@@ -6,6 +6,7 @@ Time inside the environment is integer ticks of 1 ps (see :mod:`netcosim.timebas
 
 from __future__ import annotations
 
+import inspect
 import math
 from heapq import heappop
 from time import monotonic
@@ -17,7 +18,7 @@ import simpy.rt
 
 from . import validate
 from .clock import DISPATCH, NORMAL, URGENT, Timer, stable_hash  # noqa: F401 (re-exported)
-from .errors import ConfigurationError, SimulationFailedError
+from .errors import ConfigurationError, ConfigurationTypeError, SimulationFailedError
 from .timebase import RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
 from .trace import Trace
 
@@ -212,13 +213,20 @@ class Simulation:
 
         Inside it, time is SimPy's: integer ticks (use :meth:`timeout` for a delay in seconds).
         """
-        return self.env.process(generator)
+        if not inspect.isgenerator(generator):
+            raise ConfigurationTypeError(f"process needs a generator (call the generator function), got {generator!r}")
+        return self.env.process(generator)  # type: ignore[arg-type]  # SimPy types the events it yields
 
     # Randomness ------------------------------------------------------------
     def rng(self, name: str) -> np.random.Generator:
         """The random stream called *name* (created on first use, then shared)."""
-        g = self._rngs.get(name)
+        try:
+            g = self._rngs.get(name)
+        except TypeError:               # unhashable: refused below
+            g = None
         if g is None:
+            if not isinstance(name, str):
+                raise ConfigurationTypeError(f"random stream name must be a string, got {name!r}")
             ss = np.random.SeedSequence(entropy=self.seed, spawn_key=(stable_hash(name),))
             g = self._rngs[name] = np.random.Generator(np.random.PCG64(ss))
         return g
@@ -262,6 +270,7 @@ class Simulation:
         from .continuous import PlantInstance
         from .pycontrol import from_control, is_control_system
         name = name or getattr(system, "name", None) or f"plant{len(self.plants)}"
+        self._check_new_name(name)      # before the plant is built (an unhashable name failed in it)
         if is_control_system(system):
             system = from_control(system)
         p = PlantInstance(self, name, system, x0, integrator=integrator, params=params,
