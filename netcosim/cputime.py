@@ -126,6 +126,7 @@ class CPUTimeModel:
     def charge(self, phase: str) -> float:
         """CPU seconds of one execution of *phase* without timing anything (fixed or
         recorded models; a wall-clock model has nothing to measure and raises)."""
+        validate.name(phase, "phase")
         if self.reads_clock:
             raise RuntimeError(f"{type(self).__name__} must time the computation: use measure({phase!r})")
         return self._charge(phase, math.nan)

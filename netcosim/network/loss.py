@@ -219,6 +219,8 @@ class AnyLoss(LossModel):
     """Combination: the frame is lost if any of the models loses it."""
 
     def __init__(self, models: Sequence[LossModel]):
+        if isinstance(models, (str, bytes, LossModel)) or not hasattr(models, "__iter__"):
+            raise ConfigurationTypeError(f"AnyLoss needs a list of loss models (or probabilities), got {models!r}")
         models = tuple(models)
         if not models:
             raise ConfigurationError("AnyLoss needs at least one loss model, got an empty list")

@@ -46,11 +46,16 @@ SPEED_OF_LIGHT = 299792458.0
 
 def dbm_to_watt(dbm: float) -> float:
     """Power *dbm* (dBm) in watts."""
-    return 10.0 ** ((dbm - 30.0) / 10.0)
+    v = validate.finite(dbm, "power (dBm)", "dBm")
+    try:
+        return 10.0 ** ((v - 30.0) / 10.0)
+    except OverflowError:           # above about 3100 dBm
+        raise ConfigurationError(f"power (dBm) must be at most 3000 dBm, got {dbm!r}") from None
 
 
 def watt_to_dbm(w: float) -> float:
     """Power *w* (W) in dBm; ``-inf`` for zero power."""
+    w = validate.non_negative(w, "power (W)")
     return -math.inf if w <= 0 else 10.0 * math.log10(w) + 30.0
 
 
