@@ -40,7 +40,7 @@ SLOW = settings(max_examples=100, deadline=None, derandomize=True,
 SPECIAL = [math.nan, math.inf, -math.inf, 0.0, -0.0, 0, -1, -1.0, 1, 5e-324, 2.2250738585072014e-308, 1e-13,
            1e-12, 1e300, -1e300, 1.7976931348623157e308, 2**63, 2**64, 10**30, 1e7, 9.3e6, MAX_SECONDS,
            True, False, None, "1", "", "nan", [1.0], (), np.float64("nan"), np.float64(1e300), np.int64(-1),
-           np.int64(2**62), np.float32(1e-3), 0.5, 1e-3, 1e-6, 2.5]
+           np.int64(2**62), np.float32(1e-3), 0.5, 1e-3, 1e-6, 2.5, 10**400, -10**400]
 
 #: Any value a caller might pass where a number belongs.
 ANY = st.one_of(
@@ -55,8 +55,13 @@ ANY = st.one_of(
 
 
 def _is_finite_number(v) -> bool:
-    return (not isinstance(v, bool) and isinstance(v, (int, float, np.integer, np.floating))
-            and math.isfinite(float(v)))
+    """A real number that is a finite float (10**400 is not: it has no float)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        return False
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
 
 
 def _names(exc: BaseException, value, names: tuple[str, ...]) -> bool:
@@ -101,7 +106,13 @@ def _oversize_send(size_bits) -> bool:
     """network/base.py: a message above max_frame_bits raises a bare ValueError, a huge
     size_bits (1e300) an OverflowError in Network.duration, and size_bits=None on a network
     without a minimum frame a bare ValueError."""
-    return size_bits is None or (_is_finite_number(size_bits) and float(size_bits) > 900)
+    return size_bits is None or _huge_int(size_bits) or (_is_finite_number(size_bits) and float(size_bits) > 900)
+
+
+def _huge_int(v) -> bool:
+    """An integer beyond the float range (10**400): continuous.py's x0 and input writes
+    raise a bare OverflowError on it, and so does network/base.py for such a size_bits."""
+    return isinstance(v, int) and not isinstance(v, bool) and abs(v) > 2**1000
 
 
 def _body(ctx):
@@ -474,6 +485,7 @@ def test_exact_zoh_parameters(cache_size):
 @SLOW
 @given(x=ANY, integrator=st.sampled_from(["rk4", "solve_ivp", "zoh"]))
 def test_plant_initial_state(x, integrator):
+    assume(not _huge_int(x))
     make = {"rk4": lambda: RK4(dt=1e-3), "solve_ivp": lambda: SolveIVP(), "zoh": lambda: ExactZOH()}[integrator]
     # a huge but finite state may legitimately overflow while integrating: that must be an IntegrationError
     _servo_run(make, x, ("x0",), x0=(x, 0.0))
@@ -512,6 +524,7 @@ def test_plant_log_interval(log_interval):
 @SLOW
 @given(u=ANY)
 def test_plant_input_write(u):
+    assume(not _huge_int(u))
     sim = Simulation()
     plant = sim.plant(DCServo(), x0=[0.0, 0.0], integrator=RK4(dt=1e-3), log="none")
     try:
@@ -582,6 +595,70 @@ def test_cpu_time_models(seconds, scale, factor, kind):
     run_ok(sim, 0.005, value, "execution time", "CPU time", "scale")
 
 
+# --------------------------------------------------------------------- names, targets, selectors
+
+@FAST
+@given(value=ANY, what=st.sampled_from(["timer", "trigger", "rng", "process", "analog_in", "analog_out",
+                                        "send_network", "task_name", "plant_name", "charge_phase"]))
+def test_non_numeric_arguments(value, what):
+    """Where a task, a name, a channel or a generator belongs, any number (or None, a list...)
+    is refused by a NetcosimError naming it, or accepted and then usable."""
+    from netcosim import FixedCPUTime
+    sim = Simulation()
+    node = sim.node("cpu")
+    if what == "timer":
+        outcome(lambda: node.timer(value, at=0.001), value, "target")
+    elif what == "trigger":
+        outcome(lambda: node.trigger(value), value, "target")
+    elif what == "rng":
+        g = outcome(lambda: sim.rng(value), value, "name")
+        if g is not None:
+            assert math.isfinite(g.random())
+    elif what == "process":
+        outcome(lambda: sim.process(value), value, "generator")
+    elif what in ("analog_in", "analog_out"):
+        outcome(lambda: getattr(node, what)(value), value, "channel")
+    elif what == "send_network":
+        net = N.IdealLink(sim, "n")
+        net.attach(node)
+        net.attach("b")
+
+        def body(ctx):
+            ctx.send("b", 1.0, 100, network=value)
+            yield ctx.execute(1e-5)
+
+        node.periodic(body, period=0.002, priority=1)
+        run_ok(sim, 0.005, value, "network")
+    elif what == "task_name":
+        task = outcome(lambda: node.periodic(_body, period=0.001, priority=1, name=value), value, "name")
+        if task is not None:
+            assert isinstance(task.name, str)
+            assert run_ok(sim, 0.005, value)
+    elif what == "plant_name":
+        outcome(lambda: sim.plant(DCServo(), x0=[0.0, 0.0], name=value, log="none"), value, "name")
+    else:
+        outcome(lambda: FixedCPUTime(1e-3).charge(value), value, "phase")
+
+
+@FAST
+@given(value=ANY, what=st.sampled_from(["AnyLoss", "AnyLoss-entry", "dbm_to_watt", "watt_to_dbm",
+                                        "thermal_noise_dbm"]))
+def test_loss_and_radio_helpers(value, what):
+    if what == "AnyLoss":
+        model = outcome(lambda: N.AnyLoss(value), value, "AnyLoss")
+    elif what == "AnyLoss-entry":
+        model = outcome(lambda: N.AnyLoss([N.Bernoulli(0.1), value]), value, "AnyLoss", "loss")
+    else:
+        r = outcome(lambda: getattr(N, what)(value), value, "power", "bandwidth")
+        if r is not None and _is_finite_number(value):
+            assert not math.isnan(r)
+        return
+    if model is not None:
+        sim, net = _net("IdealLink", loss=model)
+        _traffic(sim, net)
+        assert run_ok(sim, 0.01, value)
+
+
 # ---------------------------------------------------------- known defects in files this test could not change
 # Each reproduces a defect reported on issue 23 in a file owned by someone else at the
 # time (network/base.py, continuous.py).  strict: once fixed, the xfail turns into a
@@ -642,3 +719,38 @@ def test_known_defect_attach_twice():
 @pytest.mark.parametrize("log_interval", ["1", [1.0]])
 def test_known_defect_plant_log_interval_not_a_number(log_interval):
     _raises_netcosim(lambda: Simulation().plant(DCServo(), x0=[0.0, 0.0], log_interval=log_interval))
+
+
+@pytest.mark.xfail(strict=True, raises=OverflowError, reason="continuous.py PlantInstance: OverflowError")
+def test_known_defect_plant_x0_beyond_float_range():
+    _raises_netcosim(lambda: Simulation().plant(DCServo(), x0=[10**400, 0.0]))
+
+
+@pytest.mark.xfail(strict=True, raises=OverflowError, reason="continuous.py InputPort.write: OverflowError")
+def test_known_defect_plant_input_beyond_float_range():
+    plant = Simulation().plant(DCServo(), x0=[0.0, 0.0])
+    _raises_netcosim(lambda: plant.input("u").write(10**400))
+
+
+@pytest.mark.xfail(strict=True, raises=(ValueError, OverflowError), reason="continuous.py advance: bare errors")
+@pytest.mark.parametrize("t", [math.nan, math.inf, 1e300, 10**400])
+def test_known_defect_plant_advance_not_a_time(t):
+    _raises_netcosim(lambda: Simulation().plant(DCServo(), x0=[0.0, 0.0]).advance(t))
+
+
+@pytest.mark.xfail(strict=True, raises=(KeyError, IndexError), reason="continuous.py port lookup: bare errors")
+@pytest.mark.parametrize("key", ["x", 1])
+def test_known_defect_plant_unknown_port(key):
+    _raises_netcosim(lambda: Simulation().plant(DCServo(), x0=[0.0, 0.0]).output(key))
+
+
+@pytest.mark.xfail(strict=True, raises=ValueError, reason="network/base.py _resolve_dst: bare ValueError")
+def test_known_defect_send_to_unknown_node():
+    _sim, _net_, a = _two_stations("IdealLink")
+    _raises_netcosim(lambda: a.send("nobody", None, 100))
+
+
+@pytest.mark.xfail(strict=True, raises=TypeError, reason="network/interface.py on_receive: bare TypeError")
+def test_known_defect_attach_handler_not_callable():
+    _sim, net = _net("IdealLink")
+    _raises_netcosim(lambda: net.attach("a", handler=42))
