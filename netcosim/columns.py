@@ -422,6 +422,8 @@ class ColumnStore:
             codecs = sig[c]
             # one codec: its numpy type (coded strings: their codes, turned into values at the end)
             dtype = fast[next(iter(codecs))] if len(codecs) == 1 and next(iter(codecs)) in fast else object
+            if codecs == {"str"}:   # the category table is complete: the smallest code type
+                dtype = _small_int(len(self._names[c]))
             out.append(np.empty(total, dtype=dtype))
         coded = [sig[c] == {"str"} for c in range(ncols)]
         as_category = frozenset(categories)
@@ -496,12 +498,13 @@ class ColumnStore:
         unless every name used is a ``str``."""
         import numpy as np
         import pandas as pd
-        used = np.unique(codes)
+        used = np.flatnonzero(np.bincount(codes, minlength=len(names)))
         used_names = names[used]
         if not all(type(x) is str for x in used_names):
             return None
         order = sorted(range(len(used_names)), key=used_names.__getitem__)
-        lut = np.full(len(names), -1, dtype=np.int64)
+        lut = np.full(len(names), -1, dtype=np.int8 if len(order) < 0x80 else np.int16 if len(order) < 0x8000
+                      else np.int32)
         lut[used[order]] = np.arange(len(order))
         dtype = pd.CategoricalDtype(pd.Index(pd.array(used_names[order].tolist(), dtype="str")))
         return pd.Categorical.from_codes(lut[codes], dtype=dtype)
@@ -522,6 +525,12 @@ class ColumnStore:
             tags, vals = v
             return [_UNTAG[t](x) for t, x in zip(tags, vals.tolist())]
         return list(v)
+
+
+def _small_int(n: int):
+    """The smallest unsigned numpy integer type holding codes ``0 .. n - 1``."""
+    import numpy as np
+    return np.uint8 if n <= 0x100 else np.uint16 if n <= 0x10000 else np.uint32
 
 
 def _chunk_bytes(chunk) -> int:
