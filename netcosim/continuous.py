@@ -38,8 +38,8 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from . import validate
-from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NotConnectedError
-from .timebase import RESOLUTION, TICKS_PER_SECOND
+from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NetcosimError, NotConnectedError
+from .timebase import MAX_SECONDS, RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
 
 __all__ = ["EVENT_REARM", "DEFAULT_LOG_INTERVAL", "default_log_interval", "HybridEvent", "ContinuousSystem", "RK4",
            "SolveIVP", "ExactZOH", "SOLVE_IVP_METHODS",
@@ -799,6 +799,15 @@ class InputPort:
         return f"<InputPort {self.plant.name}.{self.label}>"
 
 
+class UnknownPortError(NetcosimError, KeyError, IndexError):
+    """A plant has no such input or output (a name it does not have, an index out of
+    range); the message lists the ones it has.  A :class:`KeyError` and an
+    :class:`IndexError`, as before."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
 def _select(names: Sequence[str], key, kind: str, plant: str):
     """Map a name, an index, a slice or a list of those to an index into *names*."""
     if key is None:
@@ -812,10 +821,11 @@ def _select(names: Sequence[str], key, kind: str, plant: str):
         try:
             return names.index(key), key
         except ValueError:
-            raise KeyError(f"plant {plant!r} has no {kind} {key!r}; {kind}s are {list(names)}") from None
+            raise UnknownPortError(f"plant {plant!r} has no {kind} {key!r}; {kind}s are {list(names)}") from None
     if isinstance(key, (int, np.integer)) and not isinstance(key, bool):
         if not -len(names) <= key < len(names):
-            raise IndexError(f"plant {plant!r} has {len(names)} {kind}s, index {key} is out of range")
+            raise UnknownPortError(f"plant {plant!r} has {len(names)} {kind}s {list(names)}, index {key} is out "
+                                   "of range")
         return int(key), names[int(key)]
     raise ConfigurationTypeError(f"{kind} selector must be a name, index, slice or list, got {key!r}")
 
@@ -862,6 +872,8 @@ class PlantInstance:
             raise ConfigurationTypeError(f"plant {name!r}: x0 must be {system.nx} numbers, got {x0!r}")
         try:
             x0a = np.array(x0, dtype=float).reshape(-1)
+        except OverflowError:
+            raise ConfigurationError(f"plant {name!r}: x0 must be finite numbers, got {x0!r}") from None
         except (TypeError, ValueError):
             raise ConfigurationError(f"plant {name!r}: x0 must be {system.nx} numbers, got {x0!r}") from None
         if x0a.shape[0] != system.nx:
@@ -899,6 +911,8 @@ class PlantInstance:
         self._predict_timer = None
         self.prediction_horizon = 0.05
         validate.choice(log, f"plant {name!r}: log", ("io", "none"))
+        if log_interval is not None:    # checked before anything prints it
+            validate.duration(log_interval, f"plant {name!r}: log_interval", positive=True, kind="positive")
         self._log_io = log_interval is None and log == "io"
         #: default grid in ticks while no task has read or written the plant (None: off)
         self._grid: int | None = None
@@ -1017,6 +1031,8 @@ class PlantInstance:
         """Integrate the state up to *t_target* seconds (default: now)."""
         if t_target is None:
             t_target = self.sim.env._now / TICKS_PER_SECOND
+        elif type(t_target) is not float or not 0.0 <= t_target <= MAX_SECONDS:
+            t_target = to_seconds(to_ticks(t_target, f"plant {self.name!r}: advance time"))
         if t_target <= self.t:
             return
         if self._grid is not None:
@@ -1166,8 +1182,9 @@ class PlantInstance:
             raise ConfigurationTypeError(f"plant {self.name!r}: input {label} takes numbers, got {value!r}")
         try:
             v = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise ConfigurationError(f"plant {self.name!r}: input {label} takes numbers, got {value!r}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise ConfigurationError(f"plant {self.name!r}: input {label} takes finite numbers, "
+                                     f"got {value!r}") from None
         if not np.all(np.isfinite(v)):
             raise ConfigurationError(f"plant {self.name!r}: non-finite value {value!r} written to input {label}")
         target_shape = np.shape(self.u[index])
