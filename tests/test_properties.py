@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import netcosim.network as N
@@ -32,9 +32,9 @@ from plants.dc_servo import DCServo
 pytestmark = pytest.mark.timeout(120)
 
 #: Per-test settings: deterministic, no per-example deadline (a first example imports SciPy).
-FAST = settings(max_examples=200, deadline=None, derandomize=True,
+FAST = settings(max_examples=300, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow])
-SLOW = settings(max_examples=100, deadline=None, derandomize=True,
+SLOW = settings(max_examples=150, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow])
 
 SPECIAL = [math.nan, math.inf, -math.inf, 0.0, -0.0, 0, -1, -1.0, 1, 5e-324, 2.2250738585072014e-308, 1e-13,
@@ -66,7 +66,10 @@ def _is_finite_number(v) -> bool:
 
 def _names(exc: BaseException, value, names: tuple[str, ...]) -> bool:
     msg = str(exc)
-    return repr(value) in msg or str(value) in msg or any(n in msg for n in names)
+    forms = [repr(value), str(value)]
+    if isinstance(value, float) and value.is_integer():
+        forms.append(str(int(value)))           # 64.0 bits named as the 64 bits they are
+    return any(f in msg for f in forms) or any(n in msg for n in names)
 
 
 def outcome(fn, value, *names: str):
@@ -90,29 +93,6 @@ def run_ok(sim: Simulation, until: float, value, *names: str) -> bool:
         assert _names(exc, value, names), f"{type(exc).__name__}: {exc!s} names neither {value!r} nor {names}"
         return False
     return True
-
-
-# Known defects in files this test's author could not change (reported on issue 23): the
-# examples that hit them are skipped here (``assume``), and each has a strict-xfail repro
-# at the end of this file, which starts passing (and so fails) once it is fixed.
-
-def _tiny_rate(param, value) -> bool:
-    """network/base.py: a data_rate so small that a frame's duration overflows a float
-    (5e-324 bit/s) raises OverflowError in Network.duration during the run."""
-    return param == "data_rate" and _is_finite_number(value) and 0 < float(value) < 1e-200
-
-
-def _oversize_send(size_bits) -> bool:
-    """network/base.py: a message above max_frame_bits raises a bare ValueError, a huge
-    size_bits (1e300) an OverflowError in Network.duration, and size_bits=None on a network
-    without a minimum frame a bare ValueError."""
-    return size_bits is None or _huge_int(size_bits) or (_is_finite_number(size_bits) and float(size_bits) > 900)
-
-
-def _huge_int(v) -> bool:
-    """An integer beyond the float range (10**400): continuous.py's x0 and input writes
-    raise a bare OverflowError on it, and so does network/base.py for such a size_bits."""
-    return isinstance(v, int) and not isinstance(v, bool) and abs(v) > 2**1000
 
 
 def _body(ctx):
@@ -317,15 +297,10 @@ def _check_frames(sim, value):
         assert not frames["time"].isna().any(), f"NaN frame times with {value!r}"
 
 
-@settings(SLOW, max_examples=500)
+@settings(SLOW, max_examples=800)
 @given(case=st.sampled_from(NETWORK_CASES), value=ANY)
 def test_network_parameters(case, value):
     cls_name, param = case
-    assume(not _tiny_rate(param, value))
-    # base.py: the 100-bit message above a smaller max_frame_bits raises a bare ValueError
-    assume(not (param == "max_frame_bits" and _is_finite_number(value) and float(value) < 100))
-    if param == "data_rate" and _is_finite_number(value) and 0 < float(value) < 1e3 and cls_name != "TDMA":
-        pass        # slow links are valid: a 100-bit frame takes a while, the run stays short
     built = outcome(lambda: _net(cls_name, **{param: value}), value, param)
     if built is None:
         return
@@ -335,17 +310,18 @@ def test_network_parameters(case, value):
     except NetcosimError as exc:        # e.g. a 100-bit message above a tiny max_frame_bits
         assert _names(exc, value, (param, "size_bits", "max_frame_bits", "min_frame_bits")), str(exc)
         return
-    if run_ok(sim, 0.01, value, param, "size_bits", "frame"):
+    # a frame too long for the time range (a tiny data_rate) is refused naming its bits and rate
+    if run_ok(sim, 0.01, value, param, "size_bits", "frame", "bit/s"):
         _check_frames(sim, value)
 
 
 @SLOW
 @given(cls_name=st.sampled_from(sorted(NETWORK_PARAMS)), size_bits=ANY, priority=ANY)
 def test_send_size_and_priority(cls_name, size_bits, priority):
-    assume(not _oversize_send(size_bits))
     sim, net = _net(cls_name)
     _traffic(sim, net, size_bits=size_bits, priority=priority)
-    run_ok(sim, 0.01, (size_bits, priority), repr(size_bits), repr(priority), "size_bits", "priority")
+    as_int = [f"{int(size_bits)} bits"] if _is_finite_number(size_bits) and float(size_bits).is_integer() else []
+    run_ok(sim, 0.01, (size_bits, priority), repr(size_bits), repr(priority), "size_bits", "priority", *as_int)
 
 
 @SLOW
@@ -485,7 +461,6 @@ def test_exact_zoh_parameters(cache_size):
 @SLOW
 @given(x=ANY, integrator=st.sampled_from(["rk4", "solve_ivp", "zoh"]))
 def test_plant_initial_state(x, integrator):
-    assume(not _huge_int(x))
     make = {"rk4": lambda: RK4(dt=1e-3), "solve_ivp": lambda: SolveIVP(), "zoh": lambda: ExactZOH()}[integrator]
     # a huge but finite state may legitimately overflow while integrating: that must be an IntegrationError
     _servo_run(make, x, ("x0",), x0=(x, 0.0))
@@ -509,8 +484,6 @@ def test_dc_servo_parameters(k, a):
 @SLOW
 @given(log_interval=ANY)
 def test_plant_log_interval(log_interval):
-    # continuous.py: a string or a list raises a bare TypeError (see the repro below)
-    assume(log_interval is None or isinstance(log_interval, (bool, int, float)))
     sim = Simulation()
     if _is_finite_number(log_interval) and 0 < float(log_interval) < 1e-5:
         log_interval = 1e-5 if float(log_interval) >= 1e-12 else log_interval
@@ -524,7 +497,6 @@ def test_plant_log_interval(log_interval):
 @SLOW
 @given(u=ANY)
 def test_plant_input_write(u):
-    assume(not _huge_int(u))
     sim = Simulation()
     plant = sim.plant(DCServo(), x0=[0.0, 0.0], integrator=RK4(dt=1e-3), log="none")
     try:
@@ -659,10 +631,10 @@ def test_loss_and_radio_helpers(value, what):
         assert run_ok(sim, 0.01, value)
 
 
-# ---------------------------------------------------------- known defects in files this test could not change
-# Each reproduces a defect reported on issue 23 in a file owned by someone else at the
-# time (network/base.py, continuous.py).  strict: once fixed, the xfail turns into a
-# failure, and the repro (and the matching ``assume`` above) can go.
+# ---------------------------------------------------------- regressions: defects once found here
+# Found by the properties above in network/base.py, network/interface.py and continuous.py
+# (fixed there since, in a8d4abf and 7801f77): each raised a bare ValueError, TypeError,
+# KeyError, IndexError or OverflowError.
 
 def _two_stations(cls_name="IdealLink", **kw):
     sim, net = _net(cls_name, **kw)
@@ -671,86 +643,73 @@ def _two_stations(cls_name="IdealLink", **kw):
     return sim, net, a
 
 
-def _raises_netcosim(fn):
-    with pytest.raises(NetcosimError):
+def _refused_naming(fn, *names: str):
+    with pytest.raises(NetcosimError) as info:
         fn()
+    assert any(n in str(info.value) for n in names), str(info.value)
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason="network/base.py _send: bare ValueError")
-def test_known_defect_send_above_max_frame_bits():
+def test_send_above_max_frame_bits():
     _sim, _net_, a = _two_stations("WLAN80211b")
-    _raises_netcosim(lambda: a.send("b", None, 100_000))
+    _refused_naming(lambda: a.send("b", None, 100_000), "100000")
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason="network/base.py _send: bare ValueError")
-def test_known_defect_send_without_size_bits():
+def test_send_without_size_bits():
     _sim, _net_, a = _two_stations("IdealLink")
-    _raises_netcosim(lambda: a.send("b", None))
+    _refused_naming(lambda: a.send("b", None), "size_bits")
 
 
-@pytest.mark.xfail(strict=True, raises=OverflowError, reason="network/base.py duration: OverflowError")
-def test_known_defect_send_huge_int_size_bits():
+def test_send_huge_int_size_bits():
     sim, _net_, a = _two_stations("IdealLink")
-    a.send("b", None, 10**300)
-    _raises_netcosim(lambda: sim.run(until=0.01))
+    _refused_naming(lambda: (a.send("b", None, 10**300), sim.run(until=0.01)), "size_bits")
 
 
-@pytest.mark.xfail(strict=True, raises=OverflowError, reason="network/base.py duration: OverflowError")
-def test_known_defect_tiny_data_rate():
+def test_tiny_data_rate():
     sim, _net_, a = _two_stations("IdealLink", data_rate=5e-324)
-    a.send("b", None, 100)
-    _raises_netcosim(lambda: sim.run(until=0.01))
+    _refused_naming(lambda: (a.send("b", None, 100), sim.run(until=0.01)), "5e-324")
 
 
-@pytest.mark.xfail(strict=True, raises=TypeError, reason="network/base.py attach: bare TypeError")
-def test_known_defect_attach_not_a_node():
+def test_attach_not_a_node():
     _sim, net = _net("IdealLink")
-    _raises_netcosim(lambda: net.attach(42))
+    _refused_naming(lambda: net.attach(42), "42")
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason="network/base.py attach: bare ValueError")
-def test_known_defect_attach_twice():
+def test_attach_twice():
     _sim, net = _net("IdealLink")
     net.attach("a")
-    _raises_netcosim(lambda: net.attach("a"))
+    _refused_naming(lambda: net.attach("a"), "'a'")
 
 
-@pytest.mark.xfail(strict=True, raises=TypeError, reason="continuous.py _seconds_text: bare TypeError")
-@pytest.mark.parametrize("log_interval", ["1", [1.0]])
-def test_known_defect_plant_log_interval_not_a_number(log_interval):
-    _raises_netcosim(lambda: Simulation().plant(DCServo(), x0=[0.0, 0.0], log_interval=log_interval))
-
-
-@pytest.mark.xfail(strict=True, raises=OverflowError, reason="continuous.py PlantInstance: OverflowError")
-def test_known_defect_plant_x0_beyond_float_range():
-    _raises_netcosim(lambda: Simulation().plant(DCServo(), x0=[10**400, 0.0]))
-
-
-@pytest.mark.xfail(strict=True, raises=OverflowError, reason="continuous.py InputPort.write: OverflowError")
-def test_known_defect_plant_input_beyond_float_range():
-    plant = Simulation().plant(DCServo(), x0=[0.0, 0.0])
-    _raises_netcosim(lambda: plant.input("u").write(10**400))
-
-
-@pytest.mark.xfail(strict=True, raises=(ValueError, OverflowError), reason="continuous.py advance: bare errors")
-@pytest.mark.parametrize("t", [math.nan, math.inf, 1e300, 10**400])
-def test_known_defect_plant_advance_not_a_time(t):
-    _raises_netcosim(lambda: Simulation().plant(DCServo(), x0=[0.0, 0.0]).advance(t))
-
-
-@pytest.mark.xfail(strict=True, raises=(KeyError, IndexError), reason="continuous.py port lookup: bare errors")
-@pytest.mark.parametrize("key", ["x", 1])
-def test_known_defect_plant_unknown_port(key):
-    _raises_netcosim(lambda: Simulation().plant(DCServo(), x0=[0.0, 0.0]).output(key))
-
-
-@pytest.mark.xfail(strict=True, raises=ValueError, reason="network/base.py _resolve_dst: bare ValueError")
-def test_known_defect_send_to_unknown_node():
+def test_send_to_unknown_node():
     _sim, _net_, a = _two_stations("IdealLink")
-    _raises_netcosim(lambda: a.send("nobody", None, 100))
+    _refused_naming(lambda: a.send("nobody", None, 100), "'nobody'")
 
 
-@pytest.mark.xfail(strict=True, raises=TypeError, reason="network/interface.py on_receive: bare TypeError")
-def test_known_defect_attach_handler_not_callable():
+def test_attach_handler_not_callable():
     _sim, net = _net("IdealLink")
-    _raises_netcosim(lambda: net.attach("a", handler=42))
+    _refused_naming(lambda: net.attach("a", handler=42), "42")
+
+
+@pytest.mark.parametrize("log_interval", ["1", [1.0]])
+def test_plant_log_interval_not_a_number(log_interval):
+    _refused_naming(lambda: Simulation().plant(DCServo(), x0=[0.0, 0.0], log_interval=log_interval),
+                    repr(log_interval))
+
+
+def test_plant_x0_beyond_float_range():
+    _refused_naming(lambda: Simulation().plant(DCServo(), x0=[10**400, 0.0]), "x0")
+
+
+def test_plant_input_beyond_float_range():
+    plant = Simulation().plant(DCServo(), x0=[0.0, 0.0])
+    _refused_naming(lambda: plant.input("u").write(10**400), "1000000")
+
+
+@pytest.mark.parametrize("t", [math.nan, math.inf, 1e300, 10**400, "1"])
+def test_plant_advance_not_a_time(t):
+    _refused_naming(lambda: Simulation().plant(DCServo(), x0=[0.0, 0.0]).advance(t), repr(t)[:20])
+
+
+@pytest.mark.parametrize("key", ["x", 1])
+def test_plant_unknown_port(key):
+    _refused_naming(lambda: Simulation().plant(DCServo(), x0=[0.0, 0.0]).output(key), repr(key))
