@@ -6,7 +6,12 @@ from __future__ import annotations
 from conftest import periodic_task
 from invalid_cases import Case
 from netcosim import Event, Mailbox, Monitor, Semaphore, Simulation
-from netcosim.errors import SimulationFailedError, UnyieldedExecuteError
+from netcosim.errors import (
+    ConfigurationError,
+    ConfigurationTypeError,
+    SimulationFailedError,
+    UnyieldedExecuteError,
+)
 
 NAN, INF = float("nan"), float("inf")
 
@@ -260,7 +265,34 @@ CASES = [
     Case(id="kernel-yield-negative-ticks", call=lambda: run_task(yields(-5)), exc=ValueError, names="-5"),
     Case(id="kernel-run-after-failure", call=lambda: _failed_then_run(), exc=SimulationFailedError,
          names="ZeroDivisionError: boom"),
+    # --- found by tests/test_properties.py (issue 23) -----------------------------------
+    Case(id="kernel-execute-beyond-time-range", call=lambda: run_task(executes(1e300)), exc=ConfigurationError,
+         names="1e+300"),
+    Case(id="kernel-execute-int-beyond-float", call=lambda: run_task(executes(10**400)), exc=ConfigurationError,
+         names="time range"),
+    Case(id="kernel-speed-subnormal", call=lambda: cpu(speed=5e-324), exc=ConfigurationError, names="5e-324"),
+    Case(id="kernel-run-until-int-beyond-float", call=lambda: Simulation().run(until=10**400),
+         exc=ConfigurationError, names="until"),
+    Case(id="kernel-call-at-in-the-past", call=lambda: _call_at_past(), exc=ConfigurationError, names="t=0.001"),
+    Case(id="kernel-timer-target-not-a-task", call=lambda: cpu().timer("t", at=0.1), exc=ConfigurationTypeError,
+         names="'t'"),
+    Case(id="kernel-trigger-target-not-a-task", call=lambda: cpu().trigger(None), exc=ConfigurationTypeError,
+         names="None"),
+    Case(id="kernel-analog-channel-unhashable", call=lambda: cpu().analog_in([0]), exc=ConfigurationError,
+         names="[0]"),
+    Case(id="kernel-task-name-not-a-string", call=lambda: cpu().periodic(body, period=0.01, priority=1, name=7),
+         exc=ConfigurationTypeError, names="7"),
+    Case(id="kernel-process-not-a-generator", call=lambda: Simulation().process(body), exc=ConfigurationTypeError,
+         names="body"),
+    Case(id="kernel-rng-name-not-a-string", call=lambda: Simulation().rng(3), exc=ConfigurationTypeError,
+         names="3"),
 ]
+
+
+def _call_at_past():
+    sim = Simulation()
+    sim.run(until=0.002)
+    sim.call_at(0.001, lambda: None)
 
 
 def _failed_then_run():

@@ -4,6 +4,7 @@ path-loss models and the loss models.  Each case builds its own simulation."""
 from __future__ import annotations
 
 from invalid_cases import Case
+from netcosim.errors import ConfigurationError, ConfigurationTypeError, LossTraceExhaustedError
 
 NAN, INF = float("nan"), float("inf")
 
@@ -68,6 +69,27 @@ def _bernoulli(p):
 def _anyloss(models):
     from netcosim.network import AnyLoss
     return AnyLoss(models)
+
+
+def _traceloss(seq):
+    from netcosim.network import TraceLoss
+    return TraceLoss(seq)
+
+
+def _traceloss_run_out():
+    from netcosim.network import IdealLink, TraceLoss
+    sim = _sim()
+    net = IdealLink(sim, "n", loss=TraceLoss([0], repeat=False))
+    a = net.attach("a")
+    net.attach("b")
+    for _ in range(2):
+        a.send("b", None, 100)
+    sim.run(until=0.01)
+
+
+def _dbm_to_watt(p):
+    from netcosim.network import dbm_to_watt
+    return dbm_to_watt(p)
 
 
 def _tdma(**kw):
@@ -165,4 +187,15 @@ CASES = [
     Case("network-send-size-bits-nan", lambda: _send("IdealLink", size_bits=NAN), E, "nan"),
     Case("network-send-size-bits-string", lambda: _send("CSMACD", size_bits="64"), T, "'64'"),
     Case("network-send-priority-inf", lambda: _send("CAN", priority=INF), E, "inf"),
+    # --- found by tests/test_properties.py (issue 23) -----------------------------------
+    Case("network-wlan-tx-power-huge", lambda: _wlan(tx_power_dbm=1e300), ConfigurationError, "1e+300"),
+    Case("network-wlan-noise-tiny", lambda: _wlan(noise_dbm=-1e300), ConfigurationError, "-1e+300"),
+    Case("network-wlan-capture-db-huge", lambda: _wlan(capture_db=1e300), ConfigurationError, "1e+300"),
+    Case("network-min-frame-bits-huge", lambda: _net("IdealLink", min_frame_bits=1e300), ConfigurationError,
+         "1e+300"),
+    Case("network-bernoulli-int-beyond-float", lambda: _bernoulli(10**400), ConfigurationError, "1000000000"),
+    Case("network-anyloss-not-a-list", lambda: _anyloss(0.1), ConfigurationTypeError, "0.1"),
+    Case("network-traceloss-ragged", lambda: _traceloss([0, [1, 0]]), ConfigurationError, "[0, [1, 0]]"),
+    Case("network-traceloss-exhausted", lambda: _traceloss_run_out(), LossTraceExhaustedError, "exhausted"),
+    Case("network-dbm-to-watt-huge", lambda: _dbm_to_watt(1e300), ConfigurationError, "1e+300"),
 ]
