@@ -90,6 +90,11 @@ class HybridEvent:
         validate.choice(self.direction, f"event {self.name!r}: direction", (-1, 0, 1), kind="-1, 0 or +1")
 
 
+#: the most states, inputs, outputs or disturbances a system may declare (a larger count
+#: is a typo: 10**9 states would fill the memory before the first step)
+MAX_DIMENSION = 100_000
+
+
 class ContinuousSystem:
     """Base class for plant models.
 
@@ -120,6 +125,9 @@ class ContinuousSystem:
                  states: int | Sequence[str] | None = None, inputs: int | Sequence[str] | None = None,
                  outputs: int | Sequence[str] | None = None, disturbances: int | Sequence[str] | None = None,
                  events: Sequence[HybridEvent] = (), params: Any = None, name: str | None = None):
+        for what, fn in (("f", f), ("h", h)):
+            if fn is not None:
+                validate.callable_(fn, f"ContinuousSystem {what}", kind=f"a callable {what}(t, x, u, params)")
         if f is not None:
             self._f = f
         if h is not None:
@@ -132,8 +140,7 @@ class ContinuousSystem:
                 raise ConfigurationTypeError(f"{attr.split('_')[0]}s must be a count or a sequence of names, "
                                              f"got {spec!r}")
             if isinstance(spec, (int, np.integer)):
-                if spec < 0:
-                    raise ConfigurationError(f"number of {attr.split('_')[0]}s must be >= 0, got {spec!r}")
+                validate.count(spec, f"number of {attr.split('_')[0]}s", maximum=MAX_DIMENSION)
                 spec = tuple(f"{prefix}{i}" for i in range(spec)) if spec else ()
             spec = tuple(spec)
             dup = sorted({n for n in spec if spec.count(n) > 1})
@@ -141,6 +148,11 @@ class ContinuousSystem:
                 raise ConfigurationError(f"{attr.split('_')[0]} names must be unique, {dup[0]!r} repeats in {spec!r}")
             setattr(self, attr, spec)
         if events:
+            if isinstance(events, (str, bytes)) or not isinstance(events, (Sequence, np.ndarray)):
+                raise ConfigurationTypeError(f"events must be a sequence of HybridEvent, got {events!r}")
+            bad = [e for e in events if not isinstance(e, HybridEvent)]
+            if bad:
+                raise ConfigurationTypeError(f"events must be HybridEvent objects, got {bad[0]!r}")
             self.events = tuple(events)
         if params is not None:
             self.params = params

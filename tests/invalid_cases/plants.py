@@ -53,6 +53,16 @@ def _pc_servo(**kw):
 
 
 CASES = [
+    Case(id="plants-system-states-huge", call=lambda: ContinuousSystem(f=lambda t, x, u, p: -x, states=10**9),
+         exc=ConfigurationError, names="1000000000"),
+    Case(id="plants-system-f-not-callable", call=lambda: ContinuousSystem(f=1.0, states=1),
+         exc=ConfigurationTypeError, names="1.0"),
+    Case(id="plants-system-events-not-a-sequence",
+         call=lambda: ContinuousSystem(f=lambda t, x, u, p: -x, states=1, events=1.0),
+         exc=ConfigurationTypeError, names="1.0"),
+    Case(id="plants-system-events-not-events",
+         call=lambda: ContinuousSystem(f=lambda t, x, u, p: -x, states=1, events=["x"]),
+         exc=ConfigurationTypeError, names="'x'"),
     # plant construction and x0
     Case(id="plants-system-int", call=lambda: _plant(42, []), exc=ConfigurationTypeError, names="42"),
     Case(id="plants-x0-length", call=lambda: Simulation().plant(DCServo(), x0=[0, 0, 0]), exc=ValueError,
