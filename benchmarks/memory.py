@@ -10,7 +10,11 @@ the sensor's handler writes it to the servo.  The plant logs at every read and w
 Configurations, each run in a fresh Python process (its peak RSS is ``VmHWM`` from
 ``/proc/self/status``, which includes the interpreter and numpy/pandas/scipy):
 
-``default``  every table keeps every row (today's default)
+``default``  default settings: every table keeps every row, at most 16 MiB of them per
+             table in memory and the rest in a temporary file (``docs/architecture.md``,
+             "Default bound"; ``python -m benchmarks.soak`` also measures reading back)
+``unbounded`` ``configure_all(mode="keep", memory=None)``: every row in memory (the default
+             before issue 23)
 ``ring``     ``configure_all(mode="ring", rows=10_000)``
 ``window``   ``configure_all(mode="window", seconds=5.0)``
 ``off``      ``configure_all(mode="off")``
@@ -22,9 +26,10 @@ row tuples (the storage netcosim used before the columnar one; it exists only he
 the baseline).  The memory allocated during the run and still held at its end, divided
 by the rows kept, is the cost of a row; the ratio is what the columnar store saves.
 
-The bounded configurations run one simulated hour.  The default one grows without bound,
-so it runs two shorter horizons and the growth per simulated hour is extrapolated from
-the difference (``--default-hours`` to choose them).  No test depends on these numbers.
+The bounded configurations (``default`` among them) run one simulated hour.  The
+unbounded one grows without bound, so it runs two shorter horizons and the growth per
+simulated hour is extrapolated from the difference (``--default-hours`` to choose them).
+No test depends on these numbers.
 Run: ``python -m benchmarks.memory`` (``--quick`` for a 60 s smoke run, ``--rows`` for the
 bytes per row only).
 """
@@ -47,6 +52,7 @@ U_MAX = 10.0            # actuator saturation (V)
 ROW_SECONDS = 30.0      # simulated seconds of the bytes-per-row measurement
 CONFIGS = {
     "default": None,
+    "unbounded": dict(mode="keep", memory=None),
     "ring": dict(mode="ring", rows=10_000),
     "window": dict(mode="window", seconds=5.0),
     "off": dict(mode="off"),
@@ -150,11 +156,11 @@ def main(hours: float = 1.0, default_hours: tuple[float, float] = (60.0, 240.0),
     """Bytes per row (:func:`bytes_per_row`), then every configuration; print tables (MB = 2**20 bytes)."""
     until = hours * 3600.0
     res: dict = {"bytes_per_row": bytes_per_row(row_seconds)}
-    lo, hi = (measure("default", t) for t in default_hours)
+    lo, hi = (measure("unbounded", t) for t in default_hours)
     slope = (hi["rss_end"] - lo["rss_end"]) / (hi["until"] - lo["until"])  # bytes per simulated s
-    res["default"] = {"short": lo, "long": hi, "bytes_per_sim_hour": slope * 3600.0,
-                      "peak_rss_1h_extrapolated": hi["peak_rss"] + slope * (until - hi["until"])}
-    for config in ("ring", "window", "off"):
+    res["unbounded"] = {"short": lo, "long": hi, "bytes_per_sim_hour": slope * 3600.0,
+                        "peak_rss_1h_extrapolated": hi["peak_rss"] + slope * (until - hi["until"])}
+    for config in ("default", "ring", "window", "off"):
         res[config] = measure(config, until)
     mb = 2.0 ** 20
     print(f"networked DC servo, h = {PERIOD * 1e3:.0f} ms, 802.11b 11 Mbit/s, {LOSS:.0%} Bernoulli loss; "
@@ -162,14 +168,14 @@ def main(hours: float = 1.0, default_hours: tuple[float, float] = (60.0, 240.0),
     print(f"  {'config':8s} {'sim time':>9s} {'peak RSS':>9s} {'after build':>12s} {'rows kept':>10s} "
           f"{'wall s':>7s}")
     for r in (lo, hi):
-        print(f"  {'default':8s} {r['until']:8.0f}s {r['peak_rss'] / mb:9.1f} {r['rss_built'] / mb:12.1f} "
+        print(f"  {'unbounded':8s} {r['until']:8.0f}s {r['peak_rss'] / mb:9.1f} {r['rss_built'] / mb:12.1f} "
               f"{sum(r['rows'].values()):10d} {r['wall']:7.1f}")
-    for config in ("ring", "window", "off"):
+    for config in ("default", "ring", "window", "off"):
         r = res[config]
         print(f"  {config:8s} {r['until']:8.0f}s {r['peak_rss'] / mb:9.1f} {r['rss_built'] / mb:12.1f} "
               f"{sum(r['rows'].values()):10d} {r['wall']:7.1f}")
-    d = res["default"]
-    print(f"  default tracing grows by {d['bytes_per_sim_hour'] / mb:,.0f} MB per simulated hour "
+    d = res["unbounded"]
+    print(f"  unbounded tracing grows by {d['bytes_per_sim_hour'] / mb:,.0f} MB per simulated hour "
           f"(extrapolated from {default_hours[0]:.0f} s and {default_hours[1]:.0f} s): "
           f"~{d['peak_rss_1h_extrapolated'] / mb:,.0f} MB peak for {hours:g} h")
     return res
