@@ -94,10 +94,16 @@ def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
 
 def _task_names(tasks: pd.Series) -> tuple[pd.Series, pd.Series]:
     """The node name and task name of each kernel task object in *tasks* (object columns)."""
+    import numpy as np
     import pandas as pd
-    unique = pd.unique(tasks)
-    return (tasks.map({t: t.node.name for t in unique}).astype(object),
-            tasks.map({t: t.name for t in unique}).astype(object))
+    # one name object per task, shared by its rows (``map`` then ``astype(object)`` would make
+    # a string object per row: some 100 bytes a row when a long table is read back)
+    codes, unique = pd.factorize(tasks.to_numpy(dtype=object))
+    nodes, names = np.empty(len(unique), dtype=object), np.empty(len(unique), dtype=object)
+    for i, t in enumerate(unique):
+        nodes[i], names[i] = t.node.name, t.name
+    return (pd.Series(nodes[codes], index=tasks.index, dtype=object),
+            pd.Series(names[codes], index=tasks.index, dtype=object))
 
 
 def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
