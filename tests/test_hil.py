@@ -216,8 +216,9 @@ def test_malformed_messages_are_dropped_counted_and_the_run_goes_on():
 @needs_zenoh
 @pytest.mark.parametrize("encoding", [[], ["--encoding", "cdr"]])
 def test_cli_prints_the_remote_command_and_runs_with_it(encoding):
+    # a 0.1 s deadline: a loaded machine's timing is not what this test is about
     run_hil_cli(["experiments.networked_servo:build", "--remote", "controller", "--period", "0.01", "--until", "0.5",
-                 "--wait", "30", *encoding],
+                 "--deadline", "0.1", "--wait", "30", *encoding],
                 module="experiments.hil_servo_controller", node="controller", messages=50, timeout=60)
 
 
@@ -226,7 +227,8 @@ def test_cli_compares_with_the_simulated_run_and_the_replay():
     # the replay reproduces the HIL run bit for bit; the all-simulated run differs by what the
     # measured response times (not the simulated 0.5 ms of CPU time) explain
     run_hil_cli(["experiments.networked_servo:build", "--remote", "controller", "--period", "0.01", "--until", "0.5",
-                 "--reply-values", "2", "--wait", "30", "--compare", "--replay", "experiments.hil_servo:run_replay"],
+                 "--reply-values", "2", "--deadline", "0.1", "--wait", "30", "--compare", "--replay",
+                 "experiments.hil_servo:run_replay"],
                 module="experiments.hil_servo_controller", node="controller", messages=50, timeout=60,
                 expect=[r"max deviation from the all-simulated run: [1-9]\.\d+e-0\d \(servo\.y\.y\)",
                         r"max deviation from the replay with the measured response times: 0\.000e\+00"])

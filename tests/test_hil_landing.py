@@ -134,7 +134,7 @@ def test_cli_runs_the_landing_with_a_remote_plant():
     r_out = run_hil_cli(
         ["experiments.hil_landing_llc:build", "--remote", "uav", "--period", "0.002",
          "--outputs", "phi,dphi,theta,dtheta", "--extra", "experiments.hil_landing_llc:reference",
-         "--factor", "10", "--until", "0.2", "--wait", "60"],
+         "--factor", "10", "--until", "0.2", "--deadline", "0.02", "--wait", "60"],
         module="experiments.hil_landing_llc_controller", node="uav", messages=100)
     assert '"status": "ended"' in r_out
 
