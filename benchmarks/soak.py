@@ -27,13 +27,7 @@ import sys
 import tempfile
 import time
 
-
-def _vm(key: str) -> int:
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith(key + ":"):
-                return int(line.split()[1]) * 1024
-    raise RuntimeError(f"no {key} in /proc/self/status")
+from .memory import _vm  # one reader of /proc/self/status
 
 
 def _reset_peak() -> bool:
