@@ -7,10 +7,6 @@ resident memory (``VmHWM``); reset the peak (``/proc/self/clear_refs``), read ev
 back with ``sim.trace.frame(name)`` one at a time (each frame dropped before the next)
 and take the peak again; then the same for ``sim.trace.to_parquet(tmpdir)``.
 
-``--keeps-categories`` marks the network tables' transforms as leaving their categorical
-columns alone (``Trace.table(..., keeps_categories=True)``; the tests check that they
-do), so that they are read back from disk as categoricals rather than a string per row.
-
 Issue 23's target: under 200 MB resident during the run, under 500 MB reading back.
 No test depends on these numbers.  Run: ``python -m benchmarks.soak`` (``--hours 0.05``
 for a short smoke run).
@@ -40,12 +36,9 @@ def _reset_peak() -> bool:
         return False
 
 
-def child(hours: float, keeps_categories: bool = False) -> dict:
+def child(hours: float) -> dict:
     from benchmarks.memory import build
     sim = build("default")
-    if keeps_categories:
-        for name in ("frames", "network_schedule"):
-            sim.trace._tables[name].keeps_categories = True
     t0 = time.perf_counter()
     sim.run(hours * 3600.0)
     wall = time.perf_counter() - t0
@@ -68,11 +61,10 @@ def child(hours: float, keeps_categories: bool = False) -> dict:
     return res
 
 
-def main(hours: float, keeps_categories: bool = False) -> dict:
+def main(hours: float) -> dict:
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    out = subprocess.run([sys.executable, "-m", "benchmarks.soak", "--child", str(hours)]
-                         + (["--keeps-categories"] if keeps_categories else []),
+    out = subprocess.run([sys.executable, "-m", "benchmarks.soak", "--child", str(hours)],
                          cwd=root, env=env, check=True, capture_output=True, text=True)
     res = json.loads(out.stdout.strip().splitlines()[-1])
     mb = 2.0 ** 20
@@ -88,10 +80,8 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--child", metavar="HOURS", help=argparse.SUPPRESS)
     ap.add_argument("--hours", type=float, default=1.0, help="simulated hours (default 1)")
-    ap.add_argument("--keeps-categories", action="store_true",
-                    help="read the network tables back as categoricals (see the module docstring)")
     args = ap.parse_args()
     if args.child:
-        print(json.dumps(child(float(args.child), args.keeps_categories)))
+        print(json.dumps(child(float(args.child))))
     else:
-        main(args.hours, args.keeps_categories)
+        main(args.hours)

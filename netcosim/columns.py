@@ -15,6 +15,9 @@ declared ``uint8``   ``bytes`` (1 byte a row): small codes such as the schedule'
 all ``str``          codes into the column's category table (``bytes`` or ``array`` of
                      1, 2 or 4 bytes a row); each distinct string is stored once per table
 all ``None``         nothing but the row count
+floats and None      a type tag per row (1 byte) and the values as ``array('d')``
+                     (codec ``fnone``: read back as one float column, None as NaN, as
+                     ``from_records`` makes it)
 numbers and None     a type tag per row (1 byte) and the values as ``array('d')`` (or
                      ``array('q')`` without floats); integers beyond 2**53 among floats
                      make the column ``anything else``
@@ -273,6 +276,8 @@ class ColumnStore:
         tags = bytes(map(_TAGS.__getitem__, map(type, col)))
         vals = [0 if v is None else v for v in col] if _NONE in types else col
         try:
+            if types == {float, _NONE}:   # e.g. a frame's backoff: read back as floats and NaN
+                return ("fnone", (tags, array("d", vals)))
             if float in types:
                 if int in types and not all(-_EXACT <= v <= _EXACT for v in col if type(v) is int):
                     return ("obj", list(col))
@@ -297,7 +302,7 @@ class ColumnStore:
                 cols.append([b != 0 for b in v])
             elif codec == "none":
                 cols.append([None] * n)
-            elif codec == "mixed":
+            elif codec == "mixed" or codec == "fnone":
                 tags, vals = v
                 cols.append([_UNTAG[t](x) for t, x in zip(tags, vals.tolist())])
             else:
@@ -424,6 +429,8 @@ class ColumnStore:
             dtype = fast[next(iter(codecs))] if len(codecs) == 1 and next(iter(codecs)) in fast else object
             if codecs == {"str"}:   # the category table is complete: the smallest code type
                 dtype = _small_int(len(self._names[c]))
+            elif "fnone" in codecs and codecs <= {"d", "fnone", "none"}:
+                dtype = np.float64   # floats and None: from_records makes None NaN
             out.append(np.empty(total, dtype=dtype))
         coded = [sig[c] == {"str"} for c in range(ncols)]
         as_category = frozenset(categories)
@@ -456,7 +463,13 @@ class ColumnStore:
             else:
                 for c, (codec, v) in enumerate(data):
                     col = out[c]
-                    if codec in ("d", "q"):
+                    if codec == "fnone" and col.dtype != object:
+                        tags, vals = v
+                        col[sl] = np.frombuffer(vals, dtype=np.float64)
+                        col[sl][np.frombuffer(tags, dtype=np.uint8) == _TAGS[_NONE]] = np.nan
+                    elif codec == "none" and col.dtype != object:
+                        col[sl] = np.nan
+                    elif codec in ("d", "q"):
                         col[sl] = np.frombuffer(v, dtype=np.float64 if codec == "d" else np.int64) \
                             if col.dtype != object else v.tolist()
                     elif codec in ("u8", "bool"):
@@ -521,7 +534,7 @@ class ColumnStore:
             return [b != 0 for b in v]
         if codec == "none":
             return [None] * n
-        if codec == "mixed":
+        if codec == "mixed" or codec == "fnone":
             tags, vals = v
             return [_UNTAG[t](x) for t, x in zip(tags, vals.tolist())]
         return list(v)
@@ -544,7 +557,7 @@ def _chunk_bytes(chunk) -> int:
     for codec, v in data:
         if codec == "none":
             continue
-        if codec == "mixed":
+        if codec == "mixed" or codec == "fnone":
             tags, vals = v
             size += len(tags) + vals.itemsize * len(vals)
         elif codec == "obj":

@@ -430,8 +430,9 @@ class Recorder:
         """The table as a DataFrame (a fresh copy every call)."""
         import pandas as pd
         buf = self._buf
-        if type(buf) is ColumnStore and buf.spilled_rows:
-            # a long table partly in its temporary file: built column by column, no tuple per row
+        if type(buf) is ColumnStore and self.mode == "keep":
+            # built column by column from the encoded chunks (and the temporary file): no
+            # tuple per row, so reading needs about the memory of the frame itself
             cats = [i for i, c in enumerate(self.columns) if c in self.categorical] if self.keeps_categories else []
             df = buf.frame(self.columns, [r for p in self.providers for r in p()], categories=cats)
             if self.transform is not None:

@@ -5,6 +5,7 @@ to those built from tuples."""
 import math
 import sys
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -281,3 +282,24 @@ def test_schedule_rows_hold_the_task_and_a_state_code_and_read_as_names():
     assert list(df.columns) == ["time", "node", "task", "state"]
     assert list(df["state"]) == ["ready", "running", "idle"] * 2
     assert list(df["node"].cat.categories) == ["cpu"] and all(df["task"] == "a")
+
+
+def test_floats_with_none_read_back_as_one_float_column():
+    # a frame's backoff or bits: floats, with None where the event has none (codec "fnone");
+    # read column-wise as from_records reads the tuples: float64, None as NaN, bits kept
+    rows = [(i, None if i % 3 == 0 else (-0.0 if i % 5 == 0 else i * 0.25)) for i in range(2000)]
+    rows += [(i, None) for i in range(2000, 2600)]      # chunks of None only in between
+    rows += [(i, float(i)) for i in range(2600, 3600)]  # and of floats only
+    store = ColumnStore(2, chunk_rows=256, memory=1024)
+    for r in rows:
+        store.append(r)
+    store.maintain()
+    assert store.spilled_rows > 0
+    codecs = [ch[1][1][0] for _, ch in store._chunks_in_order()]
+    assert {"fnone", "none", "d"} <= set(codecs)
+    got = store.frame(("i", "x"))
+    ref = pd.DataFrame.from_records(rows, columns=["i", "x"])
+    assert got["x"].dtype == np.float64
+    pd.testing.assert_frame_equal(got, ref, check_exact=True)
+    assert np.signbit(got["x"].to_numpy()[5]) and np.isnan(got["x"].to_numpy()[0])
+    assert_same_rows(list(store), rows)

@@ -220,9 +220,10 @@ class Network:
         self._next_id = 0
         self._frames_rec = sim.trace.table("frames", FRAME_COLUMNS,
                                            categorical=("network", "event", "src", "dst", "node", "outcome"),
-                                           transform=_frames_frame)
+                                           transform=_frames_frame, keeps_categories=True)
         self._sched_rec = sim.trace.table("network_schedule", SCHEDULE_COLUMNS,
-                                          categorical=("network", "node", "state"), transform=_schedule_frame)
+                                          categorical=("network", "node", "state"), transform=_schedule_frame,
+                                          keeps_categories=True)
         self._rows = self._frames_rec.rows
         self._sched_rows = self._sched_rec.rows
         sim._register(name, self)
