@@ -65,6 +65,28 @@ __all__ = ["OCP", "RTINMPC", "RTIStep", "FullSolution", "QP_SOLVERS", "rk4_discr
 #: QP solvers the RTI can use (those this CasADi build provides are checked at use).
 QP_SOLVERS = ("hpipm", "qpoases", "osqp", "daqp", "proxqp", "qrqp", "highs")
 
+#: The solvers that report a bare number as their return status, with the names their
+#: headers give the numbers (HPIPM ``hpipm_common.h``, ``enum hpipm_status``; DAQP
+#: ``constants.h``, ``EXIT_*``).  The others report text already.
+_STATUS_CODES = {
+    "hpipm": {0: "success", 1: "maximum iterations reached", 2: "minimum step length reached",
+              3: "NaN in the solution", 4: "inconsistent equality constraints"},
+    "daqp": {2: "soft optimal", 1: "optimal", -1: "infeasible", -2: "cycling", -3: "unbounded",
+             -4: "iteration limit reached", -5: "nonconvex", -6: "overdetermined initial active set"},
+}
+
+
+def _status_text(solver: str, status) -> str:
+    """A QP solver's return status as text: the name of a bare status number (kept in
+    brackets, e.g. ``"minimum step length reached (hpipm status 2)"``), other text as it is."""
+    text = str(status)
+    try:
+        code = int(text)
+    except ValueError:
+        return text
+    name = _STATUS_CODES.get(solver, {}).get(code)
+    return f"{name} ({solver} status {code})" if name else f"{solver} status {code} (no name known)"
+
 
 # ---------------------------------------------------------------------------
 # Helpers
@@ -494,7 +516,8 @@ class RTIStep:
     ``u``: first input of the plan (apply over the next interval); ``x_ref``: the plan's
     state at node 1, i.e. the predicted state one interval ahead; ``X``: the whole
     planned state trajectory (N+1, nx); ``status``: the QP
-    solver's return status text; ``fallback``: True when the QP failed and the shifted
+    solver's return status as text (a solver's bare status number is named, e.g.
+    HPIPM's 2 is ``"minimum step length reached (hpipm status 2)"``); ``fallback``: True when the QP failed and the shifted
     previous plan was used instead; ``qp_iter``: QP solver iterations; ``step_norm``:
     max-norm of the SQP step; ``t_feedback`` / ``t_prepare``: wall-clock seconds of
     the two phases (``t_prepare`` refers to the preparation done *after* this
@@ -772,7 +795,7 @@ class RTINMPC:
             sol = qp(lbx=lbx, ubx=ubx, **self._qpdata)
             stats = qp.stats()
             ok = bool(stats.get("success", False))
-            status = str(stats.get("return_status", "unknown"))
+            status = _status_text(self.qp_solver, stats.get("return_status", "unknown"))
             it = stats.get("iter_count", stats.get("iter", -1))
             it = -1 if it is None else int(it)
             dw = sol["x"].full().ravel()

@@ -142,6 +142,8 @@ def test_failed_qp_falls_back_to_the_shifted_plan_and_is_counted():
     bad = ctrl.step(np.array([0.0, 0.05, 5.0, 0.0]))
     assert not bad.success and bad.fallback
     assert ctrl.n_fail == 1
+    # HPIPM reports the bare number 2: the step names it
+    assert bad.status == "minimum step length reached (hpipm status 2)"
     assert np.all(np.isfinite(bad.u)) and np.all(np.isfinite(bad.X))
     np.testing.assert_allclose(bad.u, planned_u1)
     again = ctrl.step(ctrl.X[0] * 0 + x_ok)
@@ -216,3 +218,25 @@ def test_bad_solver_and_state_raise(ocp):
         x = ca.SX.sym("x", 1)
         u = ca.SX.sym("u", 1)
         OCP(x=x, u=u, xdot=x + y, N=5, Ts=0.1)
+
+
+@pytest.mark.parametrize("solver, status, text", [
+    ("hpipm", 1, "maximum iterations reached (hpipm status 1)"),
+    ("hpipm", "4", "inconsistent equality constraints (hpipm status 4)"),
+    ("daqp", -1, "infeasible (daqp status -1)"),
+    ("daqp", 99, "daqp status 99 (no name known)"),
+    ("osqp", "primal infeasible", "primal infeasible"),
+])
+def test_bare_qp_status_numbers_are_named(solver, status, text):
+    from controllers.nmpc import _status_text
+    assert _status_text(solver, status) == text
+
+
+def test_a_failed_daqp_step_is_named_infeasible():
+    ocp = cartpole_ocp(lbx=[-np.inf, -np.inf, -1.0, -np.inf], ubx=[np.inf, np.inf, 1.0, np.inf],
+                       lbu=[-1.0], ubu=[1.0])
+    x_ok = np.array([0.0, 0.05, 0.0, 0.0])
+    ctrl = RTINMPC(ocp, x_guess=x_ok, qp_solver="daqp")
+    assert ctrl.step(x_ok).success
+    bad = ctrl.step(np.array([0.0, 0.05, 5.0, 0.0]))
+    assert not bad.success and bad.status == "infeasible (daqp status -1)"
