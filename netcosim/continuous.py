@@ -87,6 +87,14 @@ class HybridEvent:
     reset: Callable[..., Any] | None = None
 
     def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise ConfigurationTypeError(f"event name must be a non-empty string, got {self.name!r}")
+        if not callable(self.g):
+            raise ConfigurationTypeError(f"event {self.name!r}: g must be callable g(t, x, u, params) -> float, "
+                                         f"got {self.g!r}")
+        if self.reset is not None and not callable(self.reset):
+            raise ConfigurationTypeError(f"event {self.name!r}: reset must be None or callable "
+                                         f"reset(t, x, u, params) -> x_new, got {self.reset!r}")
         validate.choice(self.direction, f"event {self.name!r}: direction", (-1, 0, 1), kind="-1, 0 or +1")
 
 
@@ -213,6 +221,18 @@ def _all_finite(a: np.ndarray) -> bool:
     only a non-finite (or overflowing) sum needs the exact check.
     """
     return math.isfinite(sum(a.tolist())) or bool(np.isfinite(a).all())
+
+
+def _floats(value, what: str) -> np.ndarray:
+    """*value*, returned by a user's function (*what* names it), as a 1-D float array;
+    :class:`ConfigurationTypeError` naming the value when it is not numbers (None, text,
+    complex numbers: none of them silently becomes NaN or loses its imaginary part)."""
+    if value is None or (isinstance(value, np.ndarray) and value.dtype.kind not in "fiub"):
+        raise ConfigurationTypeError(f"{what} returned {value!r}, not real numbers")
+    try:
+        return np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise ConfigurationTypeError(f"{what} returned {value!r}, not real numbers ({exc})") from None
 
 
 def _crossed(g0: float, g1: float, direction: int) -> bool:
@@ -376,7 +396,7 @@ class _RK4Stepper:
         buf[:] = x
         dx = plant.system.f(t, buf, plant._u_full(t) if u is None else u, plant.params)
         if type(dx) is not np.ndarray or dx.dtype != _FLOAT or dx.ndim != 1:
-            dx = np.asarray(dx, dtype=float).reshape(-1)
+            dx = _floats(dx, f"plant {self.name!r}: f(t={t!r})")
         k = dx.tolist()
         if len(k) != self.nx:
             raise ConfigurationError(
@@ -443,6 +463,11 @@ class _BudgetExceeded(Exception):
     """Raised inside ``solve_ivp`` to stop it; turned into an IntegrationError."""
 
 
+#: the smallest relative tolerance :class:`SolveIVP` accepts: SciPy's solvers raise a
+#: smaller one to this (``100 * np.finfo(float).eps``)
+RTOL_MIN = 100 * float(np.finfo(float).eps)
+
+
 class SolveIVP:
     """SciPy ``solve_ivp`` with event location (the default integrator).
 
@@ -464,7 +489,8 @@ class SolveIVP:
           the accuracy only.  Each implicit step costs a Jacobian (``system.jac`` if the
           system defines it, else ``nx`` extra evaluations of ``f``) and a linear solve.
     rtol, atol: relative and absolute error tolerances (finite, > 0), per state, in
-        the state's units.
+        the state's units; ``rtol`` from :data:`RTOL_MIN` (100 machine epsilons, below
+        which SciPy's solvers cannot go) to below 1.
     max_step: longest step in seconds (> 0, ``inf`` = no limit).
     max_evaluations: most evaluations of ``f`` one advance (one call of
         :meth:`integrate`) may use; beyond it the advance stops with
@@ -483,6 +509,10 @@ class SolveIVP:
         for nm, v in (("rtol", rtol), ("atol", atol), ("max_step", max_step)):
             validate.positive(v, f"SolveIVP {nm}", kind="a positive number", type_error=ConfigurationError,
                               allow_inf=nm == "max_step")
+        if not RTOL_MIN <= rtol < 1.0:
+            # SciPy would raise a smaller rtol to 100 * eps with a warning at the first step
+            raise ConfigurationError(f"SolveIVP rtol must be at least {RTOL_MIN!r} (100 machine epsilons, the "
+                                     f"smallest SciPy's solvers use) and below 1, got {rtol!r}")
         _check_count(max_evaluations, "SolveIVP max_evaluations")
         self.method, self.rtol, self.atol, self.max_step = method, rtol, atol, max_step
         self.max_evaluations = int(max_evaluations)
@@ -984,15 +1014,24 @@ class PlantInstance:
     def _u_full(self, t):
         if self.disturbance is None:
             return self.u
-        d = np.asarray(self.disturbance(t), dtype=float).reshape(-1)
+        d = _floats(self.disturbance(t), f"plant {self.name!r}: disturbance d(t={t!r})")
         if d.shape[0] != self.system.nd:
             raise ConfigurationError(
                 f"plant {self.name!r}: disturbance d(t={t!r}) returned {d.shape[0]} values {d.tolist()!r}, "
                 f"the system has {self.system.nd} disturbances {list(self.system.disturbance_names)}")
+        if not _all_finite(d):
+            raise ConfigurationError(f"plant {self.name!r}: disturbance d(t={t!r}) returned non-finite values "
+                                     f"{d.tolist()!r} for {list(self.system.disturbance_names)}")
         return np.concatenate((self.u, d))
 
     def _rhs(self, t, x):
-        dx = np.asarray(self.system.f(t, x, self._u_full(t), self.params), dtype=float)
+        dx = self.system.f(t, x, self._u_full(t), self.params)
+        if type(dx) is not np.ndarray or dx.dtype != _FLOAT or dx.ndim != 1:
+            dx = _floats(dx, f"plant {self.name!r}: f(t={t!r})")
+        if dx.shape[0] != self.system.nx:
+            raise ConfigurationError(
+                f"plant {self.name!r}: f returned {dx.shape[0]} values {dx.tolist()!r} at t={t!r} s, the system "
+                f"has {self.system.nx} states {list(self.system.state_names)}")
         if not np.isfinite(dx).all():
             bad = [n for n, v in zip(self.system.state_names, np.ravel(dx)) if not math.isfinite(v)]
             raise IntegrationError(
@@ -1021,7 +1060,7 @@ class PlantInstance:
         if x is None:
             x = self.x
         u = self.u if self.disturbance is None else self._u_full(t)
-        y = np.asarray(self.system.h(t, x, u, self.params), dtype=float).reshape(-1)
+        y = _floats(self.system.h(t, x, u, self.params), f"plant {self.name!r}: h(t={t!r})")
         if y.shape[0] != self.system.ny:
             raise ConfigurationError(
                 f"plant {self.name!r}: h returned {y.shape[0]} values {y.tolist()!r} at t={t!r} s, the system "
@@ -1036,8 +1075,17 @@ class PlantInstance:
     def _gs(self):
         out = []
         for e in self.system.events:
-            out.append(((lambda t, x, e=e: float(e.g(t, x, self._u_full(t), self.params))), e.direction))
+            out.append(((lambda t, x, e=e: self._g(e, t, x)), e.direction))
         return out
+
+    def _g(self, e: HybridEvent, t, x) -> float:
+        """Event function *e* at (t, x) as a float; a clear error when it is not one real number."""
+        v = e.g(t, x, self._u_full(t), self.params)
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            raise ConfigurationTypeError(f"plant {self.name!r}: event {e.name!r}: g(t={t!r}) returned {v!r}, "
+                                         f"not one real number") from None
 
     def advance(self, t_target: float | None = None) -> None:
         """Integrate the state up to *t_target* seconds (default: now)."""
@@ -1086,7 +1134,12 @@ class PlantInstance:
                 if last is None or t_new - last > EVENT_REARM:
                     last_fire[j] = t_new
                     if ev.reset is not None:
-                        x_new = np.asarray(ev.reset(t_new, x_new, self._u_full(t_new), self.params), dtype=float)
+                        x_new = _floats(ev.reset(t_new, x_new, self._u_full(t_new), self.params),
+                                        f"plant {self.name!r}: event {ev.name!r}: reset(t={t_new!r})")
+                        if x_new.shape[0] != self.system.nx:
+                            raise ConfigurationError(
+                                f"plant {self.name!r}: event {ev.name!r}: reset returned {x_new.shape[0]} values "
+                                f"{x_new.tolist()!r}, the system has {self.system.nx} states")
                     if effects:
                         self.event_counts[ev.name] += 1
                         self.event_log.append((t_new, ev.name))

@@ -179,3 +179,21 @@ def test_bad_radio_input_raises_naming_the_value():
         sim.run(0.01)
     with pytest.raises(ValueError, match="tx_power_dbm"):
         WLAN80211b(sim, "w2", tx_power_dbm=float("inf"))
+
+
+@pytest.mark.parametrize("ber", ["ber_dbpsk", "ber_dqpsk", "ber_cck", "ber_oqpsk"])
+def test_ber_functions_take_linear_ratios_and_refuse_the_rest_by_name(ber):
+    from netcosim.errors import ConfigurationError, ConfigurationTypeError
+    from netcosim.network import lrwpan, radio
+    f = getattr(radio, ber, None) or getattr(lrwpan, ber)
+    assert f(0.0) == pytest.approx(0.5)
+    assert f(math.inf) == 0.0 and f(1e300) == 0.0     # no NaN from a huge ratio
+    np.testing.assert_array_equal(f(np.array([math.inf, 1e300])), [0.0, 0.0])
+    for dB_by_mistake in (-3.0, -math.inf, [1.0, -2.0]):
+        with pytest.raises(ConfigurationError, match=r"linear power ratio >= 0 \(not dB, not NaN\), got"):
+            f(dB_by_mistake)
+    with pytest.raises(ConfigurationError, match="got nan"):
+        f(math.nan)
+    for junk in ("10", None, 1j, np.array([1 + 0j])):
+        with pytest.raises(ConfigurationTypeError, match="must be a linear power ratio"):
+            f(junk)

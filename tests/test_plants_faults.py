@@ -202,3 +202,74 @@ def test_solve_ivp_method_is_validated_and_the_implicit_ones_pass_through():
         SolveIVP(method="radau")
     assert [SolveIVP(method=m).implicit for m in ("RK45", "DOP853", "Radau", "BDF", "LSODA")] == \
         [False, False, True, True, True]
+
+
+# -- what a user's function returns: numbers or a clear error, never a silent NaN ------
+
+@pytest.mark.parametrize("integrator", [None, SolveIVP(), RK4(dt=1e-3)])
+@pytest.mark.parametrize("returned, match", [
+    ("abc", r"f\(t=0.0\) returned 'abc', not real numbers"),
+    (None, r"f\(t=0.0\) returned None, not real numbers"),
+    ([1j], r"returned \[1j\], not real numbers"),
+    (np.array([1 + 2j]), r"not real numbers"),        # numpy would drop the imaginary part
+    ([1.0, 2.0], r"f returned 2 values \[1.0, 2.0\] at t=0.0 s, the system has 1 states \['x'\]"),
+])
+def test_f_returning_what_is_not_its_derivative_is_refused_by_name(integrator, returned, match):
+    from netcosim.errors import ConfigurationTypeError
+    sim = Simulation()
+    system = ContinuousSystem(f=lambda t, x, u, p: returned, states=["x"], inputs=0, outputs=1)
+    sim.plant(system, [1.0], name="tank", integrator=integrator)
+    with pytest.raises((ConfigurationError, ConfigurationTypeError), match=match) as info:
+        sim.run(0.01)
+    assert "plant 'tank'" in str(info.value)
+
+
+@pytest.mark.parametrize("returned, match", [
+    ("a", r"disturbance d\(t=0.0\) returned 'a', not real numbers"),
+    (None, r"disturbance d\(t=0.0\) returned None, not real numbers"),
+    ([math.nan], r"disturbance d\(t=0.0\) returned non-finite values \[nan\] for \['wind'\]"),
+])
+def test_a_disturbance_that_is_not_finite_numbers_is_refused(returned, match):
+    from netcosim.errors import ConfigurationTypeError
+    sim = Simulation()
+    # f ignores the disturbance: a NaN would otherwise pass unseen
+    system = ContinuousSystem(f=lambda t, x, u, p: [0.0], states=1, inputs=0, outputs=1, disturbances=["wind"])
+    sim.plant(system, [1.0], name="boat", disturbance=lambda t: returned)
+    with pytest.raises((ConfigurationError, ConfigurationTypeError), match=match):
+        sim.run(0.01)
+
+
+def test_event_functions_are_checked_at_construction_and_their_values_at_run_time():
+    from netcosim.continuous import HybridEvent
+    from netcosim.errors import ConfigurationTypeError
+    with pytest.raises(ConfigurationTypeError, match="event 'floor': g must be callable"):
+        HybridEvent("floor", 3.0)
+    with pytest.raises(ConfigurationTypeError, match=r"event name must be a non-empty string, got \['a'\]"):
+        HybridEvent(["a"], lambda t, x, u, p: x[0])
+    with pytest.raises(ConfigurationTypeError, match="event 'floor': reset must be None or callable"):
+        HybridEvent("floor", lambda t, x, u, p: x[0], reset="zero")
+    sim = Simulation()
+    system = ContinuousSystem(f=lambda t, x, u, p: [-1.0], states=1, inputs=0, outputs=1,
+                              events=[HybridEvent("floor", lambda t, x, u, p: "low")])
+    sim.plant(system, [1.0], name="ball")
+    with pytest.raises(ConfigurationTypeError, match=r"event 'floor': g\(t=0.0\) returned 'low', not one real"):
+        sim.run(0.01)
+
+
+def test_a_reset_returning_the_wrong_length_is_refused():
+    from netcosim.continuous import HybridEvent
+    sim = Simulation()
+    system = ContinuousSystem(f=lambda t, x, u, p: [-1.0], states=1, inputs=0, outputs=1,
+                              events=[HybridEvent("floor", lambda t, x, u, p: x[0], direction=-1,
+                                                  reset=lambda t, x, u, p: [1.0, 0.0])])
+    sim.plant(system, [0.5], name="ball", integrator=RK4(dt=1e-3))
+    with pytest.raises(ConfigurationError, match=r"event 'floor': reset returned 2 values \[1.0, 0.0\], the "
+                                                 r"system has 1 states"):
+        sim.run(1.0)
+
+
+@pytest.mark.parametrize("rtol", [1e-300, 1e-15, 1.0, 2.0])
+def test_solve_ivp_rtol_outside_what_scipy_uses_is_refused(rtol):
+    with pytest.raises(ConfigurationError, match=r"rtol must be at least 2.22\d*e-14 .* below 1, got"):
+        SolveIVP(rtol=rtol)
+    assert SolveIVP(rtol=2.3e-14).rtol == 2.3e-14

@@ -45,7 +45,7 @@ from ..errors import ConfigurationError
 from ..timebase import to_ticks
 from .frame import BROADCAST
 from .medium import Transmission
-from .radio import Modulation, PathLoss, thermal_noise_dbm
+from .radio import Modulation, PathLoss, linear_ratio, thermal_noise_dbm
 from .wireless import RadioNetwork, RadioStation
 
 SYMBOL = 16e-6
@@ -53,8 +53,8 @@ _K = np.arange(2, 17)
 _COEF = (-1.0) ** _K * np.array([math.comb(16, int(k)) for k in _K], dtype=float)
 
 def ber_oqpsk(sinr):
-    """802.15.4 2.4 GHz O-QPSK bit error rate as a function of the (linear) SINR."""
-    s = np.atleast_1d(np.asarray(sinr, dtype=float))
+    """802.15.4 2.4 GHz O-QPSK bit error rate as a function of the SINR (linear, >= 0)."""
+    s = np.atleast_1d(linear_ratio(sinr, "SINR"))
     terms = _COEF[None, :] * np.exp(20.0 * s[:, None] * (1.0 / _K[None, :] - 1.0))
     ber = np.clip(8.0 / 15.0 / 16.0 * terms.sum(axis=1), 0.0, 0.5)
     return float(ber[0]) if np.ndim(sinr) == 0 else ber

@@ -169,18 +169,40 @@ def distance(a: Sequence[float], b: Sequence[float]) -> float:
 
 # ---------------------------------------------------------------------------- bit errors
 
+def linear_ratio(value, what: str = "Eb/N0") -> np.ndarray:
+    """*value* (a number or an array) as a float array of linear power ratios: each
+    ``>= 0`` or ``inf``; :class:`ConfigurationError` naming the value for a negative one
+    (a ratio in dB passed where a linear one is expected) or NaN,
+    :class:`ConfigurationTypeError` for what is not real numbers."""
+    if value is None or isinstance(value, (str, bytes)) or (
+            isinstance(value, np.ndarray) and value.dtype.kind not in "fiub"):
+        raise ConfigurationTypeError(f"{what} must be a linear power ratio (a real number >= 0), got {value!r}")
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigurationTypeError(f"{what} must be a linear power ratio (a real number >= 0), "
+                                     f"got {value!r}") from None
+    if not (a >= 0.0).all():     # NaN fails the comparison too
+        raise ConfigurationError(f"{what} must be a linear power ratio >= 0 (not dB, not NaN), got {value!r}")
+    return a
+
+
 def ber_dbpsk(ebn0):
-    """Bit error rate of differential BPSK: ``1/2 exp(-Eb/N0)`` (Eb/N0 linear)."""
-    return 0.5 * np.exp(-np.asarray(ebn0, dtype=float)) if np.ndim(ebn0) else 0.5 * math.exp(-ebn0)
+    """Bit error rate of differential BPSK: ``1/2 exp(-Eb/N0)`` (Eb/N0 linear, >= 0)."""
+    if type(ebn0) is float and ebn0 >= 0.0:
+        return 0.5 * math.exp(-ebn0)
+    g = linear_ratio(ebn0)
+    return 0.5 * np.exp(-g) if np.ndim(ebn0) else float(0.5 * np.exp(-g))
 
 
 def ber_dqpsk(ebn0):
     """Exact bit error rate of Gray-coded DQPSK (Proakis): ``Q1(a, b) - 1/2 I0(ab) exp(-(a^2+b^2)/2)``.
 
     ``a = sqrt(2 g (1 - 1/sqrt 2))``, ``b = sqrt(2 g (1 + 1/sqrt 2))``, ``g = Eb/N0``;
-    Marcum Q1 via the non-central chi-square survival function.
+    Marcum Q1 via the non-central chi-square survival function.  ``Eb/N0`` linear, >= 0;
+    above 10**4 the BER is 0.0 in double precision and is computed at 10**4.
     """
-    g = np.asarray(ebn0, dtype=float)
+    g = np.minimum(linear_ratio(ebn0), 1e4)
     a = np.sqrt(2.0 * g * (1.0 - 1.0 / math.sqrt(2.0)))
     b = np.sqrt(2.0 * g * (1.0 + 1.0 / math.sqrt(2.0)))
     from scipy import special, stats  # loaded on first use: most runs never need it
@@ -192,9 +214,10 @@ def ber_dqpsk(ebn0):
 
 
 def ber_cck(ebn0):
-    """Simple CCK model: coherent QPSK bit error rate ``Q(sqrt(2 Eb/N0)) = 1/2 erfc(sqrt(Eb/N0))``."""
+    """Simple CCK model: coherent QPSK bit error rate ``Q(sqrt(2 Eb/N0)) = 1/2 erfc(sqrt(Eb/N0))``
+    (Eb/N0 linear, >= 0)."""
     from scipy import special
-    g = np.asarray(ebn0, dtype=float)
+    g = linear_ratio(ebn0)
     ber = 0.5 * special.erfc(np.sqrt(g))
     return float(ber) if np.ndim(ebn0) == 0 else ber
 
