@@ -269,3 +269,54 @@ def test_message_loss_per_link():
         IdealLink(sim, "bad", data_rate=1e6, message_loss={"a": 0.1})
     with pytest.raises(ValueError, match="probability"):
         IdealLink(sim, "bad2", data_rate=1e6, message_loss={("a", "b"): 1.5})
+
+
+# -- models other than Bernoulli: their long-run statistics, and the notice from them --------
+
+def test_gilbert_elliott_consecutive_loss_matches_its_draws():
+    import numpy as np
+
+    from netcosim.network import GilbertElliott
+    ge = GilbertElliott(p_gb=0.2, p_bg=0.4, loss_good=0.1, loss_bad=0.9)
+    assert ge.frame_loss() == pytest.approx(1 / 3 * 0.9 + 2 / 3 * 0.1)
+    assert ge.consecutive_loss(1) == pytest.approx(ge.frame_loss())
+    # n = 2 by hand: pi_i L_i P_ij L_j summed
+    pi, L = np.array([2 / 3, 1 / 3]), np.array([0.1, 0.9])
+    P = np.array([[0.8, 0.2], [0.4, 0.6]])
+    assert ge.consecutive_loss(2) == pytest.approx(float((pi * L) @ P @ L))
+    # the draws: 20 000 links from the stationary state, their first 4 frames
+    rng = np.random.default_rng(3)
+    n_links, n = 20_000, 4
+    hits = 0
+    for _ in range(n_links):
+        lk = ge.link(rng)
+        hits += all([lk.lost() for _ in range(n)])
+    lo, hi = wilson(hits, n_links)
+    assert lo <= ge.consecutive_loss(n) <= hi
+    # bursts: far more than independent losses of the same rate
+    assert ge.consecutive_loss(n) > 3 * ge.frame_loss() ** n
+
+
+def test_trace_loss_statistics_count_windows_of_the_sequence():
+    from netcosim.network import TraceLoss
+    seq = [1, 1, 0, 1, 1, 1, 0, 0]
+    cyc, once = TraceLoss(seq, repeat=True), TraceLoss(seq, repeat=False)
+    assert cyc.frame_loss() == once.frame_loss() == 5 / 8
+    # windows of 2 starting at 0..7, cyclically: 11, 10, 01, 11, 11, 10, 00, 01 -> 3 of 8
+    assert cyc.consecutive_loss(2) == 3 / 8
+    # without repeat only the 7 windows inside the sequence: 3 of 7
+    assert once.consecutive_loss(2) == 3 / 7
+    assert once.consecutive_loss(9) == 0.0 and TraceLoss([1], repeat=True).consecutive_loss(5) == 1.0
+
+
+def test_the_notice_follows_the_model_statistics_for_bursty_loss():
+    from netcosim.network import GilbertElliott
+    # short bursts (mean 2 frames), loss 0.5: 7 attempts leave 0.5 * 0.5**6 = 0.0078 -> noted
+    with pytest.warns(MaskedLossWarning, match=r"long-run 0.5 per frame.*message loss is only 0.0078"):
+        sim, net, a, b = wlan_pair(5, loss=GilbertElliott(p_gb=0.5, p_bg=0.5, loss_good=0.0, loss_bad=1.0))
+        sim.run(0.1)
+    # long bursts (mean 20 frames): retries do not hide them (0.5 * 0.95**6 = 0.37) -> not noted
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", MaskedLossWarning)
+        sim, net, a, b = wlan_pair(5, loss=GilbertElliott(p_gb=0.05, p_bg=0.05))
+        sim.run(0.1)

@@ -201,7 +201,8 @@ class Network:
         self.loss = as_loss_model(loss)
         self.message_loss = _message_loss(message_loss, w)
         # the once-per-network notice of a frame loss hidden by retries (checked at the first unicast)
-        self._mask_check = isinstance(self.loss, Bernoulli) and self.loss.p >= 0.05
+        p = self.loss.frame_loss() if self.loss is not None else None
+        self._mask_check = p is not None and p >= 0.05
         self.queue = queue or self.default_queue
         TxQueue(self.queue, queue_capacity, what=w)  # validate now, not at attach
         self.queue_capacity = queue_capacity
@@ -401,19 +402,25 @@ class Network:
         frame.pend.add(rx.index)
 
     def _check_masked_loss(self) -> None:
-        """Note once if retries hide the frame loss: expected message loss p**attempts < p / 10."""
+        """Note once if retries hide the frame loss: the expected message loss (all attempts
+        lost, :meth:`LossModel.consecutive_loss`) below a tenth of the frame loss."""
         self._mask_check = False
         if not getattr(self, "use_ack", False):
             return
-        assert isinstance(self.loss, Bernoulli)
-        p, n = self.loss.p, int(getattr(self, "max_attempts", 1) or 1)
-        if n > 1 and p < 1.0 and p ** n < 0.1 * p:
-            warnings.warn(
-                f"network {self.name!r}: loss={p:g} is a frame loss, drawn per attempt; with up to {n} attempts "
-                f"per unicast message the expected message loss is only {p:g}**{n} = {p ** n:.3g} if nothing "
-                f"else fails an attempt.  For a loss of whole messages use message_loss={p:g} (silenced before "
-                f"medium access, as TrueTime's wireless loss); network.stats reports both losses",
-                MaskedLossWarning, stacklevel=4)
+        model = self.loss
+        p, n = model.frame_loss(), int(getattr(self, "max_attempts", 1) or 1)
+        q = model.consecutive_loss(n) if n > 1 else None
+        if q is None or not q < 0.1 * p:
+            return
+        if isinstance(model, Bernoulli):
+            what, expected, suggest = f"loss={p:g}", f"{p:g}**{n} = {q:.3g}", f"message_loss={p:g}"
+        else:
+            what, expected, suggest = f"loss={model!r} (long-run {p:.3g} per frame)", f"{q:.3g}", "message_loss="
+        warnings.warn(
+            f"network {self.name!r}: {what} is a frame loss, drawn per attempt; with up to {n} attempts per "
+            f"unicast message the expected message loss is only {expected} if nothing else fails an "
+            f"attempt.  For a loss of whole messages use {suggest} (silenced before medium access, as "
+            f"TrueTime's wireless loss); network.stats reports both losses", MaskedLossWarning, stacklevel=4)
 
     def _queue_full(self, iface: Interface) -> None:
         """A message finds *iface*'s sender queue full: raise, or warn the first time."""

@@ -37,15 +37,31 @@ from ..errors import ConfigurationError, ConfigurationTypeError, LossTraceExhaus
 
 class MaskedLossWarning(UserWarning):
     """A frame loss that the MAC's retries hide almost completely: the expected message loss
-    ``p**attempts`` is below a tenth of ``p`` (issued once per network)."""
+    (every attempt lost: ``p**attempts`` for Bernoulli, more with bursts, see
+    :meth:`LossModel.consecutive_loss`) is below a tenth of the frame loss ``p``
+    (issued once per network, for models that state both)."""
 
 
 class LossModel:
-    """Base class.  :meth:`link` returns the per-link state object with ``lost() -> bool``."""
+    """Base class.  :meth:`link` returns the per-link state object with ``lost() -> bool``.
+
+    A model may also state its long-run statistics, which the networks use to note a
+    frame loss hidden by retries (:class:`MaskedLossWarning`): :meth:`frame_loss` and
+    :meth:`consecutive_loss` (both None: not known, no notice)."""
 
     def link(self, rng: np.random.Generator) -> "LinkLoss":
         """A fresh per-link state object (a :class:`LinkLoss`) for one directed link, drawing from *rng*."""
         raise NotImplementedError
+
+    def frame_loss(self) -> float | None:
+        """Long-run probability that a frame on a link is lost; None when the model cannot say."""
+        return None
+
+    def consecutive_loss(self, n: int) -> float | None:
+        """Long-run probability that *n* consecutive frames on one link are all lost (what a
+        unicast message with *n* attempts suffers when nothing else fails them); None
+        when the model cannot say."""
+        return None
 
 
 class LinkLoss:
@@ -77,6 +93,14 @@ class Bernoulli(LossModel):
     def link(self, rng):
         """An independent Bernoulli(``p``) loss state for one link, drawing from *rng*."""
         return _BernoulliLink(self.p, rng)
+
+    def frame_loss(self) -> float:
+        """``p``."""
+        return self.p
+
+    def consecutive_loss(self, n: int) -> float:
+        """``p**n``."""
+        return self.p ** n
 
     def __repr__(self):
         return f"Bernoulli(p={self.p})"
@@ -148,6 +172,24 @@ class GilbertElliott(LossModel):
         """A two-state Markov loss state for one link (initial state by ``start``), drawing from *rng*."""
         return _GELink(self, rng)
 
+    def frame_loss(self) -> float | None:
+        """:attr:`loss_rate` (None when the chain has no stationary distribution)."""
+        return None if self.p_gb + self.p_bg == 0.0 else self.loss_rate
+
+    def consecutive_loss(self, n: int) -> float | None:
+        """``pi L (P L)**(n-1) 1``: stationary start ``pi``, loss per state ``L``, one
+        transition ``P`` after each frame (as :meth:`link` draws them).  Bursts make it far
+        larger than ``frame_loss()**n``."""
+        if self.p_gb + self.p_bg == 0.0:
+            return None
+        b = self.stationary_bad
+        v = np.array([1.0 - b, b]) * np.array([self.loss_good, self.loss_bad])
+        P = np.array([[1.0 - self.p_gb, self.p_gb], [self.p_bg, 1.0 - self.p_bg]])
+        L = np.array([self.loss_good, self.loss_bad])
+        for _ in range(n - 1):
+            v = (v @ P) * L
+        return float(v.sum())
+
     def __repr__(self):
         return (f"GilbertElliott(p_gb={self.p_gb}, p_bg={self.p_bg}, loss_good={self.loss_good}, "
                 f"loss_bad={self.loss_bad})")
@@ -197,6 +239,24 @@ class TraceLoss(LossModel):
     def link(self, rng):
         """A replay of ``sequence`` for one link, from its start (*rng* is not used)."""
         return _TraceLink(self.sequence, self.repeat)
+
+    def frame_loss(self) -> float:
+        """The fraction of lost frames in the sequence."""
+        return sum(self.sequence) / len(self.sequence)
+
+    def consecutive_loss(self, n: int) -> float:
+        """The fraction of positions where *n* consecutive frames are lost (cyclically with
+        ``repeat``)."""
+        seq = np.asarray(self.sequence, dtype=bool)
+        m = len(seq)
+        if self.repeat:
+            ext, starts = np.resize(seq, m + n - 1), m    # np.resize repeats the sequence cyclically
+        else:
+            ext, starts = seq, m - n + 1
+            if starts <= 0:
+                return 0.0
+        windows = np.lib.stride_tricks.sliding_window_view(ext, n)[:starts]
+        return float(windows.all(axis=1).mean())
 
     def __repr__(self):
         return f"TraceLoss({len(self.sequence)} frames, repeat={self.repeat})"
