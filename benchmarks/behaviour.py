@@ -27,6 +27,8 @@ from pathlib import Path
 #: Experiments fingerprinted (all run with quick=True).
 EXPERIMENTS = ["servo", "threeservos", "networked_servo", "ch2_landing", "ch3_fig3_8", "ch3_fig3_10_12", "ch4_fig4_8_9",
                "ch4_fig4_10", "ch5_table5_2", "ch5_fig5_8_9"]
+#: Network scenarios fingerprinted beside the experiments (see :func:`network_saturation`).
+SCENARIOS = ["network_saturation"]
 REFERENCE = Path(__file__).with_name("behaviour_reference.json")
 #: A comparison tool, not a timing: ``python -m benchmarks`` skips it.
 RUN_WITH_ALL = False
@@ -51,14 +53,51 @@ def table_fingerprint(path: Path) -> dict:
     return {"rows": int(len(df)), "sha256": h.hexdigest()}
 
 
+def network_saturation(outdir, quick: bool = True) -> None:
+    """Saturated networks with every trace table written: 802.11b with 10 stations all
+    hearing all (shared idle-slot clock and per-station rules), 12 stations on a 10 m
+    circle (capture possible), with 20 % frame loss; CAN at 90 % load; 0.3 s each."""
+    import math
+    import warnings
+
+    from netcosim import Simulation
+    from netcosim.network import CAN, MaskedLossWarning, SaturatedSource, WLAN80211b
+    out = Path(outdir)
+    for label, n, radius, shared, loss in (("wlan_cluster_shared", 10, 0.5, True, 0.0),
+                                           ("wlan_cluster_rules", 10, 0.5, False, 0.0),
+                                           ("wlan_circle_loss", 12, 10.0, True, 0.2)):
+        sim = Simulation(seed=3)
+        warnings.filterwarnings("ignore", category=MaskedLossWarning)   # the frame loss is meant
+        net = WLAN80211b(sim, "wlan", data_rate=11e6, shared_clock=shared, loss=loss)
+        ap = net.attach("ap", position=(0.0, 0.0))
+        for i in range(n):
+            SaturatedSource(net.attach(f"s{i}", position=(radius * math.cos(i), radius * math.sin(i))), ap, 12_000)
+        sim.run(0.3)
+        sim.trace.to_parquet(out, prefix=f"{label}_")
+    sim = Simulation(seed=3)
+    bus = CAN(sim, "can", data_rate=500e3, frame_format="standard")
+    sink = bus.attach("sink", priority=10**6)
+    rng = sim.rng("phases")
+    for i in range(8):
+        iface = bus.attach(f"n{i}", priority=i)
+
+        def send(iface=iface):
+            iface.send(sink, None, 64)
+            sim.call_in(2e-3, send)
+        sim.call_at(float(rng.uniform(0, 2e-3)), send)
+    sim.run(0.3)
+    sim.trace.to_parquet(out, prefix="can_")
+
+
 def fingerprints(names: list[str]) -> dict:
     """Run each experiment (quick) and fingerprint every Parquet table it writes."""
     out: dict[str, dict] = {}
     for name in names:
         t0 = time.perf_counter()
-        mod = importlib.import_module(f"experiments.{name}")
+        run = network_saturation if name == "network_saturation" else \
+            importlib.import_module(f"experiments.{name}").main
         with tempfile.TemporaryDirectory() as tmp:
-            mod.main(outdir=tmp, quick=True)
+            run(outdir=tmp, quick=True)
             tables = sorted(Path(tmp).rglob("*.parquet"))
             out[name] = {str(p.relative_to(tmp)): table_fingerprint(p) for p in tables}
         print(f"{name}: {len(out[name])} tables ({time.perf_counter() - t0:.1f} s)", flush=True)
@@ -71,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="+", metavar="NAME", help="experiments to run (default: all)")
     ap.add_argument("--reference", type=Path, default=REFERENCE, help="fingerprint file")
     a = ap.parse_args(argv)
-    names = a.only or EXPERIMENTS
+    names = a.only or EXPERIMENTS + SCENARIOS
     got = fingerprints(names)
     if a.action == "record":
         old = json.loads(a.reference.read_text()) if a.reference.exists() else {}
