@@ -4,8 +4,8 @@
 ``run`` calls an experiment's entry point with ``outdir`` (and ``quick``) keyword
 arguments.  EXPERIMENT is one of
 
-* ``NAME``: the module ``experiments.NAME`` shipped with netcosim (e.g. ``servo``),
-  its function ``main``;
+* ``NAME``: the entry point NAME of the group ``netcosim.experiments`` (e.g. ``servo``,
+  registered by netcosim's pyproject.toml; other installed packages can add their own);
 * ``package.module``: any importable module, its function ``main``;
 * ``package.module:function``: that function of that module;
 * ``path/to/file.py`` (or ``path/to/file.py:function``): a Python file, loaded as a

@@ -47,18 +47,24 @@ def _import_module(name: str, what: str):
         raise _syntax_error(exc) from None
 
 
+#: The entry-point group of the experiments ``netcosim run NAME`` runs (``name = "module:function"``).
+EXPERIMENT_GROUP = "netcosim.experiments"
+
+
+def _registered() -> dict:
+    """``{name: EntryPoint}`` of the group :data:`EXPERIMENT_GROUP` in every installed distribution
+    (the first one wins if two register a name; nothing is imported)."""
+    from importlib.metadata import entry_points
+    found: dict = {}
+    for ep in entry_points(group=EXPERIMENT_GROUP):
+        found.setdefault(ep.name, ep)
+    return found
+
+
 def available_experiments() -> list[str]:
-    """The NAMEs ``netcosim run NAME`` accepts: the modules of the ``experiments`` package
-    whose ``main`` takes ``outdir`` first (read from the sources, nothing is imported)."""
-    import re
-    spec = importlib.util.find_spec("experiments")
-    names = set()
-    for directory in (spec.submodule_search_locations or []) if spec is not None else []:
-        for f in Path(directory).glob("*.py"):
-            if not f.stem.startswith("_") and re.search(r"^def main\(\s*outdir\b",
-                                                        f.read_text(encoding="utf-8", errors="replace"), re.M):
-                names.add(f.stem)
-    return sorted(names)
+    """The NAMEs ``netcosim run NAME`` accepts: the entry points of the group ``netcosim.experiments``
+    (netcosim's own in pyproject.toml, and those of any other installed package)."""
+    return sorted(_registered())
 
 
 def resolve_experiment(spec: str):
@@ -78,21 +84,21 @@ def resolve_experiment(spec: str):
     if target.endswith(".py") or "/" in target or "\\" in target:
         module = _load_module_from_file(target)
         where = f"file {target!r}"
-    elif sep or "." in target.removeprefix("experiments."):
+    elif not sep and target in (registered := _registered()):
+        ep = registered[target]
+        where = f"experiment {target!r} (entry point {ep.value!r} of group {EXPERIMENT_GROUP!r})"
+        module = _import_module(ep.module, f"{where}: no module {ep.module!r}")
+        func = ep.attr or "main"
+    elif sep or "." in target:
         module = _import_module(target, f"no module {target!r} (experiment {spec!r})")
         where = f"module {target!r}"
     else:
-        name = target.removeprefix("experiments.")
-        try:
-            module = _import_module(f"experiments.{name}", "")
-        except UsageError:
-            import difflib
-            known = available_experiments()
-            close = difflib.get_close_matches(name, known, n=1)
-            raise UsageError(f"no experiment {name!r} (no module experiments.{name})"
-                             + (f"; did you mean {close[0]!r}?" if close else "")
-                             + f" The experiments are: {', '.join(known) or 'none found'}") from None
-        where = f"experiments.{name}"
+        import difflib
+        known = sorted(registered)
+        close = difflib.get_close_matches(target, known, n=1)
+        raise UsageError(f"no experiment {target!r} (no entry point {target!r} in group {EXPERIMENT_GROUP!r})"
+                         + (f"; did you mean {close[0]!r}?" if close else "")
+                         + f" The experiments are: {', '.join(known) or 'none found'}")
     fn = getattr(module, func, None)
     if fn is None:
         raise UsageError(f"{where} has no function {func!r}")
@@ -182,8 +188,8 @@ def add_parser(sub) -> None:
     """Add the ``run`` subcommand to the subparsers *sub* of the ``netcosim`` parser."""
     r = sub.add_parser("run", help="run an experiment (calls its main(outdir=..., quick=...))")
     r.add_argument("experiment",
-                   help="NAME of a module in experiments/ (e.g. servo), package.module[:function], "
-                        "or path/to/file.py[:function]")
+                   help="NAME of a registered experiment (entry point group netcosim.experiments, e.g. servo), "
+                        "package.module[:function], or path/to/file.py[:function]")
     r.add_argument("--outdir", help="output directory (default: the experiment's own)")
     r.add_argument("--quick", action="store_true", help="pass quick=True: the experiment's short run")
     r.set_defaults(fn=_run)
