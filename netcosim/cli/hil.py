@@ -236,8 +236,6 @@ def _hil(args) -> int:
     return 1 if result.failure is not None else 0
 
 
-
-
 def add_parser(sub) -> None:
     """Add the ``hil`` subcommand to the subparsers *sub* of the ``netcosim`` parser."""
     h = sub.add_parser("hil", help="run a scenario in real time with one node in another process (Zenoh)",

@@ -119,8 +119,6 @@ def _plot(args) -> int:
     return 0
 
 
-
-
 def add_parser(sub) -> None:
     """Add the ``plot`` subcommand to the subparsers *sub* of the ``netcosim`` parser."""
     pl = sub.add_parser("plot", help="plot a saved trace (task schedule or network timeline)",

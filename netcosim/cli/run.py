@@ -182,8 +182,6 @@ def _run(args) -> int:
     return 0
 
 
-
-
 def add_parser(sub) -> None:
     """Add the ``run`` subcommand to the subparsers *sub* of the ``netcosim`` parser."""
     r = sub.add_parser("run", help="run an experiment (calls its main(outdir=..., quick=...))")

@@ -104,8 +104,6 @@ def _sweep(args) -> int:
     return 1 if s["error"] or s["timeout"] else 0
 
 
-
-
 def add_parser(sub) -> None:
     """Add the ``sweep`` subcommand to the subparsers *sub* of the ``netcosim`` parser."""
     sw = sub.add_parser("sweep", help="run a scenario over a grid of cases and seeds into a Parquet dataset",
