@@ -228,7 +228,7 @@ def test_bad_solver_and_state_raise(ocp):
     ("osqp", "primal infeasible", "primal infeasible"),
 ])
 def test_bare_qp_status_numbers_are_named(solver, status, text):
-    from controllers.nmpc import _status_text
+    from controllers.nmpc.qp import _status_text
     assert _status_text(solver, status) == text
 
 

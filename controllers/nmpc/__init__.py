@@ -1,9 +1,27 @@
 """Real-time-iteration nonlinear MPC (multiple shooting, Gauss–Newton, CasADi).
 
-The code is in :mod:`controllers.nmpc.rti`; every public name is re-exported here.
+Modules, from the problem to its solvers:
+
+=====================================  ====================================================
+:mod:`~controllers.nmpc.ocp`           :class:`OCP` (the least-squares optimal control
+                                       problem, its input checks) and :func:`rk4_discretize`
+:mod:`~controllers.nmpc.transcription` its multiple-shooting NLP in stage-wise order
+:mod:`~controllers.nmpc.qp`            the QP solvers (:data:`QP_SOLVERS`), their default
+                                       options and status names
+:mod:`~controllers.nmpc.rti`           the real-time iteration :class:`RTINMPC` (Diehl et
+                                       al., 2002) and its per-sample :class:`RTIStep`
+:mod:`~controllers.nmpc.full`          converged solves: :class:`FullSolution`, IPOPT
+=====================================  ====================================================
+
+Every public name is re-exported here: ``from controllers.nmpc import OCP, RTINMPC``.
+
+Units are those of the model; time in seconds.  All angles are whatever the model
+uses (radians for the models of this project).
 """
 
-from .rti import OCP, QP_SOLVERS, RTINMPC, FullSolution, RTIStep, rk4_discretize
-from .rti import _status_text as _status_text  # imported by tests
+from .full import FullSolution
+from .ocp import OCP, rk4_discretize
+from .qp import QP_SOLVERS
+from .rti import RTINMPC, RTIStep
 
 __all__ = ["OCP", "RTINMPC", "RTIStep", "FullSolution", "QP_SOLVERS", "rk4_discretize"]

@@ -1,0 +1,79 @@
+"""Fully converged solves of the OCP: :class:`FullSolution` and the IPOPT solver
+(:class:`IpoptOCP`); the Gauss–Newton SQP is :meth:`RTINMPC.solve_sqp
+<controllers.nmpc.rti.RTINMPC.solve_sqp>`."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import casadi as ca
+import numpy as np
+
+if TYPE_CHECKING:
+    from .rti import RTINMPC
+
+__all__ = ["FullSolution", "IpoptOCP"]
+
+
+@dataclass(frozen=True)
+class FullSolution:
+    """A fully converged solve of the OCP (``method`` 'ipopt' or 'sqp').
+
+    ``X`` (N+1, nx), ``U`` (N, nu), ``S`` (N, ns), ``SN`` (nsN,), ``cost`` (objective),
+    ``iterations``, ``success``, ``status``, ``t_wall`` (s).
+    """
+
+    X: np.ndarray
+    U: np.ndarray
+    S: np.ndarray
+    SN: np.ndarray
+    cost: float
+    iterations: int
+    success: bool
+    status: str
+    method: str
+    t_wall: float
+
+
+class IpoptOCP:
+    """Full IPOPT solve of the multiple-shooting NLP of an :class:`RTINMPC`.
+
+    Same variables, constraints and objective as the RTI; exact Hessian of the
+    Lagrangian.  Warm-started from the previous solution when called repeatedly.
+    """
+
+    def __init__(self, rti: RTINMPC, options: dict | None = None):
+        tr = rti.tr
+        self.rti = rti
+        opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": 1e-10,
+                "ipopt.acceptable_tol": 1e-8, "ipopt.max_iter": 500, "ipopt.sb": "yes",
+                "ipopt.mu_strategy": "adaptive"}
+        opts.update(options or {})
+        self.solver = ca.nlpsol("full_ipopt", "ipopt", {"x": tr.w, "p": tr.p_sym, "f": tr.cost, "g": tr.g},
+                                opts)
+        self._w = None
+
+    def solve(self, x0, p=None, w_init=None) -> FullSolution:
+        rti, tr = self.rti, self.rti.tr
+        x0 = rti._check_x(x0)
+        p = rti._p if p is None else rti._check_p(p)
+        lbw, ubw = tr.lbw.copy(), tr.ubw.copy()
+        lbw[tr.ix[0]] = x0
+        ubw[tr.ix[0]] = x0
+        if w_init is None:
+            w_init = self._w if self._w is not None else rti._w
+        w_init = np.array(w_init, dtype=float)
+        w_init[tr.ix[0]] = x0
+        t0 = time.perf_counter()
+        sol = self.solver(x0=w_init, p=p, lbx=lbw, ubx=ubw, lbg=tr.lbg, ubg=tr.ubg)
+        t = time.perf_counter() - t0
+        st = self.solver.stats()
+        w = sol["x"].full().ravel()
+        ok = bool(st.get("success", False)) and np.all(np.isfinite(w))
+        if ok:
+            self._w = w
+        X, U, S, SN = tr.unpack(w)
+        return FullSolution(X.copy(), U.copy(), S.copy(), SN.copy(), float(sol["f"]),
+                            int(st.get("iter_count", -1)), ok, str(st.get("return_status")), "ipopt", t)
