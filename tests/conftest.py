@@ -55,6 +55,28 @@ class SteppingClock:
         return self.t
 
 
+def wait_until(predicate, timeout=10.0, interval=0.01, *, what=None):
+    """Poll ``predicate()`` every *interval* s until it returns a true value (returned);
+    AssertionError naming *what* was awaited (default: the predicate's name or source
+    text) after *timeout* s.  For waiting on a peer: a fixed sleep is slow when the peer
+    is quick and flaky when the machine is loaded."""
+    import time
+    deadline = time.monotonic() + timeout
+    while True:
+        got = predicate()
+        if got:
+            return got
+        if time.monotonic() >= deadline:
+            if what is None:
+                import inspect
+                try:
+                    what = inspect.getsource(predicate).strip()
+                except (OSError, TypeError):
+                    what = getattr(predicate, "__qualname__", repr(predicate))
+            raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+        time.sleep(interval)
+
+
 def run_hil_cli(args, *, module, node, messages, timeout=120, expect=()):
     """Run ``netcosim hil ARGS --remote-cmd 'python -m MODULE'`` and the remote command it
     prints, as two real processes; check that the printed command starts *module* for

@@ -198,7 +198,7 @@ def main(argv=None):
                 last, deadline = counts["received"], time.monotonic() + a.idle
             elif time.monotonic() > deadline:
                 stop("idle", f"no message for {a.idle} s")
-        time.sleep(0.1)             # let the last replies leave before closing
+        time.sleep(0.1)             # deliberate: let the last replies leave before closing (no ack to poll)
         del declared
         print(json.dumps({**counts, "status": state["status"], "peer": f"{peer:016x}"}), flush=True)
         if state["status"] != "ended":

@@ -62,7 +62,7 @@ def main(argv=None):
                     info = json.loads(reply.ok.payload.to_bytes())
             if info is not None:
                 break
-            time.sleep(0.1)
+            time.sleep(0.1)             # the polling interval of the info query above
         session = int(info["session"], 16)
         pid, n = PID(), [0]
         pub = s.declare_publisher(info["keys"]["tx"], encoding=zenoh.Encoding("application/cdr"),
@@ -97,7 +97,7 @@ def main(argv=None):
             done.get(timeout=30)
         except queue.Empty:
             counts["status"] = "idle"
-        time.sleep(0.1)
+        time.sleep(0.1)                 # deliberate: let the last replies leave before closing (no ack to poll)
         del keep
     finally:
         s.close()

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run_hil_cli
+from conftest import run_hil_cli, wait_until
 
 from netcosim.transport import wire
 from netcosim.transport.client import periodic
@@ -193,9 +193,7 @@ def test_malformed_messages_are_dropped_counted_and_the_run_goes_on():
         peer = open_session(listen=(), connect=session.endpoints)
         peers.append(peer)
         pub = peer.publisher(remote.keys["tx"])
-        deadline = time.monotonic() + 10
-        while not pub.matching_status.matching and time.monotonic() < deadline:
-            time.sleep(0.01)
+        wait_until(lambda: pub.matching_status.matching, what="the injecting peer's publisher on tx to match")
         for b in bad:
             pub.put(b)
             remote._pub.put(b)     # on rx, through the simulation's own publisher
@@ -336,13 +334,15 @@ def test_serve_answers_from_the_receiving_thread_echoing_seq():
             return (2.0 * m.values[0],) if m.seq != 3 else None     # seq 3: no answer
 
         def feed():
-            time.sleep(0.5)        # the peers have met
             for seq in range(5):
                 pub.put(wire.encode(wire.DATA, 1, SID, rp.peer, 1000 * seq, seq, (seq + 0.5,)))
             pub.put(b"garbage")
             pub.put(wire.encode(wire.DATA, 1, SID + 1, rp.peer, 0, 9, (1.0,)))     # another session
             pub.put(wire.encode(wire.DATA, 1, SID, rp.peer + 1, 0, 9, (1.0,)))     # another process
             pub.put(wire.encode(wire.END, 0, SID, 0, 5000, 5))
+        # the peers have met: each side's publisher reaches the other's subscriber
+        wait_until(lambda: pub.matching_status.matching, what="the simulation side's rx publisher to match")
+        wait_until(lambda: rp._pub.matching_status.matching, what="the remote's tx publisher to match")
         feeder = threading.Thread(target=feed)
         feeder.start()
         rp.serve(law, timeout=10)
@@ -370,13 +370,13 @@ def test_serve_reraises_the_handler_error():
     try:
         pub = sim_side.publisher(key("servefail", "ctl", "rx"))
         rp = RemoteProcess("ctl", run="servefail", connect=sim_side.endpoints, session=SID)
+        wait_until(lambda: pub.matching_status.matching, what="the simulation side's rx publisher to match")
         t0 = time.monotonic()
 
         def law(m):
             raise ZeroDivisionError("bad law")
 
         def feed():
-            time.sleep(0.5)
             pub.put(wire.encode(wire.DATA, 1, SID, rp.peer, 0, 0, (1.0,)))
         import threading
         feeder = threading.Thread(target=feed)
@@ -402,16 +402,16 @@ def test_serve_times_out_after_the_last_message_not_after_it_began():
         pub = sim_side.publisher(key("serveidle", "ctl", "rx"))
         rp = RemoteProcess("ctl", run="serveidle", connect=sim_side.endpoints, session=SID)
         sent = []
+        wait_until(lambda: pub.matching_status.matching, what="the simulation side's rx publisher to match")
 
         def feed():
-            time.sleep(0.5)            # the peers have met
-            for seq in range(12):      # a message every 0.1 s for 1.2 s: longer than the 0.4 s timeout
+            for seq in range(12):      # a message every 0.1 s for 1.2 s: longer than the 0.9 s timeout
                 pub.put(wire.encode(wire.DATA, 1, SID, rp.peer, 0, seq, (1.0,)))
                 sent.append(time.monotonic())
-                time.sleep(0.1)
+                time.sleep(0.1)        # deliberate: the pace of the messages, not a wait for the peer
         feeder = threading.Thread(target=feed)
         feeder.start()
-        rp.serve(lambda m: m.values, timeout=0.4 + 0.5)      # the first message comes 0.5 s after serving began
+        rp.serve(lambda m: m.values, timeout=0.9)
         ended = time.monotonic()
         feeder.join(timeout=10)
         assert rp.received == 12 and not rp.ended and rp.status == "idle" and rp.exit_code == 5

@@ -25,8 +25,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import wait_until
 
-from netcosim.transport.session import open_session, zenoh_available
+from netcosim.transport.session import key, open_session, zenoh_available
 
 pytestmark = pytest.mark.skipif(not zenoh_available(), reason="the zenoh extra (eclipse-zenoh) is not installed")
 
@@ -212,26 +213,26 @@ def test_a_remote_slower_than_the_period_is_flagged_and_its_queue_stays_bounded(
 def test_a_garbage_flood_is_dropped_off_the_event_queue():
     from netcosim.transport import wire
     junk = os.urandom(64)
-    sent = []
+    sent, peers = [], []
 
     def flood(session, remote):
         peer = open_session(listen=(), connect=session.endpoints)
+        peers.append(peer)      # closed after the run: nothing the flood queued is cut off
         pub = peer.publisher(remote.keys["tx"])
-        deadline = time.monotonic() + 10
-        while not pub.matching_status.matching and time.monotonic() < deadline:
-            time.sleep(0.01)
+        wait_until(lambda: pub.matching_status.matching, what="the flooding peer's publisher on tx to match")
 
         def go():
-            try:
-                time.sleep(0.2)
-                for i in range(5000):
-                    pub.put(junk[: i % 64] if i % 2 else b"NCSM" + bytes([wire.VERSION]) + junk[5:40])
-                    sent.append(i)
-                time.sleep(0.3)
-            finally:
-                peer.close()
+            # the flood comes while the run is under way: once the first request is out
+            wait_until(lambda: remote.published > 0, what="the run's first request")
+            for i in range(5000):
+                pub.put(junk[: i % 64] if i % 2 else b"NCSM" + bytes([wire.VERSION]) + junk[5:40])
+                sent.append(i)
         threading.Thread(target=go, daemon=True).start()
-    run = _hs().run_hil(1.0, before_run=flood, deadline=SLACK)
+    try:
+        run = _hs().run_hil(1.0, before_run=flood, deadline=SLACK)
+    finally:
+        for peer in peers:
+            peer.close()
     c = run.remote.counters()
     assert len(sent) == 5000
     assert sum(c["dropped"].values()) == 5000 and set(c["dropped"]) <= {"short", "magic", "kind", "oversized"}
@@ -248,9 +249,7 @@ def test_a_second_process_claiming_the_node_is_refused_and_both_sides_say_so():
         cmd = [sys.executable, str(REMOTE), "--run", remote.run_id, "--node", "controller", "--connect",
                session.endpoints[0], "--idle", "5"]
         second.append(subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
-        deadline = time.monotonic() + 20
-        while not remote.refused and time.monotonic() < deadline:
-            time.sleep(0.01)
+        wait_until(lambda: remote.refused, timeout=20, what="the second process to be refused")
     try:
         run = run_fault("none", before_run=start_second)
         out, err = second[0].communicate(timeout=30)
@@ -281,17 +280,22 @@ def test_the_remote_exits_non_zero_within_a_lease_when_the_simulation_is_gone(re
         [sys.executable, "-m", "netcosim.cli", "hil", "experiments.networked_servo:build", "--remote", "controller",
          "--period", "0.01", "--until", "30", "--wait", "30", "--remote-cmd", prog],
         cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    proc = None
+    proc = observer = None
     try:
         assert sim_side.stdout is not None
         assert sim_side.stdout.readline().strip() == "start the remote side with:"
         cmd = sim_side.stdout.readline().split()
         assert cmd[0] == sys.executable
+        # an observer on the simulation's endpoint counts the requests it publishes to the remote
+        observer = open_session(listen=(), connect=[cmd[cmd.index("--connect") + 1]])
+        requests = []
+        _sub = observer.subscribe(key(cmd[cmd.index("--run") + 1], "controller", "rx"), requests.append)
         proc = subprocess.Popen(cmd + ["--idle", "20"], cwd=ROOT, env=env, stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
         assert proc.stdout is not None
         assert proc.stdout.readline().strip() == "ready"
-        time.sleep(1.0)                 # the run is under way
+        # the run is under way: the remote is claimed and being sent requests
+        wait_until(lambda: len(requests) >= 10, timeout=30, what="ten requests of the simulation to the remote")
         sim_side.send_signal(how)       # killed, or hung (its token goes after the lease)
         killed = time.monotonic()
         out, err = proc.communicate(timeout=20)
@@ -299,6 +303,8 @@ def test_the_remote_exits_non_zero_within_a_lease_when_the_simulation_is_gone(re
     finally:
         if how == signal.SIGSTOP:
             sim_side.send_signal(signal.SIGCONT)
+        if observer is not None:
+            observer.close()
         for p in (sim_side, proc):
             if p is not None and p.poll() is None:
                 p.kill()

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import wait_until
 
 from netcosim.transport.session import key, new_run_id, open_session, zenoh_available
 
@@ -207,9 +208,8 @@ def test_hermetic_keys_replace_those_of_the_file(tmp_path):
         assert s.endpoints[0].startswith("tcp/127.0.0.1:")
         assert s.endpoints[0] != "tcp/127.0.0.1:1"
         with open_session(listen=(), connect=s.endpoints) as peer:
-            deadline = time.monotonic() + DELIVERY_TIMEOUT
-            while not list(s.zenoh.info.peers_zid()) and time.monotonic() < deadline:
-                time.sleep(0.02)
+            wait_until(lambda: list(s.zenoh.info.peers_zid()), timeout=DELIVERY_TIMEOUT, interval=0.02,
+                       what="the listening session to see its peer")
             assert len(list(s.zenoh.info.peers_zid())) == 1
             assert len(list(peer.zenoh.info.peers_zid())) == 1
 
