@@ -68,7 +68,7 @@ def wlan_run(until: float, trace: bool) -> tuple[int, float, int]:
     sim.run(until)
     dt = time.perf_counter() - t0
     frames = sum(i.stats["sent"] + i.stats["dropped"] for i in net._ifaces)
-    return frames, dt, len(sim.env._queue) if hasattr(sim.env, "_queue") else 0
+    return frames, dt, sim.env.queued
 
 
 def bare_run(n_timeouts: int) -> float:

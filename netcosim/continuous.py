@@ -1090,7 +1090,7 @@ class PlantInstance:
     def advance(self, t_target: float | None = None) -> None:
         """Integrate the state up to *t_target* seconds (default: now)."""
         if t_target is None:
-            t_target = self.sim.env._now / TICKS_PER_SECOND
+            t_target = self.sim.env.now / TICKS_PER_SECOND
         elif type(t_target) is not float or not 0.0 <= t_target <= MAX_SECONDS:
             t_target = to_seconds(to_ticks(t_target, f"plant {self.name!r}: advance time"))
         if t_target <= self.t:

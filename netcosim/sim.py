@@ -7,106 +7,20 @@ Time inside the environment is integer ticks of 1 ps (see :mod:`netcosim.timebas
 from __future__ import annotations
 
 import inspect
-import math
-from heapq import heappop
-from time import monotonic
-from typing import TYPE_CHECKING, Any, Callable, cast
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 import simpy
-import simpy.rt
 
 from . import validate
-from .clock import DISPATCH, NORMAL, URGENT, Timer, stable_hash  # noqa: F401 (re-exported)
+from .clock import DISPATCH, MAINTAIN_EVERY, NORMAL, URGENT, Engine, RealtimeEngine, Timer, stable_hash  # noqa: F401 (re-exported)
 from .errors import ConfigurationError, ConfigurationTypeError, SimulationFailedError
-from .timebase import RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
+from .timebase import TICKS_PER_SECOND, to_seconds, to_ticks
 from .trace import Trace
 
 if TYPE_CHECKING:
     from .continuous import PlantInstance
     from .kernel.node import Node
-
-class _Realtime(simpy.rt.RealtimeEnvironment):
-    """Real-time environment with a lag tolerance in seconds and lag recording.
-
-    SimPy's strict check allows a lag of one time *unit*; with picosecond ticks we
-    need a tolerance in seconds instead.
-    """
-
-    def __init__(self, factor: float, strict: bool, max_lag: float):
-        super().__init__(initial_time=0, factor=factor * RESOLUTION, strict=False)
-        self.strict_lag = strict
-        self.max_lag = max_lag
-        self.lags: list[tuple[float, float]] = []  # (sim time s, lag s) when lagging
-        self.steps = 0
-        self.maintain: Callable[[], object] | None = None  # the trace's, set by the Simulation
-
-    def step(self) -> None:
-        evt_time = cast(int, self.peek())  # SimPy types time as int | float; here it is integer ticks
-        if evt_time == math.inf:
-            raise simpy.core.EmptySchedule
-        real_time = self.real_start + (evt_time - self.env_start) * self.factor
-        lag = monotonic() - real_time
-        if lag > 0:
-            if lag > self.max_lag:
-                self.lags.append((to_seconds(evt_time), lag))
-                if self.strict_lag:
-                    raise RuntimeError(
-                        f"simulation too slow for real time: event at t={to_seconds(evt_time):.6f} s "
-                        f"processed {lag:.6f} s late (max_lag={self.max_lag} s)")
-        else:
-            while True:
-                delta = real_time - monotonic()
-                if delta <= 0:
-                    break
-                simpy.rt.sleep(delta)
-        simpy.Environment.step(self)
-        self.steps += 1
-        if self.maintain is not None and not self.steps % MAINTAIN_EVERY:
-            self.maintain()
-
-
-#: events between two calls of :meth:`Trace.maintain <netcosim.trace.Trace.maintain>`
-#: (which encodes the rows appended since into the columnar store)
-MAINTAIN_EVERY = 256
-
-
-def _run_until(env: simpy.Environment, stop: int, maintain: Callable[[], object]) -> None:
-    """``env.run(until=stop)`` for ``stop > now`` with SimPy's ``Environment.step`` inlined,
-    calling ``maintain()`` every :data:`MAINTAIN_EVERY` events.
-
-    The same stop event (urgent, at *stop*), the same order of events and callbacks, the
-    same handling of ``StopSimulation`` and of failed events as SimPy 4's ``run`` and
-    ``step``; the method call per event is saved.
-    """
-    until = simpy.events.Event(env)
-    until._ok = True
-    until._value = None
-    env.schedule(until, URGENT, stop - env._now)
-    queue = env._queue
-    countdown = MAINTAIN_EVERY
-    while True:
-        env._now, _, _, event = heappop(queue)  # `until` is in the queue: it never runs empty first
-        if event is until:
-            until.callbacks = None  # type: ignore[assignment]  # as SimPy marks a processed event
-            return
-        countdown -= 1
-        if not countdown:
-            countdown = MAINTAIN_EVERY
-            maintain()
-        callbacks, event.callbacks = event.callbacks, None  # type: ignore[assignment]
-        try:
-            for callback in callbacks:
-                callback(event)
-        except simpy.core.StopSimulation:
-            event.callbacks = callbacks[callbacks.index(callback) + 1:]
-            env.schedule(event, simpy.core.EventPriority(-1))
-            return
-        if not event._ok and not hasattr(event, "_defused"):
-            exc = type(event._value)(*event._value.args)
-            exc.__cause__ = event._value
-            raise exc
-
 
 class Simulation:
     """A co-simulation: nodes, networks and plants sharing one SimPy clock.
@@ -140,14 +54,12 @@ class Simulation:
             validate.non_negative(max_lag, "max_lag", kind="a non-negative number of seconds",
                                   type_error=ConfigurationError)
             validate.boolean(strict, "strict")
-            rt = _Realtime(factor, strict, max_lag)
-            self.env: simpy.Environment = rt
+            self.env: Engine = RealtimeEngine(factor, strict, max_lag)
         else:
-            self.env = simpy.Environment(initial_time=0)
+            self.env = Engine()
         self.realtime = realtime
-        self.trace = Trace(clock=lambda: cast(int, self.env._now))
-        if realtime:
-            rt.maintain = self.trace.maintain
+        self.trace = Trace(clock=lambda: self.env.now)
+        self.env.maintain = self.trace.maintain
         self._rngs: dict[str, np.random.Generator] = {}
         self._names: dict[str, Any] = {}
         self.nodes: dict[str, Any] = {}
@@ -162,12 +74,12 @@ class Simulation:
     @property
     def now(self) -> float:
         """Current simulated time in seconds."""
-        return self.env._now / TICKS_PER_SECOND
+        return self.env.now / TICKS_PER_SECOND
 
     @property
     def now_ticks(self) -> int:
         """Current simulated time in integer ticks (1 tick = :data:`~netcosim.timebase.RESOLUTION` s)."""
-        return cast(int, self.env._now)
+        return self.env.now
 
     @property
     def lags(self) -> list[tuple[float, float]]:
@@ -182,7 +94,7 @@ class Simulation:
         by default; smaller first).
         """
         ticks = to_ticks(t, "call_at time")
-        if ticks < self.env._now:
+        if ticks < self.env.now:
             raise ConfigurationError(f"call_at time t={t!r} s lies before now={self.now} s (cannot schedule "
                                      f"in the past)")
         return self.call_at_ticks(ticks, fn, priority, arg)
@@ -194,7 +106,7 @@ class Simulation:
     def call_at_ticks(self, ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
         """:meth:`call_at` with the instant in integer ticks (for components that compute in ticks)."""
         env = self.env
-        now = cast(int, env._now)
+        now = env.now
         if ticks < now:
             raise ConfigurationError(f"cannot schedule in the past: {to_seconds(ticks)} s < now {self.now} s")
         return Timer.call(env, ticks - now, fn, arg, priority)
@@ -313,15 +225,15 @@ class Simulation:
                 f"this simulation failed at t = {self._failure_time:.9f} s with {type(f).__name__}: {f}; "
                 f"its traces stay readable, but it cannot continue: build a new Simulation") from f
         stop = to_ticks(until, "until")
-        if stop < self.env._now:
+        if stop < self.env.now:
             raise ConfigurationError(f"until={until!r} s lies before now={self.now} s")
         try:
-            if stop == self.env._now:
+            if stop == self.env.now:
                 pass            # nothing to advance (SimPy's run refuses until == now)
             elif self.realtime:
                 self.env.run(until=stop)
             else:
-                _run_until(self.env, stop, self.trace.maintain)
+                self.env.run_until(stop)
         except BaseException as exc:
             self._fail(exc)
             raise

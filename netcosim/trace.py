@@ -419,7 +419,7 @@ class Recorder:
             self._stream.clear()
 
     # -- reading --------------------------------------------------------------------
-    def _now(self):
+    def _current_time(self):
         """Current time in stored units: the simulation clock if known, else the latest row."""
         if self._clock is not None:
             now = self._clock()
@@ -452,7 +452,7 @@ class Recorder:
                 rows += [r for p in self.providers for r in p()]
             if self.mode == "window" and rows:
                 ti = self.time_index
-                now = self._now()
+                now = self._current_time()
                 if now is None:
                     now = max(r[ti] for r in rows)
                 cut = now - self._window

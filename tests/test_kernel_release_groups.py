@@ -84,7 +84,7 @@ def test_consecutive_tasks_with_the_same_releases_share_one_timer():
     assert a[0]._group.members == a
     assert b._group is None and c[0]._group is c[1]._group is not a[0]._group
     assert d._group is None and e._group is None        # not after the call_at; a deadline handler
-    assert len(sim.env._queue) == 1 + 1 + 1 + 1 + 1 + 1  # a, b, c, the call, d, e
+    assert sim.env.queued == 1 + 1 + 1 + 1 + 1 + 1  # a, b, c, the call, d, e
     a[1].stop()
     sim.run(until=0.025)
     jobs = sim.trace.jobs()

@@ -18,10 +18,8 @@ import warnings
 from heapq import heappop, heappush
 from typing import Any, Callable
 
-import simpy
-
 from .. import validate
-from ..clock import DISPATCH, NORMAL, Timer
+from ..clock import DISPATCH, Rearmable, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, NotConnectedError, OverloadError, OverloadWarning
 from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
 from ..trace import STATE_CODES
@@ -81,8 +79,7 @@ class Node:
         self.interfaces: dict[str, Any] = {}
         self._env: Any = sim.env  # SimPy types `now` as int | float; here it is always integer ticks
         # one event object, re-armed for every dispatch request (at most one pending)
-        self._dispatch_event: simpy.Event = simpy.events.Event(sim.env)
-        self._dispatch_event._ok, self._dispatch_event._value = True, None
+        self._dispatch_event = Rearmable(sim.env)
         self._dispatch_callbacks: list[Callable] = [self._dispatch]
         self._segment_cb = self._segment_done  # one bound method for every segment timer
         # ...and one callback list for a re-armed one: SimPy only replaces a fired event's list
@@ -219,7 +216,7 @@ class Node:
     def _trace(self, task: Task, state: str) -> None:
         if task.state != state:
             task.state = state
-            self._sched.append((self._env._now, task, STATE_CODES[state]))
+            self._sched.append((self._env.now, task, STATE_CODES[state]))
 
     def _release(self, task: Task, t: int) -> Job | None:
         task.jobs_released = n = task.jobs_released + 1
@@ -279,17 +276,14 @@ class Node:
         env = self._env
         if task.state != "ready":
             task.state = "ready"
-            self._sched.append((env._now, task, _READY))
+            self._sched.append((env.now, task, _READY))
         if not self._dispatch_pending:  # _request_dispatch, inlined
             if not self.sim._stepping:
-                q = env._queue
-                if not q or q[0][0] > env._now:
+                if env.peek() > env.now:
                     self._dispatch()
                     return
             self._dispatch_pending = True
-            ev = self._dispatch_event
-            ev.callbacks = self._dispatch_callbacks
-            env.schedule(ev, DISPATCH, 0)
+            self._dispatch_event.arm(env.now, DISPATCH, self._dispatch_callbacks)
 
     def _request_dispatch(self) -> None:
         if not self._dispatch_pending:
@@ -297,14 +291,11 @@ class Node:
             # other event is due at this instant, the deferred dispatch would be the next
             # thing to happen anyway -- do it now instead of through the event queue.
             if not self.sim._stepping:
-                q = self._env._queue
-                if not q or q[0][0] > self._env._now:
+                if self._env.peek() > self._env.now:
                     self._dispatch()
                     return
             self._dispatch_pending = True
-            ev = self._dispatch_event
-            ev.callbacks = self._dispatch_callbacks
-            self._env.schedule(ev, DISPATCH, 0)
+            self._dispatch_event.arm(self._env.now, DISPATCH, self._dispatch_callbacks)
 
     def _dispatch(self, _event=None) -> None:
         self._dispatch_pending = False
@@ -340,15 +331,15 @@ class Node:
         self._loaded = best  # _run of a job at the start of a segment, inlined
         best.state = "running"
         if best.start is None:
-            best.start = self._env._now
+            best.start = self._env.now
         task = best.task
         if task.state != "running":
             task.state = "running"
-            self._sched.append((self._env._now, task, _RUNNING))
+            self._sched.append((self._env.now, task, _RUNNING))
         self._step(best)
 
     def _preempt(self, job: Job) -> None:
-        now = self.sim.env._now
+        now = self.sim.env.now
         if job.seg_timer is not None:
             job.seg_timer.cancel()
             job.seg_timer = None
@@ -389,7 +380,7 @@ class Node:
     def _run(self, job: Job) -> None:
         self._loaded = job
         job.state = "running"
-        now = self._env._now
+        now = self._env.now
         if job.start is None:
             job.start = now
         task = job.task
@@ -404,9 +395,7 @@ class Node:
             else:
                 self._spare_timer = None
                 t.arg = job
-                t.callbacks = self._segment_cbs
-                env = self._env
-                heappush(env._queue, (now + job.remaining, NORMAL, next(env._eid), t))
+                t.rearm(now + job.remaining, self._segment_cbs)
                 job.seg_timer = t
             if task.wcet_ticks is not None:
                 self._arm_budget(job)
@@ -415,7 +404,7 @@ class Node:
 
     def _segment_done(self, ev: Timer) -> None:
         job = ev.arg
-        now = self._env._now
+        now = self._env.now
         job.exec_done += now - job.seg_start
         job.remaining = 0
         job.seg_timer = None
@@ -458,15 +447,14 @@ class Node:
                     ctx._unyielded = None  # the execute request came back through the yield
                     if cmd > 0:
                         job.remaining = cmd
-                        now = job.seg_start = env._now
+                        now = job.seg_start = env.now
                         t = self._spare_timer
                         if t is None:
                             job.seg_timer = Timer(env, cmd, self._segment_cb, job)
                         else:
                             self._spare_timer = None
                             t.arg = job
-                            t.callbacks = self._segment_cbs
-                            heappush(env._queue, (now + cmd, NORMAL, next(env._eid), t))
+                            t.rearm(now + cmd, self._segment_cbs)
                             job.seg_timer = t
                         if job.task.wcet_ticks is not None and job.budget_timer is None:
                             self._arm_budget(job)
@@ -505,7 +493,7 @@ class Node:
         self._request_dispatch()
 
     def _finish(self, job: Job, killed: bool = False) -> None:
-        now = self._env._now
+        now = self._env.now
         task = job.task
         job.finish = now
         job.state = "done"
@@ -550,14 +538,11 @@ class Node:
             task.ctx.job = None
         if self.ready.live and not self._dispatch_pending:  # _request_dispatch, inlined
             if not self.sim._stepping:
-                q = self._env._queue
-                if not q or q[0][0] > now:
+                if self._env.peek() > now:
                     self._dispatch()
                     return
             self._dispatch_pending = True
-            ev = self._dispatch_event
-            ev.callbacks = self._dispatch_callbacks
-            self._env.schedule(ev, DISPATCH, 0)
+            self._dispatch_event.arm(self._env.now, DISPATCH, self._dispatch_callbacks)
 
     def _kill(self, job: Job) -> None:
         if job.state == "done":
@@ -578,7 +563,7 @@ class Node:
         elif job.state == "blocked" and job.blocked_on is not None:
             job.blocked_on.cancel(job)
         elif job.state == "running" and job.seg_timer is not None:
-            job.exec_done += self.sim.env._now - job.seg_start
+            job.exec_done += self.sim.env.now - job.seg_start
         if self.running is job and self._in_cs:
             job.killed = True  # the switch completes, then the CPU is re-dispatched
         if job.gen is not None:
@@ -656,7 +641,7 @@ class Node:
 
     def _unfinished_rows(self) -> list[tuple]:
         """Rows for jobs still active or queued now (finish = NaN); added when the table is read."""
-        now = self._env._now
+        now = self._env.now
         rows = []
         for task in self.tasks.values():
             jobs = ([task.active] if task.active is not None else []) + list(task.pending)

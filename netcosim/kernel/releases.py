@@ -29,10 +29,9 @@ task sets, bit for bit).  That holds because:
 
 from __future__ import annotations
 
-from heapq import heappush
 from typing import Any, Callable
 
-from ..clock import NORMAL, Timer
+from ..clock import Timer
 
 __all__ = ["GROUP_RELEASES", "ReleaseGroup", "arm_periodic"]
 
@@ -72,10 +71,9 @@ class ReleaseGroup:
     def _fire(self, timer: Timer) -> None:
         node = self.node
         env = node._env
-        now = env._now
+        now = env.now
         self.k = k = self.k + 1
-        timer.callbacks = self._cbs
-        heappush(env._queue, (self.first + k * self.period, NORMAL, next(env._eid), timer))
+        timer.rearm(self.first + k * self.period, self._cbs)
         members = self.members
         release = node._release
         sim = node.sim
@@ -97,8 +95,8 @@ def arm_periodic(node: Any, task: Any) -> None:
     that gives the same order of events."""
     env = node._env
     prev = node._last_periodic
-    mark = next(env._eid)       # nothing was scheduled since the previous task iff this follows its mark
-    task.offset_ticks += env._now
+    mark = env.mark()           # nothing was scheduled since the previous task iff this follows its mark
+    task.offset_ticks += env.now
     task._k = 0
     task._group = None
     if (GROUP_RELEASES and prev is not None and mark == node._periodic_mark + 1
@@ -108,5 +106,5 @@ def arm_periodic(node: Any, task: Any) -> None:
         group = prev._group if prev._group is not None else ReleaseGroup(node, prev)
         group.add(task)
     else:
-        task._release_timer = Timer(env, task.offset_ticks - env._now, task._periodic_release, None)
-    node._last_periodic, node._periodic_mark = task, next(env._eid)
+        task._release_timer = Timer(env, task.offset_ticks - env.now, task._periodic_release, None)
+    node._last_periodic, node._periodic_mark = task, env.mark()

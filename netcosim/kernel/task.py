@@ -16,11 +16,10 @@ from __future__ import annotations
 import inspect
 import math
 from collections import deque
-from heapq import heappush
 from typing import Any, Callable
 
 from .. import validate
-from ..clock import NORMAL, Timer
+from ..clock import Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, UnyieldedExecuteError
 from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
 
@@ -59,7 +58,7 @@ class Sleep(Blocking):
     def attempt(self, job):
         """True if ``until`` (ticks) is not in the future; otherwise schedule the wake-up and return False."""
         node = job.node
-        if self.until <= node.sim.env._now:
+        if self.until <= node.sim.env.now:
             return True
         self.timer = node.sim.call_at_ticks(self.until, lambda: node._unblock(job, None))
         return False
@@ -131,7 +130,7 @@ class Job:
         """CPU time consumed so far (s), including the running segment."""
         done = self.exec_done
         if self.state == "running" and self.seg_timer is not None:
-            done += self.node.sim.env._now - self.seg_start
+            done += self.node.sim.env.now - self.seg_start
         return done / TICKS_PER_SECOND
 
     def kill(self) -> None:
@@ -256,7 +255,7 @@ class Task:
     # Release ---------------------------------------------------------------
     def release(self) -> Job | None:
         """Release a job now (aperiodic tasks and handlers; also allowed for periodic)."""
-        return self.node._release(self, self.node.sim.env._now)
+        return self.node._release(self, self.node.sim.env.now)
 
     def _periodic_release(self, timer: Timer) -> None:
         # The timer that fired is out of SimPy's queue (its callbacks are spent): re-arm
@@ -264,10 +263,9 @@ class Task:
         # never re-armed (it may still sit in the queue): `stop` drops it.
         node = self.node
         env = node._env
-        now = env._now
+        now = env.now
         self._k = k = self._k + 1
-        timer.callbacks = self._release_cbs
-        heappush(env._queue, (self.offset_ticks + k * self.period_ticks, NORMAL, next(env._eid), timer))
+        timer.rearm(self.offset_ticks + k * self.period_ticks, self._release_cbs)
         node._release(self, now)
 
     def stop(self) -> None:
@@ -311,7 +309,7 @@ class TaskContext:
     @property
     def now(self) -> float:
         """Current simulated time (s)."""
-        return self.sim.env._now / TICKS_PER_SECOND
+        return self.sim.env.now / TICKS_PER_SECOND
 
     @property
     def rng(self):
@@ -379,7 +377,7 @@ class TaskContext:
     def sleep(self, seconds: float) -> Sleep:
         """Block for *seconds* (the CPU is free meanwhile)."""
         d = to_ticks(seconds, f"task {self.task.name!r} sleep")
-        return Sleep(self.sim.env._now + d)
+        return Sleep(self.sim.env.now + d)
 
     def sleep_until(self, t: float) -> Sleep:
         """Block until absolute time *t* seconds."""
@@ -404,7 +402,7 @@ class TaskContext:
     def log(self, signal: str, value: float) -> None:
         """Record ``value`` under ``signal`` in the signals trace (source ``node.task``)."""
         self.sim.trace.signal_rec.rows.append(
-            (self.sim.env._now / TICKS_PER_SECOND, f"{self.node.name}.{self.task.name}", signal, float(value)))
+            (self.sim.env.now / TICKS_PER_SECOND, f"{self.node.name}.{self.task.name}", signal, float(value)))
 
     def release(self, task: Task) -> Job | None:
         """Release a job of *task* now."""

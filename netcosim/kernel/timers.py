@@ -26,7 +26,7 @@ class KernelTimer:
 
     def __init__(self, node: Node, target: Task, at: float | None, period: float | None):
         self.node, self.target = node, target
-        now = node.sim.env._now
+        now = node.sim.env.now
         self._start = now if at is None else to_ticks(at, f"timer for {target.name!r} at")
         if self._start < now:
             raise ConfigurationError(f"timer for {target.name!r}: at={at!r} s lies in the past "
@@ -63,7 +63,7 @@ class Trigger:
     def fire(self) -> bool:
         """An edge now: release the target and return True, or ignore it (counted in ``ignored``) and
         return False when it comes less than ``min_interval`` s after the last accepted edge."""
-        now = self.node.sim.env._now
+        now = self.node.sim.env.now
         if self._last is not None and now - self._last < self._min:
             self.ignored += 1
             return False

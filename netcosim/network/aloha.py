@@ -36,7 +36,7 @@ class SlottedAloha(Network):
 
     def _kick(self, iface):
         if self._next_frame(iface) is not None:
-            self._transmit_at(iface, self._env._now + -self._env._now % self._slot)
+            self._transmit_at(iface, self._env.now + -self._env.now % self._slot)
 
     def _transmit_at(self, iface, at):
         if at not in self._slots:       # one event per slot, after everything else at that instant
@@ -64,4 +64,4 @@ class SlottedAloha(Network):
                 self._drop(iface, f, "retry_limit")
             else:       # the first following slot in which the station draws "transmit"
                 k = int(iface.mac.geometric(self.p))
-                self._transmit_at(iface, self._env._now + (k - 1) * self._slot)
+                self._transmit_at(iface, self._env.now + (k - 1) * self._slot)

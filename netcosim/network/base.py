@@ -269,7 +269,7 @@ class Network:
         if handler is not None:
             iface.on_receive(handler)
         if self._trace_on:
-            iface._row_t, iface._row = self._env._now, (self._env._now, self.name, name, "idle")
+            iface._row_t, iface._row = self._env.now, (self._env.now, self.name, name, "idle")
             self._sched_rows.append(iface._row)
         return iface
 
@@ -350,7 +350,7 @@ class Network:
         d = self._resolve_dst(dst, iface)
         prio = iface.priority if priority is None else priority
         self._check_priority(prio, iface)
-        now = self._env._now
+        now = self._env.now
         self._next_id += 1
         msg = Message(self._next_id, self.name, iface.name, BROADCAST if d is BROADCAST else d.name, payload,
                       size, prio, now * RESOLUTION)
@@ -408,9 +408,10 @@ class Network:
         if not getattr(self, "use_ack", False):
             return
         model = self.loss
+        assert model is not None        # checked only when the model states a frame loss
         p, n = model.frame_loss(), int(getattr(self, "max_attempts", 1) or 1)
         q = model.consecutive_loss(n) if n > 1 else None
-        if q is None or not q < 0.1 * p:
+        if p is None or q is None or not q < 0.1 * p:
             return
         if isinstance(model, Bernoulli):
             what, expected, suggest = f"loss={p:g}", f"{p:g}**{n} = {q:.3g}", f"message_loss={p:g}"
@@ -441,7 +442,7 @@ class Network:
             self._lost(frame, iface, "queue_overflow")
             self._finish(frame, False)
             return
-        frame.queued = self._env._now
+        frame.queued = self._env.now
         iface.queue.push(frame)
         if self._trace_on:
             self._rows.append((frame.queued, self.name, frame.id, "queued", iface.name, frame.dname, iface.name,
@@ -483,7 +484,7 @@ class Network:
         if frame.attempts:
             self._attempt_over(frame)
         frame.attempts += 1
-        frame.sent = self._env._now
+        frame.sent = self._env.now
         if self._trace_on:
             self._rows.append((frame.sent, self.name, frame.id, "attempt_start", iface.name, frame.dname,
                                iface.name, frame.attempts, "", frame.bits if bits is None else bits, backoff))
@@ -509,7 +510,7 @@ class Network:
         if self._trace_on:
             if outcome is None:
                 outcome = "sent" if frame.dst is BROADCAST else "ok"
-            self._rows.append((self._env._now, self.name, frame.id, "attempt_end", frame.src.name, frame.dname,
+            self._rows.append((self._env.now, self.name, frame.id, "attempt_end", frame.src.name, frame.dname,
                                iface.name, frame.attempts, outcome, _NAN, _NAN))
 
     def _deliver_all(self, frame: Frame) -> None:
@@ -542,13 +543,13 @@ class Network:
     # helpers for MACs ---------------------------------------------------------
     def _trace(self, event: str, frame: Frame, node: str, outcome: str = "", bits=_NAN, backoff=_NAN) -> None:
         if self._trace_on:
-            self._rows.append((self._env._now, self.name, frame.id, event, frame.src.name, frame.dname, node,
+            self._rows.append((self._env.now, self.name, frame.id, event, frame.src.name, frame.dname, node,
                                frame.attempts, outcome, bits, backoff))
 
     def _lost(self, frame: Frame, where: Interface | str, reason: str) -> None:
         """Trace *frame* lost for *reason* at *where* (an interface or a node name such as ``"switch"``)."""
         if self._trace_on:
-            self._rows.append((self._env._now, self.name, frame.id, "lost", frame.src.name, frame.dname,
+            self._rows.append((self._env.now, self.name, frame.id, "lost", frame.src.name, frame.dname,
                                where if isinstance(where, str) else where.name, frame.attempts, reason, _NAN, _NAN))
 
     def _finish(self, frame: Frame, ok: bool) -> None:
@@ -625,7 +626,7 @@ class Network:
         if frame.silenced is not None and rx.index in frame.silenced:
             return                            # this link was silenced at send (traced then)
         msg = frame.msg.copy() if frame.dst is BROADCAST else frame.msg
-        now = self._env._now
+        now = self._env.now
         msg.delivered = now * RESOLUTION
         msg.attempts = frame.attempts
         if frame.sent is not None:

@@ -88,7 +88,7 @@ class CSMACD(Network):
 
     def _try(self, iface):
         iface.mac.timer = None
-        now = self._env._now
+        now = self._env.now
         if self._sensed_busy(now):
             self._waiting.append(iface)
             self._schedule_release()
@@ -132,7 +132,7 @@ class CSMACD(Network):
     def _abort(self):
         self._abort_timer = None
         colliders, self._colliders = self._colliders, []
-        now = self._env._now
+        now = self._env.now
         for iface in colliders:
             f = iface.current
             del self._active[iface]
@@ -151,17 +151,17 @@ class CSMACD(Network):
 
     def _medium_idle(self):
         if not self._active:
-            self._idle_at = self._env._now + self._gap
+            self._idle_at = self._env.now + self._gap
             self._schedule_release()
 
     def _schedule_release(self):
         if self._waiting and not self._release_pending and not self._active:
             self._release_pending = True
-            self.sim.call_at_ticks(max(self._idle_at, self._env._now), self._release, ARBITRATE)
+            self.sim.call_at_ticks(max(self._idle_at, self._env.now), self._release, ARBITRATE)
 
     def _release(self):
         self._release_pending = False
-        now = self._env._now
+        now = self._env.now
         if self._sensed_busy(now):
             self._schedule_release()
             return

@@ -167,7 +167,7 @@ class Interface:
             net = self.network
             if net._trace_on:
                 # one row per node and instant: a state that lasts zero time is overwritten
-                now = net._env._now
+                now = net._env.now
                 row = (now, net.name, self.name, s)
                 if self._row_t == now:
                     net._sched_rows.replace(self._row, row)

@@ -136,7 +136,7 @@ class IEEE802154(RadioNetwork):
             self._csma_start(iface.mac)
 
     def _csma_start(self, r) -> None:
-        now = self._env._now
+        now = self._env.now
         if r.ifs_until > now:
             self.sim.call_at_ticks(r.ifs_until, self._csma_start, arg=r)
             return
@@ -175,7 +175,7 @@ class IEEE802154(RadioNetwork):
         f = r.iface.current
         bits = self.mac_overhead_bits + f.bits
         self._attempt_start(r.iface, f, bits, r.bo_drawn)
-        now = self._env._now
+        now = self._env.now
         tx = Transmission(r, "data", f, f.dst if f.dst is BROADCAST else f.dst.mac, now,
                           now + self.shr + self.duration(bits), now, self.mod)
         self._start_tx(r, tx)
@@ -185,7 +185,7 @@ class IEEE802154(RadioNetwork):
 
     def _frame_done(self, r, f, ok: bool) -> None:
         if ok:
-            r.ifs_until = self._env._now + self._ifs(self.mac_overhead_bits + f.bits)
+            r.ifs_until = self._env.now + self._ifs(self.mac_overhead_bits + f.bits)
         self._done(r.iface, f, ok)
 
     def _retry(self, r) -> None:

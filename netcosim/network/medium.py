@@ -180,7 +180,7 @@ class WirelessMedium:
 
     def start(self, tx: Transmission) -> None:
         """*tx* begins now; update every listener and tell each MAC to re-evaluate."""
-        now = self.env._now
+        now = self.env.now
         src = tx.src
         self.transmissions += 1
         self._stop_receiving(src)
@@ -230,7 +230,7 @@ class WirelessMedium:
 
     def end(self, tx: Transmission) -> None:
         """*tx* ends now; finish receptions and report to every listener's MAC."""
-        now = self.env._now
+        now = self.env.now
         self.active.remove(tx)
         src = tx.src
         powers = tx.powers

@@ -58,7 +58,7 @@ class TDMA(Network):
                     raise ConfigurationTypeError(f"{w}: schedule entries must be node names or None, got {s!r}")
         self.slots = [None if s is None else getattr(s, "name", s) for s in sched]
         self._cycle = self._slot * len(self.slots)
-        self._t0 = sim.env._now
+        self._t0 = sim.env.now
         self._windows: dict[str, list[tuple[int, int]]] = {}
         for k, owner in enumerate(self.slots):
             if owner is None:
@@ -98,7 +98,7 @@ class TDMA(Network):
     def _resume(self, iface):
         st = iface.mac
         st.timer = None
-        now = self._env._now
+        now = self._env.now
         start, end = self.window(iface, now)
         if start > now:
             st.timer = self.sim.call_at_ticks(start, self._resume, arg=iface)

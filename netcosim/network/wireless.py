@@ -307,7 +307,7 @@ class RadioNetwork(Network):
             r.responding -= 1
             self._reeval(r)
             return
-        now = self._env._now
+        now = self._env.now
         f = data_tx.frame
         ack = Transmission(r, "ack", f, data_tx.src, now, now + self.ack_time, now + self._ack_plcp,
                            self._ack_mod)

@@ -101,7 +101,7 @@ class DcfStation(RadioStation):
     def __init__(self, net, iface, *radio):
         super().__init__(net, iface, *radio)
         self.mac_busy = False
-        self.idle_start = net._env._now
+        self.idle_start = net._env.now
         self.count_start = 0
         self.nav_end = 0
         self.eifs = False
@@ -247,7 +247,7 @@ class WLAN80211b(RadioNetwork):
         if not isinstance(shared_clock, bool):
             raise ConfigurationTypeError(f"{w}: shared_clock must be True or False, got {shared_clock!r}")
         self.shared_clock = shared_clock
-        self._clock = SharedSlotClock(self._env._now, self.difs)
+        self._clock = SharedSlotClock(self._env.now, self.difs)
         self._audibility = Audibility()
         self._solo: list[int] = []          # indices of the stations outside the crowd, sorted
         self._end_pos = -1                  # while a transmission ends: the station being processed,
@@ -272,13 +272,13 @@ class WLAN80211b(RadioNetwork):
     # ------------------------------------------------------------------ DCF (r: the DcfStation)
     def _busy_now(self, r) -> bool:
         return bool(r.audible or r.tx is not None or r.awaiting is not None or r.responding
-                    or r.nav_end > self._env._now)
+                    or r.nav_end > self._env.now)
 
     def _reeval(self, r) -> None:
         """Re-evaluate the station's (physical + virtual) medium state and act on changes."""
         if r.in_crowd:
             return              # joined the shared clock at this instant, nothing changed since
-        now = self._env._now
+        now = self._env.now
         if r.audible or r.tx is not None or r.awaiting is not None or r.responding or r.nav_end > now:
             if not r.mac_busy:
                 r.mac_busy = True
@@ -326,7 +326,7 @@ class WLAN80211b(RadioNetwork):
 
     def _access_due(self) -> None:
         """Every station whose access instant is now transmits (in station order)."""
-        now = self._env._now
+        now = self._env.now
         self._acc_timer = None
         self._acc_timer_at = -1
         acc = self._acc
@@ -376,7 +376,7 @@ class WLAN80211b(RadioNetwork):
         else:
             r.backoff = 0
             r.immediate = True
-            r.anchor = self._env._now + self.difs
+            r.anchor = self._env.now + self.difs
             r.bo_drawn = math.nan
         self._reeval(r)
 
@@ -394,7 +394,7 @@ class WLAN80211b(RadioNetwork):
         bits = self.mac_overhead_bits + f.bits
         self._attempt_start(iface, f, bits, r.bo_drawn)
         r.bo_drawn = math.nan
-        now = self._env._now
+        now = self._env.now
         tx = Transmission(r, "data", f, f.dst if f.dst is BROADCAST else f.dst.mac, now,
                           now + self.plcp + self.duration(bits), now + self.plcp, self.data_mod)
         self._start_tx(r, tx)
@@ -424,7 +424,7 @@ class WLAN80211b(RadioNetwork):
                 elif dst is BROADCAST:
                     self._deliver(f, r.iface)
                 else:
-                    nav = self._env._now + self.sifs + self.ack_time
+                    nav = self._env.now + self.sifs + self.ack_time
                     if nav > r.nav_end:
                         r.nav_end = nav
                         waiting = self._nav.get(nav)
@@ -456,7 +456,7 @@ class WLAN80211b(RadioNetwork):
         for r in self._nav.pop(nav):
             if r is clock:
                 if clock.count:
-                    self._clock_reeval(self._env._now)
+                    self._clock_reeval(self._env.now)
             elif not r.in_crowd:
                 self._reeval(r)
 
@@ -622,7 +622,7 @@ class WLAN80211b(RadioNetwork):
         r.audible = r.n_active = audible
         r.mac_busy, r.idle_start, r.eifs, r.nav_end = busy, idle_start, eifs, nav_end
         r.immediate = False
-        if nav_end > self._env._now:
+        if nav_end > self._env.now:
             self._nav[nav_end].append(r)
         for tx in self.medium.active:
             if tx.crowd_fail is not None:
@@ -651,7 +651,7 @@ class WLAN80211b(RadioNetwork):
         """WirelessMedium.start when every station hears every other (see the module docstring of
         netcosim.network.slotclock): a frame that overlaps another fails at every listener."""
         m = self.medium
-        now = self._env._now
+        now = self._env.now
         src = tx.src
         m.transmissions += 1
         m._stop_receiving(src)
@@ -745,7 +745,7 @@ class WLAN80211b(RadioNetwork):
     def _fast_end(self, tx: Transmission) -> None:
         """WirelessMedium.end when every station hears every other."""
         m = self.medium
-        now = self._env._now
+        now = self._env.now
         m.active.remove(tx)
         src = tx.src
         c = self._clock

@@ -32,6 +32,7 @@ import pandas as pd
 import simpy
 
 from .. import validate
+from ..clock import Engine
 from ..errors import ConfigurationError
 from ..timebase import RESOLUTION
 
@@ -162,7 +163,7 @@ class RealtimeClock:
         if getattr(sim, "_realtime_clock", None) is not None:
             raise ConfigurationError(f"simulation {sim!r} already has a real-time clock")
         self.sim = sim
-        self.env: simpy.Environment = sim.env
+        self.env: Engine = sim.env
         self.factor = float(factor)
         self.max_lag = float(max_lag)
         self.clock = clock
@@ -214,7 +215,7 @@ class RealtimeClock:
         """Pin simulated time *now* to wall-clock time *now* (called by the first event
         if not before; call it yourself to start the clock before the run)."""
         self._start = self.clock()
-        self._env_start = int(self.env._now)
+        self._env_start = self.env.now
 
     def wall_time(self, ticks: int) -> float:
         """Wall-clock time (s, of ``clock``) at which simulated time *ticks* is due."""
@@ -229,7 +230,7 @@ class RealtimeClock:
     def _inject(self, item) -> None:
         wall, fn, arg = item
         env = self.env
-        now = int(env._now)
+        now = env.now
         ticks = self.sim_ticks(wall)
         self._injections += 1
         if ticks < now:
@@ -310,7 +311,7 @@ class RealtimeClock:
             self._max = lateness
         if lateness > self.max_lag:
             self._overruns += 1
-        simpy.Environment.step(env)
+        Engine.step(env)
         self._steps += 1
         if self._steps - self._maintained >= MAINTAIN_FORCE:    # no slack for long: memory first
             self._housekeep(math.inf)
