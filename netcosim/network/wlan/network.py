@@ -65,15 +65,14 @@ import bisect
 import heapq
 import math
 
-from .. import validate
-from ..errors import ConfigurationError, ConfigurationTypeError
-from ..timebase import TICKS_PER_SECOND, to_ticks
-from .frame import BROADCAST
-from .interface import Interface
-from .medium import _TOL, Transmission
-from .radio import DSSS_BANDWIDTH, PathLoss, modulation_for, thermal_noise_dbm
-from .slotclock import Audibility, SharedSlotClock
-from .wireless import RadioNetwork, RadioStation
+from ... import validate
+from ...errors import ConfigurationError, ConfigurationTypeError
+from ...timebase import TICKS_PER_SECOND, to_ticks
+from ..frame import BROADCAST
+from ..medium import _TOL, Transmission
+from ..radio import DSSS_BANDWIDTH, PathLoss, modulation_for, thermal_noise_dbm
+from ..slotclock import Audibility, SharedSlotClock
+from ..wireless import RadioNetwork, RadioStation
 
 #: 802.11b data rates (bit/s).
 RATES = (1e6, 2e6, 5.5e6, 11e6)
@@ -118,11 +117,6 @@ class DcfStation(RadioStation):
 
 def _index(r) -> int:
     return r.index
-
-
-#: Former name of the WLAN interface class: interfaces are plain ``Interface`` objects,
-#: the DCF state is the station in ``iface.mac``.
-WlanInterface = Interface
 
 
 class WLAN80211b(RadioNetwork):
