@@ -24,8 +24,8 @@ import time
 
 import numpy as np
 
-import controllers.local_planner as lp
-from controllers.local_planner import OnlineGain, WeightedNorm, online_gain, simulate_sampled
+import plants.casadi_tools as casadi_tools
+from controllers.planner import OnlineGain, WeightedNorm, online_gain, simulate_sampled
 from plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
 
 #: The shortest sampling period of the experiments (Fig. 3.8), s.
@@ -63,11 +63,11 @@ def _case(label, make, q0_q_ref, T, norm, n_samples, repeats, out):
     qs = _errors_along_online_run(sys_, q0, q_ref, T, norm, n_samples)
     times, nfev = _time_gain(sys_, qs, q_ref, T, norm, repeats)
     med, mx = statistics.median(times), max(times)
-    lp.COMPILE_FLOW = False  # a fresh system prepares its flow without compiling
+    casadi_tools.COMPILE = False  # a fresh system prepares its flow without compiling
     try:
         vm, _ = _time_gain(make(), qs, q_ref, T, norm, max(1, repeats // 4))
     finally:
-        lp.COMPILE_FLOW = True
+        casadi_tools.COMPILE = True
     svd, _ = _time_gain(_NumericOnly(sys_), qs, q_ref, T, norm, max(1, repeats // 4))
     out[label] = dict(median=med, max=mx, T=T, nfev_median=statistics.median(nfev), n=len(times),
                       vm_median=statistics.median(vm), vm_max=max(vm),

@@ -1,5 +1,5 @@
 """The planner package's seams: the vendored DOP853 tableau, the one kinematic model shared
-with the plants, the old import paths, and deployments as configuration + task factories
+with the plants, and deployments as configuration + task factories
 with a typed result (DeploymentConfig, PlannerResponse)."""
 
 from __future__ import annotations
@@ -9,8 +9,7 @@ import pathlib
 import numpy as np
 import pytest
 
-import controllers.local_planner as lp
-from controllers.planner import OfflineGain, OnlineGain, simulate_sampled
+from controllers.planner import OfflineGain, OnlineGain, configuration_rate, simulate_sampled
 from controllers.planner import dop853_coefficients as vendored
 from controllers.planner.deployment import CommandRecord, PlannerRecord, PlannerResponse, PoseRecord
 from controllers.planner.tasks import DeploymentConfig, KinematicVelocityPlant, PlannerLaw, deploy, deploy_planner
@@ -41,7 +40,7 @@ def test_one_plant_and_one_pseudo_inverse_for_plants_and_planners():
     u = np.linspace(-0.2, 0.3, s.n)
     rate = kinematic.configuration_rate(s, q, u)
     # the system's pinv, the planner's rate and both plants give the same numbers (one computation)
-    assert np.array_equal(lp.configuration_rate(s, q, u), rate)
+    assert np.array_equal(configuration_rate(s, q, u), rate)
     assert np.array_equal(s.configuration_rate(q, u), rate)
     assert np.array_equal(KinematicPlant(s).f(0.0, q, u, None), rate)
     assert np.array_equal(KinematicVelocityPlant(s).f(0.0, q, u, None), rate)
@@ -51,26 +50,6 @@ def test_one_plant_and_one_pseudo_inverse_for_plants_and_planners():
     p = KinematicPlant(crane)
     assert p.state_names == tuple(f"q{i}" for i in range(crane.m)) and p.events[0].name == "singular_configuration"
     assert isinstance(s, kinematic.KinematicSystem)
-
-
-def test_old_module_paths_still_work():
-    import controllers.gain_design as gd
-    import controllers.planner.gain_design as new_gd
-    import controllers.planner_tasks as pt
-    import controllers.sikm as sk
-    import plants.buffered
-    import plants.casadi_tools as ct
-    assert gd.design is new_gd.design and pt.deploy_planner is deploy_planner
-    assert sk.FEEDFORWARDS == ("reference", "sample", "none")
-    assert plants.buffered.BufferedFunction is ct.BufferedFunction
-    assert lp.CompiledCodeWarning is ct.CompiledCodeWarning
-    old = lp.COMPILE_FLOW
-    try:
-        lp.COMPILE_FLOW = False
-        assert ct.COMPILE is False
-    finally:
-        lp.COMPILE_FLOW = old
-    assert ct.COMPILE is old
 
 
 def test_deployment_configuration_is_validated_before_anything_is_built():

@@ -19,16 +19,6 @@ DEG = math.pi / 180
 # The package layout
 # ---------------------------------------------------------------------------
 
-def test_former_module_paths_alias_the_package():
-    import controllers.feedback_linearization as old_fl
-    import controllers.landing as pkg
-    import controllers.landing_tasks as old_tasks
-    for old in (old_fl, old_tasks):
-        for name in old.__all__:
-            assert getattr(old, name) is getattr(pkg, name), name
-    assert set(old_fl.__all__) | set(old_tasks.__all__) <= set(pkg.__all__)
-
-
 # ---------------------------------------------------------------------------
 # The OCP
 # ---------------------------------------------------------------------------

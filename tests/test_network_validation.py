@@ -14,7 +14,10 @@ import pytest
 from netcosim import Simulation
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
 from netcosim.network import CSMACD, IEEE802154, TDMA, IdealLink, LogDistance, WLAN80211b
-from netcosim.network.checks import check_bits, check_count, check_duration, check_real
+from netcosim.validate import bits as check_bits
+from netcosim.validate import count as check_count
+from netcosim.validate import duration as check_duration
+from netcosim.validate import real as check_real
 
 NAN = float("nan")
 
@@ -95,9 +98,9 @@ def test_durations_below_the_resolution_are_refused_naming_the_parameter(make, w
 
 
 def test_the_shared_helpers():
-    assert check_real(2, "x", low=0.0, low_open=True) == 2.0
+    assert check_real(2, "x", lo=0.0, lo_open=True) == 2.0
     with pytest.raises(ConfigurationError, match=r"x must be a positive thing, got 0\.0"):
-        check_real(0.0, "x", low=0.0, low_open=True, kind="a positive thing")
+        check_real(0.0, "x", lo=0.0, lo_open=True, kind="a positive thing")
     with pytest.raises(ConfigurationTypeError, match="got True"):
         check_real(True, "x")
     assert check_bits(64.0, "b") == 64 and isinstance(check_bits(64.0, "b"), int)

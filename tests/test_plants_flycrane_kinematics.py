@@ -261,7 +261,7 @@ def test_functions_are_built_once():
 
 
 def test_buffered_evaluation_matches_casadi_call():
-    from plants.buffered import BufferedFunction
+    from plants.casadi_tools import BufferedFunction
     sys = get("four")
     for q in sys.random_configurations(RNG, 3):
         np.testing.assert_array_equal(sys.jacobian(q), np.asarray(sys.A_fun(q)))

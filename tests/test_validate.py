@@ -11,7 +11,6 @@ import pytest
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
-from netcosim.network import checks
 
 
 def test_real_returns_float_and_checks_bounds():
@@ -102,13 +101,6 @@ def test_numeric_fields_names_class_field_and_value():
     with pytest.raises(ValueError, match=r"^P.b must be non-negative, got -1.0$"):
         validate.numeric_fields(P(b=-1.0), non_negative=("b",))
     assert validate.check_numeric_fields is validate.numeric_fields
-
-
-def test_former_network_check_names_still_work():
-    assert checks.check_real(0.5, "s", low=0.0, high=1.0, low_open=True) == 0.5
-    with pytest.raises(ConfigurationError, match=r"^s must be a finite number, got 0.0$"):
-        checks.check_real(0.0, "s", low=0.0, low_open=True)
-    assert checks.check_bits is validate.bits and checks.check_duration is validate.duration
 
 
 def test_name_and_path():

@@ -13,8 +13,8 @@ def _cpu():
 
 
 def _landing():
-    from controllers import landing_tasks
-    return landing_tasks
+    import controllers.landing
+    return controllers.landing
 
 
 def _recorded_run_out():

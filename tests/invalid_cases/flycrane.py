@@ -29,7 +29,7 @@ def _pinv_near():
 
 
 def _rate_near():
-    from controllers.local_planner import configuration_rate
+    from controllers.planner import configuration_rate
     s, q = _near_singular()
     return configuration_rate(s, q, [1.0] * 9)
 
@@ -89,33 +89,33 @@ def _mass(**kw):
 
 
 def _planner_velocity(K):
-    from controllers.local_planner import planner_velocity
+    from controllers.planner import planner_velocity
     s = _sys()
     return planner_velocity(s, s.q_nominal, s.q_nominal, K)
 
 
 def _simulate(T):
-    from controllers.local_planner import OfflineGain, simulate_sampled
+    from controllers.planner import OfflineGain, simulate_sampled
     s = _sys()
     return simulate_sampled(s, s.q_nominal, s.q_nominal, T, OfflineGain(1.0), n_samples=1)
 
 
 def _offline(k):
-    from controllers.local_planner import OfflineGain
+    from controllers.planner import OfflineGain
     return OfflineGain(k)
 
 
 def _law(**kw):
-    from controllers.local_planner import OfflineGain
-    from controllers.planner_tasks import PlannerLaw
+    from controllers.planner import OfflineGain
+    from controllers.planner.tasks import PlannerLaw
     base = dict(gain=OfflineGain(1.0), q_ref=[0.0] * 9)
     base.update(kw)
     return PlannerLaw(**base)
 
 
 def _deploy(**kw):
-    from controllers.local_planner import OfflineGain
-    from controllers.planner_tasks import PlannerLaw, deploy_planner
+    from controllers.planner import OfflineGain
+    from controllers.planner.tasks import PlannerLaw, deploy_planner
     from netcosim import Simulation
     s = _sys()
     base = dict(architecture="centralized")
@@ -140,7 +140,7 @@ def _square(a, b):
 
 
 def _mu(mu):
-    from controllers.gain_design import design
+    from controllers.planner.gain_design import design
     return design(mu)
 
 
