@@ -55,6 +55,41 @@ class Transmission:
         return self.dst is r or (self.dst is BROADCAST and self.kind == "data")
 
 
+def _unlock(r) -> None:
+    """Listener *r* stops receiving its locked frame."""
+    tx = r.rx
+    r.rx = None
+    if tx is not None and tx.addressed_to(r):
+        r.iface.receiving = 0
+        r.iface._state()
+
+
+def reception_end(r, tx: Transmission) -> tuple[bool, str | None, bool]:
+    """*tx* leaves the air at listener *r*: the reception outcome ``(ok, reason, locked)``.
+
+    The one decision of every path (:meth:`WirelessMedium.end`, and the shared idle-slot
+    clock of :mod:`netcosim.network.wlan.shared` for its crowd and for the stations outside
+    it).  A frame *r* was locked onto keeps the verdict reached while it was on the air,
+    then survives the bit errors drawn from ``r.logp`` (log of its success probability);
+    *r* stops receiving it and a failure is recorded in ``tx.fail``.  A frame it was not
+    locked onto failed for the reason noted at its start (``collision`` if none).  *r* may
+    be the crowd of a :class:`~netcosim.network.slotclock.SharedSlotClock` (index -1): its
+    reason is ``tx.crowd_fail``, it has no interface and never draws bit errors.
+    """
+    if r.rx is not tx:
+        return False, (tx.fail.get(r.index) if r.index >= 0 else tx.crowd_fail) or "collision", False
+    ok, reason = r.rx_ok, r.rx_reason
+    if ok and r.logp < 0.0 and r.phy_rng.random() >= math.exp(r.logp):
+        ok, reason = False, "bit_errors"
+    if r.index < 0:
+        r.rx = None
+    else:
+        _unlock(r)
+        if not ok:
+            tx.fail[r.index] = reason
+    return ok, reason, True
+
+
 class WirelessMedium:
     """Reception physics shared by the wireless MACs (see the module docstring).
 
@@ -161,12 +196,7 @@ class WirelessMedium:
             r.iface.receiving = 1
             r.iface._state()
 
-    def _unlock(self, r) -> None:
-        tx = r.rx
-        r.rx = None
-        if tx is not None and tx.addressed_to(r):
-            r.iface.receiving = 0
-            r.iface._state()
+    _unlock = staticmethod(_unlock)
 
     # ------------------------------------------------------------------ events
     def _stop_receiving(self, src) -> None:
@@ -244,17 +274,7 @@ class WirelessMedium:
                 self._close(r, now)
             r.n_active -= 1
             r.power = r.power - p if r.n_active else 0.0
-            if L is tx:
-                ok, reason = r.rx_ok, r.rx_reason
-                if ok and r.logp < 0.0 and r.phy_rng.random() >= math.exp(r.logp):
-                    ok, reason = False, "bit_errors"
-                self._unlock(r)
-                locked = True
-                if not ok:
-                    tx.fail[r.index] = reason
-            else:
-                ok, locked = False, False
-                reason = tx.fail.get(r.index, "collision")
+            ok, reason, locked = reception_end(r, tx)
             if p >= r.cs_w:
                 r.audible -= 1
             mac._rx_end(r, tx, ok, reason, locked)

@@ -56,6 +56,9 @@ class SharedSlotClock:
     __slots__ = ("count", "rx", "rx_ok", "rx_reason", "audible", "mac_busy", "idle_start", "eifs", "nav_end",
                  "S", "C", "heap", "access_at", "acc_gen", "seq", "index")
 
+    #: the crowd never draws bit errors (see :func:`~netcosim.network.medium.reception_end`)
+    logp = 0.0
+
     def __init__(self, now: int, difs: int):
         self.count = 0
         self.rx: Any = None
