@@ -131,7 +131,7 @@ class WLAN80211b(RadioNetwork):
     noise_dbm:
         Noise floor (dBm, finite; default thermal noise in 22 MHz at 290 K, -100.6 dBm).
 
-    Every parameter is validated here (:mod:`netcosim.network.checks`); powers and
+    Every parameter is validated here (:mod:`netcosim.validate`); powers and
     thresholds must be finite numbers of dBm, also when given per node to ``attach``.
     modulation:
         ``"auto"`` (by rate), ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
