@@ -52,7 +52,7 @@ def kernel_run(until: float, policy: str = "fixed_priority", tasks=TASKS) -> tup
     t0 = time.process_time()
     sim.run(until=until)
     dt = time.process_time() - t0
-    return len(sim.trace.job_rec.rows), dt
+    return len(sim.trace.recorder("jobs").rows), dt
 
 
 def bare_run(n_jobs_per_task: list[int]) -> float:

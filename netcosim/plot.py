@@ -18,10 +18,13 @@ import numpy as np
 
 from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError
-from .trace import TASK_STATES
 
 if TYPE_CHECKING:  # matplotlib and pandas load when a plot is drawn, not on import
     import pandas as pd
+
+#: Task states of the kernel's schedule table, with TrueTime's plotting level offsets (the
+#: kernel's table codes a state by its position here, :data:`netcosim.kernel.tables.STATE_CODES`).
+TASK_STATES = {"idle": 0.0, "blocked": 0.125, "ready": 0.25, "running": 0.5}
 
 
 def time_window(times, t_range) -> tuple[float, float]:

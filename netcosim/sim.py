@@ -59,6 +59,8 @@ class Simulation:
             self.env = Engine()
         self.realtime = realtime
         self.trace = Trace(clock=lambda: self.env.now)
+        from .kernel.tables import register  # the kernel's schedule and jobs tables, empty until a node runs
+        register(self.trace)
         self.env.maintain = self.trace.maintain
         self._rngs: dict[str, np.random.Generator] = {}
         self._names: dict[str, Any] = {}

@@ -9,12 +9,13 @@ convert when the frame is built (``transform``).
 Standard tables:
 
 ``signals``   ``time, source, signal, value``  -- plant logs and ``ctx.log``
-``schedule``  ``time, node, task, state``       -- every task state change (stored as
-              :data:`SCHEDULE_RAW`)
+``schedule``  ``time, node, task, state``       -- every task state change
 ``jobs``      one row per finished (or killed) job with its statistics
 
-Other components (networks, for instance) register their own tables with
-:meth:`Trace.table`.
+A Trace itself creates only ``signals``; the components register their own tables with
+:meth:`Trace.table`: the kernel ``schedule`` and ``jobs`` (:mod:`netcosim.kernel.tables`,
+registered when the :class:`~netcosim.Simulation` is built), each network ``frames`` and
+``network_schedule`` (:mod:`netcosim.network.base`).
 
 Memory
 ------
@@ -52,28 +53,6 @@ from .timebase import TICKS_PER_SECOND
 if TYPE_CHECKING:  # pandas is imported on first use: a simulation does not need it
     import pandas as pd
 
-#: Task states in the schedule trace, with TrueTime's plotting level offsets.
-TASK_STATES = {"idle": 0.0, "blocked": 0.125, "ready": 0.25, "running": 0.5}
-#: Code of each task state in the schedule table's stored rows (its position in TASK_STATES).
-STATE_CODES = {state: code for code, state in enumerate(TASK_STATES)}
-
-#: Columns of the schedule table as stored by the kernel: time in integer ticks, the
-#: kernel's task object (its node and name are read when the table is), the state's code
-#: (:data:`STATE_CODES`).  Reported as ``time`` (s), ``node``, ``task``, ``state``.
-SCHEDULE_RAW = ("time", "task", "state")
-
-#: Columns of the jobs table as reported (times in seconds; NaN where not applicable).
-JOB_COLUMNS = (
-    "node", "task", "job", "release", "deadline", "start", "finish",
-    "response_time", "release_latency", "start_latency", "execution_time",
-    "lateness", "deadline_miss", "budget_overrun", "killed",
-)
-#: Columns of the jobs table as stored by the kernel: the kernel's task object (its node,
-#: name and relative deadline are read when the table is), times in integer ticks (None
-#: if unset).  The deadline is not stored: it is the release plus the task's deadline.
-JOB_RAW = ("task", "job", "release", "start", "finish", "execution_time", "deadline_miss", "budget_overrun",
-           "killed")
-
 #: Storage modes of a table (see :meth:`Trace.configure`).
 MODES = ("keep", "off", "ring", "window", "stream")
 #: Default number of rows per Parquet file in ``stream`` mode.
@@ -83,72 +62,6 @@ PART_NAME = "part-{:06d}.parquet"
 #: Default memory budget of a ``keep``-mode table: bytes of encoded rows held in memory
 #: before the older ones move to a temporary file (``configure(..., memory=...)``).
 DEFAULT_MEMORY = 16 * 2 ** 20
-
-
-def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
-    import pandas as pd
-    for c in cols:
-        df[c] = pd.to_numeric(df[c], errors="coerce").astype(float) / TICKS_PER_SECOND
-    return df
-
-
-def _task_names(tasks: pd.Series) -> tuple[pd.Series, pd.Series]:
-    """The node name and task name of each kernel task object in *tasks* (object columns)."""
-    import numpy as np
-    import pandas as pd
-    # one name object per task, shared by its rows (``map`` then ``astype(object)`` would make
-    # a string object per row: some 100 bytes a row when a long table is read back)
-    codes, unique = pd.factorize(tasks.to_numpy(dtype=object))
-    nodes, names = np.empty(len(unique), dtype=object), np.empty(len(unique), dtype=object)
-    for i, t in enumerate(unique):
-        nodes[i], names[i] = t.node.name, t.name
-    return (pd.Series(nodes[codes], index=tasks.index, dtype=object),
-            pd.Series(names[codes], index=tasks.index, dtype=object))
-
-
-def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
-    """Stored schedule rows (:data:`SCHEDULE_RAW`) as reported: time (s), node, task and
-    state names."""
-    import numpy as np
-    import pandas as pd
-    node, task = _task_names(df["task"])
-    states = np.asarray(list(TASK_STATES), dtype=object)
-    return pd.DataFrame({
-        "time": pd.to_numeric(df["time"], errors="coerce").astype(float) / TICKS_PER_SECOND,
-        "node": node, "task": task,
-        "state": pd.Series(states[df["state"].to_numpy(dtype=np.int64)], dtype=object),
-    })
-
-
-def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
-    """Stored job rows (:data:`JOB_RAW`) as reported (:data:`JOB_COLUMNS`, times in s)."""
-    import numpy as np
-    import pandas as pd
-    tasks = df["task"]
-    node, name = _task_names(tasks)
-    release = pd.to_numeric(df["release"], errors="coerce")
-    unique = pd.unique(tasks)
-    relative = tasks.map({t: np.nan if t.deadline_ticks is None else t.deadline_ticks for t in unique})
-    if len(df) and relative.notna().all() and release.notna().all():
-        deadline = (release.astype("int64") + relative.astype("int64")).astype(float)   # exact in ticks
-    else:
-        deadline = release.astype(float) + relative.astype(float)
-    df = pd.DataFrame({
-        "node": node, "task": name,
-        "job": df["job"],
-        "release": release.astype(float) / TICKS_PER_SECOND,
-        "deadline": deadline / TICKS_PER_SECOND,
-        "start": df["start"], "finish": df["finish"], "execution_time": df["execution_time"],
-        "deadline_miss": df["deadline_miss"], "budget_overrun": df["budget_overrun"], "killed": df["killed"]})
-    df = _ticks_to_seconds(df, ("start", "finish", "execution_time"))
-    df["response_time"] = df["finish"] - df["release"]
-    df["release_latency"] = 0.0
-    df["start_latency"] = df["start"] - df["release"]
-    df["lateness"] = df["finish"] - df["deadline"]
-    for c in ("deadline_miss", "budget_overrun", "killed"):
-        df[c] = df[c].astype(bool)
-    df["job"] = df["job"].astype(int)
-    return df[list(JOB_COLUMNS)]
 
 
 class UnknownSignalError(NetcosimError, KeyError):
@@ -166,6 +79,18 @@ def _closest(name: str, names: Sequence[str]) -> list[str]:
     import difflib
     tail = [n for n in names if n.rsplit(".", 1)[-1] == name]
     return tail + [n for n in difflib.get_close_matches(name, names, n=3) if n not in tail]
+
+
+def _plot_signals(trace: Trace, columns: Sequence[tuple[str, str]] | None = None, **options):
+    """``Trace.plot("signals")``: :func:`netcosim.plot.plot_signals` of the signals table."""
+    from .plot import plot_signals
+    df = trace.frame("signals")
+    if columns is None:
+        pairs = df[["source", "signal"]].astype(str).drop_duplicates()
+        columns = list(zip(pairs["source"], pairs["signal"]))
+        if not columns:
+            raise ValueError("no logged signal: nothing to plot")
+    return plot_signals(df, columns, **options)
 
 
 #: ``().count(row)`` is a C-level call that ignores its argument: the ``off`` mode's append.
@@ -555,15 +480,12 @@ class Trace:
         #: ``"log_interval 1 ms"``, ``"default grid 1 ms until the first read or write, then
         #: read/write instants"``, ``"none"``); :meth:`signal` puts it in ``Series.attrs["grid"]``
         self.grids: dict[str, str] = {}
+        #: what :meth:`plot` can draw: kind -> ``draw(trace, **options)``; the components add theirs
+        #: with :meth:`add_plot` (the kernel ``"schedule"``, a network ``"network"``)
+        self._plots: dict[str, Callable] = {"signals": _plot_signals}
         self.signal_rec = self.table("signals", ("time", "source", "signal", "value"),
                                      categorical=("source", "signal"), time_unit="s", key=("source", "signal"),
                                      dtypes=("float", None, None, "float"))
-        # stored in ticks, reported in seconds
-        # the task column holds the kernel's task objects: coded like names, by identity
-        self.schedule_rec = self.table("schedule", SCHEDULE_RAW, categorical=("node", "task", "state"),
-                                       transform=_schedule_frame, dtypes=("int", None, "uint8"))
-        self.job_rec = self.table("jobs", JOB_RAW, categorical=("node", "task"), transform=_jobs_frame,
-                                  time="release", dtypes=(None,) + ("int",) * 5 + ("bool",) * 3)
 
     def table(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
               transform=None, *, time: str | None = "time", time_unit: str = "ticks",
@@ -600,6 +522,11 @@ class Trace:
     def tables(self) -> list[str]:
         """Names of the tables recorded so far, in creation order."""
         return list(self._tables)
+
+    def recorder(self, name: str) -> Recorder:
+        """The :class:`Recorder` of table *name* (its ``rows`` is what producers append to);
+        :class:`~netcosim.errors.ConfigurationError` naming the tables when there is none."""
+        return self._rec(name)
 
     def _rec(self, name) -> Recorder:
         if not isinstance(name, str):
@@ -788,6 +715,55 @@ class Trace:
         """The ``jobs`` table: one row per job, with ``release``, ``deadline``, ``start``,
         ``finish``, ``execution_time`` and the derived latencies in s, and its outcome flags."""
         return self.frame("jobs")
+
+    def to_pandas(self, name: str | None = None) -> pd.DataFrame | dict[str, pd.DataFrame]:
+        """Table *name* as a DataFrame, or (``name=None``) a dict of every table by name, in
+        creation order (:attr:`tables`; empty tables included).
+
+        The same frames as :meth:`frame`: times in seconds (float) under ``time`` (the jobs
+        table: ``release``, ``deadline``, ``start``, ``finish`` and the derived latencies, also
+        in s), names as pandas categoricals.  ``signals`` carries ``attrs["grids"]`` as
+        :meth:`signals` does.  An unknown *name* raises :class:`KeyError` naming the tables.
+        """
+        if name is None:
+            return {n: self.to_pandas(n) for n in self.tables}
+        return self.signals() if name == "signals" and name in self._tables else self.frame(name)
+
+    def add_plot(self, kind: str, draw: Callable) -> None:
+        """Let :meth:`plot` draw *kind* with ``draw(trace, **options)`` (returning what it
+        draws on); a component registers the plots of its tables, as it registers the tables."""
+        self._plots[kind] = draw
+
+    def plot(self, kind: str = "schedule", **options):
+        """Draw one of the recorded tables with matplotlib; returns the :class:`~matplotlib.axes.Axes`.
+
+        ``kind="schedule"``: the kernel's schedule, one TrueTime staircase per task
+        (:func:`netcosim.plot.plot_schedule`): the row of task *i* (top first) sits at height
+        *i* and rises by 0.5 while the task runs, 0.25 while it is ready (preempted or waiting
+        for the CPU), 0.125 while blocked, 0 while idle.  Options ``tasks`` (row order, top
+        first; ``"node.task"`` labels, or task names with ``node=``), ``node``, ``t_range=(t0, t1)`` (s,
+        ``None`` for an open end), ``ax``, ``path`` (save a PNG), ``title``.
+
+        ``kind="network"``: each node's network state, one staircase per node
+        (:func:`netcosim.network.plot.plot_network_schedule`; idle 0, receiving 0.2, waiting
+        0.4, sending 0.7 above the row), with markers for the lost frames and the
+        retransmissions of the ``frames`` table (``frames=None`` leaves them out).  Options
+        ``network`` (needed if there are several), ``nodes``, ``t_range`` (s), ``ax``,
+        ``path``, ``title``.
+
+        ``kind="signals"``: logged signals against time in seconds, one line each
+        (:func:`netcosim.plot.plot_signals`); ``columns`` lists the ``(source, signal)``
+        pairs (default: every logged signal, in order of first appearance); options
+        ``ax``, ``path``, ``title``, ``drawstyle`` (``"steps-post"`` for held values).
+
+        The x axis is simulated time in seconds.  A kind nothing registered raises
+        :class:`~netcosim.errors.ConfigurationError` naming the kinds there are.
+        """
+        draw = self._plots.get(kind) if isinstance(kind, str) else None
+        if draw is None:
+            raise ConfigurationError(f"no plot kind {kind!r}; have {sorted(self._plots)} (the network plot "
+                                     f"exists once a network is created)")
+        return draw(self, **options)
 
     def to_parquet(self, directory: str | os.PathLike, prefix: str = "") -> list[Path]:
         """Write every non-empty table to ``directory/prefix<name>.parquet``."""

@@ -161,3 +161,10 @@ def test_the_string_import_detector_finds_one():
                      "    importlib.util.find_spec('controllers')\n"
                      "    importlib.import_module(name)\n")
     assert _string_imports(tree) == {"experiments.", "plants.servo", "controllers"}
+
+
+def test_the_trace_does_not_know_the_kernel():
+    # the kernel registers its tables (netcosim.kernel.tables) with the Trace, as the networks do
+    g = _graph()
+    assert not {d for d in g["netcosim.trace"] if d.startswith(("netcosim.kernel", "netcosim.network"))}
+    assert "netcosim.trace" not in g["netcosim.kernel.tables"]

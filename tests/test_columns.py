@@ -270,13 +270,13 @@ def test_uint8_columns_store_one_byte_a_row_and_read_back_as_ints():
 
 
 def test_schedule_rows_hold_the_task_and_a_state_code_and_read_as_names():
-    from netcosim.trace import SCHEDULE_RAW, STATE_CODES
+    from netcosim.kernel.tables import SCHEDULE_RAW, STATE_CODES
     sim = Simulation()
     cpu = sim.node("cpu")
     task = cpu.periodic(lambda ctx: None, period=0.01, priority=1, name="a")
     sim.run(until=0.015)
-    assert sim.trace.schedule_rec.columns == SCHEDULE_RAW
-    assert list(sim.trace.schedule_rec._buf)[:2] == [(0, task, STATE_CODES["ready"]),
+    assert sim.trace.recorder("schedule").columns == SCHEDULE_RAW
+    assert list(sim.trace.recorder("schedule")._buf)[:2] == [(0, task, STATE_CODES["ready"]),
                                                      (0, task, STATE_CODES["running"])]
     df = sim.trace.frame("schedule")
     assert list(df.columns) == ["time", "node", "task", "state"]

@@ -47,7 +47,7 @@ def test_execute_that_rounds_to_zero_ticks_at_the_node_speed_names_c_and_speed()
     sim = Simulation()
     sim.node("cpu").periodic(body, period=1e-3, priority=1, name="t")
     sim.run(until=0.5e-3)
-    row = sim.trace.job_rec.rows[0]
+    row = sim.trace.recorder("jobs").rows[0]
     assert (row[3], row[4], row[5]) == (0, 1, 1)  # start, finish, execution in ticks
     # at speed 3 it is 1/3 ps: below the resolution, rejected
     sim = Simulation()

@@ -68,7 +68,7 @@ def test_ring_stays_bounded_over_a_long_run():
     seen = []
 
     def watch():
-        seen.append(len(sim.trace.job_rec.rows))
+        seen.append(len(sim.trace.recorder("jobs").rows))
         sim.call_in(1e-3, watch)          # every 1 ms
     sim.call_in(0, watch)
     sim.run(20.0)
@@ -83,7 +83,7 @@ def test_window_keeps_exactly_the_jobs_released_in_the_last_100_ms():
     held = []
 
     def watch():
-        held.append(len(sim.trace.job_rec.rows))
+        held.append(len(sim.trace.recorder("jobs").rows))
         sim.call_in(1e-3, watch)
     sim.call_in(0, watch)
     sim.run(0.55)
@@ -106,7 +106,7 @@ def test_off_keeps_no_rows_and_reports_empty_frames_with_the_columns():
     sim.run(1.0)
     assert len(sim.trace.jobs()) == 0 and len(sim.trace.schedule()) == 0 and len(sim.trace.signals()) == 0
     assert list(sim.trace.signals().columns) == ["time", "source", "signal", "value"]
-    assert len(sim.trace.job_rec) == 0
+    assert len(sim.trace.recorder("jobs")) == 0
 
 
 def test_stream_writes_parquet_files_equal_to_the_keep_frames_bit_for_bit(tmp_path):
@@ -117,13 +117,13 @@ def test_stream_writes_parquet_files_equal_to_the_keep_frames_bit_for_bit(tmp_pa
     sim.run(1.0)
     parts = sorted((tmp_path / "jobs").glob("*.parquet"))
     assert [p.name for p in parts] == ["part-000000.parquet", "part-000001.parquet", "part-000002.parquet"]
-    assert len(sim.trace.job_rec.rows) == 100          # only the unwritten rows stay in memory
-    assert len(sim.trace.job_rec) == 1000
+    assert len(sim.trace.recorder("jobs").rows) == 100          # only the unwritten rows stay in memory
+    assert len(sim.trace.recorder("jobs")) == 1000
     # reading the table: the written rows, then those in memory -- identical to keep mode
     pd.testing.assert_frame_equal(sim.trace.jobs(), keep_jobs, check_exact=True)
     pd.testing.assert_frame_equal(sim.trace.signals(), keep_sig, check_exact=True)
     sim.trace.flush()
-    assert len(sim.trace.job_rec.rows) == 0
+    assert len(sim.trace.recorder("jobs").rows) == 0
     on_disk = pd.concat([pq.read_table(p).to_pandas() for p in sorted((tmp_path / "jobs").glob("*.parquet"))],
                         ignore_index=True)
     expected = keep_jobs.astype({"node": str, "task": str})

@@ -22,17 +22,18 @@ from .. import validate
 from ..clock import DISPATCH, Rearmable, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, NotConnectedError, OverloadError, OverloadWarning
 from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
-from ..trace import STATE_CODES
+from ..trace import Sink
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
 from .ready import ReadyQueue
 from .releases import arm_periodic
+from .tables import STATE_CODES, jobs_table, schedule_table
 from .task import DEFAULT_MAX_PENDING, HANDLER, Blocking, Job, Task
 from .timers import KernelTimer, Trigger
 
 _INF = math.inf
 _DONE = object()  # what a job's generator gives when it has finished
-# state codes of the schedule table's rows (netcosim.trace.SCHEDULE_RAW)
+# state codes of the schedule table's rows (netcosim.kernel.tables.SCHEDULE_RAW)
 _READY, _RUNNING, _IDLE = STATE_CODES["ready"], STATE_CODES["running"], STATE_CODES["idle"]
 
 
@@ -87,12 +88,13 @@ class Node:
         # a segment timer that has fired (out of SimPy's queue), re-armed for the next segment
         # instead of creating one; cancelled timers may still sit in the queue and are never kept
         self._spare_timer: Timer | None = None
-        self._sched: list[tuple] = sim.trace.schedule_rec.rows
+        self._sched: Sink = schedule_table(sim.trace).rows
         # the periodic task created last and the event id taken after it (releases.arm_periodic)
         self._last_periodic: Task | None = None
         self._periodic_mark = -1
-        self._jobrec: list[tuple] = sim.trace.job_rec.rows
-        sim.trace.job_rec.providers.append(self._unfinished_rows)
+        jobs = jobs_table(sim.trace)
+        self._jobrec: Sink = jobs.rows
+        jobs.providers.append(self._unfinished_rows)
 
     # ------------------------------------------------------------------ tasks
     def _add_task(self, body, kind, name, **kw) -> Task:

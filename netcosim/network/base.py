@@ -48,6 +48,7 @@ from ..timebase import MAX_TICKS, RESOLUTION, TICKS_PER_SECOND
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
 from .loss import Bernoulli, LossModel, MaskedLossWarning, as_loss_model
+from .plot import NETWORK_STATES  # noqa: F401 (re-exported: the states of the network_schedule table)
 from .stats import LinkStats, stats_frame, total
 
 #: default size (frames) of a sender queue: far beyond any load a network drains (tests
@@ -58,8 +59,6 @@ DEFAULT_QUEUE_CAPACITY = 100_000
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
                  "bits", "backoff")
 SCHEDULE_COLUMNS = ("time", "network", "node", "state")
-#: Network-schedule states with their levels above a node's row in the plot (idle lowest, sending highest).
-NETWORK_STATES = {"idle": 0.0, "receiving": 0.2, "waiting": 0.4, "sending": 0.7}
 
 _NAN = math.nan
 _UNSET = object()
@@ -87,6 +86,15 @@ def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
     else:
         df["time"] = df["time"].astype(float)
     return df
+
+
+def _plot_network(trace, frames: Any = _UNSET, **options):
+    """``Trace.plot("network")``: :func:`~netcosim.network.plot.plot_network_schedule` of the
+    ``network_schedule`` table, with the ``frames`` table's losses and retransmissions."""
+    from .plot import plot_network_schedule
+    if frames is _UNSET:
+        frames = trace.frame("frames")
+    return plot_network_schedule(trace.frame("network_schedule"), frames=frames, **options)
 
 
 def _message_loss(value: Any, what: str) -> LossModel | dict | None:
@@ -227,6 +235,7 @@ class Network:
                                           keeps_categories=True)
         self._rows = self._frames_rec.rows
         self._sched_rows = self._sched_rec.rows
+        sim.trace.add_plot("network", _plot_network)
         sim._register(name, self)
         sim.networks[name] = self
 

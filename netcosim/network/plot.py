@@ -1,7 +1,7 @@
 """Network schedule plot: one row per node, a staircase of its state, with a legend.
 
 Each node's row spans ``[row, row + 1)``; its staircase sits at ``row + level`` with the
-levels of :data:`~netcosim.network.base.NETWORK_STATES`: idle at the bottom (``row``),
+levels of :data:`NETWORK_STATES`: idle at the bottom (``row``),
 then receiving, waiting (frames queued, backing off or awaiting an ACK) and sending at
 the top.  The time spent in each non-idle state is also shaded in that state's colour
 (:data:`STATE_COLOURS`), so an idle node is an empty, flat row.  With the ``frames``
@@ -18,11 +18,12 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from ..plot import plot_staircases, save
-from .base import NETWORK_STATES
 
 if TYPE_CHECKING:
     import pandas as pd
 
+#: Network-schedule states with their levels above a node's row in the plot (idle lowest, sending highest).
+NETWORK_STATES = {"idle": 0.0, "receiving": 0.2, "waiting": 0.4, "sending": 0.7}
 #: Fill colour of each non-idle network state (idle is not shaded).
 STATE_COLOURS = {"receiving": "tab:green", "waiting": "tab:orange", "sending": "tab:blue"}
 #: Legend labels of the two kinds of markers.
