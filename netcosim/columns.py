@@ -15,10 +15,10 @@ declared ``uint8``   ``bytes`` (1 byte a row): small codes such as the schedule'
 all ``str``          codes into the column's category table (``bytes`` or ``array`` of
                      1, 2 or 4 bytes a row); each distinct string is stored once per table
 all ``None``         nothing but the row count
-floats and None      a type tag per row (1 byte) and the values as ``array('d')``
-                     (codec ``fnone``: read back as one float column, None as NaN, as
-                     ``from_records`` makes it)
-numbers and None     a type tag per row (1 byte) and the values as ``array('d')`` (or
+floats, ints, None   a type tag per row (1 byte) and the values as ``array('d')``
+                     (codec ``fnone``; ints and None: ``inone``, ``array('q')``): read
+                     back as one float column, None as NaN, as ``from_records`` makes it
+numbers with bools   a type tag per row (1 byte) and the values as ``array('d')`` (or
                      ``array('q')`` without floats); integers beyond 2**53 among floats
                      make the column ``anything else``
 anything else        a plain list of the objects (no tuple per row)
@@ -54,6 +54,10 @@ _NONE = type(None)
 _TAGS = {float: 0, int: 1, bool: 2, _NONE: 3}
 _UNTAG = (float, int, bool, lambda v: None)
 _EXACT = 2 ** 53  # integers a double holds exactly
+#: codecs of a type tag per row and the values
+_TAGGED = ("mixed", "fnone", "inone")
+#: codecs a column of numbers and None may mix and still be read as one float column
+_NUMERIC = frozenset({"d", "q", "fnone", "inone", "none"})
 
 
 def _code_type(n: int) -> str:
@@ -276,13 +280,12 @@ class ColumnStore:
         tags = bytes(map(_TAGS.__getitem__, map(type, col)))
         vals = [0 if v is None else v for v in col] if _NONE in types else col
         try:
-            if types == {float, _NONE}:   # e.g. a frame's backoff: read back as floats and NaN
-                return ("fnone", (tags, array("d", vals)))
             if float in types:
                 if int in types and not all(-_EXACT <= v <= _EXACT for v in col if type(v) is int):
                     return ("obj", list(col))
-                return ("mixed", (tags, array("d", vals)))
-            return ("mixed", (tags, array("q", vals)))
+                # without bools (e.g. a frame's bits and backoff): read back as one float column
+                return ("fnone" if bool not in types else "mixed", (tags, array("d", vals)))
+            return ("inone" if bool not in types else "mixed", (tags, array("q", vals)))
         except OverflowError:
             return ("obj", list(col))
 
@@ -302,7 +305,7 @@ class ColumnStore:
                 cols.append([b != 0 for b in v])
             elif codec == "none":
                 cols.append([None] * n)
-            elif codec == "mixed" or codec == "fnone":
+            elif codec in _TAGGED:
                 tags, vals = v
                 cols.append([_UNTAG[t](x) for t, x in zip(tags, vals.tolist())])
             else:
@@ -429,8 +432,8 @@ class ColumnStore:
             dtype = fast[next(iter(codecs))] if len(codecs) == 1 and next(iter(codecs)) in fast else object
             if codecs == {"str"}:   # the category table is complete: the smallest code type
                 dtype = _small_int(len(self._names[c]))
-            elif "fnone" in codecs and codecs <= {"d", "fnone", "none"}:
-                dtype = np.float64   # floats and None: from_records makes None NaN
+            elif codecs <= _NUMERIC and (len(codecs) > 1 or codecs <= {"fnone", "inone"}):
+                dtype = np.float64   # numbers (and None): from_records makes floats (and None NaN)
             out.append(np.empty(total, dtype=dtype))
         coded = [sig[c] == {"str"} for c in range(ncols)]
         as_category = frozenset(categories)
@@ -463,9 +466,9 @@ class ColumnStore:
             else:
                 for c, (codec, v) in enumerate(data):
                     col = out[c]
-                    if codec == "fnone" and col.dtype != object:
+                    if (codec == "fnone" or codec == "inone") and col.dtype != object:
                         tags, vals = v
-                        col[sl] = np.frombuffer(vals, dtype=np.float64)
+                        col[sl] = np.frombuffer(vals, dtype=np.float64 if codec == "fnone" else np.int64)
                         col[sl][np.frombuffer(tags, dtype=np.uint8) == _TAGS[_NONE]] = np.nan
                     elif codec == "none" and col.dtype != object:
                         col[sl] = np.nan
@@ -534,7 +537,7 @@ class ColumnStore:
             return [b != 0 for b in v]
         if codec == "none":
             return [None] * n
-        if codec == "mixed" or codec == "fnone":
+        if codec in _TAGGED:
             tags, vals = v
             return [_UNTAG[t](x) for t, x in zip(tags, vals.tolist())]
         return list(v)
@@ -557,7 +560,7 @@ def _chunk_bytes(chunk) -> int:
     for codec, v in data:
         if codec == "none":
             continue
-        if codec == "mixed" or codec == "fnone":
+        if codec in _TAGGED:
             tags, vals = v
             size += len(tags) + vals.itemsize * len(vals)
         elif codec == "obj":

@@ -46,7 +46,7 @@ def test_every_codec_round_trips_exactly():
     # 21 rows: four chunks of 4 encoded, fewer than 2 * 4 tuples after them
     assert len(store) == 21 and store._n == 16 and len(store._tail) == 5
     codecs = [codec for codec, _ in store._chunks[0][1][1]]
-    assert codecs == ["q", "d", "mixed", "bool", "str", "obj", "d", "mixed", "obj"]
+    assert codecs == ["q", "d", "fnone", "bool", "str", "obj", "d", "mixed", "obj"]
     assert_same_rows(list(store), ROWS)
     assert_same_rows([store[i] for i in range(21)], ROWS)
     assert same(store[-1][1], math.inf)
@@ -303,3 +303,25 @@ def test_floats_with_none_read_back_as_one_float_column():
     pd.testing.assert_frame_equal(got, ref, check_exact=True)
     assert np.signbit(got["x"].to_numpy()[5]) and np.isnan(got["x"].to_numpy()[0])
     assert_same_rows(list(store), rows)
+
+
+@pytest.mark.parametrize("chunks", [
+    [("inone", lambda i: None if i % 4 == 0 else i * 3)],             # a frame's bits
+    [("q", lambda i: i), ("d", lambda i: i * 0.5)],                     # ints, then floats
+    [("q", lambda i: 2**53 + i), ("none", lambda i: None)],             # large ints, then None
+    [("fnone", lambda i: None if i % 3 else -0.0), ("inone", lambda i: None if i % 2 else i)],
+])
+def test_numeric_columns_of_several_codecs_read_back_as_from_records_makes_them(chunks):
+    rows = []
+    for _, value in chunks:
+        rows += [(len(rows) + i, value(i)) for i in range(1024)]
+    store = ColumnStore(2, chunk_rows=256, memory=2048)
+    for r in rows:
+        store.append(r)
+    store.maintain()
+    codecs = {ch[1][1][0] for _, ch in store._chunks_in_order()}
+    assert {c for c, _ in chunks} <= codecs
+    got = store.frame(("i", "x"))
+    ref = pd.DataFrame.from_records(rows, columns=["i", "x"])
+    assert got["x"].dtype == ref["x"].dtype == np.float64
+    pd.testing.assert_frame_equal(got, ref, check_exact=True)
