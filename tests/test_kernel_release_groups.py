@@ -80,12 +80,14 @@ def test_consecutive_tasks_with_the_same_releases_share_one_timer():
     sim.call_at(0.0, lambda: None)                                                   # something between
     d = cpu.periodic(lambda ctx: None, period=0.01, priority=9, name="d")
     e = cpu.periodic(lambda ctx: None, period=0.01, priority=10, name="e", on_deadline_miss="kill")
-    assert a[0]._group is not None and all(t._group is a[0]._group for t in a)
-    assert a[0]._group.members == a
-    assert b._group is None and c[0]._group is c[1]._group is not a[0]._group
-    assert d._group is None and e._group is None        # not after the call_at; a deadline handler
+    group = cpu._releases.group_of
+    assert all(group(t) is group(a[0]) for t in a)
+    assert group(a[0]).members == a
+    assert group(b).members == [b] and group(c[0]) is group(c[1]) is not group(a[0])
+    assert group(d).members == [d] and group(e).members == [e]  # not after the call_at; a deadline handler
     assert sim.env.queued == 1 + 1 + 1 + 1 + 1 + 1  # a, b, c, the call, d, e
     a[1].stop()
+    assert group(a[1]) is None and group(a[0]).members == [a[0], a[2]]
     sim.run(until=0.025)
     jobs = sim.trace.jobs()
     assert (jobs["task"] == "a1").sum() == 0 and (jobs["task"] == "a0").sum() == 3

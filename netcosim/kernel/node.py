@@ -26,7 +26,7 @@ from ..trace import Sink
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy
 from .ready import ReadyQueue
-from .releases import arm_periodic
+from .releases import Releases
 from .tables import STATE_CODES, jobs_table, schedule_table
 from .task import DEFAULT_MAX_PENDING, HANDLER, Blocking, Job, Task
 from .timers import KernelTimer, Trigger
@@ -89,9 +89,7 @@ class Node:
         # instead of creating one; cancelled timers may still sit in the queue and are never kept
         self._spare_timer: Timer | None = None
         self._sched: Sink = schedule_table(sim.trace).rows
-        # the periodic task created last and the event id taken after it (releases.arm_periodic)
-        self._last_periodic: Task | None = None
-        self._periodic_mark = -1
+        self._releases = Releases(self)  # the periodic releases (kernel.releases owns them)
         jobs = jobs_table(sim.trace)
         self._jobrec: Sink = jobs.rows
         jobs.providers.append(self._unfinished_rows)
@@ -128,7 +126,7 @@ class Node:
                                   deadline=deadline, wcet=wcet, preemptible=preemptible, on_busy=on_busy,
                                   on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun,
                                   max_pending=max_pending, on_queue_full=on_queue_full)
-            arm_periodic(self, task)
+            self._releases.arm(task)
             return task
         return make if body is None else make(body)
 

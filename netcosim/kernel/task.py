@@ -197,7 +197,7 @@ class Task:
                  "deadline_ticks", "wcet_ticks", "preemptible", "on_busy", "on_deadline_miss",
                  "on_budget_overrun", "active", "pending", "jobs_released", "skipped", "misses", "finished",
                  "max_pending", "on_queue_full", "dropped",
-                 "state", "static_key", "ctx", "_release_timer", "_k", "_group", "_release_cb", "_release_cbs",
+                 "state", "static_key", "ctx",
                  "__dict__", "__weakref__")
 
     def __init__(self, node, body: Callable, *, name: str | None, kind: str, priority=None,
@@ -215,6 +215,7 @@ class Task:
         self.priority = priority
         self.period_ticks = _check_time(period, "period", self.name, positive=True,
                                         allow_none=kind != "periodic")
+        # ticks from the task's creation to its first release (the release group keeps the absolute one)
         self.offset_ticks = _check_time(offset, "offset", self.name) or 0
         if deadline is None and period is not None:
             self.deadline_ticks = self.period_ticks
@@ -245,42 +246,25 @@ class Task:
         self.state = "idle"
         self.static_key: Any = None  # set by the node when the policy key depends on the task only
         self.ctx = TaskContext(self)
-        self._release_timer: Timer | None = None
-        self._k = 0
-        self._group: Any = None     # the ReleaseGroup releasing this task, if any (kernel.releases)
-        self._release_cb = self._periodic_release  # one bound method for every release timer
-        # ...and one callback list: SimPy only replaces a fired event's list, never mutates it
-        self._release_cbs: list[Callable[[Any], None]] = [self._release_cb]
 
     # Release ---------------------------------------------------------------
     def release(self) -> Job | None:
         """Release a job now (aperiodic tasks and handlers; also allowed for periodic)."""
         return self.node._release(self, self.node.sim.env.now)
 
-    def _periodic_release(self, timer: Timer) -> None:
-        # The timer that fired is out of SimPy's queue (its callbacks are spent): re-arm
-        # it for the next release instead of creating a new one.  A cancelled timer is
-        # never re-armed (it may still sit in the queue): `stop` drops it.
-        node = self.node
-        env = node._env
-        now = env.now
-        self._k = k = self._k + 1
-        timer.rearm(self.offset_ticks + k * self.period_ticks, self._release_cbs)
-        node._release(self, now)
-
     def stop(self) -> None:
         """Stop future periodic releases (jobs already released continue)."""
-        if self._group is not None:
-            self._group.remove(self)
-            self._release_timer = None
-        elif self._release_timer is not None:
-            self._release_timer.cancel()
-            self._release_timer = None
+        self.node._releases.stop(self)
 
     @property
     def period(self) -> float | None:
         """Period (s), or None for an aperiodic task or a handler."""
         return None if self.period_ticks is None else self.period_ticks / TICKS_PER_SECOND
+
+    @property
+    def offset(self) -> float:
+        """Time (s) from the task's creation to its first periodic release."""
+        return self.offset_ticks / TICKS_PER_SECOND
 
     @property
     def deadline(self) -> float | None:
