@@ -153,6 +153,30 @@ class Dispatcher(Interpreter):
             self._sched.append((self._env.now, task, _RUNNING))
         self._step(best)
 
+    def _dispatch_chosen(self, _event=None) -> None:
+        """:meth:`_dispatch` for a policy with its own ``choose`` (``SchedulingPolicy.choose``):
+        the node's ``_dispatch`` then (set on the instance: the key rule's path pays nothing)."""
+        self._dispatch_pending = False
+        ready = self.ready
+        if self._in_cs or not ready.live:
+            return
+        r = self.running
+        best = self._choose(ready, self)  # type: ignore[misc]  # not None on such a node
+        if best is None or best is r:
+            return
+        if best.ready_entry is None:
+            raise RuntimeError(f"node {self.name!r}: policy {self.policy!r} chose {best!r}, "
+                               f"which is not in the ready queue")
+        np_job = self._np_job
+        if np_job is not None and best.cls != HANDLER:
+            best = np_job  # resumes before any task once the handlers are done
+        if r is not None:
+            if best.cls > r.cls or not (r.task.preemptible or best.cls < r.cls):
+                return
+            self._preempt(r)
+        ready.discard(best)
+        self._switch_in(best)
+
     def _preempt(self, job: Job) -> None:
         now = self.sim.env.now
         if job.seg_timer is not None:

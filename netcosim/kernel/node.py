@@ -20,7 +20,7 @@ from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_
 from ..trace import Sink
 from .dispatcher import Dispatcher
 from .io import AnalogIn, AnalogOut
-from .policies import make_policy
+from .policies import make_policy, own_choose
 from .ready import ReadyQueue
 from .releases import Releases
 from .tables import STATE_CODES, jobs_table, schedule_table
@@ -43,6 +43,7 @@ class Node(Dispatcher):
         self.sim = sim
         self.name = name
         self.policy = make_policy(scheduler)
+        self._choose = own_choose(self.policy)  # None: the dispatcher's inlined key rule
         self.speed = validate.positive(speed, f"node {name!r}: speed")
         if RESOLUTION / self.speed > MAX_SECONDS:
             raise ConfigurationError(f"node {name!r}: speed={speed!r} is so slow that 1 ps of CPU time would "
@@ -72,6 +73,8 @@ class Node(Dispatcher):
         self._env: Any = sim.env  # SimPy types `now` as int | float; here it is always integer ticks
         # one event object, re-armed for every dispatch request (at most one pending)
         self._dispatch_event = Rearmable(sim.env)
+        if self._choose is not None:  # the policy picks among the ready jobs: its own dispatch path
+            self._dispatch = self._dispatch_chosen  # type: ignore[method-assign]
         self._dispatch_callbacks: list[Callable] = [self._dispatch]
         self._segment_cb = self._segment_done  # one bound method for every segment timer
         # ...and one callback list for a re-armed one: SimPy only replaces a fired event's list

@@ -5,6 +5,11 @@ small number = high priority).  Interrupt handlers always beat tasks whatever th
 policy; among handlers the handler priority decides.  Equal keys are served FIFO by
 release order, and a newly ready job never preempts a running job with an equal key.
 Under EDF, equal absolute deadlines are therefore served in release order.
+
+A policy that must see the ready jobs to decide -- a server under EDF, global scheduling
+on several cores -- overrides :meth:`SchedulingPolicy.choose`; the key-based rule stays
+the default and costs nothing extra (the dispatcher inlines it and calls ``choose`` only
+when a policy class has its own).
 """
 
 from __future__ import annotations
@@ -16,7 +21,8 @@ from ..errors import ConfigurationError, ConfigurationTypeError
 
 
 class SchedulingPolicy:
-    """Base class. Subclasses implement :meth:`key` (and may refine :meth:`validate`)."""
+    """Base class. Subclasses implement :meth:`key` (and may refine :meth:`validate`, or
+    override :meth:`choose` to pick among the ready jobs themselves)."""
 
     name = "policy"
     #: True when the key depends on the task only (computed once per task)
@@ -29,6 +35,25 @@ class SchedulingPolicy:
         are integer ticks.  Called when the job is released (once per task when ``static``).
         """
         raise NotImplementedError
+
+    def choose(self, ready, core):
+        """The ready job that should have the CPU *core* now, or None to leave the CPU as it is.
+
+        *ready* is the node's :class:`~netcosim.kernel.ready.ReadyQueue` (``first()``, and
+        iteration in key order); *core* is what runs the jobs, with ``running`` (the job on
+        the CPU or None) -- the node itself while a node has one CPU.  Called at each
+        dispatch decision of a node whose policy overrides it; the job returned must be in
+        *ready* (or be ``core.running``: no change).  The kernel keeps its own rules around
+        the choice: handlers are never preempted by tasks, a non-preemptible task only by
+        handlers, and a non-preemptible task interrupted by a handler resumes before any
+        other task.  This default is the key rule: the first job in *ready* if it is strictly
+        better (class, key) than the running one (the dispatcher runs it inlined).
+        """
+        best = ready.first()
+        r = core.running
+        if best is None or (r is not None and not (best.cls, best.key) < (r.cls, r.key)):
+            return None
+        return best
 
     def validate(self, task) -> None:
         """Check that *task* carries what this policy needs (raise naming the value)."""
@@ -93,6 +118,11 @@ class EDF(SchedulingPolicy):
 
 POLICIES = {cls.name: cls for cls in (FixedPriority, RateMonotonic, DeadlineMonotonic, EDF)}
 POLICIES.update({"fp": FixedPriority, "rm": RateMonotonic, "dm": DeadlineMonotonic})
+
+
+def own_choose(policy: SchedulingPolicy):
+    """*policy*'s bound ``choose`` when its class overrides the key rule's, else None."""
+    return None if type(policy).choose is SchedulingPolicy.choose else policy.choose
 
 
 def make_policy(spec) -> SchedulingPolicy:

@@ -42,6 +42,7 @@ class KernelState:
     _dispatch_pending: bool
     _dispatch_event: Rearmable
     _dispatch_callbacks: list[Callable]
+    _choose: Callable[[ReadyQueue, Any], Job | None] | None  # the policy's `choose`, if it has its own
     # the CPU: one per node today (a multicore node will hold these per core)
     running: Job | None
     _loaded: Job | None         # the job whose context is on the CPU
