@@ -360,14 +360,18 @@ class Recorder:
             # tuple per row, so reading needs about the memory of the frame itself
             cats = [i for i, c in enumerate(self.columns) if c in self.categorical] if self.keeps_categories else []
             df = buf.frame(self.columns, [r for p in self.providers for r in p()], categories=cats)
+            rows_read = len(df)
             if self.transform is not None:
                 df = self.transform(df)
             for c in self.categorical:
                 if c in df.columns:
                     col = df[c]
-                    # categories as astype("category") makes them: those left after the transform
-                    df[c] = col.cat.remove_unused_categories() if isinstance(col.dtype, pd.CategoricalDtype) \
-                        else col.astype("category")
+                    if not isinstance(col.dtype, pd.CategoricalDtype):
+                        df[c] = col.astype("category")
+                    elif len(df) != rows_read:
+                        # categories as astype("category") makes them: those left after the transform
+                        # (without a dropped row, the read's categories are exactly the ones used)
+                        df[c] = col.cat.remove_unused_categories()
             return df
         if self.mode == "off":
             rows: list = []
