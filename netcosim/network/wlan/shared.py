@@ -308,6 +308,8 @@ class SharedClockAccess(PerStationAccess):
             self.clock_key(r, r.backoff)
 
     def solo_start(self, r, tx, first, now) -> None:
+        """*tx* starts at *r*, a station outside the crowd: it locks onto it (spoilt unless it is the
+        *first* frame on the air) or, already receiving or sending, misses it."""
         r.n_active += 1
         if r.tx is not None:
             tx.fail[r.index] = "half_duplex"
