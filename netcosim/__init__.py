@@ -4,7 +4,8 @@ Real-time kernels run controller tasks on nodes, nodes talk over simulated netwo
 and continuous plants are integrated lazily alongside.  Time is in seconds at the API
 (integer picoseconds inside, see :mod:`netcosim.timebase`).
 
-Contents of the package namespace (``__all__`` lists exactly these names; a test checks it):
+Contents of the package namespace (``__all__`` lists exactly these names, the keys of
+``_API``; a test checks it):
 
 Simulation
     :class:`Simulation`, :data:`RESOLUTION` (the time step, s)
@@ -14,8 +15,7 @@ Kernel: scheduling policies
     :class:`DeadlineMonotonic`, :class:`EDF`
 
 Kernel: synchronisation
-    :class:`Mailbox`, :class:`Semaphore`, :class:`Monitor`, :class:`ConditionVariable`,
-    :class:`Event` (older name of :class:`ConditionVariable`)
+    :class:`Mailbox`, :class:`Semaphore`, :class:`Monitor`, :class:`ConditionVariable`
 
 Networks
     :class:`IdealLink`, :class:`FDMA`, :class:`CSMACD`, :class:`CAN`, :class:`RoundRobin`,
@@ -35,13 +35,45 @@ CPU time of controller code
 
 Errors
     :class:`NetcosimError`, :class:`ConfigurationError`, :class:`ConfigurationTypeError`,
-    :class:`NotConnectedError`, :class:`SingularConfigurationError`,
-    :class:`SimulationFailedError`, :class:`UnyieldedExecuteError`, :class:`IntegrationError`
+    :class:`NotConnectedError`, :class:`SimulationFailedError`, :class:`UnyieldedExecuteError`,
+    :class:`IntegrationError`
 """
 
 from typing import TYPE_CHECKING
 
 from .lazy import lazy_exports
+
+#: The public API, the one place it is spelled: name -> the submodule that defines it.
+#: ``__all__`` (in this order), the lazy imports (PEP 562: a name is imported on first use,
+#: so that importing a light submodule such as netcosim.transport.client does not load
+#: SimPy, NumPy or CasADi) and ``dir(netcosim)`` come from it; the ``TYPE_CHECKING``
+#: imports below are generated from it for type checkers (tests/test_package_toc.py
+#: checks that they match, and shows the text to paste when they do not).
+_API = {
+    # Simulation
+    "Simulation": "sim", "RESOLUTION": "timebase",
+    # kernel: scheduling policies
+    "SchedulingPolicy": "kernel", "FixedPriority": "kernel", "RateMonotonic": "kernel", "DeadlineMonotonic": "kernel",
+    "EDF": "kernel",
+    # kernel: synchronisation
+    "Mailbox": "kernel", "Semaphore": "kernel", "Monitor": "kernel", "ConditionVariable": "kernel",
+    # networks
+    "IdealLink": "network", "FDMA": "network", "CSMACD": "network", "CAN": "network", "RoundRobin": "network",
+    "TDMA": "network", "SwitchedEthernet": "network", "WLAN80211b": "network", "IEEE802154": "network",
+    "BROADCAST": "network",
+    # network loss models
+    "Bernoulli": "network", "GilbertElliott": "network", "TraceLoss": "network",
+    # plants
+    "ContinuousSystem": "continuous", "PlantInstance": "continuous", "HybridEvent": "continuous",
+    "RK4": "continuous", "SolveIVP": "continuous", "ExactZOH": "continuous",
+    # CPU time of controller code
+    "CPUTimeModel": "cputime", "FixedCPUTime": "cputime", "RecordedCPUTime": "cputime", "WallClockCPUTime": "cputime",
+    "NonReproducibleWarning": "cputime",
+    # errors
+    "NetcosimError": "errors", "ConfigurationError": "errors", "ConfigurationTypeError": "errors",
+    "NotConnectedError": "errors", "SimulationFailedError": "errors", "UnyieldedExecuteError": "errors",
+    "IntegrationError": "errors",
+}
 
 if TYPE_CHECKING:
     from .continuous import RK4, ContinuousSystem, ExactZOH, HybridEvent, PlantInstance, SolveIVP
@@ -53,14 +85,12 @@ if TYPE_CHECKING:
         NetcosimError,
         NotConnectedError,
         SimulationFailedError,
-        SingularConfigurationError,
         UnyieldedExecuteError,
     )
     from .kernel import (
         EDF,
         ConditionVariable,
         DeadlineMonotonic,
-        Event,
         FixedPriority,
         Mailbox,
         Monitor,
@@ -86,77 +116,7 @@ if TYPE_CHECKING:
     from .sim import Simulation
     from .timebase import RESOLUTION
 
-# Names are imported on first use (PEP 562), so that importing a light submodule such as
-# netcosim.transport.client does not load SimPy, NumPy or CasADi.
-_LAZY = {
-    "RK4": "continuous",
-    "ContinuousSystem": "continuous",
-    "ExactZOH": "continuous",
-    "HybridEvent": "continuous",
-    "PlantInstance": "continuous",
-    "SolveIVP": "continuous",
-    "CPUTimeModel": "cputime",
-    "FixedCPUTime": "cputime",
-    "NonReproducibleWarning": "cputime",
-    "RecordedCPUTime": "cputime",
-    "WallClockCPUTime": "cputime",
-    "ConfigurationError": "errors",
-    "ConfigurationTypeError": "errors",
-    "IntegrationError": "errors",
-    "NetcosimError": "errors",
-    "NotConnectedError": "errors",
-    "SimulationFailedError": "errors",
-    "SingularConfigurationError": "errors",
-    "UnyieldedExecuteError": "errors",
-    "EDF": "kernel",
-    "ConditionVariable": "kernel",
-    "DeadlineMonotonic": "kernel",
-    "Event": "kernel",
-    "FixedPriority": "kernel",
-    "Mailbox": "kernel",
-    "Monitor": "kernel",
-    "RateMonotonic": "kernel",
-    "SchedulingPolicy": "kernel",
-    "Semaphore": "kernel",
-    "BROADCAST": "network",
-    "CAN": "network",
-    "CSMACD": "network",
-    "FDMA": "network",
-    "IEEE802154": "network",
-    "TDMA": "network",
-    "Bernoulli": "network",
-    "GilbertElliott": "network",
-    "IdealLink": "network",
-    "RoundRobin": "network",
-    "SwitchedEthernet": "network",
-    "TraceLoss": "network",
-    "WLAN80211b": "network",
-    "Simulation": "sim",
-    "RESOLUTION": "timebase",
-}
-
-__all__ = [
-    # simulation
-    "Simulation", "RESOLUTION",
-    # kernel: scheduling policies
-    "SchedulingPolicy", "FixedPriority", "RateMonotonic", "DeadlineMonotonic", "EDF",
-    # kernel: synchronisation
-    "Mailbox", "Semaphore", "Monitor", "ConditionVariable", "Event",
-    # networks
-    "IdealLink", "FDMA", "CSMACD", "CAN", "RoundRobin", "TDMA", "SwitchedEthernet", "WLAN80211b", "IEEE802154",
-    "BROADCAST",
-    # network loss models
-    "Bernoulli", "GilbertElliott", "TraceLoss",
-    # plants
-    "ContinuousSystem", "PlantInstance", "HybridEvent", "RK4", "SolveIVP", "ExactZOH",
-    # CPU time of controller code
-    "CPUTimeModel", "FixedCPUTime", "RecordedCPUTime", "WallClockCPUTime", "NonReproducibleWarning",
-    # errors
-    "NetcosimError", "ConfigurationError", "ConfigurationTypeError", "NotConnectedError",
-    "SingularConfigurationError", "SimulationFailedError", "UnyieldedExecuteError", "IntegrationError",
-]
-
+__all__ = list(_API)
 __version__ = "0.1.0"
 
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__ = lazy_exports(__name__, _API, __all__)

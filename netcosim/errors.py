@@ -10,7 +10,7 @@ working.  Each message names the offending value.
 from __future__ import annotations
 
 __all__ = ["NetcosimError", "ConfigurationError", "ConfigurationTypeError", "NotConnectedError",
-           "SingularConfigurationError", "SimulationFailedError", "UnyieldedExecuteError",
+           "SimulationFailedError", "UnyieldedExecuteError",
            "IntegrationError", "LossTraceExhaustedError"]
 
 
@@ -28,11 +28,6 @@ class ConfigurationTypeError(NetcosimError, TypeError):
 
 class NotConnectedError(NetcosimError, RuntimeError):
     """Reading or writing an I/O channel that has no plant port attached."""
-
-
-class SingularConfigurationError(NetcosimError, ValueError):
-    """A kinematic Jacobian ``A_q`` lost column rank (or is too ill-conditioned to use)
-    at the configuration where it was needed."""
 
 
 class SimulationFailedError(NetcosimError, RuntimeError):

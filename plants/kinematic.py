@@ -12,7 +12,7 @@ The Fly-crane configurations (:class:`plants.flycrane.MultiRobotSystem`) impleme
 five; the planners of :mod:`controllers.planner` only need ``n, m, h, jacobian``.
 
 One rank rule (:data:`SINGULAR_RTOL`, :func:`conditioning`), one exception
-(:class:`netcosim.errors.SingularConfigurationError`), one pseudo-inverse
+(:class:`SingularConfigurationError`, defined here), one pseudo-inverse
 (:func:`pinv_solve`: SVD least squares, then the rank rule) and one plant
 ``q_dot = A_q^+ u`` (:class:`KinematicPlant`, thesis (3.7), (4.6), (4.13)) serve every
 system and every caller.  A system may carry its own relative tolerance
@@ -27,11 +27,19 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from netcosim.continuous import ContinuousSystem, HybridEvent
-from netcosim.errors import SingularConfigurationError
+from netcosim.errors import NetcosimError
 
 __all__ = ["KinematicSystem", "SINGULAR_RTOL", "conditioning", "check_singular_values", "rank_rtol",
            "check_system", "as_vector", "jacobian", "pinv_solve", "pinv", "configuration_rate", "project",
            "signed_conditioning", "KinematicPlant", "SingularConfigurationError"]
+
+class SingularConfigurationError(NetcosimError, ValueError):
+    """A kinematic Jacobian ``A_q`` lost column rank (or is too ill-conditioned to use)
+    at the configuration where it was needed (the message names q, the rank, the smallest
+    singular value and the condition number).  Raised by the kinematic plants and
+    planners (Fly-crane, :mod:`controllers.planner`), re-exported by :mod:`plants.flycrane`
+    and :mod:`controllers.planner`: one class."""
+
 
 #: The one rank rule of the project (plants and planners): ``A_q`` counts as singular
 #: when its smallest singular value is at most ``SINGULAR_RTOL`` times its largest,
@@ -81,7 +89,7 @@ def conditioning(singular_values, rtol: float = SINGULAR_RTOL) -> tuple[int, flo
 
 
 def check_singular_values(singular_values, at: str, rtol: float = SINGULAR_RTOL) -> None:
-    """Raise :class:`~netcosim.errors.SingularConfigurationError` if the rule of
+    """Raise :class:`SingularConfigurationError` if the rule of
     :data:`SINGULAR_RTOL` calls the matrix singular; *at* names where (``"q = [...]"``)."""
     rank, smin, cond, singular = conditioning(singular_values, rtol)
     if singular:
@@ -230,7 +238,7 @@ class KinematicPlant(ContinuousSystem):
     ``numpy.random.Generator``, e.g. ``sim.rng(name)``); each output evaluation draws
     fresh noise.
 
-    Raises :class:`~netcosim.errors.SingularConfigurationError` naming the time (s), q
+    Raises :class:`SingularConfigurationError` naming the time (s), q
     and the measure (rank, smallest singular value, condition number) by the one rank
     rule (:func:`rank_rtol`):
 

@@ -1,8 +1,7 @@
 """Synchronisation primitives and priority inheritance."""
 
 
-from netcosim import Event, Mailbox, Monitor, Semaphore, Simulation
-
+from netcosim import ConditionVariable, Mailbox, Monitor, Semaphore, Simulation
 
 
 def inversion_scenario(inheritance: bool, c_medium: float):
@@ -127,7 +126,7 @@ def test_semaphore_fifo_and_event_notify_priority():
     sim = Simulation()
     cpu = sim.node("cpu")
     sem = Semaphore("s", value=0)
-    ev = Event("e")
+    ev = ConditionVariable("e")
     order = []
 
     def waiter(name):
@@ -162,7 +161,7 @@ def test_event_with_monitor_reacquires():
     sim = Simulation()
     cpu = sim.node("cpu")
     mon = Monitor("m")
-    cond = Event("c", monitor=mon)
+    cond = ConditionVariable("c", monitor=mon)
     state = {"ready": False}
     trace = []
 

@@ -17,13 +17,13 @@ import re
 import numpy as np
 import pytest
 
-import controllers.local_planner as lp
+import controllers.planner as lp
 from netcosim import Simulation
 from netcosim.continuous import RK4, SolveIVP
-from netcosim.errors import SingularConfigurationError
 from plants.flycrane import kinematics as kin
 from plants.flycrane.configurations import thesis_flycrane
 from plants.flycrane.input_modes import KinematicPlant
+from plants.kinematic import SingularConfigurationError
 
 T_STAR = 2.0 - math.sqrt(3.0)
 

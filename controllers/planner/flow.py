@@ -12,7 +12,7 @@ Two right-hand sides give the DOP853 stages (:mod:`.dop853`):
   :func:`plants.casadi_tools.compile_functions` when a C compiler is available;
 * otherwise, or where a QR pivot falls below :data:`PIVOT_RTOL`, the SVD least squares
   of :func:`plants.kinematic.pinv_solve`, which raises
-  :class:`~netcosim.errors.SingularConfigurationError` at rank loss.
+  :class:`~plants.kinematic.SingularConfigurationError` at rank loss.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ TAU_XTOL = 1e-10
 #: A QR pivot of ``A_q`` below this fraction of the largest one anywhere in a step of the
 #: CasADi flow sends the whole flow back to the SVD right-hand side (rank rule of
 #: :func:`plants.kinematic.rank_rtol`), which raises
-#: :class:`~netcosim.errors.SingularConfigurationError` if needed.  Whether the CasADi
+#: :class:`~plants.kinematic.SingularConfigurationError` if needed.  Whether the CasADi
 #: flow is compiled: :data:`plants.casadi_tools.COMPILE` (read when a system's flow is
 #: first prepared; libraries cached in :func:`plants.casadi_tools.cache_dir`).
 PIVOT_RTOL = 1e-7

@@ -3,10 +3,10 @@
 from .io import AnalogIn, AnalogOut
 from .node import Node
 from .policies import EDF, DeadlineMonotonic, FixedPriority, RateMonotonic, SchedulingPolicy
-from .sync import ConditionVariable, Event, Mailbox, Monitor, Semaphore
+from .sync import ConditionVariable, Mailbox, Monitor, Semaphore
 from .task import Job, Task, TaskContext
 from .timers import KernelTimer, Trigger
 
-__all__ = ["AnalogIn", "AnalogOut", "ConditionVariable", "DeadlineMonotonic", "EDF", "Event", "FixedPriority", "Job",
+__all__ = ["AnalogIn", "AnalogOut", "ConditionVariable", "DeadlineMonotonic", "EDF", "FixedPriority", "Job",
            "KernelTimer", "Mailbox", "Monitor", "Node", "RateMonotonic", "SchedulingPolicy", "Semaphore",
            "Task", "TaskContext", "Trigger"]

@@ -240,7 +240,7 @@ class ConditionVariable:
     """A kernel condition variable (TrueTime's "event"); optionally tied to a monitor.
 
     Named so as not to be confused with SimPy's ``Event`` or a plant's
-    :class:`~netcosim.continuous.HybridEvent`; ``Event`` remains an alias.
+    :class:`~netcosim.continuous.HybridEvent`.
 
     With a monitor, ``wait`` must be called while holding it: the monitor is released
     during the wait and re-acquired before the waiter continues.
@@ -304,6 +304,3 @@ class ConditionVariable:
             self._wake(job)
         return len(waiters)
 
-
-#: Former name of :class:`ConditionVariable` (TrueTime calls it an event).
-Event = ConditionVariable

@@ -28,10 +28,10 @@ from .attachments import GeometryError, OneCable, PlanarAgent, TwoCable
 from .rotations import euler_zyx, rot_2d
 
 from netcosim import validate
-from netcosim.errors import ConfigurationError, SingularConfigurationError
+from netcosim.errors import ConfigurationError
 
 # the rank rule is the project's one rule, defined with the kinematic model
-from ..kinematic import SINGULAR_RTOL, check_singular_values, conditioning, pinv_solve
+from ..kinematic import SINGULAR_RTOL, SingularConfigurationError, check_singular_values, conditioning, pinv_solve
 
 __all__ = ["MultiRobotSystem", "MassProperties", "SingularConfigurationError", "ConfigurationDomainError",
            "plate_inertia", "SINGULAR_RTOL", "conditioning", "check_singular_values"]

@@ -4,8 +4,9 @@ timers, triggers, synchronisation primitives, and what a task body asks at run t
 from __future__ import annotations
 
 from conftest import periodic_task
+
 from invalid_cases import Case
-from netcosim import Event, Mailbox, Monitor, Semaphore, Simulation
+from netcosim import ConditionVariable, Mailbox, Monitor, Semaphore, Simulation
 from netcosim.errors import (
     ConfigurationError,
     ConfigurationTypeError,
@@ -235,7 +236,7 @@ CASES = [
     Case(id="kernel-mailbox-name-none", call=lambda: Mailbox(None), exc=TypeError, names="None"),
     Case(id="kernel-monitor-inheritance-str", call=lambda: Monitor("m", inheritance="yes"), exc=TypeError,
          names="'yes'"),
-    Case(id="kernel-event-monitor-str", call=lambda: Event("e", monitor="m"), exc=TypeError, names="'m'"),
+    Case(id="kernel-event-monitor-str", call=lambda: ConditionVariable("e", monitor="m"), exc=TypeError, names="'m'"),
     # What a task body asks at run time
     Case(id="kernel-execute-nan", call=lambda: run_task(executes(NAN)), exc=ValueError, names="nan"),
     Case(id="kernel-execute-inf", call=lambda: run_task(executes(INF)), exc=ValueError, names="inf"),
