@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from . import validate
-from .errors import ConfigurationError, ConfigurationTypeError
+from .errors import ConfigurationError, ConfigurationTypeError, NetcosimError
+from .timebase import RESOLUTION
 
 if TYPE_CHECKING:  # matplotlib and pandas load when a plot is drawn, not on import
     import pandas as pd
@@ -27,6 +28,56 @@ if TYPE_CHECKING:  # matplotlib and pandas load when a plot is drawn, not on imp
 TASK_STATES = {"idle": 0.0, "blocked": 0.125, "ready": 0.25, "running": 0.5}
 
 
+class MissingColumnsError(ConfigurationError, KeyError):
+    """A table given to a plot lacks columns the plot reads; the message names them and
+    the columns the table has (a :class:`KeyError` too, so ``except KeyError`` still catches it)."""
+
+    def __str__(self) -> str:
+        # KeyError quotes its argument like a key; this one is a sentence
+        return str(self.args[0]) if self.args else ""
+
+
+class PlotSaveError(NetcosimError, OSError):
+    """The image could not be written (the message names the path and the reason)."""
+
+
+def check_columns(df, columns: Sequence[str], what: str) -> None:
+    """Refuse *df* (called *what* in the message) unless it is a pandas DataFrame with
+    every one of *columns*: :class:`~netcosim.errors.ConfigurationTypeError` naming the
+    value for a non-DataFrame, :class:`MissingColumnsError` listing the missing columns
+    and those it has."""
+    import pandas as pd
+    if not isinstance(df, pd.DataFrame):
+        text = repr(df)
+        raise ConfigurationTypeError(f"{what} must be a pandas DataFrame with columns {list(columns)}, got "
+                                     f"{type(df).__name__} {text if len(text) <= 60 else text[:57] + '...'}")
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise MissingColumnsError(f"{what} lacks the columns {missing} (it has {[str(c) for c in df.columns]}; "
+                                  f"a plot needs {list(columns)})")
+
+
+def check_image_path(path) -> None:
+    """Refuse an image *path* (None: nothing to check) that cannot be written, naming it:
+    a directory (give a file name in it), a name without extension (the format is read
+    from it: ``.png``, ``.pdf``, ``.svg``), or a folder that does not exist
+    (:class:`~netcosim.errors.ConfigurationError`; it is not created)."""
+    if path is None:
+        return
+    validate.path(path, "path", kind="an image file name (str or os.PathLike)")
+    text = str(path)
+    p = Path(path)
+    if p.is_dir() or text.endswith(("/", "\\")):
+        raise ConfigurationError(f"path {text!r} is a directory: give an image file name in it "
+                                 f"(e.g. {str(p / 'schedule.png')!r})")
+    if not p.suffix or not p.stem:
+        raise ConfigurationError(f"path {text!r} has no file extension: give the image format as one "
+                                 f"(e.g. .png, .pdf, .svg)")
+    if not p.parent.is_dir():
+        why = "is a file" if p.parent.exists() else "does not exist (create it first)"
+        raise ConfigurationError(f"cannot write {text!r}: the folder {str(p.parent)!r} {why}")
+
+
 def time_window(times, t_range) -> tuple[float, float]:
     """The plotted window ``(t0, t1)`` in seconds for data at *times* (seconds).
 
@@ -34,7 +85,9 @@ def time_window(times, t_range) -> tuple[float, float]:
     ``t_range = (t0, t1)`` where either end may be ``None`` for "start" / "end of the
     data".  Raises :class:`~netcosim.errors.ConfigurationTypeError` if *t_range* is not
     a pair of real numbers or ``None``, and :class:`~netcosim.errors.ConfigurationError`
-    naming it if an end is not finite or the window is empty or reversed (``t1 <= t0``).
+    naming it if an end is not finite, the window is empty or reversed (``t1 <= t0``),
+    narrower than the 1 ps time resolution, or lies wholly outside the data's time span
+    (the message names the span).
     """
     lo, hi = float(np.min(times)), float(np.max(times))
     if t_range is None:
@@ -54,6 +107,12 @@ def time_window(times, t_range) -> tuple[float, float]:
         data = f" (the data span {lo!r} to {hi!r} s)" if t0 is None or t1 is None else ""
         raise ConfigurationError(f"t_range={t_range!r} is an empty or reversed window{data}: "
                                  f"need t1 > t0")
+    if end - start < RESOLUTION:
+        raise ConfigurationError(f"t_range={t_range!r} is narrower than the time resolution "
+                                 f"({RESOLUTION:g} s): nothing can change inside it")
+    if end <= lo or start > hi:
+        raise ConfigurationError(f"t_range={t_range!r} lies outside the data's time span {lo!r} to {hi!r} s: "
+                                 f"nothing to plot in it")
     return start, end
 
 
@@ -120,11 +179,15 @@ def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, o
 
 
 def save(ax, path) -> None:
-    """Save the axes' figure as PNG (if *path* is given) and close it (also if saving fails)."""
+    """Save the axes' figure as PNG (if *path* is given) and close it (also if saving fails).
+
+    A path that cannot be written raises :class:`PlotSaveError` (an ``OSError``) naming it."""
     if path is not None:
         try:
             ax.figure.tight_layout()
             ax.figure.savefig(path, dpi=120)
+        except OSError as exc:
+            raise PlotSaveError(f"cannot write the image {str(path)!r}: {exc.strerror or exc}") from None
         finally:
             import matplotlib.pyplot as plt
             plt.close(ax.figure)
@@ -139,7 +202,13 @@ def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None,
     None)`` is from 0.5 s to the end; see :func:`time_window` for the checks); ``node``
     keeps one node's tasks (:class:`~netcosim.errors.ConfigurationError` naming it if
     the schedule has no such node); ``path`` saves a PNG.  Returns the axes.
+
+    A *schedule* that is not a DataFrame with columns ``time``, ``node``, ``task`` and
+    ``state``, or a *path* that cannot be an image file (:func:`check_image_path`), is
+    refused naming it before anything is drawn.
     """
+    check_columns(schedule, ("time", "node", "task", "state"), "schedule")
+    check_image_path(path)
     df = schedule
     if node is not None:
         have = sorted(set(df["node"].astype(str)))
@@ -158,7 +227,12 @@ def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None,
 
 def plot_signals(signals: pd.DataFrame, columns: Sequence[tuple[str, str]], *, path=None, ax=None,
                  title: str | None = None, drawstyle: str = "default"):
-    """Plot selected ``(source, signal)`` pairs from the tidy signals table."""
+    """Plot selected ``(source, signal)`` pairs from the tidy signals table.
+
+    *signals* must be a DataFrame with columns ``time``, ``source``, ``signal``, ``value``
+    and *path* an image file name (:func:`check_image_path`), both checked before drawing."""
+    check_columns(signals, ("time", "source", "signal", "value"), "signals")
+    check_image_path(path)
     if ax is None:
         import matplotlib.pyplot as plt
         fig, ax = plt.subplots(figsize=(10, 4))

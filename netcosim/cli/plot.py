@@ -77,6 +77,11 @@ def _plot(args) -> int:
     output = args.output if args.output is not None else f"{args.kind}.png"
     if not output.strip():
         raise UsageError(f"-o/--output must name an image file, got {output!r}")
+    if Path(output).is_dir() or output.endswith(("/", "\\")):
+        output = str(Path(output) / f"{args.kind}.png")        # a folder: KIND.png in it
+    elif not Path(output).suffix or not Path(output).stem:
+        raise UsageError(f"-o/--output {output!r} has no file extension: give the image format as one "
+                         f"(e.g. {args.kind}.png, {args.kind}.pdf, {args.kind}.svg)")
     _check_image_path(output)
     frames = None
     if network:
@@ -126,12 +131,15 @@ def add_parser(sub) -> None:
                                     "schedule (schedule.parquet), `network` the network timeline "
                                     "(network_schedule.parquet; the frames.parquet next to it adds a cross per "
                                     "lost frame and a triangle per retransmission).  --t0 alone plots from t0 to "
-                                    "the end of the trace, --t1 alone from its start.  The image's folder must "
-                                    "exist.")
+                                    "the end of the trace, --t1 alone from its start; a window outside the trace's "
+                                    "time span or narrower than 1 ps is refused.  The image's folder must exist.")
     pl.add_argument("kind", choices=["schedule", "network"])
     pl.add_argument("trace", help="Parquet file written by Trace.to_parquet: schedule.parquet (schedule) or "
                                   "network_schedule.parquet (network)")
-    pl.add_argument("-o", "--output", help="image to write (default KIND.png: schedule.png or network.png)")
+    pl.add_argument("-o", "--output", help="image to write, its format given by its extension (.png, .pdf, .svg; "
+                                           "a name without one is refused); an existing folder or a name ending "
+                                           "in / writes KIND.png in that folder (default KIND.png: schedule.png "
+                                           "or network.png)")
     pl.add_argument("--node", help="plot only this node (schedule: its tasks; network: its row)")
     pl.add_argument("--network", help="network: the network to plot (needed if the table holds several)")
     pl.add_argument("--frames", metavar="PATH",

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-from ..plot import plot_staircases, save
+from ..plot import check_columns, check_image_path, plot_staircases, save
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -61,6 +61,8 @@ def plot_network_schedule(schedule: pd.DataFrame, *, network: str | None = None,
     an ``attempt_start`` with ``attempt > 1`` (label :data:`RETRANSMISSION_LABEL`, on the
     sender's row).  ``path`` saves a PNG.  Returns the axes.
     """
+    check_columns(schedule, ("time", "network", "node", "state"), "schedule")
+    check_image_path(path)
     df = schedule
     if network is not None:
         df = df[df["network"] == network]

@@ -183,3 +183,48 @@ CASES = [
     Case(id="cli-plot-network-api-t-range-reversed", call=lambda: plot_network_api(t_range=(0.001, 0.0)),
          exc=ValueError, names="(0.001, 0.0)"),
 ]
+
+
+def plot_signals_api(signals, **kw):
+    from netcosim.plot import plot_signals
+    plot_signals(signals, [("p", "y")], **kw)
+
+
+def _plot_schedule(schedule, **kw):
+    from netcosim.plot import plot_schedule
+    plot_schedule(schedule, **kw)
+
+
+def _plot_network(schedule, **kw):
+    from netcosim.network.plot import plot_network_schedule
+    plot_network_schedule(schedule, **kw)
+
+
+_SIGNALS = pd.DataFrame({"time": [0.0, 0.1], "source": "p", "signal": "y", "value": [0.0, 1.0]})
+
+# the audit's plot cases: what is missing named, an unwritable image path refused before drawing
+CASES += [
+    Case(id="plot-api-schedule-path-in-missing-folder", call=lambda: plot_api(path="/proc/x/y.png"),
+         exc=ValueError, names="'/proc/x/y.png'"),
+    Case(id="plot-api-schedule-path-a-folder", call=lambda: plot_api(path=tempfile.gettempdir()),
+         exc=ValueError, names=repr(tempfile.gettempdir())),
+    Case(id="plot-api-schedule-path-without-extension", call=lambda: plot_api(path="/tmp/noext"), exc=ValueError,
+         names="'/tmp/noext' has no file extension"),
+    Case(id="plot-api-schedule-missing-columns", call=lambda: _plot_schedule(pd.DataFrame({"a": [1]})),
+         exc=KeyError, names="['time', 'node', 'task', 'state']"),
+    Case(id="plot-api-schedule-not-a-frame", call=lambda: _plot_schedule(42), exc=TypeError, names="int 42"),
+    Case(id="plot-api-schedule-window-outside-the-data", call=lambda: plot_api(t_range=(5.0, 6.0)), exc=ValueError,
+         names="time span 0.0 to 0.012 s"),
+    Case(id="plot-api-schedule-window-below-resolution", call=lambda: plot_api(t_range=(0.0, 1e-15)),
+         exc=ValueError, names="(0.0, 1e-15)"),
+    Case(id="plot-api-network-missing-columns", call=lambda: _plot_network(pd.DataFrame({"a": [1]})),
+         exc=KeyError, names="['time', 'network', 'node', 'state']"),
+    Case(id="plot-api-network-not-a-frame", call=lambda: _plot_network(42), exc=TypeError, names="int 42"),
+    Case(id="plot-api-network-path-in-missing-folder", call=lambda: plot_network_api(path="/proc/x/y.png"),
+         exc=ValueError, names="'/proc/x/y.png'"),
+    Case(id="plot-api-signals-not-a-frame", call=lambda: plot_signals_api(42), exc=TypeError, names="int 42"),
+    Case(id="plot-api-signals-missing-columns", call=lambda: plot_signals_api(pd.DataFrame({"time": [0.0]})),
+         exc=KeyError, names="['source', 'signal', 'value']"),
+    Case(id="plot-api-signals-path-in-missing-folder", call=lambda: plot_signals_api(_SIGNALS, path="/proc/x/y.png"),
+         exc=ValueError, names="'/proc/x/y.png'"),
+]
