@@ -221,3 +221,75 @@ def test_plot_network_draws_a_simulated_trace(tmp_path, monkeypatch, capsys):
     (tmp_path / "trace" / "frames.parquet").unlink()
     assert main(["plot", "network", str(trace), "-o", str(out), "--node", "a"]) == 0
     assert "frame lost" not in drawn[1]
+
+
+# --- the audit's CLI cases --------------------------------------------------------------------
+
+SCEN = '''
+def fn(params, seed):
+    return {"J": 1.0}
+
+def main(outdir):
+    return None
+'''
+
+
+@pytest.fixture
+def scen(tmp_path, monkeypatch):
+    (tmp_path / "audit_scen.py").write_text(SCEN)
+    _schedule_frame().to_parquet(tmp_path / "some.parquet")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    monkeypatch.delitem(sys.modules, "audit_scen", raising=False)
+    return tmp_path
+
+
+@pytest.mark.parametrize("args, named", [
+    (["run", "netcosim.cli:UsageError", "--outdir", "o"], "an experiment is a function main(outdir"),
+    (["run", "netcosim.errors:NetcosimError"], "'netcosim.errors:NetcosimError' is a class"),
+    (["run", "some.parquet"], "'some.parquet' is not a Python file"),
+    (["run", "{tmp}/some.parquet:main"], "some.parquet' is not a Python file"),
+    (["hil", "{tmp}/some.parquet:fn", "--remote", "controller", "--period", "0.01"],
+     "some.parquet' is not a Python file"),
+    (["hil", "audit_scen.py:fn", "--remote", "controller", "--period", "0.01"], "build() -> Simulation"),
+    (["hil", "audit_scen.py:main", "--remote", "controller", "--period", "0.01"], "signature (outdir)"),
+])
+def test_run_and_hil_refuse_what_is_not_an_entry_point(scen, args, named, capsys, no_session):
+    _one_line_exit_2([a.format(tmp=scen) for a in args], named, capsys)
+
+
+@pytest.mark.parametrize("kind, options, named", [
+    ("schedule", ["--t0", "-1", "--t1", "-0.5"], "time span 0.0 to 0.012 s"),
+    ("schedule", ["--t0", "5", "--t1", "6"], "time span 0.0 to 0.012 s"),
+    ("network", ["--t0", "0", "--t1", "1e-15"], "time resolution"),
+    ("schedule", ["-o", "{tmp}/noext"], "'{tmp}/noext' has no file extension"),
+    ("schedule", ["-o", "{tmp}/.png"], "has no file extension"),
+])
+def test_plot_refuses_an_empty_window_and_a_name_without_extension(kind, options, named, tmp_path, capsys):
+    trace = tmp_path / "trace.parquet"
+    _schedule_frame(**({"network": "link", "state": ["sending", "idle", "sending", "idle"]}
+                       if kind == "network" else {})).to_parquet(trace)
+    options = [o.format(tmp=tmp_path) for o in options]
+    if "-o" not in options:
+        options += ["-o", str(tmp_path / "p.png")]
+    _one_line_exit_2(["plot", kind, str(trace), *options], named.format(tmp=tmp_path), capsys)
+    assert not (tmp_path / "p.png").exists() and not (tmp_path / "noext").exists()
+
+
+@pytest.mark.parametrize("slash", ["", "/"])
+def test_plot_into_a_folder_writes_kind_png_there(tmp_path, capsys, slash):
+    trace = tmp_path / "trace.parquet"
+    _schedule_frame().to_parquet(trace)
+    folder = tmp_path / "images"
+    folder.mkdir()
+    assert main(["plot", "schedule", str(trace), "-o", f"{folder}{slash}"]) == 0
+    assert sorted(p.name for p in folder.iterdir()) == ["schedule.png"]
+
+
+def test_python_dash_m_netcosim_is_the_command():
+    import subprocess
+    from pathlib import Path
+    r = subprocess.run([sys.executable, "-m", "netcosim", "--help"], capture_output=True, text=True, timeout=120,
+                       cwd=Path(__file__).resolve().parents[1])
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith("usage: netcosim")

@@ -91,6 +91,22 @@ def check_endpoint(endpoint: str, flag: str) -> str:
     return endpoint
 
 
+def _check_signature(fn, spec: str, flag: str, expected: str, *sample) -> None:
+    """Refuse *fn* (named *spec*, given as *flag*) if it cannot be called with *sample*
+    arguments, naming the *expected* signature, before it is called."""
+    import inspect
+    if inspect.isclass(fn):
+        raise UsageError(f"{flag} {spec!r} is a class; it must be a function {expected}")
+    try:
+        sig = inspect.signature(fn)
+    except (TypeError, ValueError):         # a builtin without a signature: let the call say it
+        return
+    try:
+        sig.bind(*sample)
+    except TypeError:
+        raise UsageError(f"{flag} {spec!r} has the signature {sig}; it must be a function {expected}") from None
+
+
 def _check_hil_options(args) -> None:
     """Every ``hil`` option that does not need the scenario, before anything is built or opened."""
     import shlex
@@ -160,6 +176,12 @@ def _hil(args) -> int:
     if os.getcwd() not in sys.path:
         sys.path.insert(0, os.getcwd())
     build = resolve_experiment(args.scenario)
+    _check_signature(build, args.scenario, "scenario", "build() -> Simulation (called with no argument)")
+    if args.replay is not None:
+        replay = resolve_experiment(args.replay)
+        _check_signature(replay, args.replay, "--replay", "FUNCTION(until, requests) -> Simulation", 1.0, [])
+    if args.extra is not None:
+        _check_signature(resolve_experiment(args.extra), args.extra, "--extra", "FUNCTION(built)", None)
     built = build()
     sim = built[0] if isinstance(built, tuple) else built
     is_node = args.remote in getattr(sim, "nodes", {})
@@ -182,7 +204,7 @@ def _hil(args) -> int:
         raise UsageError(f"--abort-on {', '.join(bad)}: not one of {', '.join(DROP_REASONS + LOSS_EVENTS)}")
     if args.replay is not None and not args.compare:
         raise UsageError("--replay needs --compare")
-    replay = None if args.replay is None else resolve_experiment(args.replay)
+    replay = None if args.replay is None else resolve_experiment(args.replay)      # checked above
     extra = None if args.extra is None else resolve_experiment(args.extra)(built)
     listen = args.listen or ([] if args.connect else [LOOPBACK])
     run = new_run_id()

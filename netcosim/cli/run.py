@@ -16,6 +16,8 @@ def _load_module_from_file(given: str):
     path = Path(given)
     if not path.is_file():
         raise UsageError(f"no experiment file {given!r}")
+    if path.suffix != ".py":
+        raise UsageError(_not_python(given))
     name = path.stem
     if not name.isidentifier():
         raise UsageError(f"experiment file {given!r}: {name!r} is not a valid module name")
@@ -32,6 +34,11 @@ def _load_module_from_file(given: str):
         del sys.modules[name]
         raise _syntax_error(exc) from None
     return module
+
+
+def _not_python(given: str) -> str:
+    return (f"{given!r} is not a Python file (.py): an experiment or scenario is a function of a Python file "
+            f"or module (path/to/file.py[:function], package.module[:function])")
 
 
 def _import_module(name: str, what: str):
@@ -81,6 +88,8 @@ def resolve_experiment(spec: str):
     if sep and not func:
         raise UsageError(f"experiment {spec!r}: no function name after ':'")
     func = func or "main"
+    if not target.endswith(".py") and Path(target).suffix and Path(target).is_file():
+        raise UsageError(_not_python(target))       # some.parquet: a file, but not one to import
     if target.endswith(".py") or "/" in target or "\\" in target:
         module = _load_module_from_file(target)
         where = f"file {target!r}"
@@ -105,6 +114,11 @@ def resolve_experiment(spec: str):
     if not callable(fn):
         raise UsageError(f"{where}: {func!r} is not a function but {type(fn).__name__}")
     return fn
+
+
+#: What ``netcosim run`` calls, said in the messages that refuse something else.
+WHAT_IS_AN_EXPERIMENT = ("an experiment is a function main(outdir, quick=False) that writes its results "
+                         "into outdir")
 
 
 def _accepts(fn, keyword: str) -> bool:
@@ -142,13 +156,16 @@ def _short(value) -> str:
 def _run(args) -> int:
     fn = resolve_experiment(args.experiment)
     label = f"{getattr(fn, '__module__', None) or '?'}.{getattr(fn, '__qualname__', None) or args.experiment}"
+    if inspect.isclass(fn):
+        raise UsageError(f"{args.experiment!r} is a class ({label}), not an experiment entry point: "
+                         f"{WHAT_IS_AN_EXPERIMENT}")
     if not _accepts(fn, "outdir"):
         try:
             sig = str(inspect.signature(fn))
         except (TypeError, ValueError):
             sig = "(...)"
         raise UsageError(f"{args.experiment!r} is not an experiment entry point: {label}{sig} takes no 'outdir' "
-                         "(netcosim run calls FUNCTION(outdir=..., quick=...) and reports what it wrote)")
+                         f"({WHAT_IS_AN_EXPERIMENT}; netcosim run calls FUNCTION(outdir=..., quick=...))")
     kwargs = {}
     if args.outdir is not None:
         outdir: str | os.PathLike | None = check_writable_dir(args.outdir, "--outdir")

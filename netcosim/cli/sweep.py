@@ -6,7 +6,7 @@ import os
 import sys
 from pathlib import Path
 
-from ._common import UsageError
+from ._common import UsageError, _syntax_error, check_writable_dir
 
 
 def grid_value(text: str) -> int | float | bool | str:
@@ -89,10 +89,13 @@ def _sweep(args) -> int:
                 raise UsageError("--out DIR is required: the directory of the sweep's Parquet dataset")
             if not args.grid:
                 raise UsageError("give at least one --grid NAME=VALUE[,VALUE...]")
+            check_writable_dir(args.out, "--out")
             res = run_sweep(args.scenario, parse_grid(args.grid), 1 if args.seeds is None else args.seeds,
                             root_seed=args.root_seed or 0, out=args.out, fresh=args.fresh, **common)
     except NetcosimError as exc:
         raise UsageError(str(exc)) from None
+    except SyntaxError as exc:            # the scenario's file does not parse: one line, as `netcosim run` says it
+        raise _syntax_error(exc) from None
     except KeyboardInterrupt:
         kept = len(Store(out).finished()) if out is not None and Path(out).is_dir() else 0
         print(f"{chr(10) if sys.stderr.isatty() else ''}netcosim sweep: interrupted; the {kept} finished runs are "
@@ -119,14 +122,14 @@ def add_parser(sub) -> None:
     sw.add_argument("--grid", action="append", default=[], metavar="NAME=V1,V2",
                     help="a parameter and its values (repeat for more parameters: their product is swept); each "
                          "value is read as an int, else a float, else true/false, else a string")
-    sw.add_argument("--seeds", type=int, help="runs per case (default 1)")
+    sw.add_argument("--seeds", type=int, help="runs per case (default 1; cases x seeds at most 10**7 runs)")
     sw.add_argument("--root-seed", type=int, help="root of every run's seed (default 0)")
     sw.add_argument("--executor", choices=["pool", "dask", "serial"], default="pool",
                     help="where runs execute: local worker processes (default), Dask, or this process")
     sw.add_argument("--scheduler", metavar="tcp://HOST:8786", help="address of a Dask scheduler (implies dask)")
     sw.add_argument("--workers", type=int, help="worker processes of the pool or the local Dask cluster "
                                                 "(default: one per CPU)")
-    sw.add_argument("--timeout", type=float, metavar="S", help="wall-clock seconds one run may take")
+    sw.add_argument("--timeout", type=float, metavar="S", help="wall-clock seconds one run may take (at most 1e9)")
     sw.add_argument("--out", metavar="DIR", help="directory of the sweep's Parquet dataset")
     sw.add_argument("--resume", metavar="DIR", help="continue the sweep stored in DIR (runs only the missing runs "
                                                     "and those whose files are damaged)")

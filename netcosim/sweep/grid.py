@@ -24,7 +24,12 @@ import numpy as np
 
 from ..errors import ConfigurationError, ConfigurationTypeError
 
-__all__ = ["cases", "param_value", "check_accepted", "RESERVED"]
+__all__ = ["cases", "param_value", "check_accepted", "RESERVED", "MAX_RUNS"]
+
+#: The most runs (grid cases x seeds) one sweep may hold, 10**7: a larger sweep is refused
+#: before anything is listed (its run table alone would not fit in memory, and listing
+#: its runs would stall before the first one).
+MAX_RUNS = 10**7
 
 #: Column names of a sweep's run table that a parameter or a metric may not take.
 RESERVED = ("seed_index", "seed", "status", "error", "traceback", "wall_time")
@@ -58,12 +63,17 @@ def _check_name(name: Any, what: str) -> str:
     return name
 
 
+def _check_size(n: int, what: str) -> None:
+    if n > MAX_RUNS:
+        raise ConfigurationError(f"{what} has {n} cases, more than a sweep may run (MAX_RUNS = {MAX_RUNS} runs)")
+
+
 def cases(grid: Any) -> list[dict[str, Any]]:
     """The list of cases (dicts of parameter values, in order) that *grid* describes.
 
     Raises, naming the offending value: an empty grid, a parameter with no values, a
     value that is not a plain scalar, cases with different parameter names, a case
-    given twice.
+    given twice, more than :data:`MAX_RUNS` cases (checked before the product is listed).
     """
     import pandas as pd
 
@@ -71,6 +81,7 @@ def cases(grid: Any) -> list[dict[str, Any]]:
         if grid.shape[1] == 0 or grid.shape[0] == 0:
             raise ConfigurationError(f"grid must have at least one case, got an empty DataFrame of shape {grid.shape}")
         names = [_check_name(c, "grid") for c in grid.columns]
+        _check_size(grid.shape[0], f"grid (a DataFrame of {grid.shape[0]} rows)")
         raw = [dict(zip(names, row)) for row in grid.itertuples(index=False, name=None)]
     elif isinstance(grid, dict):
         if not grid:
@@ -84,6 +95,8 @@ def cases(grid: Any) -> list[dict[str, Any]]:
             if not v:
                 raise ConfigurationError(f"grid[{k!r}] must list at least one value, got {v!r}")
             values.append(v)
+        _check_size(math.prod(len(v) for v in values),
+                    "grid (the product of " + " x ".join(f"{len(v)} {k!r}" for k, v in zip(names, values)) + ")")
         raw = [dict(zip(names, combo)) for combo in itertools.product(*values)]
     elif isinstance(grid, (list, tuple)):
         if not grid:
@@ -91,6 +104,7 @@ def cases(grid: Any) -> list[dict[str, Any]]:
         if not all(isinstance(c, dict) for c in grid):
             bad = next(c for c in grid if not isinstance(c, dict))
             raise ConfigurationTypeError(f"grid as a list must hold dicts (one per case), got {bad!r}")
+        _check_size(len(grid), f"grid (a list of {len(grid)} cases)")
         names = [_check_name(k, "grid") for k in grid[0]]
         for i, c in enumerate(grid):
             if set(c) != set(names):

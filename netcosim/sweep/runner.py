@@ -11,6 +11,7 @@ order they finished in, so every executor gives the same table.
 from __future__ import annotations
 
 import os
+import re
 import sys
 from typing import Any, Callable
 
@@ -18,16 +19,41 @@ from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
 from . import grid as _grid
 from .executors import DaskExecutor, PoolExecutor, SerialExecutor, cpu_count
+from .grid import MAX_RUNS
 from .result import SweepResult, run_frame
 from .run import Outcome
 from .scenario import code_digest, reference
 from .seeds import run_seed, seed_list
 from .store import FORMAT, Damage, DamagedSweepError, Lock, Store, describe_damage, param_dtypes
 
-__all__ = ["run_sweep", "load_sweep", "verify_sweep", "validate_cases", "EXECUTORS"]
+__all__ = ["run_sweep", "load_sweep", "verify_sweep", "validate_cases", "check_scheduler", "EXECUTORS",
+           "MAX_RUNS", "MAX_TIMEOUT"]
 
 #: Executors by name (a ``dask.distributed.Client`` may be given instead).
 EXECUTORS = ("serial", "pool", "dask")
+
+#: The longest per-run ``timeout`` accepted, 10**9 s (about 32 years): beyond it the
+#: executors' waits overflow (``1e300`` raised ``OverflowError``).
+MAX_TIMEOUT = 1e9
+
+#: A Dask scheduler address: ``host:port`` or ``scheme://host:port`` (IPv6 hosts in
+#: brackets), or an ``inproc://`` address.
+_ADDRESS = re.compile(r"^(?:[A-Za-z][A-Za-z0-9+.-]*://)?(?:\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(\d{1,5})/?$")
+
+
+def check_scheduler(address: Any) -> str:
+    """*address* if it has the form of a Dask scheduler address (``tcp://host:8786``,
+    ``host:8786``, ``inproc://...``); raises naming it otherwise (a missing port, no host),
+    at once, before any connection is tried."""
+    if not isinstance(address, str) or not address.strip():
+        raise ConfigurationTypeError(f"scheduler must be an address such as 'tcp://host:8786', got {address!r}")
+    if address.startswith("inproc://"):
+        return address
+    m = _ADDRESS.match(address.strip())
+    if m is None or not 0 < int(m.group(1)) < 65536:
+        raise ConfigurationError(f"scheduler {address!r} is not a Dask scheduler address: give host:port or "
+                                 f"scheme://host:port, e.g. 'tcp://host:8786' (a port from 1 to 65535)")
+    return address.strip()
 
 
 def _version() -> str:
@@ -142,23 +168,34 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
     notify:
         Called with each message (runs found done, damaged files re-run); default: a
         line on stderr unless *quiet*.
+
+    A sweep holds at most :data:`MAX_RUNS` (10**7) runs, cases times seeds: a larger one
+    is refused, naming the count, before anything is listed.
     """
+    if notify is not None and not callable(notify):
+        raise ConfigurationTypeError(f"notify must be a function notify(message: str) or None, got {notify!r}")
     say: Callable[[str], None] = notify if notify is not None else ((lambda m: None) if quiet else _stderr)
     # --- check everything before the first run ---------------------------------------
-    cases = _grid.cases(grid)
-    names = list(cases[0])
     n_seeds, explicit = seed_list(seeds)
+    if n_seeds > MAX_RUNS:
+        raise ConfigurationError(f"seeds gives {n_seeds} runs per case, more than a sweep may run "
+                                 f"(MAX_RUNS = {MAX_RUNS} runs)")
+    cases = _grid.cases(grid)
+    if len(cases) * n_seeds > MAX_RUNS:
+        raise ConfigurationError(f"the sweep would make {len(cases) * n_seeds} runs ({len(cases)} cases x "
+                                 f"{n_seeds} seeds), more than a sweep may run (MAX_RUNS = {MAX_RUNS} runs)")
+    names = list(cases[0])
     root_seed = validate.integer(root_seed, "root_seed", lo=0, kind="a non-negative integer")
     if timeout is not None:
-        timeout = validate.real(timeout, "timeout", lo=0.0, lo_open=True, kind="a positive number of seconds")
+        timeout = validate.real(timeout, "timeout", lo=0.0, lo_open=True, hi=MAX_TIMEOUT,
+                                kind=f"a positive number of seconds, at most {MAX_TIMEOUT:g}")
     if workers is not None:
         workers = validate.integer(workers, "workers", lo=1, kind="a number of worker processes (an integer >= 1)")
     for flag, value in (("fresh", fresh), ("retry_errors", retry_errors)):
         if not isinstance(value, bool):
             raise ConfigurationTypeError(f"{flag} must be True or False, got {value!r}")
     if scheduler is not None:
-        if not isinstance(scheduler, str) or not scheduler.strip():
-            raise ConfigurationTypeError(f"scheduler must be an address such as 'tcp://host:8786', got {scheduler!r}")
+        scheduler = check_scheduler(scheduler)
         if executor == "pool":
             executor = "dask"
         elif executor != "dask":
@@ -191,6 +228,7 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
     repaired: list[Damage] = []
     if out is not None:
         validate.path(out, "out")
+        _check_out(out)
         store = Store(out)
         store.dtypes = param_dtypes(cases)
         store.check(meta, fresh)
@@ -222,6 +260,16 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
         finally:
             if lock is not None:
                 lock.release()
+
+
+def _check_out(out: str | os.PathLike) -> None:
+    """Refuse an output directory that cannot be made or written (``/proc/x``, a file),
+    naming it, before anything is run or created."""
+    from ..cli._common import UsageError, check_writable_dir
+    try:
+        check_writable_dir(out, "out")
+    except UsageError as exc:
+        raise ConfigurationError(str(exc)) from None
 
 
 def _repair(store: Store, meta: dict[str, Any], done: set[tuple[int, int]], damage: list[Damage],

@@ -144,3 +144,67 @@ CASES = [
     Case(id="cli-sweep-unknown-executor", call=lambda: netcosim("sweep", "x:y", "--executor", "threads"),
          exc=CommandFailed, names="'threads'"),
 ]
+
+# the audit's cases: sizes beyond MAX_RUNS, a non-callable notify, an unwritable output, an
+# unbounded timeout, a scenario file that does not parse, a malformed scheduler address
+
+
+def _bad_syntax_file(d):
+    path = Path(d) / "bad_syntax_scenario.py"
+    path.write_text("def main(params, seed)\n    return {}\n")
+    return path
+
+
+def cli_bad_syntax():
+    with tempfile.TemporaryDirectory() as d:
+        netcosim("sweep", f"{_bad_syntax_file(d)}:main", "--grid", "a=1", "--out", f"{d}/s")
+
+
+def _timed(call, limit=5.0):
+    """*call* must fail within *limit* seconds (the audit's versions stalled or waited 10-22 s)."""
+    import time
+    t0 = time.monotonic()
+    try:
+        call()
+    finally:
+        assert time.monotonic() - t0 < limit, f"took {time.monotonic() - t0:.1f} s"
+
+
+CASES += [
+    Case(id="sweep-seeds-beyond-max-runs", call=lambda: _timed(lambda: sweep(grid={"a": [1]}, seeds=10**13)),
+         exc=CE, names="10000000000000"),
+    Case(id="sweep-grid-times-seeds-beyond-max-runs",
+         call=lambda: _timed(lambda: sweep(grid={"a": list(range(1000)), "b": [0.5]}, seeds=10**5)),
+         exc=CE, names="100000000 runs"),
+    Case(id="sweep-grid-product-beyond-max-runs",
+         call=lambda: _timed(lambda: sweep(grid={"a": list(range(10**4)), "b": list(range(10**4))})),
+         exc=CE, names="100000000 cases"),
+    Case(id="sweep-notify-not-callable", call=lambda: sweep(notify=5), exc=CTE, names="got 5"),
+    Case(id="sweep-out-unwritable", call=lambda: sweep(out="/proc/x"), exc=CE, names="'/proc/x'"),
+    Case(id="sweep-out-under-a-file", call=lambda: sweep(out=__file__ + "/s"), exc=CE,
+         names=repr(__file__ + "/s")),
+    Case(id="sweep-timeout-beyond-max", call=lambda: sweep(timeout=1e300), exc=CE, names="1e+300"),
+    Case(id="sweep-scheduler-no-port", call=lambda: _timed(lambda: sweep(scheduler="notanaddress")), exc=CE,
+         names="'notanaddress'"),
+    Case(id="sweep-scheduler-url-no-port", call=lambda: _timed(lambda: sweep(scheduler="tcp://host")), exc=CE,
+         names="'tcp://host'"),
+    Case(id="sweep-scheduler-port-out-of-range", call=lambda: sweep(scheduler="tcp://host:99999"), exc=CE,
+         names="'tcp://host:99999'"),
+    Case(id="cli-sweep-seeds-beyond-max-runs",
+         call=lambda: _timed(lambda: cli_in_dir("sweep", "sweep_scenarios:cheap", "--grid", "a=1", "--grid", "b=2",
+                                                "--seeds", "1000000000000", "--out", "DIR/s")),
+         exc=CommandFailed, names="1000000000000"),
+    Case(id="cli-sweep-out-unwritable", call=lambda: netcosim("sweep", "sweep_scenarios:cheap", "--grid", "a=1",
+                                                              "--grid", "b=2", "--out", "/proc/x"),
+         exc=CommandFailed, names="--out '/proc/x'"),
+    Case(id="cli-sweep-timeout-beyond-max",
+         call=lambda: cli_in_dir("sweep", "sweep_scenarios:cheap", "--grid", "a=1", "--grid", "b=2",
+                                 "--timeout", "1e300", "--out", "DIR/s"),
+         exc=CommandFailed, names="1e+300"),
+    Case(id="cli-sweep-scenario-syntax-error", call=cli_bad_syntax, exc=CommandFailed,
+         names="bad_syntax_scenario.py:1: SyntaxError"),
+    Case(id="cli-sweep-scheduler-not-an-address",
+         call=lambda: _timed(lambda: cli_in_dir("sweep", "sweep_scenarios:cheap", "--grid", "a=1", "--grid", "b=2",
+                                                "--scheduler", "notanaddress", "--out", "DIR/s")),
+         exc=CommandFailed, names="'notanaddress'"),
+]
