@@ -7,8 +7,9 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
+from test_network_plot import _lossy_link  # noqa: E402
 
-from netcosim import IdealLink, Simulation  # noqa: E402
+from netcosim import Simulation  # noqa: E402
 from netcosim.errors import ConfigurationError  # noqa: E402
 from netcosim.network.plot import LOST_LABEL  # noqa: E402
 
@@ -85,13 +86,7 @@ def test_signals_plot_draws_every_logged_signal_in_seconds():
 
 
 def test_network_plot_marks_the_lost_frames():
-    sim = Simulation(seed=3)
-    net = IdealLink(sim, "link", data_rate=1e6, loss=0.5)
-    a = net.attach("a")
-    net.attach("b")
-    for k in range(10):
-        sim.call_at(k * 1e-3, lambda: a.send("b", None, 300))
-    sim.run(0.02)
+    sim = _lossy_link()             # a sends 300 bits every ms over a link losing half the frames
     ax = sim.trace.plot("network")
     assert [t.get_text() for t in ax.get_yticklabels()] == ["b", "a"]
     lost = sim.trace.frame("frames")
