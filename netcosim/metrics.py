@@ -47,7 +47,7 @@ A metric is only as good as its samples, so every result is a :class:`Cost`: a
 (how the source was logged, when known, then how many samples on which window and
 their spacing), and ``times``, those instants (s).  A plant is logged at the
 instants tasks read and write it, on ``log_interval`` if given, and on the default
-grid (:data:`netcosim.continuous.DEFAULT_LOG_INTERVAL`, 1 ms) until a task first
+grid (:data:`netcosim.plant.DEFAULT_LOG_INTERVAL`, 1 ms) until a task first
 touches it, so a starved loop (its controller never runs) still has a cost: the
 open-loop trajectory on that grid.
 
@@ -193,6 +193,17 @@ def _values(v: Any, n: int, what: str, *, columns: bool = False) -> np.ndarray:
     return arr
 
 
+def _no_nan(t: np.ndarray, v: np.ndarray, what: str) -> None:
+    """Refuse NaN values (an integral of them would be NaN), naming the first one's index
+    and time.  (:func:`settling_time` does not call it: NaN there means "not settled".)"""
+    nan = np.flatnonzero(np.isnan(v).any(axis=1) if v.ndim == 2 else np.isnan(v))
+    if nan.size:
+        k = int(nan[0])
+        raise ConfigurationError(f"{what}: the value at index {k} (t={float(t[k])!r} s) is NaN"
+                                 + (f", and {nan.size - 1} more" if nan.size > 1 else "")
+                                 + ": an integral over it would be NaN")
+
+
 def _check_hold(hold: str) -> str:
     return validate.choice(hold, "hold", HOLDS)
 
@@ -201,14 +212,21 @@ def _tidy_names(df: pd.DataFrame) -> np.ndarray:
     return (df["source"].astype(str) + "." + df["signal"].astype(str)).to_numpy()
 
 
+def _unknown(message: str) -> Exception:
+    """:class:`netcosim.trace.UnknownSignalError` (a ``KeyError`` too) with *message*."""
+    from .trace import UnknownSignalError
+    return UnknownSignalError(message)
+
+
 def samples(data: Any, signal: Any = None, *, what: str = "signal") -> tuple[np.ndarray, np.ndarray]:
     """The samples ``(t, v)`` (times in s, values) of one signal given in any accepted form.
 
     *data*: sample times (then *signal* holds the values), a ``Series`` indexed by time
     (s), or a signals table -- tidy (``time, source, signal, value``; *signal* is
     ``"<source>.<signal>"``) or wide (index time; *signal* is a column).  Times are
-    checked to be finite and sorted; a name not in the table raises ``KeyError`` listing
-    the names that are.
+    checked to be finite and sorted, values not to be NaN (naming the first NaN sample);
+    a name not in the table raises :class:`netcosim.trace.UnknownSignalError` (a
+    ``KeyError``) listing the names that are.
     """
     import pandas as pd
 
@@ -225,12 +243,12 @@ def samples(data: Any, signal: Any = None, *, what: str = "signal") -> tuple[np.
             names = _tidy_names(data)
             sel = names == signal
             if not sel.any():
-                raise KeyError(f"{what}: no signal {signal!r} in the table; it holds {sorted(set(names))}")
+                raise _unknown(f"{what}: no signal {signal!r} in the table; it holds {sorted(set(names))}")
             part = data.loc[sel]
             t = _times(part["time"].to_numpy(), f"{what} {signal!r}")
             return t, _values(part["value"].to_numpy(), t.size, what)
         if signal not in data.columns:
-            raise KeyError(f"{what}: no column {signal!r} in the table; it has {list(data.columns)}")
+            raise _unknown(f"{what}: no column {signal!r} in the table; it has {list(data.columns)}")
         col = data[signal].dropna()
         t = _times(col.index.to_numpy(), f"{what} {signal!r}")
         return t, _values(col.to_numpy(), t.size, what)
@@ -256,10 +274,17 @@ def _window(t: np.ndarray, v: np.ndarray, start, until, hold: str) -> tuple[np.n
     interpolated); returns ``(t, v, start)``.  *v* may be (n,) or (n, k)."""
     s = t[0] if start is None else validate.finite(start, "start (s)")
     e = t[-1] if until is None else validate.finite(until, "until (s)")
-    if s < t[0]:
-        raise ConfigurationError(f"start={start!r} s is before the first sample at t={t[0]!r} s")
+    s, e = float(s), float(e)
+    first, last = float(t[0]), float(t[-1])
+    if s < first:
+        raise ConfigurationError(f"start={start!r} s is before the first sample at t={first!r} s")
+    if until is None and s > e:
+        raise ConfigurationError(f"start={start!r} s is after the last sample at t={last!r} s")
     if e < s:
         raise ConfigurationError(f"until={until!r} s is before start={s!r} s")
+    if e == s:
+        raise ConfigurationError(f"the window from start={s!r} s to until={e!r} s has zero length (the samples "
+                                 f"span t={first!r} to {last!r} s): nothing to integrate over")
 
     def at(x):
         if hold == "zoh" or x >= t[-1]:
@@ -289,6 +314,7 @@ def _split_at_zeros(t: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarra
 def _prepare(data, signal, reference, start, until, hold, what):
     hold = _check_hold(hold)
     t, v = samples(data, signal, what=what)
+    _no_nan(t, v, what)
     return (*_window(t, _error(t, v, reference), start, until, hold), hold)
 
 
@@ -424,6 +450,7 @@ def quadratic_cost(data: Any, x: Any, u: Any = None, *, Q: Any = None, R: Any = 
             parts.append(_values(u, t.size, "quadratic_cost: u", columns=True))
         z = np.hstack(parts)
         n, m = xs.shape[1], z.shape[1] - xs.shape[1]
+    _no_nan(t, z, "quadratic_cost")
     if R is not None and m == 0:
         raise ConfigurationError(f"quadratic_cost: R={R!r} given but no input signal u")
     if N is not None and m == 0:
