@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from netcosim.continuous import RK4
+from netcosim.plant import RK4
 from plants.flycrane import configurations as C
 from plants.flycrane.input_modes import ForcePlant, VelocityTrackingPlant
 from plants.tethered_uav import TetheredUAV, TetheredUAVParams

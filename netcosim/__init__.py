@@ -64,8 +64,8 @@ _API = {
     # network loss models
     "Bernoulli": "network", "GilbertElliott": "network", "TraceLoss": "network",
     # plants
-    "ContinuousSystem": "continuous", "PlantInstance": "continuous", "HybridEvent": "continuous",
-    "RK4": "continuous", "SolveIVP": "continuous", "ExactZOH": "continuous",
+    "ContinuousSystem": "plant", "PlantInstance": "plant", "HybridEvent": "plant",
+    "RK4": "plant", "SolveIVP": "plant", "ExactZOH": "plant",
     # CPU time of controller code
     "CPUTimeModel": "cputime", "FixedCPUTime": "cputime", "RecordedCPUTime": "cputime", "WallClockCPUTime": "cputime",
     "NonReproducibleWarning": "cputime",
@@ -76,7 +76,6 @@ _API = {
 }
 
 if TYPE_CHECKING:
-    from .continuous import RK4, ContinuousSystem, ExactZOH, HybridEvent, PlantInstance, SolveIVP
     from .cputime import CPUTimeModel, FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime
     from .errors import (
         ConfigurationError,
@@ -113,6 +112,7 @@ if TYPE_CHECKING:
         TraceLoss,
         WLAN80211b,
     )
+    from .plant import RK4, ContinuousSystem, ExactZOH, HybridEvent, PlantInstance, SolveIVP
     from .sim import Simulation
     from .timebase import RESOLUTION
 

@@ -19,8 +19,8 @@ from .timebase import TICKS_PER_SECOND, to_seconds, to_ticks
 from .trace import Trace
 
 if TYPE_CHECKING:
-    from .continuous import PlantInstance
     from .kernel.node import Node
+    from .plant import PlantInstance
 
 class Simulation:
     """A co-simulation: nodes, networks and plants sharing one SimPy clock.
@@ -176,13 +176,12 @@ class Simulation:
               log_interval: float | None = None, log: str = "io") -> "PlantInstance":
         """Add a continuous system integrated lazily alongside the discrete world.
 
-        *system* is a :class:`~netcosim.continuous.ContinuousSystem`, or a python-control
+        *system* is a :class:`~netcosim.plant.ContinuousSystem`, or a python-control
         ``StateSpace``, ``TransferFunction`` or ``NonlinearIOSystem`` (converted by
-        :func:`netcosim.pycontrol.from_control`).  See
-        :class:`netcosim.continuous.PlantInstance` for the other arguments.
+        :func:`netcosim.plant.pycontrol.from_control`).  See
+        :class:`netcosim.plant.PlantInstance` for the other arguments.
         """
-        from .continuous import PlantInstance
-        from .pycontrol import from_control, is_control_system
+        from .plant import PlantInstance, from_control, is_control_system
         name = name or getattr(system, "name", None) or f"plant{len(self.plants)}"
         self._check_new_name(name)      # before the plant is built (an unhashable name failed in it)
         if is_control_system(system):
@@ -251,7 +250,7 @@ class Simulation:
         """Mark the simulation dead, note the time on *exc*, bring the other components to now.
 
         A plant whose own integration raised keeps its last finite state (its finalizer
-        skips it, see :attr:`PlantInstance.failure <netcosim.continuous.PlantInstance.failure>`).
+        skips it, see :attr:`PlantInstance.failure <netcosim.plant.PlantInstance.failure>`).
         """
         self._failure = exc
         self._failure_time = self.now

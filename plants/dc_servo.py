@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from netcosim import validate
-from netcosim.continuous import ContinuousSystem
+from netcosim.plant import ContinuousSystem
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
 
 

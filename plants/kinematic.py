@@ -26,7 +26,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from netcosim.continuous import ContinuousSystem, HybridEvent
+from netcosim.plant import ContinuousSystem, HybridEvent
 from netcosim.errors import NetcosimError
 
 __all__ = ["KinematicSystem", "SINGULAR_RTOL", "conditioning", "check_singular_values", "rank_rtol",

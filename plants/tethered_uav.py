@@ -34,7 +34,7 @@ import casadi as ca
 import numpy as np
 
 from netcosim import validate
-from netcosim.continuous import ContinuousSystem, HybridEvent
+from netcosim.plant import ContinuousSystem, HybridEvent
 
 from .tethered_uav_params import TetheredUAVParams
 

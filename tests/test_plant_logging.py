@@ -13,7 +13,7 @@ import pytest
 
 from experiments.servo import add_pid_loop
 from netcosim import RK4, Simulation, metrics
-from netcosim.continuous import (
+from netcosim.plant import (
     DEFAULT_LOG_INTERVAL,
     ContinuousSystem,
     ExactZOH,

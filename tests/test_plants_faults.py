@@ -240,7 +240,7 @@ def test_a_disturbance_that_is_not_finite_numbers_is_refused(returned, match):
 
 
 def test_event_functions_are_checked_at_construction_and_their_values_at_run_time():
-    from netcosim.continuous import HybridEvent
+    from netcosim.plant import HybridEvent
     from netcosim.errors import ConfigurationTypeError
     with pytest.raises(ConfigurationTypeError, match="event 'floor': g must be callable"):
         HybridEvent("floor", 3.0)
@@ -257,7 +257,7 @@ def test_event_functions_are_checked_at_construction_and_their_values_at_run_tim
 
 
 def test_a_reset_returning_the_wrong_length_is_refused():
-    from netcosim.continuous import HybridEvent
+    from netcosim.plant import HybridEvent
     sim = Simulation()
     system = ContinuousSystem(f=lambda t, x, u, p: [-1.0], states=1, inputs=0, outputs=1,
                               events=[HybridEvent("floor", lambda t, x, u, p: x[0], direction=-1,

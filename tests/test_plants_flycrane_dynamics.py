@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from netcosim.continuous import RK4, SolveIVP
+from netcosim.plant import RK4, SolveIVP
 from netcosim.sim import Simulation
 from plants.flycrane import SingularConfigurationError
 from plants.flycrane import configurations as C

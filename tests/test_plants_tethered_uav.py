@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from netcosim.continuous import RK4, SolveIVP
+from netcosim.plant import RK4, SolveIVP
 from netcosim.sim import Simulation
 from plants.tethered_uav import (TetheredUAV, TetheredUAVParams, cable_stress, casadi_model,
                                  hover_thrust, input_map, lander_reaction, propeller_forces, wind,

@@ -632,7 +632,7 @@ def test_loss_and_radio_helpers(value, what):
 
 
 # ---------------------------------------------------------- regressions: defects once found here
-# Found by the properties above in network/base.py, network/interface.py and continuous.py
+# Found by the properties above in network/base.py, network/interface.py and continuous.py (now netcosim/plant/)
 # (fixed there since, in a8d4abf and 7801f77): each raised a bare ValueError, TypeError,
 # KeyError, IndexError or OverflowError.
 

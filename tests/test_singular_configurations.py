@@ -19,7 +19,7 @@ import pytest
 
 import controllers.planner as lp
 from netcosim import Simulation
-from netcosim.continuous import RK4, SolveIVP
+from netcosim.plant import RK4, SolveIVP
 from plants.flycrane import kinematics as kin
 from plants.flycrane.configurations import thesis_flycrane
 from plants.flycrane.input_modes import KinematicPlant

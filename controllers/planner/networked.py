@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from netcosim import Simulation, validate
-from netcosim.continuous import SolveIVP
+from netcosim.plant import SolveIVP
 from netcosim.errors import ConfigurationError
 
 from .laws import OfflineGain, OnlineGain
@@ -221,7 +221,7 @@ def offline_gain(config: FlyCraneNetworkConfig) -> float:
 
 
 class GridRecorder(SolveIVP):
-    """The plant integrator *base* (a :class:`~netcosim.continuous.SolveIVP`), also
+    """The plant integrator *base* (a :class:`~netcosim.plant.SolveIVP`), also
     reporting q (the first *m* states, rad and m) and the held u (m/s) every ``dt`` s
     from the solver's dense output (the steps are those of the plain integrator).
     Pass it as ``integrator=`` to :func:`~controllers.planner.tasks.deploy`, call

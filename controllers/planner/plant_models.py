@@ -4,7 +4,7 @@ A *plant model* tells :func:`~controllers.planner.tasks.deploy` how to build the
 continuous plant under the planner tasks; it is the ``plant`` field of
 :class:`~controllers.planner.tasks.DeploymentConfig`.  Every model gives
 
-* ``build(system, name)`` -- the :class:`~netcosim.continuous.ContinuousSystem` whose
+* ``build(system, name)`` -- the :class:`~netcosim.plant.ContinuousSystem` whose
   first ``m`` outputs are the configuration ``q`` (rad, m) and whose ``n`` inputs are
   the desired robot velocities ``u`` (m/s), in the order of ``system``;
 * ``initial_state(plant, q0)`` -- the state vector starting at configuration ``q0``;
@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from netcosim import validate
-from netcosim.continuous import SolveIVP
+from netcosim.plant import SolveIVP
 from netcosim.errors import ConfigurationError
 
 from plants.flycrane.input_modes import VelocityTrackingPlant

@@ -240,7 +240,7 @@ class ConditionVariable:
     """A kernel condition variable (TrueTime's "event"); optionally tied to a monitor.
 
     Named so as not to be confused with SimPy's ``Event`` or a plant's
-    :class:`~netcosim.continuous.HybridEvent`.
+    :class:`~netcosim.plant.HybridEvent`.
 
     With a monitor, ``wait`` must be called while holding it: the monitor is released
     during the wait and re-acquired before the waiter continues.

@@ -270,7 +270,7 @@ class RemotePlantIO(BaseRemote):
         As for :class:`RemoteNode` (``"zero"`` writes zeros to the inputs; the deadline
         defaults to *period*).
     plant:
-        The :class:`~netcosim.continuous.PlantInstance`.
+        The :class:`~netcosim.plant.PlantInstance`.
     period:
         Sampling period (s): a request is published at ``t0, t0 + period, t0 + 2 period,
         ...`` s of simulated time (``t0``: the simulated time at construction; ``node``

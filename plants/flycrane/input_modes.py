@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from netcosim import validate
-from netcosim.continuous import ContinuousSystem, HybridEvent
+from netcosim.plant import ContinuousSystem, HybridEvent
 from netcosim.errors import ConfigurationError
 
 from ..kinematic import KinematicPlant

@@ -23,7 +23,7 @@ plant, the signal and the time, so NaN never reaches a task or a trace.
 
 Systems of python-control (``StateSpace``, ``TransferFunction``,
 ``NonlinearIOSystem``) are accepted by ``Simulation.plant``, which converts them with
-:mod:`netcosim.pycontrol` (imported only then).
+:mod:`netcosim.plant.pycontrol` (it imports ``control`` only then).
 """
 
 from __future__ import annotations
@@ -37,9 +37,9 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from . import validate
-from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NetcosimError, NotConnectedError
-from .timebase import MAX_SECONDS, RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
+from .. import validate
+from ..errors import ConfigurationError, ConfigurationTypeError, IntegrationError, NetcosimError, NotConnectedError
+from ..timebase import MAX_SECONDS, RESOLUTION, TICKS_PER_SECOND, to_seconds, to_ticks
 
 __all__ = ["EVENT_REARM", "DEFAULT_LOG_INTERVAL", "default_log_interval", "HybridEvent", "ContinuousSystem", "RK4",
            "SolveIVP", "ExactZOH", "SOLVE_IVP_METHODS",
@@ -641,7 +641,7 @@ class ExactZOH:
     A plant is accepted when its system exposes ``A`` (nx × nx) and ``B`` (nx × nu)
     and its ``f`` is ``A x + B u`` (checked once, at two points, when the plant is
     created): :class:`plants.dc_servo.DCServo` and the converted python-control
-    ``StateSpace`` / ``TransferFunction`` plants (:class:`netcosim.pycontrol.LinearPlant`).
+    ``StateSpace`` / ``TransferFunction`` plants (:class:`netcosim.plant.pycontrol.LinearPlant`).
     Outputs still come from the system's ``h`` (``C x + D u`` for those).  A system
     without ``A``/``B`` raises :class:`~netcosim.errors.ConfigurationTypeError`
     naming the plant.
@@ -883,7 +883,7 @@ class PlantInstance:
     ----------
     system: a :class:`ContinuousSystem` (:meth:`Simulation.plant
         <netcosim.sim.Simulation.plant>` converts python-control systems with
-        :func:`netcosim.pycontrol.from_control` before they get here).
+        :func:`netcosim.plant.pycontrol.from_control` before they get here).
     x0: initial state (length ``system.nx``, finite, in the states' units).
     integrator: :class:`SolveIVP` (default), :class:`RK4` or :class:`ExactZOH`, or
         anything with the same ``integrate`` method (and optionally a ``bind(plant)``

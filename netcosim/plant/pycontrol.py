@@ -1,7 +1,7 @@
 """python-control systems as netcosim plants.
 
 ``Simulation.plant(system, x0)`` accepts, besides a
-:class:`~netcosim.continuous.ContinuousSystem`, the continuous-time systems of
+:class:`~netcosim.plant.ContinuousSystem`, the continuous-time systems of
 `python-control <https://python-control.readthedocs.io>`_ (an optional dependency:
 ``pip install netcosim[control]``):
 
@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from .continuous import ContinuousSystem
-from .errors import ConfigurationError, ConfigurationTypeError
+from ..errors import ConfigurationError, ConfigurationTypeError
+from .instance import ContinuousSystem
 
 __all__ = ["is_control_system", "from_control", "LinearPlant", "NonlinearPlant"]
 
@@ -44,9 +44,9 @@ class LinearPlant(ContinuousSystem):
 
     ``A`` (nx×nx), ``B`` (nx×nu), ``C`` (ny×nx), ``D`` (ny×nu) are float arrays in the
     system's own units; :meth:`jac` returns ``A`` (used by the implicit methods of
-    :class:`~netcosim.continuous.SolveIVP`).  Being linear time-invariant, it can
+    :class:`~netcosim.plant.SolveIVP`).  Being linear time-invariant, it can
     advance by the exact zero-order-hold step, ``integrator=ExactZOH()``
-    (:class:`~netcosim.continuous.ExactZOH`).
+    (:class:`~netcosim.plant.ExactZOH`).
     """
 
     def __init__(self, A, B, C, D, *, states, inputs, outputs, name):
@@ -91,7 +91,7 @@ def _check_continuous(sys, what: str) -> None:
 
 
 def from_control(sys: Any) -> ContinuousSystem:
-    """A :class:`~netcosim.continuous.ContinuousSystem` equivalent to python-control *sys*.
+    """A :class:`~netcosim.plant.ContinuousSystem` equivalent to python-control *sys*.
 
     Raises :class:`~netcosim.errors.ConfigurationError` for a discrete-time system and
     :class:`~netcosim.errors.ConfigurationTypeError` for a python-control object that is
