@@ -40,13 +40,27 @@ from pathlib import Path
 from typing import Any
 
 from . import validate
-from .errors import ConfigurationError, ConfigurationTypeError
+from .errors import ConfigurationError, ConfigurationTypeError, NetcosimError
 
 __all__ = ["CPUTimeModel", "FixedCPUTime", "RecordedCPUTime", "WallClockCPUTime", "NonReproducibleWarning",
-           "RECORD_COLUMNS"]
+           "RECORD_COLUMNS", "RecordingNotFoundError", "RecordingWriteError", "ClockError"]
 
 #: Columns of :meth:`CPUTimeModel.record`.
 RECORD_COLUMNS = ("phase", "index", "wall", "cpu")
+
+
+class RecordingNotFoundError(NetcosimError, FileNotFoundError):
+    """:meth:`RecordedCPUTime.load` found no file at the path (the message names it; a
+    ``FileNotFoundError`` too)."""
+
+
+class RecordingWriteError(NetcosimError, OSError):
+    """:meth:`CPUTimeModel.save` could not write the table (the message names the path and why)."""
+
+
+class ClockError(NetcosimError, RuntimeError):
+    """A model's ``clock`` gave a reading that is not a finite number of seconds, or a
+    negative (non-monotonic) or non-finite duration."""
 
 
 class NonReproducibleWarning(UserWarning):
@@ -70,15 +84,25 @@ class Measurement:
         self._t0 = math.nan  # clock reading at __enter__ (only when the model reads the clock)
         self._seconds: float | None = None
 
+    def _read(self) -> float:
+        value = self.model.clock()
+        if not validate.is_real(value):
+            raise ConfigurationTypeError(f"clock {self.model.clock!r} returned {value!r} timing phase "
+                                         f"{self.phase!r}: a clock must return a number of seconds")
+        if not math.isfinite(value):
+            raise ClockError(f"clock {self.model.clock!r} returned {value!r} timing phase {self.phase!r}: "
+                             f"a clock must return a finite number of seconds")
+        return float(value)
+
     def __enter__(self) -> "Measurement":
         if self.model.reads_clock:
-            self._t0 = self.model.clock()
+            self._t0 = self._read()
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
         if exc_type is not None:
             return
-        wall = self.model.clock() - self._t0 if self.model.reads_clock else math.nan
+        wall = self._read() - self._t0 if self.model.reads_clock else math.nan
         self._seconds = self.model._charge(self.phase, wall)
 
     @property
@@ -107,7 +131,9 @@ class CPUTimeModel:
 
     def cost(self, phase: str, index: int, wall: float) -> float:
         """CPU seconds of the *index*-th execution of *phase* that took *wall* s (NaN if unmeasured)."""
-        raise NotImplementedError
+        raise NotImplementedError(f"{type(self).__name__} does not say what a job costs: CPUTimeModel is the base "
+                                  f"class; use FixedCPUTime, RecordedCPUTime or WallClockCPUTime, or a subclass "
+                                  f"that implements cost(phase, index, wall)")
 
     def fresh(self) -> "CPUTimeModel":
         """A copy with the same settings and an empty log (charge counts back at 0), so
@@ -121,12 +147,19 @@ class CPUTimeModel:
     def measure(self, phase: str) -> Measurement:
         """Time the ``with`` block as one execution of *phase* (a name such as ``"feedback"``)."""
         validate.name(phase, "phase")
+        self._check_concrete()
         return Measurement(self, phase)
+
+    def _check_concrete(self) -> None:
+        """Refuse the bare base class at once (its :meth:`cost` says nothing), naming the models to use."""
+        if type(self).cost is CPUTimeModel.cost:
+            self.cost("", 0, math.nan)
 
     def charge(self, phase: str) -> float:
         """CPU seconds of one execution of *phase* without timing anything (fixed or
         recorded models; a wall-clock model has nothing to measure and raises)."""
         validate.name(phase, "phase")
+        self._check_concrete()
         if self.reads_clock:
             raise RuntimeError(f"{type(self).__name__} must time the computation: use measure({phase!r})")
         return self._charge(phase, math.nan)
@@ -145,12 +178,21 @@ class CPUTimeModel:
 
     def save(self, path: str | PathLike) -> Path:
         """Write :meth:`record` to *path* (``.csv`` or ``.parquet``) for :meth:`RecordedCPUTime.load`."""
+        validate.path(path, "path")
         p = Path(path)
         df = self.record()
-        if p.suffix == ".csv":
-            df.to_csv(p, index=False, float_format="%.17g")
-        else:
-            df.to_parquet(p, index=False)
+        if not p.parent.is_dir():
+            why = "is a file" if p.parent.exists() else "does not exist"
+            raise RecordingWriteError(f"cannot save the CPU-time record to {str(p)!r}: the folder {str(p.parent)!r} "
+                                      f"{why}")
+        try:
+            if p.suffix == ".csv":
+                df.to_csv(p, index=False, float_format="%.17g")
+            else:
+                df.to_parquet(p, index=False)
+        except OSError as exc:
+            raise RecordingWriteError(f"cannot save the CPU-time record to {str(p)!r}: "
+                                      f"{exc.strerror or exc}") from None
         return p
 
 
@@ -217,7 +259,8 @@ class RecordedCPUTime(CPUTimeModel):
         import pandas as pd
         p = Path(path)
         if not p.is_file():
-            raise FileNotFoundError(f"no recorded CPU-time table at {str(p)!r}")
+            raise RecordingNotFoundError(f"no recorded CPU-time table at {str(p)!r}"
+                                         + (" (it is a directory)" if p.is_dir() else ""))
         df = pd.read_csv(p) if p.suffix == ".csv" else pd.read_parquet(p)
         return cls(df, **kw)
 
@@ -260,5 +303,5 @@ class WallClockCPUTime(CPUTimeModel):
 
     def cost(self, phase, index, wall):
         if not math.isfinite(wall) or wall < 0:
-            raise RuntimeError(f"clock gave a non-monotonic or non-finite duration {wall!r} for phase {phase!r}")
+            raise ClockError(f"clock gave a non-monotonic or non-finite duration {wall!r} for phase {phase!r}")
         return wall * self.factor

@@ -57,3 +57,35 @@ CASES = [
     Case("landing-duration", lambda: _landing().run_landing("2lc", duration=-1.0), ValueError, "-1.0"),
     Case("landing-nmpc-init", lambda: _landing().run_landing("2lc", nmpc_init="zero"), ValueError, "'zero'"),
 ]
+
+
+def _wallclock(clock):
+    m = _cpu().WallClockCPUTime(clock=clock, warn=False)
+    with m.measure("solve"):
+        pass
+
+
+def _backwards():
+    readings = iter([1.0, 0.5])
+    _wallclock(lambda: next(readings))
+
+
+# the audit's cases: project errors (subclassing the builtin ones), messages that say what to do
+CASES += [
+    Case("cputime-load-missing-file", lambda: _cpu().RecordedCPUTime.load("/nonexistent.json"),
+         _cpu().RecordingNotFoundError, "'/nonexistent.json'"),
+    Case("cputime-load-missing-file-is-a-filenotfounderror",
+         lambda: _cpu().RecordedCPUTime.load("/nonexistent.json"), FileNotFoundError, "'/nonexistent.json'"),
+    Case("cputime-base-class-measure", lambda: _cpu().CPUTimeModel().measure("a"), NotImplementedError,
+         "use FixedCPUTime, RecordedCPUTime or WallClockCPUTime"),
+    Case("cputime-base-class-charge", lambda: _cpu().CPUTimeModel().charge("a"), NotImplementedError,
+         "CPUTimeModel is the base class"),
+    Case("cputime-save-into-missing-folder", lambda: _cpu().FixedCPUTime(0.001).save("/proc/x/y.json"),
+         _cpu().RecordingWriteError, "'/proc/x/y.json'"),
+    Case("cputime-save-into-missing-folder-is-an-oserror",
+         lambda: _cpu().FixedCPUTime(0.001).save("/proc/x/y.json"), OSError, "'/proc/x'"),
+    Case("cputime-wallclock-clock-returns-text", lambda: _wallclock(lambda: "x"), TypeError, "returned 'x'"),
+    Case("cputime-wallclock-clock-returns-nan", lambda: _wallclock(lambda: math.nan), _cpu().ClockError,
+         "returned nan"),
+    Case("cputime-wallclock-clock-goes-back", lambda: _backwards(), _cpu().ClockError, "-0.5"),
+]
