@@ -79,8 +79,10 @@ import hashlib
 import json
 import re
 import struct
-from typing import Sequence
+from typing import Any, Sequence
 
+from .. import validate
+from ..errors import ConfigurationError, ConfigurationTypeError, NetcosimError
 from .wire import DATA, END, KINDS, MAX_VALUES, REFUSED, VERSION, check_fields
 
 __all__ = ["VERSION", "DATA", "END", "REFUSED", "KINDS", "MAX_VALUES", "ENCAPSULATION", "HEADER",
@@ -95,7 +97,7 @@ HEADER = struct.Struct("<2sHBBH4xQQqII")
 _U32 = 0xFFFFFFFF
 
 
-class CdrError(ValueError):
+class CdrError(NetcosimError, ValueError):
     """A payload that is not a valid CDR ``Frame``; ``reason`` is one of ``"short"``,
     ``"encapsulation"``, ``"version"``, ``"kind"``, ``"oversized"``, ``"length"``."""
 
@@ -108,11 +110,25 @@ def encode(kind: int, node: int, session: int, peer: int, ticks: int, seq: int,
            values: Sequence[float] = ()) -> bytes:
     """The CDR bytes of one message (see the module docstring for the layout).
 
-    ``seq`` is taken modulo 2**32; every other field out of its range raises
-    :class:`ValueError` naming it.
+    ``seq`` is taken modulo 2**32; every other field out of its range (``ticks`` is the
+    IDL's signed ``int64``: a negative value is stored as such and decodes unchanged, as
+    in the native layout) raises :class:`~netcosim.errors.ConfigurationError` (a
+    ``ValueError``) naming it; a field that is not an integer, or a value that is not a
+    real number, :class:`~netcosim.errors.ConfigurationTypeError` naming it.
     """
+    for what, v in (("kind", kind), ("node", node), ("session", session), ("peer", peer), ("ticks", ticks),
+                    ("seq", seq)):
+        validate.integer(v, f"CDR message {what}")
+    if isinstance(values, (str, bytes)) or not isinstance(values, Sequence):
+        raise ConfigurationTypeError(f"CDR message values must be a sequence of numbers, got {values!r}")
+    for i, v in enumerate(values):
+        if not validate.is_real(v):
+            raise ConfigurationTypeError(f"CDR message values[{i}] must be a real number, got {v!r}")
     n = len(values)
-    check_fields(kind, node, session, peer, ticks, n)
+    try:
+        check_fields(kind, node, session, peer, ticks, n)
+    except ValueError as exc:
+        raise ConfigurationError(f"CDR {exc}") from None
     return (HEADER.pack(ENCAPSULATION, 0, VERSION, kind, node, session, peer, ticks, seq & _U32, n)
             + struct.pack(f"<{n}d", *values))
 
@@ -120,7 +136,11 @@ def encode(kind: int, node: int, session: int, peer: int, ticks: int, seq: int,
 def decode(data: bytes | bytearray | memoryview) -> tuple[int, int, int, int, int, int, tuple[float, ...]]:
     """``(kind, node, session, peer, ticks, seq, values)`` of the CDR message in *data* (the
     field order of ``wire.Message``); raises :class:`CdrError` (with a ``reason``) for
-    anything that is not exactly one valid message of this version."""
+    anything that is not exactly one valid message of this version, and
+    :class:`~netcosim.errors.ConfigurationTypeError` for *data* that is not bytes."""
+    if not isinstance(data, (bytes, bytearray, memoryview)):
+        raise ConfigurationTypeError(f"CDR data must be bytes, a bytearray or a memoryview, got "
+                                     f"{type(data).__name__} {_short(data)}")
     size = len(data)
     if size < HEADER.size:
         raise CdrError("short", f"{size} bytes, the header alone is {HEADER.size}")
@@ -152,6 +172,15 @@ FIELDS = (("version", 3), ("kind", 3), ("node", 5), ("session", 9), ("peer", 9),
           ("seq", 7), ("values", 155))
 
 
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+#: a ROS 2 interface name: tokens separated by "/" (``std_msgs/msg/String``)
+_INTERFACE = re.compile(r"[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)+")
+
+
 def rihs01(ros_type: str, fields: Sequence[tuple[str, int]]) -> str:
     """The ROS 2 type hash ("RIHS01_" + 64 hex digits, REP-2016) of a type whose fields
     are all unbounded and none of a nested type, given as ``(name, FieldType id)`` pairs.
@@ -164,7 +193,21 @@ def rihs01(ros_type: str, fields: Sequence[tuple[str, int]]) -> str:
     sensor_msgs/msg/ChannelFloat32); :data:`TYPE_HASH` is also the value rosidl's own
     generator gives for the IDL and the ``.msg`` of the module docstring.  Nested types
     (which add ``referenced_type_descriptions``) and bounded sizes are not supported here.
+    An empty or malformed *ros_type* (not ``package/msg/Name``), or a field that is not
+    a ``(name, id)`` pair of a non-empty string and an integer, raises naming it.
     """
+    if not isinstance(ros_type, str):
+        raise ConfigurationTypeError(f"ros_type must be a ROS 2 interface name such as 'std_msgs/msg/String', "
+                                     f"got {ros_type!r}")
+    if not _INTERFACE.fullmatch(ros_type):
+        raise ConfigurationError(f"ros_type must be a ROS 2 interface name such as 'std_msgs/msg/String', "
+                                 f"got {ros_type!r}")
+    if isinstance(fields, (str, bytes)) or not isinstance(fields, Sequence):
+        raise ConfigurationTypeError(f"fields must be a sequence of (name, FieldType id) pairs, got {fields!r}")
+    for i, f in enumerate(fields):
+        if not (isinstance(f, (tuple, list)) and len(f) == 2 and isinstance(f[0], str) and f[0]
+                and validate.is_real(f[1]) and float(f[1]).is_integer()):
+            raise ConfigurationTypeError(f"fields[{i}] must be a (name, FieldType id) pair, got {f!r}")
     description = {
         "type_description": {
             "type_name": ros_type,

@@ -26,6 +26,8 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Sequence
 
+from .. import validate
+from ..errors import ConfigurationError
 from . import wire
 from .codecs import codec
 from .session import DEFAULT_LEASE, Session, key, open_session
@@ -58,10 +60,14 @@ def periodic(period: float, body: Callable[[int], bool | None], *, duration: flo
 
     A body that ends after the start of the next period is a miss: the next period
     starts at once (late; none is skipped, so a transient overload is caught up).
-    ``clock``/``sleep`` (s) are injectable for tests.
+    ``clock``/``sleep`` (s) are injectable for tests.  A NaN or negative *duration*
+    raises :class:`~netcosim.errors.ConfigurationError` naming it.
     """
-    if not (isinstance(period, (int, float)) and period > 0):
-        raise ValueError(f"period must be a positive number of seconds, got {period!r}")
+    validate.positive(period, "period", kind="a positive finite number of seconds",
+                      type_error=ConfigurationError)       # a ValueError, as it always was
+    if duration is not None:
+        validate.real(duration, "duration", lo=0.0, allow_inf=True,
+                      kind="None or a non-negative number of seconds (inf: until stopped)")
     stats = LoopStats(float(period))
     t0 = clock()
     k = 0
