@@ -107,9 +107,28 @@ def loss_summary(sim, network=None) -> dict:
     ``messages_delivered``, ``messages_lost``, ``messages_silenced``,
     ``messages_in_flight``, ``frame_attempts``, ``frames_lost``.  A broadcast counts once
     per receiver.  See :mod:`netcosim.network.stats` for the definitions.
+
+    A simulation without any network has no loss to summarise: it raises
+    :class:`~netcosim.errors.ConfigurationError` saying so (rather than ratios of 0/0).
+    The ratios are NaN only when networks exist but no message (frame) had a known fate.
+    *sim* not a Simulation raises :class:`~netcosim.errors.ConfigurationTypeError`, an
+    unknown *network* :class:`~netcosim.errors.ConfigurationError` naming it and the
+    networks there are.
     """
+    from ..errors import ConfigurationError, ConfigurationTypeError
+    networks = getattr(sim, "networks", None)
+    if not isinstance(networks, dict):
+        raise ConfigurationTypeError(f"loss_summary: sim must be a netcosim Simulation, got "
+                                     f"{type(sim).__name__} {sim!r}")
+    if not networks:
+        raise ConfigurationError("loss_summary: the simulation has no network, so no message or frame loss to "
+                                 "summarise (add a network, or leave the loss metrics out for this case)")
     if network is None:
-        nets = list(sim.networks.values())
+        nets = list(networks.values())
     else:
-        nets = [sim.networks[getattr(network, "name", network)]]
+        name = getattr(network, "name", network)
+        if not isinstance(name, str) or name not in networks:
+            raise ConfigurationError(f"loss_summary: no network {network!r} in the simulation; it has "
+                                     f"{sorted(networks)}")
+        nets = [networks[name]]
     return total(ls for net in nets for ls in net._lstats.values())
