@@ -34,6 +34,7 @@ import casadi as ca
 import numpy as np
 
 from netcosim import validate
+from netcosim.errors import ConfigurationTypeError
 from netcosim.plant import ContinuousSystem, HybridEvent
 
 from .tethered_uav_params import TetheredUAVParams
@@ -148,8 +149,20 @@ def _external_force(phi, dphi, d, p: TetheredUAVParams, landers: bool):
     return fx, fz
 
 
+def _check_params(p, what: str) -> TetheredUAVParams:
+    if not isinstance(p, TetheredUAVParams):
+        raise ConfigurationTypeError(f"{what} must be TetheredUAVParams, got {p!r}")
+    return p
+
+
 def hover_thrust(phi, theta, p: TetheredUAVParams) -> float:
-    """Thrust [N] holding the vehicle still at (φ, ϑ): m_B g cos φ / cos(φ + ϑ) (φ̈ = 0)."""
+    """Thrust [N] holding the vehicle still at (φ, ϑ): m_B g cos φ / cos(φ + ϑ) (φ̈ = 0).
+
+    *phi*, *theta* must be finite angles [rad] and *p* a :class:`TetheredUAVParams`;
+    anything else raises naming it (ConfigurationTypeError / ConfigurationError)."""
+    phi = validate.finite(phi, "hover_thrust: phi", "rad")
+    theta = validate.finite(theta, "hover_thrust: theta", "rad")
+    _check_params(p, "hover_thrust: p")
     c = math.cos(phi + theta)
     if abs(c) < 1e-9:
         raise ValueError(f"no hover thrust at phi + theta = {phi + theta!r} rad (thrust normal to the "
@@ -167,9 +180,12 @@ def wind(t: float, params: TetheredUAVParams | None = None) -> np.ndarray:
     A "1 - cosine" pulse ``(A/2)(1 - cos(2π t / T))`` on ``[0, T]`` with peak
     ``A = wind_pulse_amplitude`` and ``T = wind_pulse_duration``, plus
     ``wind_sine_amplitude · sin(2π f (t - t_s))`` for ``t ≥ t_s = wind_sine_start``,
-    along x_W only (F_z = 0).  The profile is continuous in t.
+    along x_W only (F_z = 0).  The profile is continuous in t.  A *t* that is not a
+    finite number of seconds, or *params* that are not :class:`TetheredUAVParams`,
+    raise naming it (ConfigurationTypeError / ConfigurationError).
     """
-    p = params or TetheredUAVParams()
+    t = validate.finite(t, "wind: t", "seconds")
+    p = TetheredUAVParams() if params is None else _check_params(params, "wind: params")
     fx = 0.0
     if 0.0 <= t <= p.wind_pulse_duration and p.wind_pulse_duration > 0:
         fx += 0.5 * p.wind_pulse_amplitude * (1.0 - math.cos(2.0 * math.pi * t / p.wind_pulse_duration))
@@ -180,7 +196,7 @@ def wind(t: float, params: TetheredUAVParams | None = None) -> np.ndarray:
 
 def wind_disturbance(params: TetheredUAVParams | None = None):
     """``d(t)`` callable for :meth:`netcosim.sim.Simulation.plant` (``disturbance=``)."""
-    p = params or TetheredUAVParams()
+    p = TetheredUAVParams() if params is None else _check_params(params, "wind_disturbance: params")
     return lambda t: wind(t, p)
 
 
@@ -299,7 +315,7 @@ class TetheredUAV(ContinuousSystem):
         if not isinstance(params, TetheredUAVParams):
             raise TypeError(f"params must be TetheredUAVParams, got {params!r}")
         validate.choice(inputs, "inputs", ("rates", "forces"))
-        self.mode, self.landers = inputs, bool(landers)
+        self.mode, self.landers = inputs, validate.boolean(landers, "TetheredUAV: landers")
         q = ("phi", "dphi", "theta", "dtheta")
         if inputs == "rates":
             states, ins, outs = q + ("f_R", "tau_R"), ("df_R", "dtau_R"), q + ("f_R", "tau_R")
