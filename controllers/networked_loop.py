@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from netcosim import validate
+from netcosim.errors import ConfigurationTypeError
 from netcosim.network import BROADCAST
 
 __all__ = ["networked_loop"]
@@ -35,7 +37,23 @@ def networked_loop(plant: Any, sensor: Any, controller: Any, sensor_iface: Any, 
     for a network holding just the two nodes, as every other node receives them too).
     Signals logged: ``u`` and ``delay`` (s) by ``sensor.actuate``, ``r`` and ``y`` by
     ``controller.pid``.
+
+    Checked before any task is added, each error naming the argument: *sensor* and
+    *controller* must be nodes (``sim.node(...)``, not their names), the interfaces
+    network interfaces, *law* and *reference* callables, ``u_max`` None or a positive
+    finite bound (|u| <= u_max; 0 or less would hold u at -u_max).
     """
+    for what, node in (("sensor", sensor), ("controller", controller)):
+        if not (hasattr(node, "periodic") and hasattr(node, "aperiodic") and hasattr(node, "name")):
+            raise ConfigurationTypeError(f"networked_loop: {what} must be a node (sim.node(...)), got {node!r}")
+    for what, iface in (("sensor_iface", sensor_iface), ("controller_iface", controller_iface)):
+        if not (hasattr(iface, "mailbox") and hasattr(iface, "on_receive")):
+            raise ConfigurationTypeError(f"networked_loop: {what} must be a network interface "
+                                         f"(network.attach(node)), got {iface!r}")
+    validate.callable_(law, "networked_loop: law", kind="a function law(r, y) -> u")
+    validate.callable_(reference, "networked_loop: reference", kind="a function reference(t) -> r")
+    if u_max is not None:
+        validate.positive(u_max, "networked_loop: u_max", kind="None or a positive finite bound on |u|")
     y_port, u_port = plant.output(0), plant.input(0)
     controller_name: Any = BROADCAST if broadcast else controller.name
     sensor_name: Any = BROADCAST if broadcast else sensor.name

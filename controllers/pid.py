@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from netcosim import validate
@@ -36,11 +37,18 @@ class PID:
         for name in ("h", "K", "Ti", "N"):
             validate.positive(getattr(self, name), f"PID {name}", type_error=ConfigurationError)
         validate.non_negative(self.Td, "PID Td")
+        validate.finite(self.beta, "PID beta", kind="a finite number (the set-point weight)")
         self._ad = self.Td / (self.N * self.h + self.Td)
         self._bd = self.N * self.K * self.Td / (self.N * self.h + self.Td)
 
     def compute(self, r: float, y: float) -> float:
-        """Control signal for reference *r* and measurement *y*; updates the state."""
+        """Control signal for reference *r* and measurement *y*; updates the state.
+
+        *r* and *y* must be finite real numbers: anything else raises naming it
+        (ConfigurationTypeError / ConfigurationError) and leaves the state unchanged."""
+        for what, v in (("r", r), ("y", y)):
+            if not (validate.is_real(v) and math.isfinite(v)):
+                validate.finite(v, f"PID.compute: {what}")
         P = self.K * (self.beta * r - y)
         self.D = self._ad * self.D + self._bd * (self.y_old - y)
         u = P + self.I + self.D
