@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.signal import cont2discrete
 
-import netcosim.plant.instance
+import netcosim.plant.exact_zoh
 from controllers.pid import PID
 from netcosim import RK4, ContinuousSystem, ExactZOH, HybridEvent, Simulation
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
@@ -135,7 +135,7 @@ def test_cache_is_bounded_least_recently_used():
 
 
 def test_a_second_simulation_reuses_the_exponentials_of_the_first():
-    from netcosim.plant.instance import _SHARED_TRANSITIONS
+    from netcosim.plant.exact_zoh import _SHARED_TRANSITIONS
     servo = DCServo(k=987.5)  # parameters no other test uses: the process-wide cache is cold
     first, second = ExactZOH(), ExactZOH()
     plant1, reads1, _ = pid_loop(servo, first, x0=[0.0, 0.0])
@@ -144,7 +144,7 @@ def test_a_second_simulation_reuses_the_exponentials_of_the_first():
     assert second.expm_calls == 0 and second.shared_hits == len(plant2._stepper._cache)
     assert reads2 == reads1                     # the same matrices: the same numbers, bit for bit
     assert all(plant2._stepper._cache[k][0] is plant1._stepper._cache[k][0] for k in plant2._stepper._cache)
-    assert len(_SHARED_TRANSITIONS) <= netcosim.plant.instance.SHARED_TRANSITIONS_SIZE == 1024
+    assert len(_SHARED_TRANSITIONS) <= netcosim.plant.exact_zoh.SHARED_TRANSITIONS_SIZE == 1024
 
 
 class DisturbedLinear(ContinuousSystem):

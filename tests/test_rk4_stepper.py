@@ -15,7 +15,7 @@ import pytest
 
 from controllers.pid import PID
 from netcosim import RK4, ContinuousSystem, Simulation
-from netcosim.plant.instance import _RK4Stepper
+from netcosim.plant.rk4 import _RK4Stepper
 from netcosim.errors import ConfigurationError, IntegrationError
 
 

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigurationError, ConfigurationTypeError
-from .instance import ContinuousSystem
+from .system import ContinuousSystem
 
 __all__ = ["is_control_system", "from_control", "LinearPlant", "NonlinearPlant"]
 

@@ -1,0 +1,85 @@
+"""A plant's ports: :class:`OutputPort` (read) and :class:`InputPort` (write, zero-order hold)."""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, Sequence
+
+import numpy as np
+
+from ..errors import ConfigurationTypeError, NetcosimError
+
+__all__ = ["OutputPort", "InputPort", "UnknownPortError"]
+
+
+class _Plant(Protocol):
+    """What a port uses of its plant (:class:`~netcosim.plant.instance.PlantInstance`)."""
+
+    name: str
+
+    def output_now(self) -> np.ndarray: ...
+
+    def set_input(self, index: Any, value: Any, label: str = ...) -> None: ...
+
+
+class OutputPort:
+    """Read side of a plant: samples ``h(t, x, u)`` (selected outputs) at ``now``."""
+
+    def __init__(self, plant: _Plant, index, label: str):
+        self.plant, self.index, self.label = plant, index, label
+
+    def read(self):
+        """The selected outputs at the current simulated time: a float for one output, else a copy of
+        the array (the plant's units)."""
+        y = self.plant.output_now()
+        if type(self.index) is int:
+            return float(y[self.index])
+        v = y[self.index]
+        return float(v) if np.ndim(v) == 0 else v.copy()
+
+    def __repr__(self):
+        return f"<OutputPort {self.plant.name}.{self.label}>"
+
+
+class InputPort:
+    """Write side of a plant: the value written is held (ZOH) until the next write."""
+
+    def __init__(self, plant: _Plant, index, label: str):
+        self.plant, self.index, self.label = plant, index, label
+
+    def write(self, value) -> None:
+        """Hold *value* on the selected inputs from now until the next write (zero-order hold; the plant's units)."""
+        self.plant.set_input(self.index, value, self.label)
+
+    def __repr__(self):
+        return f"<InputPort {self.plant.name}.{self.label}>"
+
+
+class UnknownPortError(NetcosimError, KeyError, IndexError):
+    """A plant has no such input or output (a name it does not have, an index out of
+    range); the message lists the ones it has.  A :class:`KeyError` and an
+    :class:`IndexError`, as before."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
+def _select(names: Sequence[str], key, kind: str, plant: str):
+    """Map a name, an index, a slice or a list of those to an index into *names*."""
+    if key is None:
+        return slice(None), "all"
+    if isinstance(key, slice):
+        return key, f"[{key.start}:{key.stop}]"
+    if isinstance(key, (list, tuple)):
+        idx = [(_select(names, k, kind, plant)[0]) for k in key]
+        return np.asarray(idx, dtype=int), ",".join(str(k) for k in key)
+    if isinstance(key, str):
+        try:
+            return names.index(key), key
+        except ValueError:
+            raise UnknownPortError(f"plant {plant!r} has no {kind} {key!r}; {kind}s are {list(names)}") from None
+    if isinstance(key, (int, np.integer)) and not isinstance(key, bool):
+        if not -len(names) <= key < len(names):
+            raise UnknownPortError(f"plant {plant!r} has {len(names)} {kind}s {list(names)}, index {key} is out "
+                                   "of range")
+        return int(key), names[int(key)]
+    raise ConfigurationTypeError(f"{kind} selector must be a name, index, slice or list, got {key!r}")
