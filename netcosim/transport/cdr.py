@@ -119,18 +119,20 @@ def encode(kind: int, node: int, session: int, peer: int, ticks: int, seq: int,
     for what, v in (("kind", kind), ("node", node), ("session", session), ("peer", peer), ("ticks", ticks),
                     ("seq", seq)):
         validate.integer(v, f"CDR message {what}")
-    if isinstance(values, (str, bytes)) or not isinstance(values, Sequence):
-        raise ConfigurationTypeError(f"CDR message values must be a sequence of numbers, got {values!r}")
-    for i, v in enumerate(values):
-        if not validate.is_real(v):
-            raise ConfigurationTypeError(f"CDR message values[{i}] must be a real number, got {v!r}")
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__len__"):
+        raise ConfigurationTypeError(f"CDR message values must be a sequence of numbers, got {_short(values)}")
     n = len(values)
     try:
         check_fields(kind, node, session, peer, ticks, n)
     except ValueError as exc:
         raise ConfigurationError(f"CDR {exc}") from None
-    return (HEADER.pack(ENCAPSULATION, 0, VERSION, kind, node, session, peer, ticks, seq & _U32, n)
-            + struct.pack(f"<{n}d", *values))
+    try:
+        payload = struct.pack(f"<{n}d", *values)
+    except struct.error:
+        bad = next(((i, x) for i, x in enumerate(values) if not validate.is_real(x)), (None, values))
+        raise ConfigurationTypeError(f"CDR message values[{bad[0]}] must be a real number, got {bad[1]!r}") \
+            from None
+    return HEADER.pack(ENCAPSULATION, 0, VERSION, kind, node, session, peer, ticks, seq & _U32, n) + payload
 
 
 def decode(data: bytes | bytearray | memoryview) -> tuple[int, int, int, int, int, int, tuple[float, ...]]:
