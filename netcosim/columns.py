@@ -42,7 +42,7 @@ import tempfile
 from array import array
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
-__all__ = ["ColumnStore", "CHUNK_ROWS"]
+__all__ = ["ColumnStore", "CHUNK_ROWS", "categorical_from_codes"]
 
 #: Rows encoded together; at most twice as many rows are held as tuples at any time.  Small
 #: chunks are encoded while their tuples are still in the CPU cache (1024 cost about 0.4 µs
@@ -382,7 +382,8 @@ class ColumnStore:
                 f"{len(self._tail)} as tuples>")
 
     # -- reading as columns ----------------------------------------------------------
-    def frame(self, columns: Sequence[str], extra: Sequence[tuple] = (), categories: Iterable[int] = ()):
+    def frame(self, columns: Sequence[str], extra: Sequence[tuple] = (), categories: Iterable[int] = (),
+              identity: Iterable[int] = ()):
         """The rows, followed by *extra*, as ``pandas.DataFrame.from_records(rows, columns=columns)``
         would build them, but column by column from the encoded chunks (spilled segments
         loaded one at a time): no tuple per row is made, so reading a long table needs
@@ -396,7 +397,9 @@ class ColumnStore:
         The columns whose indices are in *categories* and whose values are all strings
         come back instead as what ``.astype("category")`` would make of that column
         (categories sorted, only those used), built from the codes without a string per
-        row."""
+        row.  The coded columns whose indices are in *identity* (objects coded by
+        identity, e.g. the kernel's task objects) come back as a pandas ``Categorical``
+        of those objects (categories in order of first appearance, only those used)."""
         import numpy as np
         import pandas as pd
         from pandas.core.internals.construction import convert_object_array
@@ -437,6 +440,7 @@ class ColumnStore:
             out.append(np.empty(total, dtype=dtype))
         coded = [sig[c] == {"str"} for c in range(ncols)]
         as_category = frozenset(categories)
+        by_identity = frozenset(identity)
         names_arr: list = [None] * ncols
 
         def names(c):
@@ -494,8 +498,8 @@ class ColumnStore:
             pos += n
         # object columns as from_records converts them, one at a time (one temporary object array)
         for c in range(ncols):
-            if coded[c] and c in as_category:
-                cat = self._categorical(out[c], names(c))
+            if coded[c] and (c in as_category or c in by_identity):
+                cat = categorical_from_codes(out[c], names(c), objects=c in by_identity)
                 if cat is not None:
                     out[c] = cat
                     continue
@@ -507,23 +511,6 @@ class ColumnStore:
             elif out[c].dtype == object:
                 out[c] = convert_object_array([out[c]], dtype=None)[0]
         return pd.DataFrame(dict(zip(columns, out)), columns=list(columns), copy=False)
-
-    @staticmethod
-    def _categorical(codes, names):
-        """``pandas.Series(names[codes]).astype("category")``'s values, from the codes; None
-        unless every name used is a ``str``."""
-        import numpy as np
-        import pandas as pd
-        used = np.flatnonzero(np.bincount(codes, minlength=len(names)))
-        used_names = names[used]
-        if not all(type(x) is str for x in used_names):
-            return None
-        order = sorted(range(len(used_names)), key=used_names.__getitem__)
-        lut = np.full(len(names), -1, dtype=np.int8 if len(order) < 0x80 else np.int16 if len(order) < 0x8000
-                      else np.int32)
-        lut[used[order]] = np.arange(len(order))
-        dtype = pd.CategoricalDtype(pd.Index(pd.array(used_names[order].tolist(), dtype="str")))
-        return pd.Categorical.from_codes(lut[codes], dtype=dtype)
 
     def _decode_column(self, n: int, codec: str, v, c: int) -> list:
         """One encoded column of a chunk as the list of its values."""
@@ -541,6 +528,46 @@ class ColumnStore:
             tags, vals = v
             return [_UNTAG[t](x) for t, x in zip(tags, vals.tolist())]
         return list(v)
+
+
+#: rows mapped at a time by :func:`categorical_from_codes` (bounds its temporaries)
+_BLOCK = 1 << 20
+
+
+def categorical_from_codes(codes, labels, objects: bool = False):
+    """``pandas.Series(labels[codes]).astype("category")``'s values built from the codes,
+    without a label per row: categories sorted, only those used.  None unless every label
+    used is a ``str``.  ``objects=True``: any hashable labels (e.g. task objects), as
+    categories in the order of their codes, only those used.
+
+    *codes*: an array of non-negative integers below ``len(labels)``; its temporaries are
+    bounded (blocks of :data:`_BLOCK` rows), so a table of millions of rows needs little
+    more than the result's one or two bytes a row."""
+    import numpy as np
+    import pandas as pd
+    n = len(labels)
+    seen = np.zeros(n, dtype=bool)
+    for i in range(0, len(codes), _BLOCK):
+        seen |= np.bincount(codes[i:i + _BLOCK], minlength=n) > 0
+    used = np.flatnonzero(seen)
+    used_labels = [labels[i] for i in used]
+    # the distinct labels used (several codes may carry one label, e.g. a node's tasks)
+    if objects:
+        distinct = list(dict.fromkeys(used_labels))
+        cats = pd.Index(distinct, dtype=object)
+    else:
+        if not all(type(x) is str for x in used_labels):
+            return None
+        distinct = sorted(set(used_labels))
+        cats = pd.Index(pd.array(distinct, dtype="str"))
+    position = {label: k for k, label in enumerate(distinct)}
+    m = len(distinct)
+    lut = np.full(n, -1, dtype=np.int8 if m < 0x80 else np.int16 if m < 0x8000 else np.int32)
+    lut[used] = [position[label] for label in used_labels]
+    mapped = np.empty(len(codes), dtype=lut.dtype)
+    for i in range(0, len(codes), _BLOCK):
+        np.take(lut, codes[i:i + _BLOCK], out=mapped[i:i + _BLOCK])
+    return pd.Categorical.from_codes(mapped, dtype=pd.CategoricalDtype(cats))
 
 
 def _small_int(n: int):

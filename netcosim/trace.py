@@ -158,14 +158,19 @@ class Recorder:
     """
 
     __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index",
-                 "time_scale", "key_index", "mode", "options", "memory", "keeps_categories", "_buf", "_clock",
+                 "time_scale", "key_index", "mode", "options", "memory", "keeps_categories", "identity", "_buf",
+                 "_clock",
                  "_window", "_stream", "_counts", "_latest")
 
     def __init__(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
                  transform=None, *, time: str | None = "time", time_unit: str = "ticks",
                  key: Sequence[str] = (), clock: Callable[[], int] | None = None,
-                 dtypes: Sequence[str | None] | None = None, keeps_categories: bool = False):
+                 dtypes: Sequence[str | None] | None = None, keeps_categories: bool = False,
+                 identity: Sequence[str] = ()):
         self.name = name
+        #: stored columns of objects coded by identity that the transform accepts as a pandas
+        #: Categorical of the objects (see :meth:`Trace.table`)
+        self.identity = tuple(identity)
         #: the transform gives the categorical columns' values back unchanged (it may drop
         #: rows): a table read back from disk hands them to it as pandas categoricals
         self.keeps_categories = keeps_categories or transform is None
@@ -359,7 +364,8 @@ class Recorder:
             # built column by column from the encoded chunks (and the temporary file): no
             # tuple per row, so reading needs about the memory of the frame itself
             cats = [i for i, c in enumerate(self.columns) if c in self.categorical] if self.keeps_categories else []
-            df = buf.frame(self.columns, [r for p in self.providers for r in p()], categories=cats)
+            ident = [i for i, c in enumerate(self.columns) if c in self.identity]
+            df = buf.frame(self.columns, [r for p in self.providers for r in p()], categories=cats, identity=ident)
             rows_read = len(df)
             if self.transform is not None:
                 df = self.transform(df)
@@ -438,6 +444,7 @@ class _Stream:
 
     def flush(self) -> None:
         """Write the rows held in memory as one Parquet file and forget them."""
+        import pandas as pd
         import pyarrow as pa
         import pyarrow.parquet as pq
         rec = self.rec
@@ -446,6 +453,9 @@ class _Stream:
             return
         rows = list(buf)
         df = rec._stored_frame(rows)
+        for c in df.columns:
+            if isinstance(df[c].dtype, pd.CategoricalDtype):   # a transform's names: written as plain strings
+                df[c] = df[c].astype(object)
         f = self.path / PART_NAME.format(self._next)
         tmp = f.with_suffix(".parquet.tmp")
         pq.write_table(pa.Table.from_pandas(df, preserve_index=False), tmp)
@@ -494,7 +504,7 @@ class Trace:
     def table(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
               transform=None, *, time: str | None = "time", time_unit: str = "ticks",
               key: Sequence[str] = (), dtypes: Sequence[str | None] | None = None,
-              keeps_categories: bool = False) -> Recorder:
+              keeps_categories: bool = False, identity: Sequence[str] = ()) -> Recorder:
         """Create (or return the existing) recorder called *name*.
 
         ``columns`` are the stored columns; ``transform(df) -> df`` (optional) derives
@@ -508,13 +518,17 @@ class Trace:
         ``transform`` leaves the values of the categorical columns alone (it may drop rows):
         a table with rows on disk then hands them to it as pandas categoricals rather than
         a string per row, which is what reading a long table back costs most (a table
-        without a transform always does).
+        without a transform always does).  ``identity`` names categorical columns that hold
+        objects coded by identity (the kernel's task objects) and that ``transform`` also
+        accepts as a pandas ``Categorical`` of those objects: a table read back column by
+        column hands them so (categories in order of appearance) instead of an object per
+        row.
         """
         rec = self._tables.get(name)
         if rec is None:
             rec = self._tables[name] = Recorder(name, columns, categorical, transform, time=time,
                                                 time_unit=time_unit, key=key, clock=self._clock, dtypes=dtypes,
-                                                keeps_categories=keeps_categories)
+                                                keeps_categories=keeps_categories, identity=identity)
             if self._default is not None:
                 self._apply_default(rec)
         elif rec.columns != tuple(columns):

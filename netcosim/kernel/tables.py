@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..columns import categorical_from_codes
 from ..plot import TASK_STATES, plot_schedule
 from ..timebase import TICKS_PER_SECOND
 
@@ -52,31 +53,48 @@ def _ticks_to_seconds(df: pd.DataFrame, cols) -> pd.DataFrame:
     return df
 
 
+def _per_task(tasks: pd.Series):
+    """``(codes, unique)``: the distinct kernel task objects in *tasks* and each row's index
+    into them -- from a Categorical of task objects (a table read back column by column,
+    see ``identity`` of :meth:`~netcosim.trace.Trace.table`) without touching a row, or by
+    factorizing an object column."""
+    import pandas as pd
+    if isinstance(tasks.dtype, pd.CategoricalDtype):
+        return tasks.cat.codes.to_numpy(), list(tasks.cat.categories)
+    codes, unique = pd.factorize(tasks.to_numpy(dtype=object))
+    return codes, list(unique)
+
+
 def _task_names(tasks: pd.Series) -> tuple[pd.Series, pd.Series]:
-    """The node name and task name of each kernel task object in *tasks* (object columns)."""
+    """The node name and task name of each kernel task object in *tasks*, as categoricals
+    (what ``astype("category")`` makes of the names, without a name per row)."""
+    import pandas as pd
+    codes, unique = _per_task(tasks)
+    return (pd.Series(categorical_from_codes(codes, [t.node.name for t in unique]), index=tasks.index),
+            pd.Series(categorical_from_codes(codes, [t.name for t in unique]), index=tasks.index))
+
+
+def _seconds(ticks: pd.Series):
+    """Integer ticks as float seconds, ``float(ticks) / TICKS_PER_SECOND`` (NaN where unset)."""
     import numpy as np
     import pandas as pd
-    # one name object per task, shared by its rows (``map`` then ``astype(object)`` would make
-    # a string object per row: some 100 bytes a row when a long table is read back)
-    codes, unique = pd.factorize(tasks.to_numpy(dtype=object))
-    nodes, names = np.empty(len(unique), dtype=object), np.empty(len(unique), dtype=object)
-    for i, t in enumerate(unique):
-        nodes[i], names[i] = t.node.name, t.name
-    return (pd.Series(nodes[codes], index=tasks.index, dtype=object),
-            pd.Series(names[codes], index=tasks.index, dtype=object))
+    if ticks.dtype.kind in "iu":
+        return np.true_divide(ticks.to_numpy(), TICKS_PER_SECOND)    # one array, same bits as below
+    return pd.to_numeric(ticks, errors="coerce").astype(float) / TICKS_PER_SECOND
 
 
 def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
     """Stored schedule rows (:data:`SCHEDULE_RAW`) as reported: time (s), node, task and
-    state names."""
+    state names (categoricals)."""
     import numpy as np
     import pandas as pd
     node, task = _task_names(df["task"])
-    states = np.asarray(list(TASK_STATES), dtype=object)
+    states = df["state"].to_numpy()
     return pd.DataFrame({
-        "time": pd.to_numeric(df["time"], errors="coerce").astype(float) / TICKS_PER_SECOND,
+        "time": _seconds(df["time"]),
         "node": node, "task": task,
-        "state": pd.Series(states[df["state"].to_numpy(dtype=np.int64)], dtype=object),
+        "state": categorical_from_codes(states.astype(np.intp, copy=False) if states.dtype == object else states,
+                                        list(TASK_STATES)),
     })
 
 
@@ -87,8 +105,9 @@ def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
     tasks = df["task"]
     node, name = _task_names(tasks)
     release = pd.to_numeric(df["release"], errors="coerce")
-    unique = pd.unique(tasks)
-    relative = tasks.map({t: np.nan if t.deadline_ticks is None else t.deadline_ticks for t in unique})
+    codes, unique = _per_task(tasks)
+    relative = pd.Series(np.array([np.nan if t.deadline_ticks is None else t.deadline_ticks for t in unique],
+                                  dtype=object)[codes], index=tasks.index)
     if len(df) and relative.notna().all() and release.notna().all():
         deadline = (release.astype("int64") + relative.astype("int64")).astype(float)   # exact in ticks
     else:
@@ -117,14 +136,14 @@ def schedule_table(trace: Trace) -> Recorder:
     # stored in ticks, reported in seconds; the task column holds the kernel's task
     # objects: coded like names, by identity
     return trace.table("schedule", SCHEDULE_RAW, categorical=("node", "task", "state"),
-                       transform=_schedule_frame, dtypes=("int", None, "uint8"))
+                       transform=_schedule_frame, dtypes=("int", None, "uint8"), identity=("task",))
 
 
 def jobs_table(trace: Trace) -> Recorder:
     """The ``jobs`` table of *trace* (created on first call): stored as :data:`JOB_RAW`,
     reported as :data:`JOB_COLUMNS`; the ``window`` mode measures ``release``."""
     return trace.table("jobs", JOB_RAW, categorical=("node", "task"), transform=_jobs_frame,
-                       time="release", dtypes=(None,) + ("int",) * 5 + ("bool",) * 3)
+                       time="release", dtypes=(None,) + ("int",) * 5 + ("bool",) * 3, identity=("task",))
 
 
 def _plot_schedule(trace: Trace, **options):
