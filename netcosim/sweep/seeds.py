@@ -41,14 +41,21 @@ def seed_list(seeds: Any) -> tuple[int, list[int] | None]:
     seeds, the list (``None`` for a count).  Raises naming the value: a count that is not
     an integer >= 1, an empty list, a seed that is not an integer >= 0, a seed given twice."""
     if isinstance(seeds, (list, tuple)) or (isinstance(seeds, np.ndarray) and seeds.ndim == 1):
+        from .grid import MAX_RUNS
+        if len(seeds) > MAX_RUNS:
+            raise ConfigurationError(f"seeds lists {len(seeds)} seeds, more than a sweep may run "
+                                     f"(MAX_RUNS = {MAX_RUNS} runs)")
         given = list(seeds)
         if not given:
             raise ConfigurationError(f"seeds must list at least one seed, got {seeds!r}")
         out = [validate.integer(s, f"seeds[{i}]", lo=0, kind="a non-negative integer seed")
                for i, s in enumerate(given)]
-        dup = [s for s in out if out.count(s) > 1]
-        if dup:
-            raise ConfigurationError(f"seeds lists seed {dup[0]!r} twice: {given!r}")
+        seen: set[int] = set()
+        for s in out:                           # one pass (out.count(s) per seed was quadratic)
+            if s in seen:
+                text = repr(given) if len(given) <= 20 else f"{len(given)} seeds"
+                raise ConfigurationError(f"seeds lists seed {s!r} twice: {text}")
+            seen.add(s)
         return len(out), out
     return validate.integer(seeds, "seeds", lo=1,
                             kind="a number of seeds (an integer >= 1) or a list of seeds"), None

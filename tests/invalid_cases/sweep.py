@@ -7,6 +7,7 @@ import socket
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from invalid_cases import Case
@@ -207,4 +208,12 @@ CASES += [
          call=lambda: _timed(lambda: cli_in_dir("sweep", "sweep_scenarios:cheap", "--grid", "a=1", "--grid", "b=2",
                                                 "--scheduler", "notanaddress", "--out", "DIR/s")),
          exc=CommandFailed, names="'notanaddress'"),
+]
+
+CASES += [
+    Case(id="sweep-seed-list-beyond-max-runs",
+         call=lambda: _timed(lambda: sweep(seeds=np.broadcast_to(np.int64(0), (10**7 + 1,)))), exc=CE,
+         names="10000001 seeds"),
+    Case(id="sweep-long-seed-list-with-a-duplicate",
+         call=lambda: _timed(lambda: sweep(seeds=[*range(10**5), 7])), exc=CE, names="seed 7 twice"),
 ]
