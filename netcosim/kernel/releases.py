@@ -3,16 +3,16 @@
 A node's :class:`Releases` arms a periodic task (``Node.periodic``), stops it
 (``Task.stop``) and fires its releases; the task itself keeps only its configuration
 (``offset_ticks`` stays relative to its creation; the absolute first release is the
-release object's ``first``).  A periodic task is released at ``offset + k*period`` by a timer in SimPy's event queue
-that re-arms itself when it fires.  With thousands of tasks the queue holds thousands
+group's ``first``).  A periodic task is released at ``offset + k*period`` by a timer in
+SimPy's event queue that re-arms itself when it fires.  With thousands of tasks the queue holds thousands
 of such timers, and every push and pop pays for its depth (O(log n) comparisons of
 ``(time, priority, id, event)`` entries that tie on time and priority).
 
 Tasks created one after another on a node with the same first release and period are
 released at the same instants, one right after the other: a :class:`ReleaseGroup`
-releases them from one timer, in creation order (a task released alone is a group of one:
-there is one re-arm path, :meth:`ReleaseGroup._fire`), and gives exactly the event order of
-separate timers (``tests/test_kernel_release_groups.py`` compares the two on random
+releases them from one timer, in creation order (a task released alone is a group of
+one: there is one re-arm path, :meth:`ReleaseGroup._fire`), and gives exactly the event
+order of separate timers (``tests/test_kernel_release_groups.py`` compares the two on random
 task sets, bit for bit).  That holds because:
 
 * the group is formed only while nothing else is scheduled in between (no event id is
