@@ -161,3 +161,48 @@ def test_keeps_categories_with_a_transform_that_drops_rows():
         frames.append(tr.frame("x"))
     pd.testing.assert_frame_equal(frames[0], frames[1], check_exact=True)
     assert list(frames[0]["name"].cat.categories) == ["a", "z"]
+
+
+@pytest.mark.parametrize("name", ["signals", "schedule", "jobs", "frames", "network_schedule"])
+def test_column_wise_read_equals_the_frame_built_from_tuples(runs, name):
+    # the column-wise read (categoricals from codes, ticks to seconds in place, repeated
+    # network states dropped from the codes) against from_records on the stored tuples
+    from netcosim.trace import Trace
+    bounded, _ = runs
+    rec = bounded.trace.recorder(name)
+    got = rec.frame()
+    tuples = Trace()
+    ref = tuples.table(name, rec.columns, rec.categorical, rec.transform,
+                       time=rec.columns[rec.time_index] if rec.time_index is not None else None)
+    ref._buf = list(rec._buf)
+    ref.providers = rec.providers
+    assert len(got) > 500
+    pd.testing.assert_frame_equal(got, ref.frame(), check_exact=True)
+
+
+def test_repeated_network_states_are_dropped_alike_from_codes_and_from_names():
+    # two networks, three nodes interleaved; repeats (same state as the same pair's previous
+    # row) scattered, across the row blocks the codes path scans (block 2**20 rows)
+    import numpy as np
+
+    from netcosim.network.base import _schedule_frame
+    rng = np.random.default_rng(5)
+    n = (1 << 20) + 5000
+    nets = np.array(["can", "wlan"], dtype=object)[rng.integers(0, 2, n)]
+    nodes = np.array(["a", "b", "c"], dtype=object)[rng.integers(0, 3, n)]
+    states = np.array(["idle", "sending", "waiting"], dtype=object)[rng.integers(0, 3, n)]
+    ticks = np.cumsum(rng.integers(0, 3, n)).astype(np.int64)
+
+    def frame(categorical):
+        cols = {"time": ticks.copy(), "network": nets, "node": nodes, "state": states}
+        df = pd.DataFrame(cols)
+        if categorical:
+            for c in ("network", "node", "state"):
+                df[c] = df[c].astype("category")
+        return df
+    by_codes = _schedule_frame(frame(True))
+    by_names = _schedule_frame(frame(False))
+    assert 0.6 * n < len(by_codes) < 0.7 * n        # about a third of the rows repeat their pair's state
+    for c in ("network", "node", "state"):
+        by_names[c] = by_names[c].astype("category")
+    pd.testing.assert_frame_equal(by_codes, by_names, check_exact=True)

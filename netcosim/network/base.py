@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import validate
 from ..clock import ARBITRATE  # noqa: F401 (re-exported: MAC arbitration priority)
+from ..columns import ticks_as_seconds
 from ..errors import ConfigurationError, ConfigurationTypeError, OverloadError, OverloadWarning
 from ..kernel.task import Task
 from ..timebase import MAX_TICKS, RESOLUTION, TICKS_PER_SECOND
@@ -69,23 +70,61 @@ if TYPE_CHECKING:
 
 
 def _frames_frame(df: pd.DataFrame) -> pd.DataFrame:
-    df["time"] = df["time"].astype("int64") * RESOLUTION if len(df) else df["time"].astype(float)
-    df["frame"] = df["frame"].astype("int64")
-    df["attempt"] = df["attempt"].astype("int64")
-    df["bits"] = df["bits"].astype(float)
-    df["backoff"] = df["backoff"].astype(float)
+    if not len(df):
+        df["time"] = df["time"].astype(float)
+    else:
+        df = ticks_as_seconds(df, "time", multiply=RESOLUTION)
+    for c, dtype in (("frame", "int64"), ("attempt", "int64"), ("bits", "float64"), ("backoff", "float64")):
+        if df[c].dtype != dtype:
+            df[c] = df[c].astype(dtype)
     return df
 
 
 def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
-    if len(df):
-        # a same-instant change that returned to the previous state leaves a repeated row: drop it
+    """Stored network-schedule rows as reported: a same-instant change that returned to
+    the previous state leaves a repeated row per (network, node), dropped; time in s."""
+    import pandas as pd
+    if not len(df):
+        df["time"] = df["time"].astype(float)
+        return df
+    keep = _first_of_runs(df)
+    if keep is not None:
+        if not keep.all():
+            # column by column, each dropped from df as it is filtered: one column's copy at a time
+            cols = {c: df.pop(c)[keep].reset_index(drop=True) for c in list(df.columns)}
+            df = pd.DataFrame(cols, copy=False)
+    else:       # names as objects (a table not read back column by column)
         prev = df.groupby(["network", "node"], sort=False)["state"].shift()
         df = df[df["state"] != prev].reset_index(drop=True)
-        df["time"] = df["time"].astype("int64") * RESOLUTION
-    else:
-        df["time"] = df["time"].astype(float)
-    return df
+    return ticks_as_seconds(df, "time", multiply=RESOLUTION)
+
+
+def _first_of_runs(df: pd.DataFrame):
+    """Rows whose state differs from the previous row of the same (network, node) (True
+    for each one's first row), from the categoricals' codes in blocks of rows; None
+    unless the three columns are categoricals."""
+    import numpy as np
+    import pandas as pd
+    cols = [df[c] for c in ("network", "node", "state")]
+    if not all(isinstance(c.dtype, pd.CategoricalDtype) for c in cols):
+        return None
+    net, node, state = (c.cat.codes.to_numpy() for c in cols)
+    width = len(cols[1].cat.categories) + 1
+    keep = np.ones(len(df), dtype=bool)
+    last: dict[int, int] = {}
+    block = 1 << 20
+    for i in range(0, len(df), block):
+        key = net[i:i + block].astype(np.int32) * width + node[i:i + block]
+        st = state[i:i + block]
+        for k in np.flatnonzero(np.bincount(key)):
+            pos = np.flatnonzero(key == k)
+            s = st[pos]
+            prev = np.empty_like(s)
+            prev[0] = last.get(int(k), -1)
+            prev[1:] = s[:-1]
+            keep[i + pos[s == prev]] = False
+            last[int(k)] = int(s[-1])
+    return keep
 
 
 def _plot_network(trace, frames: Any = _UNSET, **options):
