@@ -33,10 +33,12 @@ class Simulation:
         of the others; same seed, same results, bit for bit.
     realtime:
         Run against the wall clock (for hardware-in-the-loop): one simulated second
-        takes ``factor`` wall-clock seconds.
+        takes ``factor`` wall-clock seconds.  ``True`` or ``False`` exactly.
     strict:
         In real-time mode, raise when an event is processed more than ``max_lag``
         seconds late; otherwise record the lag in ``Simulation.lags``.
+        ``factor``, ``strict`` and ``max_lag`` are checked even when ``realtime`` is
+        off (a bad value is refused, not ignored).
 
     Memory: a simulation and its components refer to each other (reference cycles), so
     dropping the last reference to a finished simulation does not free it at once (its
@@ -49,11 +51,14 @@ class Simulation:
                  strict: bool = True, max_lag: float = 0.01):
         validate.integer(seed, "seed", lo=0, kind="a non-negative integer", type_error=ConfigurationError)
         self.seed = int(seed)
+        # The real-time parameters are checked whether or not realtime is on: a bad value is
+        # a bug in the caller even when it would not be used.
+        validate.boolean(realtime, "realtime")
+        validate.positive(factor, "real-time factor", kind="a positive number", type_error=ConfigurationError)
+        validate.non_negative(max_lag, "max_lag", kind="a non-negative number of seconds",
+                              type_error=ConfigurationError)
+        validate.boolean(strict, "strict")
         if realtime:
-            validate.positive(factor, "real-time factor", kind="a positive number", type_error=ConfigurationError)
-            validate.non_negative(max_lag, "max_lag", kind="a non-negative number of seconds",
-                                  type_error=ConfigurationError)
-            validate.boolean(strict, "strict")
             self.env: Engine = RealtimeEngine(factor, strict, max_lag)
         else:
             self.env = Engine()
@@ -99,14 +104,29 @@ class Simulation:
         if ticks < self.env.now:
             raise ConfigurationError(f"call_at time t={t!r} s lies before now={self.now} s (cannot schedule "
                                      f"in the past)")
-        return self.call_at_ticks(ticks, fn, priority, arg)
+        validate.callable_(fn, "call_at fn", kind="callable (called when the time comes)")
+        return Timer.call(self.env, ticks - self.env.now, fn, arg, priority)
 
     def call_in(self, delay: float, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
         """Call ``fn()`` (``fn(arg)`` if *arg* is given) *delay* seconds from now; see :meth:`call_at`."""
-        return Timer.call(self.env, to_ticks(delay, "call_in delay"), fn, arg, priority)
+        delay_ticks = to_ticks(delay, "call_in delay")
+        validate.callable_(fn, "call_in fn", kind="callable (called when the time comes)")
+        return Timer.call(self.env, delay_ticks, fn, arg, priority)
 
     def call_at_ticks(self, ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
-        """:meth:`call_at` with the instant in integer ticks (for components that compute in ticks)."""
+        """:meth:`call_at` with the instant in integer ticks (for components that compute in ticks).
+
+        *ticks* must be an ``int`` (not a float, not a bool) and *fn* callable.  The
+        framework's own components call the unchecked :meth:`_call_at_ticks` (once per
+        frame or job: no per-event check).
+        """
+        if isinstance(ticks, bool) or not isinstance(ticks, (int, np.integer)):
+            raise ConfigurationTypeError(f"call_at_ticks ticks must be an integer number of ticks, got {ticks!r}")
+        validate.callable_(fn, "call_at_ticks fn", kind="callable (called when the time comes)")
+        return self._call_at_ticks(int(ticks), fn, priority, arg)
+
+    def _call_at_ticks(self, ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
+        """:meth:`call_at_ticks` without the checks on *ticks* and *fn* (the framework's hot path)."""
         env = self.env
         now = env.now
         if ticks < now:
@@ -199,6 +219,7 @@ class Simulation:
         failing component's own (a bound method of the object that raised), and an
         exception they raise is attached to the original failure as a note.
         """
+        validate.callable_(fn, "finalizer", kind="callable with no arguments")
         self._finalizers.append(fn)
 
     # Running ---------------------------------------------------------------

@@ -34,12 +34,12 @@ class KernelTimer:
         self._period = None if period is None else validate.duration(period, f"timer for {target.name!r}: period",
                                                                      positive=True, kind="positive")
         self._k = 0
-        self._timer = node.sim.call_at_ticks(self._start, self._fire)
+        self._timer = node.sim._call_at_ticks(self._start, self._fire)
 
     def _fire(self):
         self._k += 1
         if self._period is not None:
-            self._timer = self.node.sim.call_at_ticks(self._start + self._k * self._period, self._fire)
+            self._timer = self.node.sim._call_at_ticks(self._start + self._k * self._period, self._fire)
         else:
             self._timer = None
         self.target.release()

@@ -41,7 +41,7 @@ class SlottedAloha(Network):
     def _transmit_at(self, iface, at):
         if at not in self._slots:       # one event per slot, after everything else at that instant
             self._slots[at] = []
-            self.sim.call_at_ticks(at, self._slot_start, ARBITRATE, arg=at)
+            self.sim._call_at_ticks(at, self._slot_start, ARBITRATE, arg=at)
         self._slots[at].append(iface)
 
     def _slot_start(self, at):

@@ -142,7 +142,7 @@ class CSMACD(Network):
                 self._drop(iface, f, "retry_limit", restart=False)
                 continue
             k = int(iface.mac.rng.integers(0, 2 ** min(f.attempts, self.backoff_limit)))
-            iface.mac.timer = self.sim.call_at_ticks(now + k * self._slot, self._try, arg=iface)
+            iface.mac.timer = self.sim._call_at_ticks(now + k * self._slot, self._try, arg=iface)
             iface._state()
         self._medium_idle()
         for iface in colliders:
@@ -157,7 +157,7 @@ class CSMACD(Network):
     def _schedule_release(self):
         if self._waiting and not self._release_pending and not self._active:
             self._release_pending = True
-            self.sim.call_at_ticks(max(self._idle_at, self._env.now), self._release, ARBITRATE)
+            self.sim._call_at_ticks(max(self._idle_at, self._env.now), self._release, ARBITRATE)
 
     def _release(self):
         self._release_pending = False

@@ -138,7 +138,7 @@ class IEEE802154(RadioNetwork):
     def _csma_start(self, r) -> None:
         now = self._env.now
         if r.ifs_until > now:
-            self.sim.call_at_ticks(r.ifs_until, self._csma_start, arg=r)
+            self.sim._call_at_ticks(r.ifs_until, self._csma_start, arg=r)
             return
         r.nb, r.be = 0, self.min_be
         self._backoff(r)

@@ -101,7 +101,7 @@ class TDMA(Network):
         now = self._env.now
         start, end = self.window(iface, now)
         if start > now:
-            st.timer = self.sim.call_at_ticks(start, self._resume, arg=iface)
+            st.timer = self.sim._call_at_ticks(start, self._resume, arg=iface)
             iface._state()
             return
         f = iface.current

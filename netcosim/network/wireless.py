@@ -206,7 +206,7 @@ class RadioNetwork(Network):
         r.iface.sending = 1
         r.iface._state()
         self._air_start(tx)
-        self.sim.call_at_ticks(tx.end, self._tx_end, arg=tx)
+        self.sim._call_at_ticks(tx.end, self._tx_end, arg=tx)
 
     def _tx_end(self, tx: Transmission) -> None:
         """*tx* left the air: an ACK is done, a broadcast (or unacknowledged) data frame is

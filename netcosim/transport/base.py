@@ -383,7 +383,7 @@ class BaseRemote:
         for peer in list(self._refused_alive):
             self._pub.put(self.codec.encode(wire.REFUSED, 0, self.session_id, peer, 0, 0))
         deadline = now + self._deadline_ticks
-        timer = self.sim.call_at_ticks(deadline, self._expire, arg=seq)
+        timer = self.sim._call_at_ticks(deadline, self._expire, arg=seq)
         self._requests[seq] = _Request(now, deadline, source, timer)
         self._pub.put(self.codec.encode(wire.DATA, source, self.session_id, self.peer or 0, now, seq, values))
         self.published += 1

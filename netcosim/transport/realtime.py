@@ -236,7 +236,7 @@ class RealtimeClock:
         if ticks < now:
             self._late_injections += 1
             ticks = now
-        timer = self.sim.call_at_ticks(ticks, fn, arg=arg)
+        timer = self.sim._call_at_ticks(ticks, fn, arg=arg)
         if ticks > now:
             pending = self._pending
             pending.append((timer, fn, arg))

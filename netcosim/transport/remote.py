@@ -258,7 +258,7 @@ class _PlantIO:
                 values += _flat(self.extra(sim.now))
             request(values)
             sim.call_in_ticks(period_ticks, sample)
-        sim.call_at_ticks(int(sim.now_ticks), sample)
+        sim._call_at_ticks(int(sim.now_ticks), sample)
 
 
 class RemotePlantIO(BaseRemote):

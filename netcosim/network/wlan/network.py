@@ -244,7 +244,7 @@ class WLAN80211b(RadioNetwork):
         if self._acc_timer is not None:
             self._acc_timer.cancel()
         self._acc_timer_at = at
-        self._acc_timer = self.sim.call_at_ticks(at, self._access_due)
+        self._acc_timer = self.sim._call_at_ticks(at, self._access_due)
 
     def _access_due(self) -> None:
         """Every station whose access instant is now transmits (in station order)."""
@@ -338,7 +338,7 @@ class WLAN80211b(RadioNetwork):
             waiting = self._nav.get(nav)
             if waiting is None:
                 waiting = self._nav[nav] = []
-                self.sim.call_at_ticks(nav, self._nav_due, arg=nav)
+                self.sim._call_at_ticks(nav, self._nav_due, arg=nav)
             waiting.append(r)
 
     def _nav_due(self, nav) -> None:
