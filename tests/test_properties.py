@@ -208,7 +208,7 @@ def test_aperiodic_parameters(param, value):
 def test_handler_parameters(param, value):
     sim = Simulation()
     node = sim.node("cpu")
-    task = outcome(lambda: node.handler(lambda ctx: iter(()), **{param: value}), value, param)
+    task = outcome(lambda: node.handler(_body, **{param: value}), value, param)
     if task is not None:
         sim.call_at(0.001, task.release)
         assert run_ok(sim, 0.01, value, param)

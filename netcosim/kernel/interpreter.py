@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..clock import DISPATCH, Timer
+from ..errors import ConfigurationTypeError
 from .overrun import Overruns
 from .tables import STATE_CODES
 from .task import Blocking
@@ -94,6 +95,8 @@ class Interpreter(Overruns):
                     finished = True
                     break
                 if type(cmd) is int:
+                    if ctx._unyielded is None:      # an int that ctx.execute did not make
+                        raise self._bad_command(job, cmd)
                     ctx._unyielded = None  # the execute request came back through the yield
                     if cmd > 0:
                         job.remaining = cmd
@@ -109,9 +112,7 @@ class Interpreter(Overruns):
                         if job.task.wcet_ticks is not None and job.budget_timer is None:
                             self._arm_budget(job)
                         break
-                    if cmd < 0:
-                        raise ValueError(f"task {job.task.name!r}: yielded a negative execution time {cmd}")
-                    continue
+                    continue        # ctx.execute(0): nothing to run (execute never returns < 0)
                 if ctx._unyielded is not None:
                     raise ctx._unyielded_error(f"then yielded {cmd!r} at t = {sim.now:.9f} s")
                 if isinstance(cmd, Blocking):
@@ -124,12 +125,17 @@ class Interpreter(Overruns):
                     self._trace(job.task, "blocked")
                     self._request_dispatch()
                     break
-                raise TypeError(f"task {job.task.name!r} on node {self.name!r} yielded {cmd!r}; "
-                                f"yield ctx.execute(seconds), ctx.sleep(...), or a blocking call")
+                raise self._bad_command(job, cmd)
         finally:
             sim._stepping -= 1
         if finished:
             self._finish(job)
+
+    def _bad_command(self, job: Job, cmd: object) -> ConfigurationTypeError:
+        """The error for a yielded value that is not a kernel command (a bare number, None, ...)."""
+        return ConfigurationTypeError(
+            f"task {job.task.name!r} on node {self.name!r} yielded {cmd!r}, which is not a kernel command; "
+            f"yield ctx.execute(seconds), ctx.sleep(...), or a blocking call")
 
     def _finish(self, job: Job, killed: bool = False) -> None:
         now = self._env.now

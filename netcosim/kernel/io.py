@@ -11,13 +11,18 @@ from __future__ import annotations
 from .. import validate
 from ..errors import ConfigurationError, NotConnectedError
 
+#: The largest analog channel number a node accepts (channels 0..MAX_CHANNEL; a bigger
+#: number, 2**70, is a bug rather than a channel).
+MAX_CHANNEL = 65535
+
 
 class _Channel:
     kind = "channel"
 
     def __init__(self, node, channel: int):
-        channel = validate.integer(channel, f"node {node.name!r}: {self.kind} channel", lo=0,
-                                   kind="a non-negative integer", type_error=ConfigurationError)
+        channel = validate.integer(channel, f"node {node.name!r}: {self.kind} channel", lo=0, hi=MAX_CHANNEL,
+                                   kind=f"an integer in 0..{MAX_CHANNEL} (netcosim.kernel.io.MAX_CHANNEL)",
+                                   type_error=ConfigurationError)
         self.node, self.channel = node, channel
         self.port = None
 

@@ -60,7 +60,7 @@ class Sleep(Blocking):
         node = job.node
         if self.until <= node.sim.env.now:
             return True
-        self.timer = node.sim.call_at_ticks(self.until, lambda: node._unblock(job, None))
+        self.timer = node.sim._call_at_ticks(self.until, lambda: node._unblock(job, None))
         return False
 
     def cancel(self, job):
@@ -141,12 +141,24 @@ class Job:
         return f"<Job {self.node.name}.{self.task.name}#{self.index} {self.state}>"
 
 
-def _as_generator_function(body: Callable) -> Callable:
+def _as_generator_function(body: Callable, task_name: str) -> Callable:
+    """*body* itself if it is a generator function; else a generator function that calls it.
+
+    A plain function body runs in zero simulated time and must return None: a value it
+    returns (``lambda ctx: 5``, or a generator it built but did not yield from) would be
+    dropped without effect, so it is refused, naming the task and the value.
+    """
     if inspect.isgeneratorfunction(body):
         return body
 
     def gen(ctx):
-        body(ctx)
+        r = body(ctx)
+        if r is not None:
+            hint = (" (it returned a generator: make the body itself a generator function, e.g. "
+                    "`yield from ...`)" if inspect.isgenerator(r) else "")
+            raise ConfigurationTypeError(
+                f"task {task_name!r}: a body that is not a generator function must return None, it "
+                f"returned {r!r}{hint}")
         return
         yield  # unreachable: makes this a generator
 
@@ -206,12 +218,12 @@ class Task:
                  max_pending: int | None = DEFAULT_MAX_PENDING, on_queue_full: str = "drop"):
         validate.callable_(body, "task body", kind="a callable body(ctx)")
         self.node = node
-        if name is not None and name != "":
+        if name is not None:        # '' is refused, like node('') (None: the body's name)
             validate.name(name, "task name")
-        self.name: str = name if name else getattr(body, "__name__", "task")
+        self.name: str = name if name is not None else getattr(body, "__name__", "task")
         self.kind = kind
         self.cls = HANDLER if kind == "handler" else TASK
-        self.body = _as_generator_function(body)
+        self.body = _as_generator_function(body, self.name)
         self.priority = priority
         self.period_ticks = _check_time(period, "period", self.name, positive=True,
                                         allow_none=kind != "periodic")

@@ -263,7 +263,9 @@ CASES = [
          names="nan"),
     Case(id="kernel-sleep-str", call=lambda: run_task(sleeps("fast")), exc=TypeError, names="'fast'"),
     Case(id="kernel-yield-garbage", call=lambda: run_task(yields("soon")), exc=TypeError, names="'soon'"),
-    Case(id="kernel-yield-negative-ticks", call=lambda: run_task(yields(-5)), exc=ValueError, names="-5"),
+    # a bare int is not a kernel command (only ctx.execute's request is): refused as a wrong kind
+    Case(id="kernel-yield-negative-ticks", call=lambda: run_task(yields(-5)), exc=ConfigurationTypeError,
+         names="-5"),
     Case(id="kernel-run-after-failure", call=lambda: _failed_then_run(), exc=SimulationFailedError,
          names="ZeroDivisionError: boom"),
     # --- found by tests/test_properties.py (issue 23) -----------------------------------
@@ -309,3 +311,67 @@ def _failed_then_run():
     except ZeroDivisionError:
         pass
     sim.run(until=0.1)
+
+
+def _returns(value):
+    def make():
+        return lambda ctx: value
+    return make
+
+
+def _yields_bare_int():
+    """``yield 5`` is not ``yield ctx.execute(...)``: refused naming the task and the value."""
+    sim = Simulation()
+
+    def b(ctx):
+        yield 5
+    sim.node("cpu").periodic(b, period=0.01, priority=1, name="bare")
+    sim.run(until=0.05)
+
+
+def _bare_int_names_the_task():
+    try:
+        _yields_bare_int()
+    except ConfigurationTypeError as exc:
+        assert "'bare'" in str(exc), exc
+        raise
+
+
+# Audit fixes (Simulation arguments, call_at/call_in/call_at_ticks/add_finalizer, task names,
+# analog channel range, what a body may return or yield).
+CASES += [
+    Case(id="kernel-sim-realtime-str", call=lambda: Simulation(realtime="yes"), exc=ConfigurationTypeError,
+         names="'yes'"),
+    Case(id="kernel-sim-realtime-int", call=lambda: Simulation(realtime=1), exc=ConfigurationTypeError,
+         names="1"),
+    Case(id="kernel-sim-factor-negative-not-realtime", call=lambda: Simulation(factor=-5),
+         exc=ConfigurationError, names="-5"),
+    Case(id="kernel-sim-strict-str-not-realtime", call=lambda: Simulation(strict="no"),
+         exc=ConfigurationTypeError, names="'no'"),
+    Case(id="kernel-sim-max-lag-negative-not-realtime", call=lambda: Simulation(max_lag=-1.0),
+         exc=ConfigurationError, names="-1.0"),
+    Case(id="kernel-sim-call-at-not-callable", call=lambda: Simulation().call_at(0.1, 5),
+         exc=ConfigurationTypeError, names="5"),
+    Case(id="kernel-sim-call-in-not-callable", call=lambda: Simulation().call_in(0.1, "f"),
+         exc=ConfigurationTypeError, names="'f'"),
+    Case(id="kernel-sim-call-at-ticks-float", call=lambda: Simulation().call_at_ticks(1.5, print),
+         exc=ConfigurationTypeError, names="1.5"),
+    Case(id="kernel-sim-call-at-ticks-bool", call=lambda: Simulation().call_at_ticks(True, print),
+         exc=ConfigurationTypeError, names="True"),
+    Case(id="kernel-sim-call-at-ticks-not-callable", call=lambda: Simulation().call_at_ticks(10, 5),
+         exc=ConfigurationTypeError, names="5"),
+    Case(id="kernel-sim-finalizer-not-callable", call=lambda: Simulation().add_finalizer(5),
+         exc=ConfigurationTypeError, names="5"),
+    Case(id="kernel-task-name-empty", call=lambda: cpu().periodic(body, period=0.006, priority=1, name=""),
+         exc=ConfigurationTypeError, names="''"),
+    Case(id="kernel-analog-out-channel-huge", call=lambda: cpu().analog_out(2**70), exc=ConfigurationError,
+         names=str(2**70)),
+    Case(id="kernel-analog-in-channel-huge", call=lambda: cpu().analog_in(65536), exc=ConfigurationError,
+         names="65536"),
+    Case(id="kernel-body-returns-value", call=lambda: run_task(_returns(5)), exc=ConfigurationTypeError,
+         names="returned 5"),
+    Case(id="kernel-body-returns-generator", call=lambda: run_task(_returns(i for i in ())),
+         exc=ConfigurationTypeError, names="it returned a generator"),
+    Case(id="kernel-yield-bare-int", call=_bare_int_names_the_task, exc=ConfigurationTypeError,
+         names="yielded 5"),
+]
