@@ -151,6 +151,13 @@ def _message_loss(value: Any, what: str) -> LossModel | dict | None:
     return links or None
 
 
+def _check_sim(sim: Any, who: str) -> None:
+    """Refuse a first argument that is not a :class:`~netcosim.Simulation`, naming it."""
+    from ..sim import Simulation
+    if not isinstance(sim, Simulation):
+        raise ConfigurationTypeError(f"{who}: sim must be a netcosim Simulation (the first argument), got {sim!r}")
+
+
 class Network:
     """Base class of all networks (the common pipeline; subclasses are MACs).
 
@@ -217,7 +224,11 @@ class Network:
     mailbox_capacity:
         Default receive-mailbox size (None = unbounded).
     trace:
-        Record the ``frames`` and ``network_schedule`` tables (turn off for speed).
+        Record the ``frames`` and ``network_schedule`` tables (turn off for speed);
+        ``True`` or ``False`` exactly.
+
+    ``sim`` must be a :class:`~netcosim.Simulation` (``ConfigurationTypeError`` naming
+    it otherwise, for every network).
     """
 
     default_queue = "fifo"
@@ -229,6 +240,7 @@ class Network:
                  propagation_delay: float = 0.0, loss: Any = None, message_loss: Any = None, queue: str | None = None,
                  queue_capacity: int | None = DEFAULT_QUEUE_CAPACITY, on_queue_full: str = "drop",
                  mailbox_capacity: int | None = None, trace: bool = True):
+        _check_sim(sim, f"{type(self).__name__} {name!r}")
         self.sim = sim
         self._env = sim.env
         self.name = name
@@ -258,7 +270,7 @@ class Network:
         if mailbox_capacity is not None:
             mailbox_capacity = validate.count(mailbox_capacity, f"{w}: mailbox_capacity (messages)", minimum=1)
         self.mailbox_capacity = mailbox_capacity
-        self._trace_on = bool(trace)
+        self._trace_on = validate.boolean(trace, f"{w}: trace")
         self.interfaces: dict[str, Interface] = {}
         self._ifaces: list[Interface] = []
         self._links: dict = {}

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 
+from ..errors import ConfigurationError, ConfigurationTypeError
 from ..timebase import TICKS_PER_SECOND
 from .frame import BROADCAST
 from .radio import distance, modulation_for
@@ -130,13 +131,16 @@ class WirelessMedium:
         if callable(p):
             v = p(t_s)
             try:
+                if isinstance(v, (str, bytes)):
+                    raise TypeError
                 v = tuple(float(x) for x in v)
-            except TypeError:
-                raise TypeError(f"network {self.mac.name!r}: position callable of {r.name!r} returned {v!r}, "
-                                f"not a point") from None
+            except (TypeError, ValueError):
+                raise ConfigurationTypeError(f"network {self.mac.name!r}: position callable of {r.name!r} "
+                                             f"returned {v!r} at t={t_s} s, not a point (2 or 3 numbers, m)"
+                                             ) from None
             if len(v) not in (2, 3) or not all(math.isfinite(x) for x in v):
-                raise ValueError(f"network {self.mac.name!r}: position of {r.name!r} at t={t_s} s is {v!r}; "
-                                 f"need 2 or 3 finite coordinates")
+                raise ConfigurationError(f"network {self.mac.name!r}: position of {r.name!r} at t={t_s} s "
+                                         f"is {v!r}; need 2 or 3 finite coordinates")
             return v
         return p
 

@@ -115,8 +115,12 @@ class LogDistance(PathLoss):
         self.pl0 = validate.non_negative(reference_loss_db, "LogDistance reference_loss_db (dB)")
 
     def loss_db(self, d: float) -> float:
-        """Path loss (dB) at distance *d* (m), with *d* clamped to at least ``d0``."""
-        d = d if d > self.d0 else self.d0
+        """Path loss (dB) at distance *d* (m), with *d* clamped to at least ``d0``; a
+        negative or NaN *d* raises :class:`~netcosim.errors.ConfigurationError` naming it."""
+        if not d > self.d0:             # rare path: within d0, or not a distance
+            if not d >= 0.0:
+                raise ConfigurationError(f"LogDistance: distance must be >= 0 m, got {d!r}")
+            d = self.d0
         return self.pl0 + 10.0 * self.exponent * math.log10(d / self.d0)
 
     def gain(self, d: float) -> float:
@@ -135,8 +139,11 @@ class TrueTimePathLoss(PathLoss):
         self.exponent = validate.positive(exponent, "TrueTimePathLoss exponent")
 
     def gain(self, d: float) -> float:
-        """Linear power gain ``(d + 1)^-a`` at distance *d* (m)."""
-        return (d + 1.0) ** (-self.exponent)
+        """Linear power gain ``(d + 1)^-a`` at distance *d* (m); a negative or NaN *d*
+        raises :class:`~netcosim.errors.ConfigurationError` naming it."""
+        if d >= 0.0:
+            return (d + 1.0) ** (-self.exponent)
+        raise ConfigurationError(f"TrueTimePathLoss: distance must be >= 0 m, got {d!r}")
 
     def __repr__(self):
         return f"TrueTimePathLoss(exponent={self.exponent})"

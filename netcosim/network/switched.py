@@ -7,7 +7,8 @@ queues it on the output port of the destination (every other port for broadcast)
 Each output port sends its queue (FIFO, or by priority with ``port_queue="priority"``)
 to its node.  Timing of an unloaded frame: ``2 * bits / data_rate + switch_delay``.
 
-Switch memory (``switch_memory_bits``, None = unbounded) holds frames from arrival until
+Switch memory (``switch_memory_bits``, None = unbounded; else at least one frame of
+``max_frame_bits``, or of ``min_frame_bits`` when frames are unbounded) holds frames from arrival until
 their last copy has left the output port.  ``buffer="shared"``: one pool;
 ``"symmetric"``: each output port owns ``memory / n_ports``.  A frame that does not fit
 is dropped (``overflow="drop"``, traced as ``lost``/``queue_overflow`` at node
@@ -18,6 +19,7 @@ attempt ends with outcome ``switch_full``) -- TrueTime's two options.
 from __future__ import annotations
 
 from .. import validate
+from ..errors import ConfigurationError
 from .base import Network
 from .interface import TxQueue
 
@@ -48,6 +50,12 @@ class SwitchedEthernet(Network):
         w = f"network {name!r}"
         if switch_memory_bits is not None:
             switch_memory_bits = validate.bits(switch_memory_bits, f"{w}: switch_memory_bits", allow_zero=False)
+            # the memory must hold at least one frame: the largest, or the smallest if unbounded
+            need = self.max_frame_bits if self.max_frame_bits is not None else self.min_frame_bits
+            if switch_memory_bits < need:
+                raise ConfigurationError(
+                    f"{w}: switch_memory_bits={switch_memory_bits!r} cannot hold one frame of "
+                    f"{'max_frame_bits' if self.max_frame_bits is not None else 'min_frame_bits'}={need} bits")
         self.switch_memory_bits = switch_memory_bits
         validate.choice(buffer, f"{w}: buffer", ("shared", "symmetric"))
         validate.choice(overflow, f"{w}: overflow", ("drop", "retransmit"))

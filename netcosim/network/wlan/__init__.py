@@ -3,6 +3,6 @@ by station (:mod:`.dcf`) and the shared idle-slot clock (:mod:`.shared`), the st
 network uses instead while every station hears every other one."""
 
 from .dcf import DcfStation
-from .network import BASIC_RATES, RATES, WLAN80211b
+from .network import BASIC_RATES, MAX_FRAME_SECONDS, RATES, WLAN80211b
 
-__all__ = ["BASIC_RATES", "DcfStation", "RATES", "WLAN80211b"]
+__all__ = ["BASIC_RATES", "DcfStation", "MAX_FRAME_SECONDS", "RATES", "WLAN80211b"]

@@ -49,8 +49,13 @@ Access rules implemented (per station):
 * EIFS (``eifs=True``) replaces DIFS after a frame was received with errors, until a
   frame is received correctly or an EIFS-long idle period has elapsed.
 
-Data rate: any positive number (the thesis uses 1.2 Mbit/s); :data:`RATES` lists the
-802.11b rates.  The radio side (positions, powers, thresholds, capture, BER) is described
+Data rate: any positive number, a documented modelling choice (the thesis uses 1.2
+Mbit/s; ``data_rate=5e6`` or ``basic_rates=[3e6]`` are accepted as such, with the
+modulation ``modulation`` picks for them); :data:`RATES` lists the 802.11b rates.  A rate
+at which the largest frame (``max_frame_bits``) would take more than
+:data:`MAX_FRAME_SECONDS` (1 s) on the air is refused: ``data_rate=11`` is a slip for
+11e6, and its frames would stay in flight for half an hour (``message_loss`` NaN, no
+message with a known fate).  The radio side (positions, powers, thresholds, capture, BER) is described
 in :mod:`netcosim.network.medium` and :mod:`netcosim.network.radio`.
 
 Simplifications: no RTS/CTS, no fragmentation, no rate adaptation, the short-preamble
@@ -78,6 +83,9 @@ from .shared import SharedClockAccess
 RATES = (1e6, 2e6, 5.5e6, 11e6)
 #: 802.11b basic rate set commonly configured (bit/s).
 BASIC_RATES = (1e6, 2e6)
+#: The longest air time (s) of the largest data frame (``max_frame_bits``) at the data
+#: rate that a network accepts; a slower rate is refused as a unit slip (bit/s vs Mbit/s).
+MAX_FRAME_SECONDS = 1.0
 
 
 def _index(r) -> int:
@@ -90,7 +98,8 @@ class WLAN80211b(RadioNetwork):
     Parameters (besides those of :class:`~netcosim.network.base.Network`)
     ----------------------------------------------------------------------
     data_rate:
-        Data rate in bit/s (default 11 Mbit/s; any positive value).
+        Data rate in bit/s (default 11 Mbit/s; any positive value at which a frame of
+        ``max_frame_bits`` takes at most :data:`MAX_FRAME_SECONDS`, see the module docstring).
     preamble:
         ``"long"`` (192 µs PLCP) or ``"short"`` (96 µs).
     retry_limit:
@@ -113,7 +122,8 @@ class WLAN80211b(RadioNetwork):
         (default SIFS + slot + PLCP).
     basic_rates:
         Rates (bit/s) usable for ACKs; the ACK uses the highest one <= the data rate
-        (or the data rate if it is below all of them).
+        (or the data rate if it is below all of them).  Any positive values, like
+        ``data_rate`` (not restricted to :data:`RATES`).
     slot, sifs, cw_min, cw_max, mac_overhead_bits, ack_bits:
         MAC constants (see the table above): ``slot``, ``sifs`` in seconds (> 0, at
         least 1 ps), ``cw_min <= cw_max`` integer slot counts, ``mac_overhead_bits``
@@ -157,6 +167,11 @@ class WLAN80211b(RadioNetwork):
                          tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm, cs_threshold_dbm=cs_threshold_dbm,
                          capture_db=capture_db, noise_dbm=noise_dbm, **kw)
         w = f"network {name!r}"
+        if self.max_frame_bits is not None and self.max_frame_bits / self.data_rate > MAX_FRAME_SECONDS:
+            raise ConfigurationError(
+                f"{w}: data_rate={data_rate!r} bit/s makes a frame of max_frame_bits={self.max_frame_bits} take "
+                f"{self.max_frame_bits / self.data_rate:.6g} s, more than MAX_FRAME_SECONDS={MAX_FRAME_SECONDS} s; "
+                f"the rate is in bit/s (11 Mbit/s is 11e6)")
         validate.choice(preamble, f"{w}: preamble", ("long", "short"))
         self.preamble = preamble
         self.retry_limit = validate.count(retry_limit, f"{w}: retry_limit (attempts)", minimum=1)
