@@ -10,6 +10,15 @@ form one transmission window.
 
 No event is scheduled for slots in which nothing is sent: the next usable slot is
 computed analytically from the table.
+
+Checks: every slot owner must be attached (a node or a bare station of that name) by
+the time the simulation runs: the first event of the network, at its creation instant,
+refuses an owner that is still unknown (``ConfigurationError`` naming it), since slots
+of a name nobody attached would silently stay idle.  A frame may be cut any number of
+times, but one that would need more than :data:`MAX_SEGMENTS` of its owner's
+transmission windows (a ``slot_time`` far shorter than the frames, a unit slip) is
+refused when it is first cut (``ConfigurationError`` naming the frame's size and the
+slot time) instead of running millions of segments.
 """
 
 from __future__ import annotations
@@ -17,8 +26,14 @@ from __future__ import annotations
 from typing import Sequence
 
 from .. import validate
+from ..clock import URGENT
 from ..errors import ConfigurationError, ConfigurationTypeError
+from ..timebase import TICKS_PER_SECOND
 from .base import Network
+
+#: The most transmission windows (owned slot runs) one frame may span; a frame that
+#: would need more is refused when it is first cut (see the module docstring).
+MAX_SEGMENTS = 1000
 
 
 class TdmaStation:
@@ -69,6 +84,17 @@ class TDMA(Network):
                 wins[-1] = (wins[-1][0], b)
             else:
                 wins.append((a, b))
+        # a frame longer than this (ticks) would span more than MAX_SEGMENTS windows
+        self._max_span = MAX_SEGMENTS * min((b - a for ws in self._windows.values() for a, b in ws), default=0)
+        # slot owners must be attached when the run starts (one check, at the first event)
+        sim._call_at_ticks(self._t0, self._check_owners, URGENT)
+
+    def _check_owners(self) -> None:
+        missing = sorted({o for o in self.slots if o is not None and o not in self.interfaces})
+        if missing:
+            raise ConfigurationError(f"network {self.name!r}: TDMA schedule {self.slots} names slot owner(s) "
+                                     f"{', '.join(map(repr, missing))} that no attached node is called; attach "
+                                     f"them before running (attached: {sorted(self.interfaces)})")
 
     def _station(self, iface, options):
         return TdmaStation()
@@ -120,6 +146,12 @@ class TDMA(Network):
         f.remaining -= st.seg
         self._carrier_off(iface, f)
         if f.remaining > 0:
+            if f.remaining + st.seg > self._max_span:   # rare path: checked only when a frame is cut
+                raise ConfigurationError(
+                    f"network {self.name!r}: a frame of {f.bits} bits from {iface.name!r} takes "
+                    f"{(f.remaining + st.seg) / TICKS_PER_SECOND!r} s at {self.data_rate!r} bit/s, more than "
+                    f"{MAX_SEGMENTS} of its owner's windows with slot_time={self._slot / TICKS_PER_SECOND!r} s; "
+                    f"is slot_time in seconds?")
             self._trace("suspended", f, iface.name)
             self._resume(iface)
             return

@@ -199,3 +199,82 @@ CASES = [
     Case("network-traceloss-exhausted", lambda: _traceloss_run_out(), LossTraceExhaustedError, "exhausted"),
     Case("network-dbm-to-watt-huge", lambda: _dbm_to_watt(1e300), ConfigurationError, "1e+300"),
 ]
+
+
+# Audit fixes: the sim argument and trace flag of every network, WLAN rates, TDMA slot
+# owners and slot lengths, switch memory, distances and moving positions.
+def _every_network_refuses_a_non_simulation():
+    import netcosim.network as N
+    for cls, kw in ((N.IdealLink, {}), (N.CAN, {}), (N.CSMACD, {}), (N.SlottedAloha, {"slot_time": 1e-3}),
+                    (N.SwitchedEthernet, {}), (N.WLAN80211b, {}), (N.IEEE802154, {})):
+        try:
+            cls("sim", "n", **kw)
+        except ConfigurationTypeError as exc:
+            assert "'sim'" in str(exc), exc
+        else:
+            raise AssertionError(f"{cls.__name__} accepted sim='sim'")
+    N.TDMA("sim", "n", slot_time=1e-3, schedule=["a"])
+
+
+def _tdma_run(slot_time=1e-3, schedule=("a", "b"), size_bits=100):
+    sim = _sim()
+    import netcosim.network as N
+    net = N.TDMA(sim, "n", slot_time=slot_time, schedule=list(schedule))
+    a = net.attach("a")
+    net.attach("b")
+    a.send("b", None, size_bits)
+    sim.run(0.1)
+
+
+def _moving_station(position):
+    sim = _sim()
+    import netcosim.network as N
+    net = N.WLAN80211b(sim, "n")
+    a = net.attach("a")
+    net.attach("mover", position=position)
+    a.send("mover", None, 800)
+    sim.run(0.01)
+
+
+def _logdistance_gain(d):
+    from netcosim.network.radio import LogDistance
+    return LogDistance().gain(d)
+
+
+def _truetime_pathloss(d):
+    from netcosim.network.radio import TrueTimePathLoss
+    return TrueTimePathLoss().gain(d)
+
+
+CASES += [
+    Case("network-sim-not-a-simulation", lambda: _net_with_sim("sim"), ConfigurationTypeError, "'sim'"),
+    Case("network-sim-not-a-simulation-every-network", _every_network_refuses_a_non_simulation,
+         ConfigurationTypeError, "'sim'"),
+    Case("network-trace-str", lambda: _net("IdealLink", trace="x"), ConfigurationTypeError, "'x'"),
+    Case("network-trace-int", lambda: _net("IdealLink", trace=1), ConfigurationTypeError, "1"),
+    Case("network-wlan-data-rate-bits-slip", lambda: _wlan(data_rate=11), ConfigurationError, "data_rate=11"),
+    Case("network-tdma-ghost-slot-owner", lambda: _tdma_run(schedule=("a", "b", "ghost")), ConfigurationError,
+         "'ghost'"),
+    Case("network-tdma-slot-far-shorter-than-frame", lambda: _tdma_run(slot_time=1e-9), ConfigurationError,
+         "slot_time=1e-09"),
+    Case("network-switch-memory-below-one-frame", lambda: _net("SwitchedEthernet", switch_memory_bits=8),
+         ConfigurationError, "switch_memory_bits=8"),
+    Case("network-switch-memory-below-max-frame",
+         lambda: _net("SwitchedEthernet", switch_memory_bits=1000, max_frame_bits=12000),
+         ConfigurationError, "switch_memory_bits=1000"),
+    Case("network-logdistance-negative", lambda: _logdistance_gain(-1), ConfigurationError, "-1"),
+    Case("network-logdistance-nan", lambda: _logdistance_gain(NAN), ConfigurationError, "nan"),
+    Case("network-truetime-pathloss-nan", lambda: _truetime_pathloss(NAN), ConfigurationError, "nan"),
+    Case("network-truetime-pathloss-negative", lambda: _truetime_pathloss(-0.5), ConfigurationError, "-0.5"),
+    Case("network-position-callable-returns-str", lambda: _moving_station(lambda t: "x"),
+         ConfigurationTypeError, "'mover'"),
+    Case("network-position-callable-returns-str-value", lambda: _moving_station(lambda t: "x"),
+         ConfigurationTypeError, "'x'"),
+    Case("network-position-callable-returns-nan", lambda: _moving_station(lambda t: (NAN, 0.0)),
+         ConfigurationError, "'mover'"),
+]
+
+
+def _net_with_sim(sim):
+    import netcosim.network as N
+    return N.IdealLink(sim, "n")
