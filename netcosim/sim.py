@@ -202,7 +202,8 @@ class Simulation:
         :class:`netcosim.plant.PlantInstance` for the other arguments.
         """
         from .plant import PlantInstance, from_control, is_control_system
-        name = name or getattr(system, "name", None) or f"plant{len(self.plants)}"
+        if name is None:    # the system's own name, else plant0, plant1, ... ('' is refused as a name)
+            name = getattr(system, "name", None) or f"plant{len(self.plants)}"
         self._check_new_name(name)      # before the plant is built (an unhashable name failed in it)
         if is_control_system(system):
             system = from_control(system)

@@ -273,3 +273,19 @@ def test_solve_ivp_rtol_outside_what_scipy_uses_is_refused(rtol):
     with pytest.raises(ConfigurationError, match=r"rtol must be at least 2.22\d*e-14 .* below 1, got"):
         SolveIVP(rtol=rtol)
     assert SolveIVP(rtol=2.3e-14).rtol == 2.3e-14
+
+
+def test_plant_name_shape_of_x0_and_of_a_written_value_are_checked():
+    from netcosim.errors import ConfigurationError
+    from plants.dc_servo import DCServo
+    sim = Simulation()
+    with pytest.raises(ConfigurationError, match="component name"):
+        sim.plant(DCServo(), [0.0, 0.0], name="")
+    with pytest.raises(ConfigurationError, match=r"x0 must be a flat sequence of 2 numbers, got shape \(1, 2\)"):
+        sim.plant(DCServo(), [[0.0, 0.0]], name="servo")
+    servo = sim.plant(DCServo(), [0.0, 0.0], name="servo")
+    with pytest.raises(ConfigurationError, match=r"input u takes 1 value\(s\), got array\(\[\[1.\]\]\)"):
+        servo.input("u").write(np.array([[1.0]]))
+    servo.input("u").write([0.5])           # one value as a 1-element sequence: fine
+    assert servo.u.tolist() == [0.5]
+    assert servo.input(-1).label == "u"      # a negative index counts from the end, as in Python

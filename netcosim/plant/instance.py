@@ -86,11 +86,15 @@ class PlantInstance:
         if x0 is None or isinstance(x0, (str, bytes, dict)):
             raise ConfigurationTypeError(f"plant {name!r}: x0 must be {system.nx} numbers, got {x0!r}")
         try:
-            x0a = np.array(x0, dtype=float).reshape(-1)
+            x0a = np.array(x0, dtype=float)
         except OverflowError:
             raise ConfigurationError(f"plant {name!r}: x0 must be finite numbers, got {x0!r}") from None
         except (TypeError, ValueError):
             raise ConfigurationError(f"plant {name!r}: x0 must be {system.nx} numbers, got {x0!r}") from None
+        if x0a.ndim > 1:
+            raise ConfigurationError(f"plant {name!r}: x0 must be a flat sequence of {system.nx} numbers, "
+                                     f"got shape {x0a.shape}: {x0!r}")
+        x0a = x0a.reshape(-1)
         if x0a.shape[0] != system.nx:
             raise ConfigurationError(f"plant {name!r}: x0 has {x0a.shape[0]} entries, the system has "
                                      f"{system.nx} states {list(system.state_names)}")
@@ -164,7 +168,8 @@ class PlantInstance:
 
     # Ports -------------------------------------------------------------------
     def output(self, key=None) -> OutputPort:
-        """A read port on one output (name or index), several, or all (None)."""
+        """A read port on one output (name or index; a negative index counts from the end,
+        as in Python), several (a list or a slice), or all (None)."""
         if type(key) is str and key in self._ports:  # a task body may ask for its port every job
             return self._ports[key]
         idx, label = _select(self.system.output_names, key, "output", self.name)
@@ -174,7 +179,8 @@ class PlantInstance:
         return port
 
     def input(self, key=None) -> InputPort:
-        """A write port on one input (name or index), several, or all (None)."""
+        """A write port on one input (name or index; a negative index counts from the end,
+        as in Python), several (a list or a slice), or all (None)."""
         if type(key) is str and (" in", key) in self._ports:
             return self._ports[(" in", key)]
         idx, label = _select(self.system.input_names, key, "input", self.name)
@@ -426,7 +432,7 @@ class PlantInstance:
         if not np.all(np.isfinite(v)):
             raise ConfigurationError(f"plant {self.name!r}: non-finite value {value!r} written to input {label}")
         target_shape = np.shape(self.u[index])
-        if v.shape != target_shape and v.size != int(np.prod(target_shape)):
+        if v.ndim > 1 or (v.shape != target_shape and v.size != int(np.prod(target_shape))):
             raise ConfigurationError(f"plant {self.name!r}: input {label} takes {int(np.prod(target_shape))} "
                                      f"value(s), got {value!r}")
         self.advance()
