@@ -11,7 +11,7 @@ from __future__ import annotations
 
 __all__ = ["NetcosimError", "ConfigurationError", "ConfigurationTypeError", "NotConnectedError",
            "SimulationFailedError", "UnyieldedExecuteError",
-           "IntegrationError", "LossTraceExhaustedError"]
+           "IntegrationError", "LossTraceExhaustedError", "TraceWriteError"]
 
 
 class NetcosimError(Exception):
@@ -28,6 +28,10 @@ class ConfigurationTypeError(NetcosimError, TypeError):
 
 class NotConnectedError(NetcosimError, RuntimeError):
     """Reading or writing an I/O channel that has no plant port attached."""
+
+
+class TraceWriteError(NetcosimError, OSError):
+    """Trace tables could not be written to a path (the message names the path and the reason)."""
 
 
 class SimulationFailedError(NetcosimError, RuntimeError):

@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING, Callable, Iterable, Sequence
 
 from . import validate
 from .columns import ColumnStore
-from .errors import ConfigurationError, ConfigurationTypeError, NetcosimError
+from .errors import ConfigurationError, ConfigurationTypeError, NetcosimError, TraceWriteError
 from .timebase import TICKS_PER_SECOND
 
 if TYPE_CHECKING:  # pandas is imported on first use: a simulation does not need it
@@ -99,6 +99,11 @@ _discard = ().count
 
 def _positive_int(value, what: str) -> int:
     return validate.integer(value, what, lo=1, kind="a positive integer")
+
+
+#: The most rows a ``mode="ring"`` table may be asked to hold (2**40: far beyond any memory,
+#: but a bound, so ``rows=2**70`` is refused naming it rather than overflowing).
+MAX_RING_ROWS = 2**40
 
 
 class Sink:
@@ -246,7 +251,8 @@ class Recorder:
         if memory is not None:
             memory = _positive_int(memory, f"{w}: memory (bytes, or None for no limit)")
         if mode == "ring":
-            rows = _positive_int(rows, f"{w}: rows")
+            rows = validate.integer(rows, f"{w}: rows", lo=1, hi=MAX_RING_ROWS,
+                                    kind="a positive integer <= 2**40 (MAX_RING_ROWS)")
         window = None
         if mode == "window":
             if self.time_index is None:
@@ -784,14 +790,28 @@ class Trace:
         return draw(self, **options)
 
     def to_parquet(self, directory: str | os.PathLike, prefix: str = "") -> list[Path]:
-        """Write every non-empty table to ``directory/prefix<name>.parquet``."""
+        """Write every non-empty table to ``directory/prefix<name>.parquet``.
+
+        A directory or file that cannot be created or written raises
+        :class:`~netcosim.errors.TraceWriteError` (an ``OSError``) naming the path and the
+        reason.
+        """
         out = Path(directory)
-        out.mkdir(parents=True, exist_ok=True)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise TraceWriteError(f"to_parquet: cannot create directory {str(out)!r}: "
+                                  f"{exc.strerror or exc}") from exc
         written = []
         for name, rec in self._tables.items():
             if len(rec) == 0 and not rec.providers:
                 continue
             path = out / f"{prefix}{name}.parquet"
-            rec.frame().to_parquet(path, index=False)
+            frame = rec.frame()
+            try:
+                frame.to_parquet(path, index=False)
+            except OSError as exc:
+                raise TraceWriteError(f"to_parquet: cannot write trace table {name!r} to {str(path)!r}: "
+                                      f"{getattr(exc, 'strerror', None) or exc}") from exc
             written.append(path)
         return written

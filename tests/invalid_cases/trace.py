@@ -8,7 +8,7 @@ from pathlib import Path
 from invalid_cases import Case
 
 from netcosim import Simulation
-from netcosim.errors import ConfigurationError, ConfigurationTypeError
+from netcosim.errors import ConfigurationError, ConfigurationTypeError, TraceWriteError
 
 
 def _conf(*args, **kw):
@@ -140,4 +140,32 @@ CASES = [
          names="0.5"),
     Case(id="trace-rti-history-negative", call=lambda: _rti(-1), exc=ConfigurationError, names="-1"),
     Case(id="trace-rti-history-fraction", call=lambda: _rti(2.5), exc=ConfigurationError, names="2.5"),
+]
+
+
+# Audit fixes: an unwritable to_parquet directory, a ring size beyond any memory.
+def _to_parquet(directory):
+    sim = Simulation()
+
+    def b(ctx):
+        yield ctx.execute(0.001)
+    sim.node("cpu").periodic(b, period=0.01, priority=1, name="t")
+    sim.run(0.02)
+    sim.trace.to_parquet(directory)
+
+
+def _to_parquet_below_a_file():
+    with tempfile.NamedTemporaryFile() as f:
+        _to_parquet(str(Path(f.name) / "sub"))
+
+
+CASES += [
+    Case(id="trace-to-parquet-unwritable-dir", call=lambda: _to_parquet("/proc/x"), exc=TraceWriteError,
+         names="'/proc/x'"),
+    Case(id="trace-to-parquet-is-oserror", call=lambda: _to_parquet("/proc/x"), exc=OSError, names="/proc/x"),
+    Case(id="trace-to-parquet-below-a-file", call=_to_parquet_below_a_file, exc=TraceWriteError, names="sub"),
+    Case(id="trace-ring-rows-huge", call=lambda: _conf("jobs", mode="ring", rows=2**70), exc=ConfigurationError,
+         names=str(2**70)),
+    Case(id="trace-ring-rows-above-max", call=lambda: _conf("jobs", mode="ring", rows=2**40 + 1),
+         exc=ConfigurationError, names=str(2**40 + 1)),
 ]
