@@ -163,7 +163,7 @@ class PlantInstance:
             self._log_every = validate.duration(log_interval, f"plant {name!r}: log_interval", positive=True,
                                                 kind="positive")
             self._log_k = 0
-            sim.call_at_ticks(sim.now_ticks, self._log_tick)
+            sim._call_at_ticks(sim.now_ticks, self._log_tick)
         sim.add_finalizer(self._finish)
 
     # Ports -------------------------------------------------------------------
@@ -465,7 +465,7 @@ class PlantInstance:
         self.advance(ticks / TICKS_PER_SECOND)
         self._log(self.t)
         self._log_k += 1
-        self.sim.call_at_ticks((self._log_k) * self._log_every, self._log_tick)
+        self.sim._call_at_ticks(self._log_k * self._log_every, self._log_tick)
 
     def _finish(self):
         """End of a run (or the failure instant of a failed one): bring the state to now,
@@ -500,7 +500,7 @@ class PlantInstance:
         ticks = math.ceil(t_end * TICKS_PER_SECOND)
         if j is not None and ticks <= self.sim.now_ticks:
             ticks = self.sim.now_ticks + 1
-        self._predict_timer = self.sim.call_at_ticks(ticks, self._wake)
+        self._predict_timer = self.sim._call_at_ticks(ticks, self._wake)
 
     def _wake(self):
         self._predict_timer = None
