@@ -8,13 +8,16 @@ on each; it can write a resumable Parquet dataset as runs finish.  See ``docs/sw
 
 Modules: :mod:`~netcosim.sweep.grid` (cases), :mod:`~netcosim.sweep.seeds` (run seeds),
 :mod:`~netcosim.sweep.scenario` (finding the function), :mod:`~netcosim.sweep.run` (one run),
-:mod:`~netcosim.sweep.executors`, :mod:`~netcosim.sweep.store` (the dataset on disk),
+:mod:`~netcosim.sweep.executors` (:class:`~netcosim.sweep.executors.SweepExecutor`, the
+base of every executor, and the built-in ones), :mod:`~netcosim.sweep.store` (the dataset on disk),
 :mod:`~netcosim.sweep.result`, :mod:`~netcosim.sweep.runner`, :mod:`~netcosim.sweep.aggregate` (medians,
 bands and counts across seeds; :func:`~netcosim.sweep.aggregate.plot_sweep`).
 """
 
 from .aggregate import plot_sweep, summarize
+from .executors import DaskExecutor, PoolExecutor, SerialExecutor, SweepExecutor
 from .result import SweepResult
 from .runner import load_sweep, run_sweep, verify_sweep
 
-__all__ = ["run_sweep", "load_sweep", "verify_sweep", "SweepResult", "summarize", "plot_sweep"]
+__all__ = ["run_sweep", "load_sweep", "verify_sweep", "SweepResult", "summarize", "plot_sweep", "SweepExecutor",
+           "SerialExecutor", "PoolExecutor", "DaskExecutor"]

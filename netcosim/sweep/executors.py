@@ -1,9 +1,13 @@
-"""Where the runs of a sweep execute: in this process, on a local process pool, or on Dask.
+"""Where the runs of a sweep execute: in this process, on a local process pool, on Dask,
+or on any :class:`SweepExecutor` plug-in.
 
-Every executor takes the list of tasks ``(index, params, seed)`` and yields
-``(index, Outcome)`` as runs finish, in any order (the runner puts them back in grid
-order).  Each run is :func:`~netcosim.sweep.run.run_one`, so the results do not depend
-on the executor.
+Every executor is a :class:`SweepExecutor`: its :meth:`~SweepExecutor.run` takes the
+list of tasks ``(index, params, seed)`` and yields ``(index, Outcome)`` as runs finish,
+in any order (the runner puts them back in grid order).  Each run is
+:func:`~netcosim.sweep.run.run_one`, so the results do not depend on the executor.  The
+built-in ones are :class:`SerialExecutor`, :class:`PoolExecutor` and
+:class:`DaskExecutor`, named ``"serial"``, ``"pool"`` and ``"dask"`` in
+:func:`~netcosim.sweep.run_sweep`.
 
 The local pool is written here rather than taken from :mod:`concurrent.futures`:
 ``ProcessPoolExecutor`` cannot stop one run that exceeds its timeout (a running future
@@ -35,12 +39,13 @@ import sys
 import time
 from typing import Any, Callable, Iterator
 
+from .. import validate
 from ..errors import ConfigurationError, NetcosimError
 from .run import Outcome, run_one
 from .scenario import ScenarioRef, resolve
 
-__all__ = ["Task", "SerialExecutor", "PoolExecutor", "DaskExecutor", "load", "run_in_child", "cpu_count",
-           "CONNECT_TIMEOUT"]
+__all__ = ["Task", "SweepExecutor", "SerialExecutor", "PoolExecutor", "DaskExecutor", "load", "run_in_child",
+           "cpu_count", "CONNECT_TIMEOUT"]
 
 #: One run to execute: ``(index, params, seed)``.
 Task = tuple[int, dict[str, Any], int]
@@ -65,6 +70,10 @@ def load(ref: ScenarioRef) -> Callable:
     if fn is None:
         fn = _loaded[ref] = resolve(f"{ref.module}:{ref.function}", ref.file)
     return fn
+
+
+def _workers(workers: Any) -> int:
+    return validate.integer(workers, "workers", lo=1, kind="a number of worker processes (an integer >= 1)")
 
 
 def _timeout_outcome(timeout: float) -> Outcome:
@@ -104,11 +113,86 @@ def run_in_child(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: f
             proc.wait()
 
 
-class SerialExecutor:
-    """Runs every task in this process, one after another (timed runs in a child process)."""
+class SweepExecutor:
+    """Where the runs of a sweep execute: the base of every executor (``run_sweep(executor=...)``).
 
-    def __init__(self, fn: Callable, ref: ScenarioRef | None, timeout: float | None):
+    A plug-in implements :meth:`run` and, if it holds resources (threads, a connection),
+    :meth:`start` and :meth:`close`.  The base owns the rest:
+
+    * the scenario: :func:`~netcosim.sweep.run_sweep` calls :meth:`bind` before
+      :meth:`start`, setting ``self.fn`` (the function), ``self.ref`` (its
+      :class:`~netcosim.sweep.scenario.ScenarioRef`, by which another process loads it;
+      None for a lambda) and ``self.timeout`` (seconds per run, or None);
+    * one run, :meth:`run_task`: the scenario called by
+      :func:`~netcosim.sweep.run.run_one` in the calling thread, or in a child process
+      killed at the timeout if there is one (a thread cannot be stopped);
+    * the contract, :meth:`results`, what the runner iterates: every task reported once,
+      as an :class:`~netcosim.sweep.run.Outcome`, none invented, none forgotten;
+    * the life cycle: :meth:`start` is called before the output directory is touched (an
+      executor that cannot start changes nothing), :meth:`close` always after the last run.
+
+    ``in_process = True`` declares that :meth:`run` calls the scenario in this process (a
+    thread pool): a lambda or a nested function may then be swept, as on the serial executor.
+    """
+
+    #: True if :meth:`run` calls the scenario function in this process (threads).
+    in_process: bool = False
+    fn: Callable | None = None
+    ref: ScenarioRef | None = None
+    timeout: float | None = None
+
+    def bind(self, fn: Callable, ref: ScenarioRef | None, timeout: float | None) -> None:
+        """Set the scenario the next sweep runs (called by ``run_sweep`` before :meth:`start`)."""
         self.fn, self.ref, self.timeout = fn, ref, timeout
+
+    def start(self) -> None:
+        """Acquire what :meth:`run` needs; raise naming what is wrong (nothing has run yet)."""
+
+    def close(self) -> None:
+        """Release what :meth:`start` acquired (called even if the sweep failed)."""
+
+    def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
+        """Yield ``(index, outcome)`` for every task ``(index, params, seed)``, in any order."""
+        raise NotImplementedError(f"{type(self).__name__} must implement run(tasks)")
+
+    def run_task(self, params: dict[str, Any], seed: int) -> Outcome:
+        """One run of the bound scenario in this thread (in a child process if there is a timeout)."""
+        if self.timeout is not None:
+            assert self.ref is not None
+            return run_in_child(self.ref, params, seed, self.timeout)
+        assert self.fn is not None
+        return run_one(self.fn, params, seed)
+
+    def results(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
+        """:meth:`run`, checked: raises ``RuntimeError`` naming the executor if it reports a
+        task it was not given, one twice, something that is not an ``Outcome``, or ends
+        with tasks unreported (the runs reported so far are kept)."""
+        left = {task[0] for task in tasks}
+        name = type(self).__name__
+        runs = self.run(tasks)
+        try:
+            for item in runs:
+                if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[1], Outcome)):
+                    raise RuntimeError(f"executor {name} yielded {item!r}, not (index, Outcome)")
+                if item[0] not in left:
+                    raise RuntimeError(f"executor {name} reported task {item[0]!r}, which it was not given "
+                                       f"or already reported")
+                left.discard(item[0])
+                yield item
+        finally:
+            close = getattr(runs, "close", None)
+            if close is not None:
+                close()
+        if left:
+            raise RuntimeError(f"executor {name} finished without reporting {len(left)} of {len(tasks)} "
+                               f"runs (task {min(left)} among them)")
+
+
+class SerialExecutor(SweepExecutor):
+    """Runs every task in this process, one after another (timed runs in a child process);
+    ``executor="serial"``."""
+
+    in_process = True
 
     def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
         """Yield ``(index, outcome)`` for each task, in order.
@@ -120,11 +204,7 @@ class SerialExecutor:
             gc.freeze()
         try:
             for index, params, seed in tasks:
-                if self.timeout is not None:
-                    assert self.ref is not None
-                    yield index, run_in_child(self.ref, params, seed, self.timeout)
-                else:
-                    yield index, run_one(self.fn, params, seed)
+                yield index, self.run_task(params, seed)
         finally:
             if own_freeze:
                 gc.unfreeze()
@@ -185,11 +265,16 @@ class _Worker:
         self.conn.close()
 
 
-class PoolExecutor:
-    """Runs the tasks on *workers* local processes (see the module docstring)."""
+class PoolExecutor(SweepExecutor):
+    """Runs the tasks on *workers* local processes (default: the CPUs this process may
+    use; see the module docstring); ``executor="pool"``."""
 
-    def __init__(self, ref: ScenarioRef, workers: int, timeout: float | None):
-        self.ref, self.workers, self.timeout = ref, workers, timeout
+    ref: ScenarioRef
+
+    def __init__(self, workers: int | None = None):
+        if workers is not None:
+            workers = _workers(workers)
+        self.workers = workers
 
     def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
         """Yield ``(index, outcome)`` for each task as it finishes."""
@@ -198,7 +283,7 @@ class PoolExecutor:
 
         ctx = multiprocessing.get_context("spawn")
         queue = collections.deque(tasks)
-        pool = [_Worker(ctx, self.ref) for _ in range(min(self.workers, len(tasks)))]
+        pool = [_Worker(ctx, self.ref) for _ in range(min(self.workers or cpu_count(), len(tasks)))]
         try:
             while queue or any(w.task is not None for w in pool):
                 for w in pool:
@@ -308,13 +393,16 @@ def local_cluster(workers: int, cluster_class: Any = None) -> Any:
                              silence_logs=logging.ERROR)
 
 
-class DaskExecutor:
-    """Runs the tasks on a Dask cluster: a given ``Client``, a scheduler address, or a
-    ``LocalCluster`` of *workers* single-threaded processes started and closed here."""
+class DaskExecutor(SweepExecutor):
+    """Runs the tasks on a Dask cluster: a given ``Client`` (left open), a scheduler
+    address, or a ``LocalCluster`` of *workers* single-threaded processes started and
+    closed here; ``executor="dask"``."""
 
-    def __init__(self, ref: ScenarioRef, timeout: float | None, *, client: Any = None,
-                 scheduler: str | None = None, workers: int | None = None):
-        self.ref, self.timeout = ref, timeout
+    ref: ScenarioRef
+
+    def __init__(self, *, client: Any = None, scheduler: str | None = None, workers: int | None = None):
+        if workers is not None:
+            workers = _workers(workers)
         self.client, self.scheduler, self.n_workers = client, scheduler, workers
         self._owned: list[Any] = []
 

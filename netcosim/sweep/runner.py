@@ -18,7 +18,7 @@ from typing import Any, Callable
 from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
 from . import grid as _grid
-from .executors import DaskExecutor, PoolExecutor, SerialExecutor, cpu_count
+from .executors import DaskExecutor, PoolExecutor, SerialExecutor, SweepExecutor
 from .grid import MAX_RUNS
 from .result import SweepResult, run_frame
 from .run import Outcome
@@ -29,7 +29,10 @@ from .store import FORMAT, Damage, DamagedSweepError, Lock, Store, describe_dama
 __all__ = ["run_sweep", "load_sweep", "verify_sweep", "validate_cases", "check_scheduler", "EXECUTORS",
            "MAX_RUNS", "MAX_TIMEOUT"]
 
-#: Executors by name (a ``dask.distributed.Client`` may be given instead).
+#: Executors by name, shorthands for :class:`~netcosim.sweep.executors.SerialExecutor`,
+#: :class:`~netcosim.sweep.executors.PoolExecutor` and
+#: :class:`~netcosim.sweep.executors.DaskExecutor` (a ``dask.distributed.Client`` or any
+#: :class:`~netcosim.sweep.executors.SweepExecutor` may be given instead).
 EXECUTORS = ("serial", "pool", "dask")
 
 #: The longest per-run ``timeout`` accepted, 10**9 s (about 32 years): beyond it the
@@ -141,10 +144,13 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
     executor:
         ``"serial"`` (this process), ``"pool"`` (local worker processes, default),
         ``"dask"`` (a Dask ``LocalCluster`` started and closed here, or the scheduler at
-        *scheduler*), or a ``dask.distributed.Client``.
+        *scheduler*), a ``dask.distributed.Client``, or a
+        :class:`~netcosim.sweep.executors.SweepExecutor` object (the built-in ones or a
+        plug-in, see ``docs/sweeps.md``); anything else raises
+        :class:`~netcosim.errors.ConfigurationTypeError` naming it.
     workers:
         Number of worker processes for ``"pool"`` and the local Dask cluster (default:
-        the CPUs this process may use).
+        the CPUs this process may use); an executor object is given its own.
     scheduler:
         Address of a Dask scheduler (``"tcp://host:8786"``), implies ``executor="dask"``;
         unreachable within :data:`~netcosim.sweep.executors.CONNECT_TIMEOUT` seconds
@@ -200,12 +206,10 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
             executor = "dask"
         elif executor != "dask":
             raise ConfigurationError(f"scheduler {scheduler!r} is a Dask address, but executor is {executor!r}")
-    if not (_is_dask_client(executor) or (isinstance(executor, str) and executor in EXECUTORS)):
-        raise ConfigurationError(f"executor must be one of {list(EXECUTORS)} or a dask.distributed.Client, "
-                                 f"got {executor!r}")
+    ex = _executor(executor, workers, scheduler)
     fn, ref = reference(scenario)
     _grid.check_accepted(names, fn)
-    if ref is None and (executor != "serial" or timeout is not None):
+    if ref is None and (not ex.in_process or timeout is not None):
         raise ConfigurationError(f"scenario {fn!r} cannot be found by a worker process (a lambda, a nested "
                                  f"function, a function typed in an interactive session): define it at the top "
                                  f"level of a module or file, or use executor='serial' "
@@ -235,16 +239,8 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
         lock = Lock(store.root)
         lock.check()                      # a live sweep there: stop before starting anything
     # connect before touching the directory: an unreachable scheduler changes nothing
-    if executor == "serial":
-        ex: Any = SerialExecutor(fn, ref, timeout)
-    elif executor == "pool":
-        assert ref is not None
-        ex = PoolExecutor(ref, workers or cpu_count(), timeout)
-    else:
-        assert ref is not None
-        ex = DaskExecutor(ref, timeout, client=executor if _is_dask_client(executor) else None,
-                          scheduler=scheduler, workers=workers)
-        ex.start()
+    ex.bind(fn, ref, timeout)
+    ex.start()
     try:
         if store is not None and lock is not None:
             store.root.mkdir(parents=True, exist_ok=True)
@@ -255,11 +251,34 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
         return _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors, say, repaired)
     finally:
         try:
-            if isinstance(ex, DaskExecutor):
-                ex.close()
+            ex.close()
         finally:
             if lock is not None:
                 lock.release()
+
+
+def _executor(executor: Any, workers: int | None, scheduler: str | None) -> SweepExecutor:
+    """The :class:`SweepExecutor` *executor* names or is; raises naming anything else."""
+    if isinstance(executor, SweepExecutor):
+        if workers is not None:
+            raise ConfigurationError(f"workers={workers} applies to the executors named by a string; give "
+                                     f"the executor object {executor!r} its own")
+        return executor
+    if _is_dask_client(executor):
+        return DaskExecutor(client=executor)
+    choices = f"one of {list(EXECUTORS)}, a dask.distributed.Client or a netcosim.sweep.SweepExecutor"
+    if isinstance(executor, str):
+        if executor == "serial":
+            return SerialExecutor()
+        if executor == "pool":
+            return PoolExecutor(workers)
+        if executor == "dask":
+            return DaskExecutor(scheduler=scheduler, workers=workers)
+        raise ConfigurationError(f"executor must be {choices}, got {executor!r}")
+    if isinstance(executor, type) and issubclass(executor, SweepExecutor):
+        raise ConfigurationTypeError(f"executor must be {choices} object, got the class {executor.__name__} "
+                                     f"itself: pass an instance, {executor.__name__}(...)")
+    raise ConfigurationTypeError(f"executor must be {choices}, got {type(executor).__name__} {executor!r}")
 
 
 def _check_out(out: str | os.PathLike) -> None:
@@ -329,7 +348,7 @@ def _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors=False,
     bar = tqdm(total=len(tasks_all), initial=len(records), disable=True if quiet else None, unit="run",
                desc="sweep", dynamic_ncols=True)
     bar.set_postfix(failed=failed, refresh=False)
-    runs = ex.run([(i, p, seed) for i, (c, s, p, seed) in keys.items()]) if todo else iter(())
+    runs = ex.results([(i, p, seed) for i, (c, s, p, seed) in keys.items()]) if todo else iter(())
     try:
         for i, outcome in runs:
             c, s, params, seed = keys[i]
