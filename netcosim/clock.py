@@ -161,6 +161,13 @@ class Engine(simpy.Environment):
     def __init__(self) -> None:
         super().__init__(initial_time=0)
         self.now = 0
+        #: SimPy's event queue and event-id counter under public names (the same objects:
+        #: SimPy never rebinds them), for the kernel's per-job paths, which inline
+        #: :meth:`at` and ``peek()`` (a method call per job saved): push
+        #: ``(at, priority, next(ids), event)`` onto ``queue`` with ``heapq.heappush``;
+        #: ``queue[0][0]`` is the next event's time.  :func:`check_simpy` pins that layout.
+        self.queue: list = self._queue
+        self.ids: count = self._eid
         #: called every MAINTAIN_EVERY events by run_until (None: nothing)
         self.maintain: Callable[[], object] | None = None
 

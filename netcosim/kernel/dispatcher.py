@@ -93,7 +93,8 @@ class Dispatcher(Interpreter):
             self._sched.append((env.now, task, _READY))
         if not self._dispatch_pending:  # _request_dispatch, inlined
             if not self.sim._stepping:
-                if env.peek() > env.now:
+                q = env.queue       # env.peek() > env.now, inlined
+                if not q or q[0][0] > env.now:
                     self._dispatch()
                     return
             self._dispatch_pending = True
@@ -106,7 +107,9 @@ class Dispatcher(Interpreter):
             # other event is due at this instant, the deferred dispatch would be the next
             # thing to happen anyway -- do it now instead of through the event queue.
             if not self.sim._stepping:
-                if self._env.peek() > self._env.now:
+                env = self._env
+                q = env.queue       # env.peek() > env.now, inlined
+                if not q or q[0][0] > env.now:
                     self._dispatch()
                     return
             self._dispatch_pending = True

@@ -9,9 +9,10 @@ statistics row is written and the task's next queued job, if any, is activated.
 
 from __future__ import annotations
 
+from heapq import heappush
 from typing import TYPE_CHECKING
 
-from ..clock import DISPATCH, Timer
+from ..clock import DISPATCH, NORMAL, Timer
 from ..errors import ConfigurationTypeError
 from .overrun import Overruns
 from .tables import STATE_CODES
@@ -46,7 +47,9 @@ class Interpreter(Overruns):
             else:
                 self._spare_timer = None
                 t.arg = job
-                t.rearm(now + job.remaining, self._segment_cbs)
+                t.callbacks = self._segment_cbs  # t.rearm(now + job.remaining, ...), inlined
+                env = self._env
+                heappush(env.queue, (now + job.remaining, NORMAL, next(env.ids), t))
                 job.seg_timer = t
             if task.wcet_ticks is not None:
                 self._arm_budget(job)
@@ -107,7 +110,8 @@ class Interpreter(Overruns):
                         else:
                             self._spare_timer = None
                             t.arg = job
-                            t.rearm(now + cmd, self._segment_cbs)
+                            t.callbacks = self._segment_cbs  # t.rearm(now + cmd, ...), inlined
+                            heappush(env.queue, (now + cmd, NORMAL, next(env.ids), t))
                             job.seg_timer = t
                         if job.task.wcet_ticks is not None and job.budget_timer is None:
                             self._arm_budget(job)
@@ -183,7 +187,8 @@ class Interpreter(Overruns):
             task.ctx.job = None
         if self.ready.live and not self._dispatch_pending:  # _request_dispatch, inlined
             if not self.sim._stepping:
-                if self._env.peek() > now:
+                q = self._env.queue     # env.peek() > now, inlined
+                if not q or q[0][0] > now:
                     self._dispatch()
                     return
             self._dispatch_pending = True

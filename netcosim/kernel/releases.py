@@ -33,9 +33,10 @@ task sets, bit for bit).  That holds because:
 
 from __future__ import annotations
 
+from heapq import heappush
 from typing import Any, Callable
 
-from ..clock import Timer
+from ..clock import NORMAL, Timer
 
 __all__ = ["GROUP_RELEASES", "ReleaseGroup", "Releases"]
 
@@ -67,9 +68,11 @@ class ReleaseGroup:
         # it for the next release instead of creating a new one.  A cancelled timer is
         # never re-armed (it may still sit in the queue): `Releases.stop` drops it.
         node = self.node
-        now = node._env.now
+        env = node._env
+        now = env.now
         self.k = k = self.k + 1
-        timer.rearm(self.first + k * self.period, self._cbs)
+        timer.callbacks = self._cbs  # timer.rearm(first + k * period, ...), inlined
+        heappush(env.queue, (self.first + k * self.period, NORMAL, next(env.ids), timer))
         members = self.members
         if len(members) == 1:
             node._release(members[0], now)
