@@ -47,21 +47,19 @@ class SlottedAloha(Network):
     def _slot_start(self, at):
         group = self._slots.pop(at)
         for iface in group:
-            self._attempt_start(iface, iface.current)
-            self._carrier_on(iface, iface.current)
+            self.begin_attempt(iface, iface.current)
         self.sim.call_in_ticks(self._slot, self._slot_end, arg=group)
 
     def _slot_end(self, group):
+        ok = len(group) == 1
         for iface in group:
-            f = iface.current
-            self._carrier_off(iface, f)
-            ok = len(group) == 1
-            self._attempt_end(iface, f, None if ok else "collision")
+            a = iface.attempt
+            a.end(None if ok else "collision")
             if ok:
-                self._deliver_all(f)
-                self._done(iface, f, True)
-            elif self.max_attempts is not None and f.attempts >= self.max_attempts:
-                self._drop(iface, f, "retry_limit")
+                a.deliver_all()
+                a.finish()
+            elif self.max_attempts is not None and iface.current.attempts >= self.max_attempts:
+                a.drop("retry_limit")
             else:       # the first following slot in which the station draws "transmit"
                 k = int(iface.mac.geometric(self.p))
                 self._transmit_at(iface, self._env.now + (k - 1) * self._slot)

@@ -42,113 +42,33 @@ from typing import TYPE_CHECKING, Any
 
 from .. import validate
 from ..clock import ARBITRATE  # noqa: F401 (re-exported: MAC arbitration priority)
-from ..columns import ticks_as_seconds
 from ..errors import ConfigurationError, ConfigurationTypeError, OverloadError, OverloadWarning
-from ..kernel.task import Task
 from ..timebase import MAX_TICKS, RESOLUTION, TICKS_PER_SECOND
 from .frame import BROADCAST, Frame, Message
 from .interface import Interface, TxQueue
-from .loss import Bernoulli, LossModel, MaskedLossWarning, as_loss_model
+from .lifecycle import Attempt, FrameLifecycle, MacOrderError  # noqa: F401 (re-exported: the MAC seam)
+from .links import LinkAccounting, _message_loss
+from .loss import as_loss_model
 from .plot import NETWORK_STATES  # noqa: F401 (re-exported: the states of the network_schedule table)
-from .stats import LinkStats, stats_frame, total
+from .stats import LinkStats
+from .tracing import (  # noqa: F401 (re-exported: the trace tables' columns and readers)
+    FRAME_COLUMNS,
+    SCHEDULE_COLUMNS,
+    _frames_frame,
+    _plot_network,
+    _schedule_frame,
+)
 
 #: default size (frames) of a sender queue: far beyond any load a network drains (tests
 #: queue 30 000 messages at once); a sender that outruns its network then holds about
 #: 150 MB (1.4 kB per queued message with its trace rows, measured), not the machine
 DEFAULT_QUEUE_CAPACITY = 100_000
 
-FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
-                 "bits", "backoff")
-SCHEDULE_COLUMNS = ("time", "network", "node", "state")
-
-_NAN = math.nan
-_UNSET = object()
-
-
 if TYPE_CHECKING:
     import pandas as pd
 
 
-def _frames_frame(df: pd.DataFrame) -> pd.DataFrame:
-    if not len(df):
-        df["time"] = df["time"].astype(float)
-    else:
-        df = ticks_as_seconds(df, "time", multiply=RESOLUTION)
-    for c, dtype in (("frame", "int64"), ("attempt", "int64"), ("bits", "float64"), ("backoff", "float64")):
-        if df[c].dtype != dtype:
-            df[c] = df[c].astype(dtype)
-    return df
-
-
-def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
-    """Stored network-schedule rows as reported: a same-instant change that returned to
-    the previous state leaves a repeated row per (network, node), dropped; time in s."""
-    import pandas as pd
-    if not len(df):
-        df["time"] = df["time"].astype(float)
-        return df
-    keep = _first_of_runs(df)
-    if keep is not None:
-        if not keep.all():
-            # column by column, each dropped from df as it is filtered: one column's copy at a time
-            cols = {c: df.pop(c)[keep].reset_index(drop=True) for c in list(df.columns)}
-            df = pd.DataFrame(cols, copy=False)
-    else:       # names as objects (a table not read back column by column)
-        prev = df.groupby(["network", "node"], sort=False)["state"].shift()
-        df = df[df["state"] != prev].reset_index(drop=True)
-    return ticks_as_seconds(df, "time", multiply=RESOLUTION)
-
-
-def _first_of_runs(df: pd.DataFrame):
-    """Rows whose state differs from the previous row of the same (network, node) (True
-    for each one's first row), from the categoricals' codes in blocks of rows; None
-    unless the three columns are categoricals."""
-    import numpy as np
-    import pandas as pd
-    cols = [df[c] for c in ("network", "node", "state")]
-    if not all(isinstance(c.dtype, pd.CategoricalDtype) for c in cols):
-        return None
-    net, node, state = (c.cat.codes.to_numpy() for c in cols)
-    width = len(cols[1].cat.categories) + 1
-    keep = np.ones(len(df), dtype=bool)
-    last: dict[int, int] = {}
-    block = 1 << 20
-    for i in range(0, len(df), block):
-        key = net[i:i + block].astype(np.int32) * width + node[i:i + block]
-        st = state[i:i + block]
-        for k in np.flatnonzero(np.bincount(key)):
-            pos = np.flatnonzero(key == k)
-            s = st[pos]
-            prev = np.empty_like(s)
-            prev[0] = last.get(int(k), -1)
-            prev[1:] = s[:-1]
-            keep[i + pos[s == prev]] = False
-            last[int(k)] = int(s[-1])
-    return keep
-
-
-def _plot_network(trace, frames: Any = _UNSET, **options):
-    """``Trace.plot("network")``: :func:`~netcosim.network.plot.plot_network_schedule` of the
-    ``network_schedule`` table, with the ``frames`` table's losses and retransmissions."""
-    from .plot import plot_network_schedule
-    if frames is _UNSET:
-        frames = trace.frame("frames")
-    return plot_network_schedule(trace.frame("network_schedule"), frames=frames, **options)
-
-
-def _message_loss(value: Any, what: str) -> LossModel | dict | None:
-    """``message_loss``: None, a probability / model / list (every link), or a dict per link."""
-    if not isinstance(value, dict):
-        return as_loss_model(value)
-    links = {}
-    for key, m in value.items():
-        if not (isinstance(key, tuple) and len(key) == 2 and all(isinstance(k, str) for k in key)):
-            raise ConfigurationTypeError(f"{what}: message_loss per link needs (src, dst) node-name pairs as keys, "
-                                         f"got {key!r}")
-        model = as_loss_model(m)
-        if model is not None:
-            links[key] = model
-    return links or None
+_NAN = math.nan
 
 
 def _check_sim(sim: Any, who: str) -> None:
@@ -158,7 +78,7 @@ def _check_sim(sim: Any, who: str) -> None:
         raise ConfigurationTypeError(f"{who}: sim must be a netcosim Simulation (the first argument), got {sim!r}")
 
 
-class Network:
+class Network(FrameLifecycle, LinkAccounting):
     """Base class of all networks (the common pipeline; subclasses are MACs).
 
     Parameters (all networks)
@@ -436,53 +356,6 @@ class Network:
             self._enqueue(frame)
         return msg
 
-    def _open_link(self, frame: Frame, src: Interface, rx: Interface) -> None:
-        """Count *frame*'s message on the link *src* -> *rx*; draw ``message_loss`` for it."""
-        key = (src.index, rx.index)
-        ls = self._lstats.get(key)
-        if ls is None:
-            ls = self._lstats[key] = LinkStats(src.name, rx.name)
-        ls.sent += 1
-        ml = self.message_loss
-        if ml is not None:
-            lk = self._mlinks.get(key, _UNSET)
-            if lk is _UNSET:                # first message on the link
-                model = ml.get((src.name, rx.name)) if isinstance(ml, dict) else ml
-                lk = self._mlinks[key] = None if model is None else model.link(
-                    self.sim.rng(f"{self.name}/message_loss/{src.name}->{rx.name}"))
-            if lk is not None and lk.lost():
-                ls.lost += 1
-                ls.silenced += 1
-                if frame.silenced is None:
-                    frame.silenced = set()
-                frame.silenced.add(rx.index)
-                self._lost(frame, rx, "message_loss")
-                return
-        frame.lstats[rx.index] = ls
-        frame.pend.add(rx.index)
-
-    def _check_masked_loss(self) -> None:
-        """Note once if retries hide the frame loss: the expected message loss (all attempts
-        lost, :meth:`LossModel.consecutive_loss`) below a tenth of the frame loss."""
-        self._mask_check = False
-        if not getattr(self, "use_ack", False):
-            return
-        model = self.loss
-        assert model is not None        # checked only when the model states a frame loss
-        p, n = model.frame_loss(), int(getattr(self, "max_attempts", 1) or 1)
-        q = model.consecutive_loss(n) if n > 1 else None
-        if p is None or q is None or not q < 0.1 * p:
-            return
-        if isinstance(model, Bernoulli):
-            what, expected, suggest = f"loss={p:g}", f"{p:g}**{n} = {q:.3g}", f"message_loss={p:g}"
-        else:
-            what, expected, suggest = f"loss={model!r} (long-run {p:.3g} per frame)", f"{q:.3g}", "message_loss="
-        warnings.warn(
-            f"network {self.name!r}: {what} is a frame loss, drawn per attempt; with up to {n} attempts per "
-            f"unicast message the expected message loss is only {expected} if nothing else fails an "
-            f"attempt.  For a loss of whole messages use {suggest} (silenced before medium access, as "
-            f"TrueTime's wireless loss); network.stats reports both losses", MaskedLossWarning, stacklevel=4)
-
     def _queue_full(self, iface: Interface) -> None:
         """A message finds *iface*'s sender queue full: raise, or warn the first time."""
         what = (f"network {self.name!r}: the sender queue of {iface.name!r} holds {iface.queue.capacity} frames "
@@ -528,208 +401,6 @@ class Network:
         """Hook: *iface* is free again after a frame; by default serve its queue (:meth:`_kick`)."""
         self._kick(iface)
 
-    # ------------------------------------------------------------------ attempt life cycle
-    def _next_frame(self, iface: Interface) -> Frame | None:
-        """Take the head of *iface*'s queue into service (``iface.current``); None if busy or empty."""
-        if iface.current is None and iface.queue._q:
-            f = iface.current = iface.queue.pop()
-            return f
-        return None
-
-    def _attempt_start(self, iface: Interface, frame: Frame, bits=None, backoff=_NAN) -> None:
-        """Count a new attempt of *frame* starting now and trace it (``bits`` on the air,
-        default the frame's; ``backoff`` slots drawn before it)."""
-        if iface.current is not frame:
-            self._not_in_service(iface, frame, "starts an attempt of")
-        if frame.attempts:
-            self._attempt_over(frame)
-        frame.attempts += 1
-        frame.sent = self._env.now
-        if self._trace_on:
-            self._rows.append((frame.sent, self.name, frame.id, "attempt_start", iface.name, frame.dname,
-                               iface.name, frame.attempts, "", frame.bits if bits is None else bits, backoff))
-
-    def _carrier_on(self, iface: Interface, frame: Frame) -> None:
-        """*iface* puts *frame* on the medium: it is sending, its receivers are receiving."""
-        iface.sending = 1
-        iface._state()
-        for r in self.receivers(frame):
-            r.receiving += 1
-            r._state()
-
-    def _carrier_off(self, iface: Interface, frame: Frame) -> None:
-        """*iface* stops sending *frame* (ended, cut or aborted)."""
-        iface.sending = 0
-        for r in self.receivers(frame):
-            r.receiving -= 1
-            r._state()
-
-    def _attempt_end(self, iface: Interface, frame: Frame, outcome: str | None = None) -> None:
-        """Trace the end of the current attempt: ``ok``/``sent`` (broadcast) by default, or the
-        failure *outcome*."""
-        if self._trace_on:
-            if outcome is None:
-                outcome = "sent" if frame.dst is BROADCAST else "ok"
-            self._rows.append((self._env.now, self.name, frame.id, "attempt_end", frame.src.name, frame.dname,
-                               iface.name, frame.attempts, outcome, _NAN, _NAN))
-
-    def _deliver_all(self, frame: Frame) -> None:
-        """Every receiver of *frame* got it now (loss drawn per receiver)."""
-        for r in self.receivers(frame):
-            self._deliver(frame, r)
-
-    def _done(self, iface: Interface, frame: Frame, ok: bool, restart: bool = True) -> None:
-        """The sender is done with *frame* (sent/acknowledged, or dropped): free the interface,
-        count and notify (:meth:`_finish`), then serve the queue (:meth:`_restart`) unless
-        ``restart=False`` (the MAC restarts it itself later)."""
-        if iface.current is not frame:
-            self._not_in_service(iface, frame, "is done with")
-        iface.current = None
-        iface._state()
-        self._finish(frame, ok)
-        if restart:
-            self._restart(iface)
-
-    def _not_in_service(self, iface: Interface, frame: Frame, what: str):
-        # the invariant of the life cycle: a MAC works on the frame in service at the interface
-        raise RuntimeError(f"network {self.name!r} ({type(self).__name__}): {iface.name!r} {what} {frame!r}, "
-                           f"but the frame in service there is {iface.current!r}")
-
-    def _drop(self, iface: Interface, frame: Frame, reason: str, restart: bool = True) -> None:
-        """The sender gives *frame* up (``lost`` with *reason* at the sender) and is done with it."""
-        self._lost(frame, iface, reason)
-        self._done(iface, frame, False, restart)
-
-    # helpers for MACs ---------------------------------------------------------
-    def _trace(self, event: str, frame: Frame, node: str, outcome: str = "", bits=_NAN, backoff=_NAN) -> None:
-        if self._trace_on:
-            self._rows.append((self._env.now, self.name, frame.id, event, frame.src.name, frame.dname, node,
-                               frame.attempts, outcome, bits, backoff))
-
-    def _lost(self, frame: Frame, where: Interface | str, reason: str) -> None:
-        """Trace *frame* lost for *reason* at *where* (an interface or a node name such as ``"switch"``)."""
-        if self._trace_on:
-            self._rows.append((self._env.now, self.name, frame.id, "lost", frame.src.name, frame.dname,
-                               where if isinstance(where, str) else where.name, frame.attempts, reason, _NAN, _NAN))
-
-    def _finish(self, frame: Frame, ok: bool) -> None:
-        """Count *frame* as sent or dropped at its sender and call the ``on_done`` callbacks."""
-        src = frame.src
-        src.stats["sent" if ok else "dropped"] += 1
-        self._let_go(frame)
-        for cb in src.on_done:
-            cb(frame, ok)
-
-    def _attempt_over(self, frame: Frame) -> None:
-        """The last attempt of *frame* is over: count it per link, lost where not received."""
-        rx = frame.rx_now
-        for i, ls in frame.lstats.items():
-            ls.attempts += 1
-            if i not in rx:
-                ls.frames_lost += 1
-        rx.clear()
-
-    def _let_go(self, frame: Frame) -> None:
-        """One of the holders of *frame* (its sender, a pending hand-over, a copy in a switch) is
-        done with it; when the last one is, its fate is final: the receivers it was not
-        delivered to count a message loss."""
-        frame.holds -= 1
-        if frame.holds == 0:
-            if frame.attempts:
-                self._attempt_over(frame)
-            for i in frame.pend:
-                frame.lstats[i].lost += 1
-            frame.pend.clear()
-
-    def _link(self, src: Interface, dst: Interface):
-        key = (src.index, dst.index)
-        lk = self._links.get(key)
-        if lk is None:
-            assert self.loss is not None  # links are drawn only on a lossy network
-            lk = self._links[key] = self.loss.link(self.sim.rng(f"{self.name}/loss/{src.name}->{dst.name}"))
-        return lk
-
-    def _lost_on_link(self, frame: Frame, rx: Interface) -> bool:
-        """Draw the loss model for *frame* on the link to *rx* (False without a loss model)."""
-        return self.loss is not None and self._link(frame.src, rx).lost()
-
-    def _deliver(self, frame: Frame, rx: Interface) -> bool:
-        """The frame was received by *rx* now; draw the loss, then hand it over after the delays."""
-        if self.loss is not None and self._link(frame.src, rx).lost():
-            self._lost(frame, rx, "random_loss")
-            return False
-        frame.rx_now.add(rx.index)
-        delay = self._post + self._prop       # as _accept (inlined: once per frame and receiver)
-        if delay:
-            frame.holds += 1
-            self.sim.call_in_ticks(delay, self._hand_over_later, arg=(frame, rx))
-        else:
-            self._hand_over((frame, rx))
-        return True
-
-    def _accept(self, frame: Frame, rx: Interface) -> None:
-        """Hand *frame* to *rx* after the post-processing and propagation delays (no loss draw:
-        MACs that draw the loss themselves, before an ACK, call this)."""
-        delay = self._post + self._prop
-        if delay:
-            frame.holds += 1
-            self.sim.call_in_ticks(delay, self._hand_over_later, arg=(frame, rx))
-        else:
-            self._hand_over((frame, rx))
-
-    def _hand_over_later(self, item) -> None:
-        self._hand_over(item)
-        self._let_go(item[0])
-
-    def _hand_over(self, item) -> None:
-        frame, rx = item
-        if frame.silenced is not None and rx.index in frame.silenced:
-            return                            # this link was silenced at send (traced then)
-        msg = frame.msg.copy() if frame.dst is BROADCAST else frame.msg
-        now = self._env.now
-        msg.delivered = now * RESOLUTION
-        msg.attempts = frame.attempts
-        if frame.sent is not None:
-            msg.sent = frame.sent * RESOLUTION
-        if rx.use_mailbox and not rx.mailbox.try_post(msg):
-            self._lost(frame, rx, "mailbox_full")
-            return
-        if self._trace_on:
-            self._rows.append((now, self.name, frame.id, "delivered", frame.src.name, frame.dname, rx.name,
-                               frame.attempts, "", frame.bits, _NAN))
-        rx.stats["received"] += 1
-        pend = frame.pend
-        if rx.index in pend:
-            pend.discard(rx.index)
-            frame.lstats[rx.index].delivered += 1
-        for h in rx.handlers:
-            if isinstance(h, Task):
-                h.release()
-            else:
-                h(msg)
-
-    # ------------------------------------------------------------------ results
-    @property
-    def stats(self) -> dict:
-        """Message loss next to frame loss: ``{"links": {"src->dst": counters}, "total": counters}``.
-
-        Counters (see :mod:`netcosim.network.stats`): ``messages_sent`` (a broadcast
-        counts once per receiver), ``messages_delivered`` (handed to the receiver's
-        interface: mailbox and handlers), ``messages_lost`` (never delivered, after every
-        retry; includes ``messages_silenced`` by ``message_loss``),
-        ``messages_in_flight``, ``message_loss`` = lost / (delivered + lost);
-        ``frame_attempts`` (completed transmission attempts), ``frames_lost`` (attempts the
-        receiver did not receive), ``frame_loss`` = frames_lost / frame_attempts.  Links
-        appear once a message was sent on them.
-        """
-        links = sorted(self._lstats.items())
-        return {"links": {f"{ls.src}->{ls.dst}": ls.as_dict() for _, ls in links},
-                "total": total(ls for _, ls in links)}
-
-    def link_stats(self) -> pd.DataFrame:
-        """:attr:`stats` of every link as a DataFrame (one row per link, ``src``, ``dst`` first)."""
-        return stats_frame(ls for _, ls in sorted(self._lstats.items()))
-
     def frames(self) -> pd.DataFrame:
         """This network's rows of the ``frames`` trace."""
         df = self.sim.trace.frame("frames")
@@ -742,3 +413,4 @@ class Network:
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name} {self.data_rate:g} bit/s, {len(self._ifaces)} nodes>"
+

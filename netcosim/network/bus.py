@@ -40,19 +40,16 @@ class SharedBus(Network):
         f = self._next_frame(iface)
         assert f is not None  # _choose picked a station with a frame waiting
         self._busy = True
-        self._attempt_start(iface, f)
-        self._carrier_on(iface, f)
+        a = self.begin_attempt(iface, f)
         d = self.duration(f.bits)
         self.busy_ticks += d
-        self.sim.call_in_ticks(d, self._end, arg=f)
+        self.sim.call_in_ticks(d, self._end, arg=a)
 
-    def _end(self, f) -> None:
-        iface = f.src
+    def _end(self, a) -> None:
         self._busy = False
-        self._carrier_off(iface, f)
-        self._attempt_end(iface, f)
-        self._deliver_all(f)
-        self._done(iface, f, True)
+        a.end()
+        a.deliver_all()
+        a.finish()
 
     def _restart(self, iface: Interface) -> None:
         # the bus is free: arbitrate if anybody waits

@@ -98,8 +98,7 @@ class CSMACD(Network):
 
     def _start(self, iface, now):
         f = iface.current
-        self._attempt_start(iface, f)
-        self._carrier_on(iface, f)
+        self.begin_attempt(iface, f)
         if self._active:
             # everyone active started less than a window ago: nobody sensed anybody
             if not self._colliders:
@@ -118,14 +117,13 @@ class CSMACD(Network):
 
     def _end(self, iface):
         iface.mac.timer = None
-        f = iface.current
         del self._active[iface]
-        self._carrier_off(iface, f)
-        self._attempt_end(iface, f)
-        self._deliver_all(f)
+        a = iface.attempt
+        a.end()
+        a.deliver_all()
         # the sender may queue its next frame from on_done and seize the medium before the
         # waiters are released
-        self._done(iface, f, True, restart=False)
+        a.finish(restart=False)
         self._medium_idle()
         self._kick(iface)
 
@@ -136,10 +134,10 @@ class CSMACD(Network):
         for iface in colliders:
             f = iface.current
             del self._active[iface]
-            self._carrier_off(iface, f)
-            self._attempt_end(iface, f, "collision")
+            a = iface.attempt
+            a.end("collision")
             if self.max_attempts is not None and f.attempts >= self.max_attempts:
-                self._drop(iface, f, "retry_limit", restart=False)
+                a.drop("retry_limit", restart=False)
                 continue
             k = int(iface.mac.rng.integers(0, 2 ** min(f.attempts, self.backoff_limit)))
             iface.mac.timer = self.sim._call_at_ticks(now + k * self._slot, self._try, arg=iface)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from .. import validate
 from ..errors import ConfigurationError
-from .base import Network
+from .base import Attempt, Network
 from .interface import Interface
 
 
@@ -36,27 +36,19 @@ class IdealLink(Network):
         """Transmission rate (bit/s) of *iface*."""
         return self.data_rate
 
+    #: the ideal link's network_schedule lists the receivers' rows before the sender's
+    receivers_first = True
+
     def _kick(self, iface: Interface) -> None:
         f = self._next_frame(iface)
         if f is not None:
-            self._attempt_start(iface, f)
-            self._carrier_on(iface, f)
-            self.sim.call_in_ticks(self.duration(f.bits, self.rate_of(iface)), self._end, arg=f)
+            a = self.begin_attempt(iface, f)
+            self.sim.call_in_ticks(self.duration(f.bits, self.rate_of(iface)), self._end, arg=a)
 
-    def _carrier_on(self, iface: Interface, frame) -> None:
-        # the ideal link's network_schedule lists the receivers' rows before the sender's
-        iface.sending = 1
-        for r in self.receivers(frame):
-            r.receiving += 1
-            r._state()
-        iface._state()
-
-    def _end(self, f) -> None:
-        iface = f.src
-        self._carrier_off(iface, f)
-        self._attempt_end(iface, f)
-        self._deliver_all(f)
-        self._done(iface, f, True)
+    def _end(self, a: Attempt) -> None:
+        a.end()
+        a.deliver_all()
+        a.finish()
 
 
 class FdmaStation:

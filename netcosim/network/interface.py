@@ -18,6 +18,7 @@ from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
 from ..kernel.sync import Mailbox
 from ..kernel.task import Task
+from .lifecycle import Attempt
 
 
 class TxQueue:
@@ -106,6 +107,7 @@ class Interface:
         self.handlers: list = []
         self.on_done: list[Callable] = []
         self.current = None     # frame in service (being sent, backing off, awaiting ACK)
+        self.attempt = Attempt(network, self)   # its life cycle, the MAC seam (lifecycle.py)
         self.sending = 0        # transmissions of this interface on the medium (0/1)
         self.receiving = 0      # frames addressed to this interface being received
         self.state = "idle"

@@ -90,6 +90,13 @@ class Bernoulli(LossModel):
     def __init__(self, p: float):
         self.p = validate.probability(p, "Bernoulli loss probability p")
 
+    @classmethod
+    def _checked(cls, p: float) -> Bernoulli:
+        """A Bernoulli(*p*) of a *p* already validated (``as_loss_model``: one check)."""
+        model = cls.__new__(cls)
+        model.p = p
+        return model
+
     def link(self, rng):
         """An independent Bernoulli(``p``) loss state for one link, drawing from *rng*."""
         return _BernoulliLink(self.p, rng)
@@ -308,8 +315,8 @@ def as_loss_model(loss) -> LossModel | None:
     if isinstance(loss, LossModel):
         return loss
     if validate.is_real(loss):
-        p = validate.probability(loss, "loss probability")
-        return None if p == 0.0 else Bernoulli(p)
+        p = validate.probability(loss, "loss probability")     # the one check of loss=p
+        return None if p == 0.0 else Bernoulli._checked(p)
     if isinstance(loss, (list, tuple)):
         return AnyLoss(loss)
     raise ConfigurationTypeError(f"loss must be a probability, a LossModel or a list of them, got {loss!r}")

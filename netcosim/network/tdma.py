@@ -132,11 +132,10 @@ class TDMA(Network):
             return
         f = iface.current
         if f.attempts == 0:
-            self._attempt_start(iface, f)
+            self.begin_attempt(iface, f)
         else:
-            self._trace("resumed", f, iface.name)
+            iface.attempt.resume()
         st.seg = min(f.remaining, end - now)
-        self._carrier_on(iface, f)
         st.timer = self.sim.call_in_ticks(st.seg, self._segment_end, arg=iface)
 
     def _segment_end(self, iface):
@@ -144,7 +143,7 @@ class TDMA(Network):
         st.timer = None
         f = iface.current
         f.remaining -= st.seg
-        self._carrier_off(iface, f)
+        a = iface.attempt
         if f.remaining > 0:
             if f.remaining + st.seg > self._max_span:   # rare path: checked only when a frame is cut
                 raise ConfigurationError(
@@ -152,9 +151,9 @@ class TDMA(Network):
                     f"{(f.remaining + st.seg) / TICKS_PER_SECOND!r} s at {self.data_rate!r} bit/s, more than "
                     f"{MAX_SEGMENTS} of its owner's windows with slot_time={self._slot / TICKS_PER_SECOND!r} s; "
                     f"is slot_time in seconds?")
-            self._trace("suspended", f, iface.name)
+            a.suspend()
             self._resume(iface)
             return
-        self._attempt_end(iface, f)
-        self._deliver_all(f)
-        self._done(iface, f, True)
+        a.end()
+        a.deliver_all()
+        a.finish()

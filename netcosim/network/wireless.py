@@ -287,7 +287,7 @@ class RadioNetwork(Network):
         so is not acknowledged), deliver it once (duplicates are acknowledged but not
         delivered again), and answer with an ACK after ``_ack_delay`` if *ack*."""
         f = tx.frame
-        if self._lost_on_link(f, r.iface):
+        if self.loss is not None and self.frame_lost(f, r.iface):
             tx.dst_reason = "random_loss"
             if not ack:
                 self._lost(f, r.iface, "random_loss")
