@@ -58,7 +58,7 @@ class SlottedAloha(Network):
             if ok:
                 a.deliver_all()
                 a.finish()
-            elif self.max_attempts is not None and iface.current.attempts >= self.max_attempts:
+            elif self.max_attempts is not None and a.frame.attempts >= self.max_attempts:
                 a.drop("retry_limit")
             else:       # the first following slot in which the station draws "transmit"
                 k = int(iface.mac.geometric(self.p))

@@ -27,11 +27,14 @@ length take exactly equal time, and instants that coincide on paper coincide her
 
 The MAC seam: a MAC subclasses :class:`Network` and implements ``_kick`` (medium
 access for a queued frame) and usually ``_station`` (its per-station state, kept as
-``iface.mac``); everything else -- validation, queues, counters, interface states,
-trace rows, loss draw, delivery, ``stats``, ``on_done`` and the restart of the queue --
-is done by the life-cycle steps below (``_next_frame``, ``_attempt_start``,
-``_carrier_on``/``_carrier_off``, ``_attempt_end``, ``_deliver_all``, ``_done``,
-``_drop``).  See "Writing a MAC" in ``docs/networks.md``.
+``iface.mac``); it drives each frame through its :class:`~netcosim.network.lifecycle.Attempt`
+(``begin_attempt`` -> ``end`` -> ``deliver``/``deliver_all`` -> ``finish`` or ``drop``, checked
+by state).  Everything else -- validation, queues, counters, interface states, trace
+rows, the loss draw (:meth:`~netcosim.network.lifecycle.FrameLifecycle.frame_lost`, the
+one place), delivery, ``stats``, ``on_done`` and the restart of the queue -- is the
+base's.  Modules: this one (the pipeline), ``lifecycle`` (attempts, loss draw, hand-over),
+``links`` (per-link accounting, ``message_loss``, ``stats``), ``tracing`` (the tables).
+See "Writing a MAC" in ``docs/networks.md``.
 """
 
 from __future__ import annotations
