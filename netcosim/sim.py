@@ -120,8 +120,8 @@ class Simulation:
         framework's own components call the unchecked :meth:`_call_at_ticks` (once per
         frame or job: no per-event check).
         """
-        if isinstance(ticks, bool) or not isinstance(ticks, (int, np.integer)):
-            raise ConfigurationTypeError(f"call_at_ticks ticks must be an integer number of ticks, got {ticks!r}")
+        ticks = validate.integer(ticks, "call_at_ticks ticks", kind="an integer number of ticks",
+                                 fraction_error=ConfigurationTypeError)
         validate.callable_(fn, "call_at_ticks fn", kind="callable (called when the time comes)")
         return self._call_at_ticks(int(ticks), fn, priority, arg)
 
