@@ -24,8 +24,10 @@ TICKS_PER_SECOND = 10**12
 #: integers, so every instant of a run stays readable up to 2**63 - 1 ps, about 9.22e6 s
 #: (106.7 simulated days).
 MAX_TICKS = 2**63 - 1
-#: :data:`MAX_TICKS` in seconds.
-MAX_SECONDS = MAX_TICKS / TICKS_PER_SECOND
+#: The largest time in seconds :func:`to_ticks` accepts: the largest float whose ticks
+#: do not exceed :data:`MAX_TICKS` (``MAX_TICKS / TICKS_PER_SECOND`` itself rounds up to
+#: 2**63 ticks).
+MAX_SECONDS = math.nextafter(MAX_TICKS / TICKS_PER_SECOND, 0.0)
 
 
 def to_ticks(seconds: float, what: str = "time", *, allow_negative: bool = False) -> int:
@@ -53,10 +55,11 @@ def to_ticks(seconds: float, what: str = "time", *, allow_negative: bool = False
     if s != 0.0 and abs(s) < RESOLUTION:
         raise ConfigurationError(f"{what}={seconds!r} s is non-zero but below the time resolution "
                                  f"{RESOLUTION} s (netcosim.RESOLUTION); use 0 or at least {RESOLUTION} s")
-    if abs(s) > MAX_SECONDS:
+    ticks = int(round(s * TICKS_PER_SECOND)) if abs(s) <= MAX_SECONDS else MAX_TICKS + 1
+    if abs(ticks) > MAX_TICKS:      # MAX_SECONDS itself rounds to 2**63 ticks: the range is checked in ticks
         raise ConfigurationError(f"{what}={seconds!r} s lies beyond netcosim's time range, {MAX_SECONDS:.6g} s "
                                  f"(106.7 days: 2**63 - 1 ticks of {RESOLUTION} s, what the traces store)")
-    return int(round(s * TICKS_PER_SECOND))
+    return ticks
 
 
 def to_seconds(ticks: int) -> float:

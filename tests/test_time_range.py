@@ -34,3 +34,35 @@ def test_until_past_the_range_is_refused_before_the_run_and_the_simulation_goes_
     assert len(jobs) == 10 and jobs["release"].max() == pytest.approx(9.0e6)
     sched = sim.trace.frame("schedule")
     assert sched["time"].max() == pytest.approx(9.0e6 + 1.0)
+
+
+def test_the_largest_accepted_time_fits_in_int64_ticks_and_the_next_float_is_refused():
+    import math
+
+    from netcosim.errors import ConfigurationError
+    from netcosim.timebase import MAX_SECONDS, MAX_TICKS, to_ticks
+    assert to_ticks(MAX_SECONDS) <= MAX_TICKS
+    # MAX_TICKS / 1e12 rounds up to 2**63 ticks: once accepted, its deadline overflowed int64
+    assert MAX_TICKS / 1e12 == math.nextafter(MAX_SECONDS, math.inf)
+    with pytest.raises(ConfigurationError, match="beyond netcosim's time range"):
+        to_ticks(MAX_TICKS / 1e12)
+    with pytest.raises(ConfigurationError, match="beyond netcosim's time range"):
+        to_ticks(-MAX_TICKS / 1e12, allow_negative=True)
+
+
+def test_a_deadline_beyond_the_tick_range_is_reported_as_a_float_not_wrapped():
+    # a release late in the range plus a relative deadline that together pass 2**63 - 1
+    # ticks: the jobs table reports their float sum (it once wrapped to a negative time)
+    sim = Simulation()
+    cpu = sim.node("cpu")
+    sim.run(MAX_SECONDS / 2 + 1.0)
+
+    @cpu.aperiodic(priority=1, deadline=MAX_SECONDS * 0.75)
+    def late(ctx):
+        yield ctx.execute(1e-3)
+    late.release()
+    sim.run(MAX_SECONDS / 2 + 2.0)
+    jobs = sim.trace.jobs()
+    assert len(jobs) == 1
+    deadline = jobs["deadline"].iloc[0]
+    assert deadline > MAX_SECONDS and deadline == pytest.approx(MAX_SECONDS * 1.25 + 1.0, rel=1e-12)

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from ..columns import categorical_from_codes
 from ..plot import TASK_STATES, plot_schedule
-from ..timebase import TICKS_PER_SECOND
+from ..timebase import MAX_TICKS, TICKS_PER_SECOND
 
 if TYPE_CHECKING:  # pandas is imported on first use: a simulation does not need it
     import pandas as pd
@@ -108,7 +108,8 @@ def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
     codes, unique = _per_task(tasks)
     relative = pd.Series(np.array([np.nan if t.deadline_ticks is None else t.deadline_ticks for t in unique],
                                   dtype=object)[codes], index=tasks.index)
-    if len(df) and relative.notna().all() and release.notna().all():
+    if (len(df) and relative.notna().all() and release.notna().all()
+            and int(release.max()) + int(relative.max()) <= MAX_TICKS):
         deadline = (release.astype("int64") + relative.astype("int64")).astype(float)   # exact in ticks
     else:
         deadline = release.astype(float) + relative.astype(float)
