@@ -10,7 +10,7 @@ the sensor's handler writes it to the servo.  The plant logs at every read and w
 Configurations, each run in a fresh Python process (its peak RSS is ``VmHWM`` from
 ``/proc/self/status``, which includes the interpreter and numpy/pandas/scipy):
 
-``default``  default settings: every table keeps every row, at most 16 MiB of them per
+``default``  default settings: every table keeps every row, at most 4 MiB of them per
              table in memory and the rest in a temporary file (``docs/architecture.md``,
              "Default bound"; ``python -m benchmarks.soak`` also measures reading back)
 ``unbounded`` ``configure_all(mode="keep", memory=None)``: every row in memory (the default

@@ -36,8 +36,11 @@ def _reset_peak() -> bool:
         return False
 
 
-def child(hours: float) -> dict:
+def child(hours: float, memory: int | None = None) -> dict:
+    import netcosim.trace
     from benchmarks.memory import build
+    if memory is not None:
+        netcosim.trace.DEFAULT_MEMORY = memory
     sim = build("default")
     t0 = time.perf_counter()
     sim.run(hours * 3600.0)
@@ -61,10 +64,11 @@ def child(hours: float) -> dict:
     return res
 
 
-def main(hours: float) -> dict:
+def main(hours: float, memory: int | None = None) -> dict:
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    out = subprocess.run([sys.executable, "-m", "benchmarks.soak", "--child", str(hours)],
+    out = subprocess.run([sys.executable, "-m", "benchmarks.soak", "--child", str(hours)]
+                         + (["--memory", str(memory)] if memory is not None else []),
                          cwd=root, env=env, check=True, capture_output=True, text=True)
     res = json.loads(out.stdout.strip().splitlines()[-1])
     mb = 2.0 ** 20
@@ -80,8 +84,10 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--child", metavar="HOURS", help=argparse.SUPPRESS)
     ap.add_argument("--hours", type=float, default=1.0, help="simulated hours (default 1)")
+    ap.add_argument("--memory", type=int, default=None,
+                    help="in-memory bytes per keep-mode table instead of netcosim.trace.DEFAULT_MEMORY")
     args = ap.parse_args()
     if args.child:
-        print(json.dumps(child(float(args.child))))
+        print(json.dumps(child(float(args.child), args.memory)))
     else:
-        main(args.hours)
+        main(args.hours, args.memory)

@@ -1,7 +1,7 @@
 """The default trace is bounded (issue 23, "long runs"): a ``keep``-mode table holds at
 most its memory budget of encoded rows; older chunks move to a temporary file and are
 read back, bit for bit, when the table is read.  A small budget stands in for the
-default 16 MiB so that a short run spills."""
+default 4 MiB so that a short run spills."""
 
 import os
 
@@ -39,12 +39,23 @@ def _held(store: ColumnStore) -> int:
     return sum(_chunk_bytes(ch) for _, ch in store._chunks)
 
 
-def test_default_budget_is_16_mib_and_keep_mode():
+def test_default_budget_is_4_mib_and_keep_mode():
     sim = build("default")
     for name in sim.trace.tables:
         rec = sim.trace._tables[name]
-        assert rec.mode == "keep" and rec.memory == trace_mod.DEFAULT_MEMORY == 16 * 2 ** 20
-        assert rec._buf.memory == 16 * 2 ** 20 and rec.options == {}
+        assert rec.mode == "keep" and rec.memory == trace_mod.DEFAULT_MEMORY == 4 * 2 ** 20
+        assert rec._buf.memory == 4 * 2 ** 20 and rec.options == {}
+
+
+def test_to_parquet_a_slice_at_a_time_writes_what_pandas_writes(runs, tmp_path, monkeypatch):
+    bounded, _ = runs
+    whole = bounded.trace.to_parquet(tmp_path / "whole")
+    monkeypatch.setattr(trace_mod, "WRITE_ROWS", 700)     # every table above 700 rows goes in slices
+    sliced = bounded.trace.to_parquet(tmp_path / "sliced")
+    assert [p.name for p in whole] == [p.name for p in sliced]
+    for a, b in zip(whole, sliced):
+        pd.testing.assert_frame_equal(pd.read_parquet(a), pd.read_parquet(b), check_exact=True)
+        assert len(pd.read_parquet(b)) > 700
 
 
 def test_every_table_stays_within_its_budget_and_spills_the_rest(runs):
