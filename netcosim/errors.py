@@ -56,6 +56,11 @@ class OverloadError(NetcosimError, RuntimeError):
     drop (a task's pending jobs, ``on_queue_full="error"``)."""
 
 
+class NaNMetricWarning(UserWarning):
+    """Runs of a sweep finished (status ``"ok"``) but returned NaN for a metric: kept as
+    returned, counted in ``SweepResult.summary["nan"]`` and named once per sweep."""
+
+
 class OverloadWarning(UserWarning):
     """The first counted drop of a bounded queue (a task's pending jobs): the run goes on,
     the drops are counted (``task.dropped``)."""

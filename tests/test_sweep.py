@@ -37,7 +37,7 @@ def test_the_run_table_holds_each_case_and_seed_in_grid_order_with_the_scenarios
         expected = sc.cheap(params, row.seed)
         assert row.x == expected["x"] and row.draw == expected["draw"] and row.label == expected["label"]
     assert (df["status"] == "ok").all() and df["error"].isna().all() and (df["wall_time"] > 0).all()
-    assert res.summary == {"total": 6, "ok": 6, "error": 0, "timeout": 0, "skipped": 0, "missing": 0}
+    assert res.summary == {"total": 6, "ok": 6, "error": 0, "timeout": 0, "skipped": 0, "missing": 0, "nan": 0}
     assert res.to_pandas() is res.runs
     traj = res.table("trajectory")
     assert list(traj.columns) == ["a", "b", "seed_index", "seed", "k", "v"] and len(traj) == 18
@@ -92,7 +92,7 @@ def test_a_raising_run_a_bad_return_and_a_timeout_are_recorded_and_the_others_co
     assert "sweep_scenarios.py" in df["traceback"].iloc[1] and "raise FloatingPointError" in df["traceback"].iloc[1]
     assert "scenario returned list [1, 2], not a dict of metrics" in df["error"].iloc[4]
     assert "timeout of 2 s" in df["error"].iloc[3] and df["wall_time"].iloc[3] == 2.0
-    assert res.summary == {"total": 6, "ok": 3, "error": 2, "timeout": 1, "skipped": 0, "missing": 0}
+    assert res.summary == {"total": 6, "ok": 3, "error": 2, "timeout": 1, "skipped": 0, "missing": 0, "nan": 0}
 
 
 def test_a_pool_worker_that_dies_records_its_run_and_is_replaced():

@@ -169,3 +169,22 @@ def test_a_plugin_breaking_the_contract_is_named_and_its_stored_runs_are_kept(tm
     assert not (tmp_path / "s" / "sweep.lock").exists()
     res = run_sweep(sc.cheap, GRID, SEEDS, executor=ThreadExecutor(), out=tmp_path / "s", quiet=True)
     assert res.summary["ok"] == TOTAL and res.summary["skipped"] >= 1
+
+
+def test_a_nan_metric_is_kept_counted_and_named_once():
+    import math
+    import warnings
+
+    from netcosim.errors import NaNMetricWarning
+    from netcosim.sweep import run_sweep
+
+    def scenario(params, seed):
+        return {"J": math.nan if params["a"] == 2 else 1.0, "ok": 1.0}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = run_sweep(scenario, {"a": [1, 2]}, seeds=3, executor="serial", quiet=True)
+    notes = [w for w in caught if issubclass(w.category, NaNMetricWarning)]
+    assert len(notes) == 1 and "'J' in 3 run(s)" in str(notes[0].message)
+    assert res.summary["nan"] == 3 and res.summary["ok"] == 6
+    assert res.runs["J"].isna().sum() == 3 and (res.runs["status"] == "ok").all()
+    assert "6 ok (3 with a NaN metric)" in repr(res)

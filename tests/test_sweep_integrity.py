@@ -232,7 +232,7 @@ def test_retry_errors_runs_the_failed_runs_again_and_int_metrics_stay_ints(tmp_p
     messages: list[str] = []
     retried = run_sweep(fails_while_flagged, grid, 2, executor="serial", out=out, quiet=True, retry_errors=True,
                         notify=messages.append)
-    assert retried.summary == {"total": 6, "ok": 6, "error": 0, "timeout": 0, "skipped": 4, "missing": 0}
+    assert retried.summary == {"total": 6, "ok": 6, "error": 0, "timeout": 0, "skipped": 4, "missing": 0, "nan": 0}
     assert messages == ["retrying 2 run(s) that failed (error or timeout)", f"resuming: 2 of 6 runs to do ({out})"]
     expected = run_sweep(fails_while_flagged, grid, 2, executor="serial", quiet=True)
     loaded = load_sweep(out)

@@ -65,7 +65,9 @@ class SweepResult:
     ``runs``: the tidy run table, one row per (case, seed) in grid order then seed index
     (see :func:`run_frame`; ``wall_time`` in s); ``summary``: counts ``total``, ``ok``,
     ``error``, ``timeout``, ``skipped`` (runs found finished on disk and not rerun) and
-    ``missing`` (runs not finished, for a sweep read back before its end); ``meta``: the
+    ``missing`` (runs not finished, for a sweep read back before its end) and ``nan``
+    (finished runs that returned NaN for a metric, kept as returned and named by a
+    :class:`~netcosim.errors.NaNMetricWarning`); ``meta``: the
     sweep's metadata; ``path``: its directory (None for a sweep kept in memory);
     ``repaired``: the damaged files (:class:`~netcosim.sweep.store.Damage`) a sweep
     found in its directory and whose runs it ran again (empty if none).
@@ -125,5 +127,6 @@ class SweepResult:
     def __repr__(self) -> str:
         s = self.summary
         where = f", path={str(self.path)!r}" if self.path is not None else ""
-        return (f"SweepResult({s['total']} runs: {s['ok']} ok, {s['error']} error, {s['timeout']} timeout, "
+        nan = f" ({s['nan']} with a NaN metric)" if s.get("nan") else ""
+        return (f"SweepResult({s['total']} runs: {s['ok']} ok{nan}, {s['error']} error, {s['timeout']} timeout, "
                 f"{s['skipped']} skipped{where})")

@@ -80,10 +80,41 @@ def _record(params: dict[str, Any], seed_index: int, seed: int, outcome: Outcome
             "error": outcome.error, "traceback": outcome.traceback, "wall_time": float(outcome.wall_time)}
 
 
-def _summary(records: list[dict[str, Any]], total: int, skipped: int) -> dict[str, int]:
+#: columns of a run's record that are not its parameters or metrics
+_RECORD_FIELDS = frozenset({"seed_index", "seed", "status", "error", "traceback", "wall_time"})
+
+
+def _nan_keys(record: dict[str, Any], params) -> list[str]:
+    """The metrics a finished run returned as NaN (none for a failed run)."""
+    if record["status"] != "ok":
+        return []
+    return [k for k, v in record.items()
+            if type(v) is float and v != v and k not in _RECORD_FIELDS and k not in params]
+
+
+def _summary(records: list[dict[str, Any]], total: int, skipped: int, params=()) -> dict[str, int]:
+    """Counts of the runs: ``total``, ``ok``, ``error``, ``timeout``, ``skipped``,
+    ``missing``, and ``nan``: finished runs with a NaN metric."""
     status = [r["status"] for r in records]
+    nan = sum(1 for r in records if _nan_keys(r, params))
     return {"total": total, "ok": status.count("ok"), "error": status.count("error"),
-            "timeout": status.count("timeout"), "skipped": skipped, "missing": total - len(records)}
+            "timeout": status.count("timeout"), "skipped": skipped, "missing": total - len(records), "nan": nan}
+
+
+def _warn_nan(records: list[dict[str, Any]], params) -> None:
+    """Name, once, the metrics finished runs returned as NaN (kept as returned)."""
+    counts: dict[str, int] = {}
+    for r in records:
+        for k in _nan_keys(r, params):
+            counts[k] = counts.get(k, 0) + 1
+    if counts:
+        import warnings
+
+        from ..errors import NaNMetricWarning
+        what = ", ".join(f"{k!r} in {n} run(s)" for k, n in sorted(counts.items()))
+        warnings.warn(f"sweep: finished runs returned NaN for metrics {what}; they are kept as returned, "
+                      f"with status 'ok' (summary['nan'] counts them): check the scenario, or filter them "
+                      f"before aggregating", NaNMetricWarning, stacklevel=3)
 
 
 def validate_cases(fn: Callable, cases: list[dict[str, Any]]) -> None:
@@ -372,7 +403,8 @@ def _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors=False,
     frame = run_frame([records[k] for k in order], names)
     if store is not None:
         store.write_runs(frame)
-    summary = _summary(list(records.values()), len(tasks_all), skipped)
+    summary = _summary(list(records.values()), len(tasks_all), skipped, names)
+    _warn_nan(list(records.values()), names)
     result = SweepResult(frame, names, meta, summary, tables=tables, store=store, keys=order)
     result.repaired = list(repaired or [])
     return result
@@ -420,5 +452,5 @@ def load_sweep(path: str | os.PathLike, verify: bool = True) -> SweepResult:
             raise DamagedSweepError(store.root, [Damage(f"parts/{store.part_name(c, s)}",
                                                         f"cannot be read: {exc}", ((c, s),))], meta) from None
     frame = run_frame(records, meta["params"])
-    summary = _summary(records, len(meta["cases"]) * n, 0)
+    summary = _summary(records, len(meta["cases"]) * n, 0, meta["params"])
     return SweepResult(frame, meta["params"], meta, summary, store=store, keys=order)
