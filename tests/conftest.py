@@ -127,3 +127,14 @@ def run_hil_cli(args, *, module, node, messages, timeout=120, expect=()):
                 p.kill()
             if p is not None:
                 p.wait(timeout=10)
+
+
+def frame_from_tuples(rec):
+    """Recorder *rec*'s table as ``pandas.DataFrame.from_records`` builds it from the stored
+    tuples (the reference the column-wise read must equal)."""
+    from netcosim.trace import Trace
+    ref = Trace().table(rec.name, rec.columns, rec.categorical, rec.transform,
+                        time=rec.columns[rec.time_index] if rec.time_index is not None else None)
+    ref._buf = list(rec._buf)
+    ref.providers = rec.providers
+    return ref.frame()

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import frame_from_tuples
 
 from netcosim import Simulation
 from netcosim.columns import ColumnStore
@@ -155,13 +156,7 @@ def test_frames_equal_those_built_from_tuples():
     for name in ("signals", "schedule", "jobs"):
         rec = trace._tables[name]
         assert rec._buf._n > 0
-        got = rec.frame()
-        tuples = Trace()
-        ref = tuples.table(name, rec.columns, rec.categorical, rec.transform,
-                           time=rec.columns[rec.time_index] if rec.time_index is not None else None)
-        ref._buf = list(rec._buf)
-        ref.providers = rec.providers
-        pd.testing.assert_frame_equal(got, ref.frame(), check_exact=True)
+        pd.testing.assert_frame_equal(rec.frame(), frame_from_tuples(rec), check_exact=True)
     assert list(trace.jobs()["job"]) == list(range(3000))
 
 
@@ -242,7 +237,6 @@ def test_maintain_with_a_budget_encodes_chunk_by_chunk_and_resumes():
 
 
 def test_trace_maintain_stops_when_the_budget_is_spent():
-    from netcosim.trace import Trace
     trace = Trace(clock=lambda: 0)
     a = trace.table("a", ("x",))
     b = trace.table("b", ("y",))

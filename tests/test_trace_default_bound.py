@@ -178,17 +178,12 @@ def test_keeps_categories_with_a_transform_that_drops_rows():
 def test_column_wise_read_equals_the_frame_built_from_tuples(runs, name):
     # the column-wise read (categoricals from codes, ticks to seconds in place, repeated
     # network states dropped from the codes) against from_records on the stored tuples
-    from netcosim.trace import Trace
+    from conftest import frame_from_tuples
     bounded, _ = runs
     rec = bounded.trace.recorder(name)
     got = rec.frame()
-    tuples = Trace()
-    ref = tuples.table(name, rec.columns, rec.categorical, rec.transform,
-                       time=rec.columns[rec.time_index] if rec.time_index is not None else None)
-    ref._buf = list(rec._buf)
-    ref.providers = rec.providers
     assert len(got) > 500
-    pd.testing.assert_frame_equal(got, ref.frame(), check_exact=True)
+    pd.testing.assert_frame_equal(got, frame_from_tuples(rec), check_exact=True)
 
 
 def test_repeated_network_states_are_dropped_alike_from_codes_and_from_names():
