@@ -64,26 +64,7 @@ PART_NAME = "part-{:06d}.parquet"
 #: 4 MiB: a one-hour 802.11b soak runs in 75 MB and reads back in 452 MB (16 MiB: 172
 #: and 522 MB) at the same speed (docs/architecture.md, "Default bound").
 DEFAULT_MEMORY = 4 * 2 ** 20
-#: Rows written to Parquet at a time by :meth:`Trace.to_parquet` (pyarrow's default row
-#: group): converting a long table to Arrow a slice at a time bounds the copy.
-WRITE_ROWS = 1 << 20
 
-
-def _write_parquet(frame, path) -> None:
-    """``frame.to_parquet(path, index=False)``, converted to Arrow :data:`WRITE_ROWS` rows
-    at a time (the same schema and row groups)."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-    if len(frame) <= WRITE_ROWS:
-        frame.to_parquet(path, index=False)
-        return
-    first = pa.Table.from_pandas(frame.iloc[:WRITE_ROWS], preserve_index=False)
-    with pq.ParquetWriter(path, first.schema) as writer:
-        writer.write_table(first)
-        del first
-        for i in range(WRITE_ROWS, len(frame), WRITE_ROWS):
-            writer.write_table(pa.Table.from_pandas(frame.iloc[i:i + WRITE_ROWS], preserve_index=False,
-                                                    schema=writer.schema))
 
 
 class UnknownSignalError(NetcosimError, KeyError):
@@ -831,7 +812,7 @@ class Trace:
             path = out / f"{prefix}{name}.parquet"
             frame = rec.frame()
             try:
-                _write_parquet(frame, path)
+                frame.to_parquet(path, index=False)
             except OSError as exc:
                 raise TraceWriteError(f"to_parquet: cannot write trace table {name!r} to {str(path)!r}: "
                                       f"{getattr(exc, 'strerror', None) or exc}") from exc

@@ -47,17 +47,6 @@ def test_default_budget_is_4_mib_and_keep_mode():
         assert rec._buf.memory == 4 * 2 ** 20 and rec.options == {}
 
 
-def test_to_parquet_a_slice_at_a_time_writes_what_pandas_writes(runs, tmp_path, monkeypatch):
-    bounded, _ = runs
-    whole = bounded.trace.to_parquet(tmp_path / "whole")
-    monkeypatch.setattr(trace_mod, "WRITE_ROWS", 700)     # every table above 700 rows goes in slices
-    sliced = bounded.trace.to_parquet(tmp_path / "sliced")
-    assert [p.name for p in whole] == [p.name for p in sliced]
-    for a, b in zip(whole, sliced):
-        pd.testing.assert_frame_equal(pd.read_parquet(a), pd.read_parquet(b), check_exact=True)
-        assert len(pd.read_parquet(b)) > 700
-
-
 def test_every_table_stays_within_its_budget_and_spills_the_rest(runs):
     bounded, _ = runs
     for name in ("signals", "schedule", "jobs", "frames", "network_schedule"):
