@@ -66,7 +66,6 @@ PART_NAME = "part-{:06d}.parquet"
 DEFAULT_MEMORY = 4 * 2 ** 20
 
 
-
 class UnknownSignalError(NetcosimError, KeyError):
     """:meth:`Trace.signal` was asked for a source or a signal that was not logged; the
     message lists what was (a :class:`KeyError`, so ``except KeyError`` still catches it)."""
