@@ -27,9 +27,9 @@ run-all: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m experiments.main --outdir results
 	$(BIN)/python -m experiments.fidelity --measure --outdir results
 
-# Style and types of the library (configured in pyproject.toml); a finding fails `make test`.
+# Style of the whole tree and types of the library (configured in pyproject.toml); a finding fails `make test`.
 lint: $(STAMP)
-	$(BIN)/ruff check --quiet --output-format concise netcosim
+	$(BIN)/ruff check --quiet --output-format concise .
 	$(BIN)/mypy --no-error-summary
 
 test: lint

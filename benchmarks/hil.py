@@ -77,6 +77,7 @@ def _flood(session, remote, count: int, at: float, sent: list) -> None:
     import os
     import threading
     import time
+
     from netcosim.transport.session import open_session
     peer = open_session(listen=(), connect=session.endpoints)
     pub = peer.publisher(remote.keys["tx"])

@@ -38,7 +38,7 @@ from scipy.integrate import solve_ivp
 
 from controllers.planner import OfflineGain, OnlineGain, WeightedNorm, sampled_velocity
 from controllers.planner.gain_design import design_nonsquare, estimate_mu
-from experiments.ch4_fig4_8_9 import KBAR, T, WEIGHTS, setting
+from experiments.ch4_fig4_8_9 import KBAR, WEIGHTS, T, setting
 from plants.flycrane.input_modes import VelocityTrackingPlant
 
 ALPHAS = (0.3, 3.0, 30.0)

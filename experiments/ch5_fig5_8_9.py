@@ -45,8 +45,15 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from controllers.planner.sikm import (TABLE_5_1, SIKMParams, Trajectory, estimate_parameters, in_stability_set,
-                                      optimal_offline_gain, tau_critical)
+from controllers.planner.sikm import (
+    TABLE_5_1,
+    SIKMParams,
+    Trajectory,
+    estimate_parameters,
+    in_stability_set,
+    optimal_offline_gain,
+    tau_critical,
+)
 from controllers.planner.sikm_environment import RealisticEnvironment
 from plants.flycrane.configurations import thesis_flycrane
 

@@ -30,8 +30,19 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from controllers.planner.sikm import (SIKMParams, in_stability_set, k_bar, k_o, optimal_offline_gain,
-                                      rho_of_k, rho_of_tau, tau_critical, tau_o, tau_s, z)
+from controllers.planner.sikm import (
+    SIKMParams,
+    in_stability_set,
+    k_bar,
+    k_o,
+    optimal_offline_gain,
+    rho_of_k,
+    rho_of_tau,
+    tau_critical,
+    tau_o,
+    tau_s,
+    z,
+)
 
 THESIS = SIKMParams(0.02, 0.13, 0.1, 0.2)
 #: Table 5.2 as printed: T [s] -> offline gain [1/s] (None: strategy 2 not feasible).

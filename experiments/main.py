@@ -241,7 +241,8 @@ def cli(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m experiments.main", description=__doc__.splitlines()[0],
                                 epilog="\n".join(__doc__.splitlines()[2:]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--outdir", type=_directory, default="results", help="parent of the per-experiment folders (default: results)")
+    p.add_argument("--outdir", type=_directory, default="results",
+                   help="parent of the per-experiment folders (default: results)")
     p.add_argument("--only", nargs="+", metavar="NAME", choices=names,
                    help=f"run only these experiments, among: {', '.join(names)}")
     p.add_argument("--timeout", type=_positive_seconds, default=DEFAULT_TIMEOUT, metavar="S",

@@ -178,5 +178,6 @@ def main(outdir: str = "results/networked_servo", quick: bool = False) -> pd.Dat
 if __name__ == "__main__":
     from experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/networked_servo",
-                          quick="shares 0 and 0.6, one seed, 1.5 s (instead of six shares, three seeds, 3 s)").parse_args()
+                          quick="shares 0 and 0.6, one seed, 1.5 s (instead of six shares, three seeds, 3 s)"
+                          ).parse_args()
     main(a.outdir, a.quick)

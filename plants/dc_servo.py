@@ -6,12 +6,11 @@ State x = (angle, angular velocity), input u (V), output y = angle (rad).
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from netcosim import validate
-from netcosim.plant import ContinuousSystem
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
+from netcosim.plant import ContinuousSystem
 
 
 def _real(v, what: str) -> float:

@@ -26,8 +26,8 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from netcosim.plant import ContinuousSystem, HybridEvent
 from netcosim.errors import NetcosimError
+from netcosim.plant import ContinuousSystem, HybridEvent
 
 __all__ = ["KinematicSystem", "SINGULAR_RTOL", "conditioning", "check_singular_values", "rank_rtol",
            "check_system", "as_vector", "jacobian", "pinv_solve", "pinv", "configuration_rate", "project",

@@ -10,7 +10,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-
 QUICK = pytest.mark.parametrize("quick", [True, pytest.param(False, marks=pytest.mark.slow)])
 
 
@@ -48,8 +47,8 @@ def test_fig3_6_design_curves():
     """Fig. 3.6 (Prop. 3.4.3-3.4.4): tau_s_bar = 2 and rho = 0 at mu = 0 (dead beat),
     tau_o_bar = 1 and rho = mu below 1/2, tau_o_bar = 1/(2 mu) and rho = 1 - 1/(4 mu)
     above, tau_s_bar = 1/mu from 1 on; rho < 1 everywhere ("Note that rho < 1")."""
-    from experiments.ch3_fig3_8 import design_curves
     from controllers.planner.gain_design import g_square
+    from experiments.ch3_fig3_8 import design_curves
     c = design_curves(mu_max=3.0, n=301).set_index("mu")
     assert c.loc[0.0].tolist() == [2.0, 1.0, 0.0]
     assert c.loc[0.3, "tau_o_bar"] == 1.0 and c.loc[0.3, "rho"] == pytest.approx(0.3)

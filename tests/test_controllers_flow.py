@@ -18,13 +18,20 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
+from test_controllers_systems import CRANE4_QREF, PlanarCrane
 
 import controllers.planner.flow as aux_flow
 import plants.casadi_tools as ct
-from controllers.planner import (SingularConfigurationError, WeightedNorm, diag_gain, jacobian, online_gain,
-                                 pinv_solve, solve_auxiliary_flow)
+from controllers.planner import (
+    SingularConfigurationError,
+    WeightedNorm,
+    diag_gain,
+    jacobian,
+    online_gain,
+    pinv_solve,
+    solve_auxiliary_flow,
+)
 from controllers.planner.dop853 import root_increasing
-from test_controllers_systems import CRANE4_QREF, PlanarCrane
 
 
 def reference_flow(system, q_ref, e_h, *, kbar=None, norm=None, tau_max=None, n_grid=64):

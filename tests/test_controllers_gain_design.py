@@ -8,8 +8,17 @@ import numpy as np
 import pytest
 
 from controllers.planner import WeightedNorm, solve_auxiliary_flow
-from controllers.planner.gain_design import (design, design_nonsquare, estimate_mu, g_nonsquare, g_square,
-                                             offline_gain, rho, tau_o_bar, tau_s_bar)
+from controllers.planner.gain_design import (
+    design,
+    design_nonsquare,
+    estimate_mu,
+    g_nonsquare,
+    g_square,
+    offline_gain,
+    rho,
+    tau_o_bar,
+    tau_s_bar,
+)
 
 MUS = [0.0, 0.1, 0.3, 0.49, 0.5, 0.6, 0.75, 0.99, 1.0, 1.5, 2.0]
 

@@ -8,13 +8,24 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
+from test_controllers_systems import CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane
 
-from controllers.planner import (OfflineGain, OnlineGain, SingularConfigurationError, StarStructure,
-                                 WeightedNorm, check_gain_matrix, configuration_rate, online_gain,
-                                 planner_velocity, project, robot_velocity, simulate_sampled,
-                                 solve_auxiliary_flow)
+from controllers.planner import (
+    OfflineGain,
+    OnlineGain,
+    SingularConfigurationError,
+    StarStructure,
+    WeightedNorm,
+    check_gain_matrix,
+    configuration_rate,
+    online_gain,
+    planner_velocity,
+    project,
+    robot_velocity,
+    simulate_sampled,
+    solve_auxiliary_flow,
+)
 from controllers.planner.gain_design import design, design_nonsquare, estimate_mu
-from test_controllers_systems import (CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane)
 
 SYSTEMS = [(Formation2D(), FORMATION_QREF), (PlanarCrane(3), CRANE3_QREF), (PlanarCrane(4), CRANE4_QREF)]
 

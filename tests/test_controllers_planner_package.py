@@ -8,16 +8,16 @@ import pathlib
 
 import numpy as np
 import pytest
+from test_controllers_systems import CRANE3_QREF, PlanarCrane
 
 from controllers.planner import OfflineGain, OnlineGain, configuration_rate, simulate_sampled
 from controllers.planner import dop853_coefficients as vendored
 from controllers.planner.deployment import CommandRecord, PlannerRecord, PlannerResponse, PoseRecord
-from controllers.planner.tasks import DeploymentConfig, KinematicVelocityPlant, PlannerLaw, deploy, deploy_planner
+from controllers.planner.tasks import DeploymentConfig, KinematicVelocityPlant, PlannerLaw, deploy
 from netcosim import Simulation
 from plants import kinematic
 from plants.flycrane.configurations import thesis_flycrane
 from plants.flycrane.input_modes import KinematicPlant
-from test_controllers_systems import CRANE3_QREF, PlanarCrane
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 E3 = np.array([0.1, -0.08, 0.05, 0.04, -0.03, 0.06])

@@ -7,14 +7,29 @@ import math
 import numpy as np
 import pytest
 from scipy.optimize import minimize
+from test_controllers_systems import FORMATION_QREF, Formation2D
 
 from controllers.planner.gain_design import design, estimate_mu
-from controllers.planner.sikm import (SIKMParams, Strategy, Trajectory, check_offline_gain,
-                                      collect_interval_samples, estimate_parameters, in_stability_set, k_bar,
-                                      k_barbar, k_o,
-                                      optimal_offline_gain, rho_of_k, rho_of_tau, simulate_tracking, tau_critical,
-                                      tau_o, tau_s, z)
-from test_controllers_systems import FORMATION_QREF, Formation2D
+from controllers.planner.sikm import (
+    SIKMParams,
+    Strategy,
+    Trajectory,
+    check_offline_gain,
+    collect_interval_samples,
+    estimate_parameters,
+    in_stability_set,
+    k_bar,
+    k_barbar,
+    k_o,
+    optimal_offline_gain,
+    rho_of_k,
+    rho_of_tau,
+    simulate_tracking,
+    tau_critical,
+    tau_o,
+    tau_s,
+    z,
+)
 
 THESIS = SIKMParams(0.02, 0.13, 0.1, 0.2)
 PARAMS = [THESIS, SIKMParams(0.7, 0.05, 0.1, 0.05), SIKMParams(1.5, 0.05, 0.1, 0.05),

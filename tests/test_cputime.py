@@ -6,10 +6,10 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
-
 from conftest import SteppingClock
+
 from netcosim import Simulation
-from netcosim.cputime import (FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime)
+from netcosim.cputime import FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime
 
 
 def test_fixed_budget_per_phase_and_the_log():

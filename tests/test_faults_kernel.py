@@ -5,12 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import periodic_task
 from scipy import stats
 
-from conftest import periodic_task
 from netcosim import RK4, ContinuousSystem, Simulation
-from netcosim.errors import (ConfigurationError, IntegrationError, SimulationFailedError,
-                             UnyieldedExecuteError)
+from netcosim.errors import ConfigurationError, IntegrationError, SimulationFailedError, UnyieldedExecuteError
 
 # 1. Durations below the time resolution -------------------------------------------
 

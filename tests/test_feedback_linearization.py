@@ -5,8 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from controllers.landing import (C2Interpolator, FeedbackLinearization, PIDGains, SingularityError,
-                                 quintic_coefficients)
+from controllers.landing import C2Interpolator, FeedbackLinearization, PIDGains, SingularityError, quintic_coefficients
 from plants.tethered_uav import TetheredUAVParams, ddphi_ddtheta, force_dynamics
 
 P = TetheredUAVParams()
@@ -36,9 +35,14 @@ def _closed_loop(fl, ref, T=1.0, x0=(0.0, 0.0, 0.0, 0.0), f_ext=None, dt_sim=1e-
         for _ in range(n_sub):
             def f(xx):
                 return force_dynamics(xx, u, P, f_ext)
-            k1 = f(x); k2 = f(x + 0.5 * dt_sim * k1); k3 = f(x + 0.5 * dt_sim * k2); k4 = f(x + dt_sim * k3)
+            k1 = f(x)
+            k2 = f(x + 0.5 * dt_sim * k1)
+            k3 = f(x + 0.5 * dt_sim * k2)
+            k4 = f(x + dt_sim * k3)
             x = x + dt_sim / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        ts.append(t + fl.dt); xs.append(x.copy()); us.append(u)
+        ts.append(t + fl.dt)
+        xs.append(x.copy())
+        us.append(u)
     return np.array(ts), np.array(xs), np.array(us)
 
 

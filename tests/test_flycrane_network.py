@@ -10,7 +10,7 @@ import pytest
 
 from controllers.planner import OfflineGain, OnlineGain, WeightedNorm
 from controllers.planner.tasks import DeploymentConfig, PlannerLaw, VelocityTrackingModel, deploy
-from experiments.ch4_fig4_8_9 import KBAR, T, WEIGHTS, setting
+from experiments.ch4_fig4_8_9 import KBAR, WEIGHTS, T, setting
 from experiments.ch4_fig4_10 import simulate_dynamic
 from netcosim import Simulation
 from plants.flycrane.input_modes import VelocityTrackingPlant
@@ -42,8 +42,7 @@ def test_ideal_network_dynamic_plant_equals_fig4_10_simulation(architecture, gai
 
 from scipy.stats import binom  # noqa: E402
 
-from controllers.planner.networked import (FlyCraneNetworkConfig, build, d_weights, offline_gain,  # noqa: E402
-                                           run)
+from controllers.planner.networked import FlyCraneNetworkConfig, build, d_weights, offline_gain, run  # noqa: E402
 from netcosim.errors import ConfigurationError  # noqa: E402
 from netcosim.network import WLAN80211b  # noqa: E402
 from netcosim.network.loss import LinkLoss, LossModel  # noqa: E402

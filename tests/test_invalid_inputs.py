@@ -9,9 +9,8 @@ from __future__ import annotations
 import importlib
 import pkgutil
 
-import pytest
-
 import invalid_cases
+import pytest
 from invalid_cases import Case
 
 #: Seconds one case may take before it counts as a hang.

@@ -4,11 +4,10 @@
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import executes
 from scipy import stats
 
-from conftest import executes
 from netcosim import Simulation
-
 
 
 def two_tasks(cs=0.0, speed=1.0):

@@ -4,8 +4,8 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import executes
+
 from netcosim import Simulation
 from netcosim.testing import assert_schedule, running_intervals
 

@@ -3,14 +3,21 @@
 import math
 
 import numpy as np
-import pytest
 import pandas as pd
-
-from controllers.landing import (LandingConfig, LandingTiming, initial_state, landing_metrics, landing_nmpc,
-                                 landing_ocp, run_landing, sigmoid)
+import pytest
 from conftest import SteppingClock
-from netcosim.cputime import NonReproducibleWarning, RecordedCPUTime
 
+from controllers.landing import (
+    LandingConfig,
+    LandingTiming,
+    initial_state,
+    landing_metrics,
+    landing_nmpc,
+    landing_ocp,
+    run_landing,
+    sigmoid,
+)
+from netcosim.cputime import NonReproducibleWarning, RecordedCPUTime
 
 DEG = math.pi / 180
 

@@ -8,8 +8,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from controllers.landing import (DEFAULT_FL_GAINS, SIM_PARAMS, LandingConfig, LandingScenario, LandingTiming,
-                                 run_landing, simulate_landing)
+from controllers.landing import (
+    DEFAULT_FL_GAINS,
+    SIM_PARAMS,
+    LandingConfig,
+    LandingScenario,
+    LandingTiming,
+    run_landing,
+    simulate_landing,
+)
 from controllers.landing.scenario import TOPOLOGIES
 from controllers.landing.topology import WIRINGS
 

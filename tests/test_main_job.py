@@ -12,13 +12,15 @@ FAKES = {
     "exits": "import sys\nprint('exits: about to call sys.exit(3)')\nsys.exit(3)\n",
     "hangs": "import time\nprint('hangs: sleeping', flush=True)\ntime.sleep(600)\n",
     "raises": ("import argparse, pathlib\n"
-               "p = argparse.ArgumentParser(); p.add_argument('--outdir'); p.add_argument('--quick', action='store_true')\n"
+               "p = argparse.ArgumentParser(); p.add_argument('--outdir')\n"
+               "p.add_argument('--quick', action='store_true')\n"
                "a = p.parse_args()\n"
                "out = pathlib.Path(a.outdir); out.mkdir(parents=True)\n"
                "(out / 'partial.parquet').write_bytes(b'first stage')\n"
                "raise RuntimeError('second stage failed')\n"),
     "works": ("import argparse, pathlib\n"
-              "p = argparse.ArgumentParser(); p.add_argument('--outdir'); p.add_argument('--quick', action='store_true')\n"
+              "p = argparse.ArgumentParser(); p.add_argument('--outdir')\n"
+              "p.add_argument('--quick', action='store_true')\n"
               "a = p.parse_args()\n"
               "out = pathlib.Path(a.outdir); out.mkdir(parents=True)\n"
               "(out / 'result.txt').write_text(f'quick={a.quick}')\n"

@@ -9,8 +9,8 @@ queue's head many times before it wins must give identical frame tables, bit for
 import pandas as pd
 import pytest
 
-from netcosim import Simulation
 from benchmarks.network import ScanCAN  # the scan arbitration, kept as the benchmark's baseline
+from netcosim import Simulation
 from netcosim.network import CAN
 
 

@@ -1,8 +1,8 @@
 """CSMA/CD (TrueTime semantics) and switched Ethernet (store-and-forward)."""
 
 import pytest
-
 from conftest import frame_rows
+
 from netcosim import Simulation
 from netcosim.network import BROADCAST, CSMACD, SwitchedEthernet
 

@@ -7,7 +7,7 @@ import pytest
 from scipy.stats import binomtest, norm
 
 from netcosim import Simulation
-from netcosim.network import (BROADCAST, Bernoulli, GilbertElliott, IdealLink, TraceLoss, WLAN80211b)
+from netcosim.network import BROADCAST, Bernoulli, GilbertElliott, IdealLink, TraceLoss, WLAN80211b
 
 
 def ideal_run(loss, n_frames, seed=1, extra_node=False):

@@ -3,9 +3,9 @@
 import math
 
 import pytest
+from conftest import frame_rows
 from scipy.stats import binomtest
 
-from conftest import frame_rows
 from netcosim import Simulation
 from netcosim.network import BROADCAST, IEEE802154
 from netcosim.network.lrwpan import ber_oqpsk

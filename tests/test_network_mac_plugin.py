@@ -5,8 +5,20 @@ import numpy as np
 import pytest
 
 from netcosim import Simulation
-from netcosim.network import (CAN, CSMACD, FDMA, IEEE802154, TDMA, Bernoulli, IdealLink, Network, RoundRobin,
-                              SlottedAloha, SwitchedEthernet, WLAN80211b)
+from netcosim.network import (
+    CAN,
+    CSMACD,
+    FDMA,
+    IEEE802154,
+    TDMA,
+    Bernoulli,
+    IdealLink,
+    Network,
+    RoundRobin,
+    SlottedAloha,
+    SwitchedEthernet,
+    WLAN80211b,
+)
 from netcosim.network.ethernet import EthernetStation
 from netcosim.network.frame import Frame
 from netcosim.network.ideal import FdmaStation

@@ -3,8 +3,8 @@ contention-free / scheduled MACs: ideal link, FDMA, round robin, TDMA."""
 
 
 import pytest
-
 from conftest import frame_rows
+
 from netcosim import Simulation
 from netcosim.network import BROADCAST, FDMA, TDMA, IdealLink, RoundRobin
 from netcosim.network.plot import plot_network_schedule

@@ -9,8 +9,16 @@ from scipy.integrate import quad
 from scipy.stats import binomtest
 
 from netcosim import Simulation
-from netcosim.network import (BROADCAST, LogDistance, TrueTimePathLoss, WLAN80211b, ber_cck, ber_dbpsk,
-                              ber_dqpsk, thermal_noise_dbm)
+from netcosim.network import (
+    BROADCAST,
+    LogDistance,
+    TrueTimePathLoss,
+    WLAN80211b,
+    ber_cck,
+    ber_dbpsk,
+    ber_dqpsk,
+    thermal_noise_dbm,
+)
 
 US = 1e-6
 

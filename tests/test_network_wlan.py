@@ -4,11 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from conftest import frame_rows
 from scipy.optimize import brentq
 
-from conftest import frame_rows
 from netcosim import Simulation
-from netcosim.network import BROADCAST, WLAN80211b, SaturatedSource
+from netcosim.network import BROADCAST, SaturatedSource, WLAN80211b
 
 US = 1e-6
 # 802.11b constants, written out independently of the implementation
@@ -234,7 +234,6 @@ def saturated_run(n, rate, payload, until, seed=1, warmup=0.5):
     sim.run(warmup)
     r0 = ap.stats["received"]
     fails0 = net.collisions
-    att0 = sum(s.stats["sent"] for s in stations)
     sim.run(warmup + until)
     received = ap.stats["received"] - r0
     collisions = net.collisions - fails0

@@ -15,7 +15,7 @@ M, m, L, G = 1.0, 0.1, 0.5, 9.81
 
 
 def cartpole_xdot(x, u):
-    p, th, v, om = x[0], x[1], x[2], x[3]
+    _, th, v, om = x[0], x[1], x[2], x[3]
     s, c = ca.sin(th), ca.cos(th)
     acc = (u[0] + m * s * (L * om ** 2 - G * c)) / (M + m * s ** 2)
     return ca.vertcat(v, om, acc, (G * s - acc * c) / L)

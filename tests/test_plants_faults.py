@@ -240,8 +240,8 @@ def test_a_disturbance_that_is_not_finite_numbers_is_refused(returned, match):
 
 
 def test_event_functions_are_checked_at_construction_and_their_values_at_run_time():
-    from netcosim.plant import HybridEvent
     from netcosim.errors import ConfigurationTypeError
+    from netcosim.plant import HybridEvent
     with pytest.raises(ConfigurationTypeError, match="event 'floor': g must be callable"):
         HybridEvent("floor", 3.0)
     with pytest.raises(ConfigurationTypeError, match=r"event name must be a non-empty string, got \['a'\]"):

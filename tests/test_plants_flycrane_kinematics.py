@@ -6,8 +6,15 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from plants.flycrane import (ConfigurationDomainError, GeometryError, MultiRobotSystem, OneCable,
-                             SingularConfigurationError, TwoCable, plate_inertia)
+from plants.flycrane import (
+    ConfigurationDomainError,
+    GeometryError,
+    MultiRobotSystem,
+    OneCable,
+    SingularConfigurationError,
+    TwoCable,
+    plate_inertia,
+)
 from plants.flycrane import configurations as C
 from plants.flycrane.rotations import body_rate_matrix, euler_zyx
 
@@ -112,7 +119,8 @@ def test_flycrane_matches_appendix_b_formula():
             p = []
             for i in range(3):
                 RVi = _Rz(2 * math.pi * i / 3)
-                loc = l_C * np.array([0, 1, 0]) + _Rx(-(math.pi / 2 - q[i])) @ (L * math.sin(beta) * np.array([0, 0, 1]))
+                loc = (l_C * np.array([0, 1, 0])
+                       + _Rx(-(math.pi / 2 - q[i])) @ (L * math.sin(beta) * np.array([0, 0, 1])))
                 p.append(qV[:3] + RV @ RVi @ loc)
             np.testing.assert_allclose(sys.h(q), np.concatenate(p), atol=1e-13)
         assert sys.attachments[0].beta == pytest.approx(beta, abs=1e-12)

@@ -9,9 +9,18 @@ from scipy.integrate import solve_ivp
 
 from netcosim.plant import RK4, SolveIVP
 from netcosim.sim import Simulation
-from plants.tethered_uav import (TetheredUAV, TetheredUAVParams, cable_stress, casadi_model,
-                                 hover_thrust, input_map, lander_reaction, propeller_forces, wind,
-                                 wind_disturbance)
+from plants.tethered_uav import (
+    TetheredUAV,
+    TetheredUAVParams,
+    cable_stress,
+    casadi_model,
+    hover_thrust,
+    input_map,
+    lander_reaction,
+    propeller_forces,
+    wind,
+    wind_disturbance,
+)
 
 P = TetheredUAVParams()
 RNG = np.random.default_rng(4)

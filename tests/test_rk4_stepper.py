@@ -15,8 +15,8 @@ import pytest
 
 from controllers.pid import PID
 from netcosim import RK4, ContinuousSystem, Simulation
-from netcosim.plant.rk4 import _RK4Stepper
 from netcosim.errors import ConfigurationError, IntegrationError
+from netcosim.plant.rk4 import _RK4Stepper
 
 
 class ArrayRK4(RK4):

@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
-
 from conftest import periodic_task
+
 from netcosim import Simulation
 from netcosim.network import SaturatedSource, WLAN80211b
 from netcosim.trace import Trace

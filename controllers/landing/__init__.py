@@ -14,7 +14,8 @@ Modules, from the problem to the scenario:
 =====================================================  =============================================
 
 Every public name is re-exported here, so ``from controllers.landing import
-LandingConfig, landing_nmpc, run_landing`` works whatever module holds it.  Names are imported on first use, so that importing one module
+LandingConfig, landing_nmpc, run_landing`` works whatever module holds it.  Names are imported on first
+use, so that importing one module
 (e.g. the low-level controller) does not load the others.
 """
 

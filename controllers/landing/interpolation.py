@@ -16,7 +16,6 @@ that unit per second, accelerations per second squared, times in seconds.
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from netcosim import validate
@@ -55,7 +54,8 @@ class C2Interpolator:
     """
 
     def __init__(self, n: int = 2):
-        self.n = validate.integer(n, "number of channels", lo=1, kind="a positive integer", type_error=ConfigurationError)
+        self.n = validate.integer(n, "number of channels", lo=1, kind="a positive integer",
+                                  type_error=ConfigurationError)
         self._starts: np.ndarray | None = None   # segment start times (s)
         self._durations: np.ndarray | None = None
         self._coefs: list[np.ndarray] = []        # (6, n) per segment

@@ -27,7 +27,6 @@ import numpy as np
 
 from netcosim import validate
 from netcosim.validate import numeric_fields
-
 from plants.tethered_uav import TetheredUAVParams, casadi_model, hover_thrust
 
 from ..nmpc import OCP, RTINMPC

@@ -67,7 +67,8 @@ class LandingTiming:
         if not (0.0 <= self.feedback_share <= 1.0):
             raise ValueError(f"feedback_share must lie in [0, 1], got {self.feedback_share!r}")
         for name in ("fl_exec", "context_switch"):
-            validate.non_negative(getattr(self, name), name, kind="a non-negative number of seconds", type_error=ConfigurationError)
+            validate.non_negative(getattr(self, name), name, kind="a non-negative number of seconds",
+                                  type_error=ConfigurationError)
         if self.clock is not None:
             validate.callable_(self.clock, "clock", kind="a callable returning seconds", type_error=ConfigurationError)
 

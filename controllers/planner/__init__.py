@@ -27,11 +27,31 @@ module                        holds
 Units: q in rad and m, u in m/s, times and periods in s, gains in 1/s.
 """
 
-from .flow import FLOW_ATOL_REL, FLOW_RTOL, PIVOT_RTOL, TAU_XTOL, AuxiliaryFlow, DenseFlow, online_gain, \
-    solve_auxiliary_flow
-from .kinematics import (RANK_RTOL, KinematicSystem, SingularConfigurationError, as_vector, check_gain_matrix,
-                         check_period, check_system, configuration_rate, diag_gain, integrate_kinematics, jacobian,
-                         pinv_solve, project)
+from .flow import (
+                         FLOW_ATOL_REL,
+                         FLOW_RTOL,
+                         PIVOT_RTOL,
+                         TAU_XTOL,
+                         AuxiliaryFlow,
+                         DenseFlow,
+                         online_gain,
+                         solve_auxiliary_flow,
+)
+from .kinematics import (
+                         RANK_RTOL,
+                         KinematicSystem,
+                         SingularConfigurationError,
+                         as_vector,
+                         check_gain_matrix,
+                         check_period,
+                         check_system,
+                         configuration_rate,
+                         diag_gain,
+                         integrate_kinematics,
+                         jacobian,
+                         pinv_solve,
+                         project,
+)
 from .laws import OfflineGain, OnlineGain, planner_velocity, robot_velocity, sampled_velocity, simulate_sampled
 from .norms import WeightedNorm
 from .structure import StarStructure

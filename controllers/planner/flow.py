@@ -30,10 +30,15 @@ import plants.casadi_tools as casadi_tools
 from plants.casadi_tools import FunctionBuffers, compile_functions
 from plants.kinematic import conditioning
 
-from .dop853 import A as _A, B as _B, D as _D, E3 as _E3, E5 as _E5
-from .dop853 import N_STAGES as _NS, N_STAGES_EXTENDED as _NSX
+from .dop853 import E3 as _E3
+from .dop853 import E5 as _E5
+from .dop853 import N_STAGES as _NS
+from .dop853 import N_STAGES_EXTENDED as _NSX
+from .dop853 import A as _A
+from .dop853 import B as _B
+from .dop853 import D as _D
 from .dop853 import DenseFlow, integrate_until_return, root_increasing
-from .kinematics import (as_vector, check_period, check_system, diag_gain, jacobian, pinv_solve, rank_rtol)
+from .kinematics import as_vector, check_period, check_system, diag_gain, jacobian, pinv_solve, rank_rtol
 from .norms import WeightedNorm
 
 __all__ = ["AuxiliaryFlow", "solve_auxiliary_flow", "online_gain", "DenseFlow", "FLOW_RTOL", "FLOW_ATOL_REL",

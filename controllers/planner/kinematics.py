@@ -14,8 +14,18 @@ from scipy.integrate import solve_ivp
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError
-from plants.kinematic import (SINGULAR_RTOL, KinematicSystem, SingularConfigurationError, as_vector, check_system,
-                              configuration_rate, jacobian, pinv_solve, project, rank_rtol)
+from plants.kinematic import (
+    SINGULAR_RTOL,
+    KinematicSystem,
+    SingularConfigurationError,
+    as_vector,
+    check_system,
+    configuration_rate,
+    jacobian,
+    pinv_solve,
+    project,
+    rank_rtol,
+)
 
 __all__ = ["KinematicSystem", "SingularConfigurationError", "RANK_RTOL", "check_system", "check_period",
            "check_gain_matrix", "diag_gain", "as_vector", "jacobian", "pinv_solve", "configuration_rate",

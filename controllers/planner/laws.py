@@ -22,8 +22,15 @@ from typing import Any, Callable
 import numpy as np
 
 from .flow import online_gain
-from .kinematics import (as_vector, check_gain_matrix, check_period, check_system, diag_gain, integrate_kinematics,
-                         jacobian)
+from .kinematics import (
+    as_vector,
+    check_gain_matrix,
+    check_period,
+    check_system,
+    diag_gain,
+    integrate_kinematics,
+    jacobian,
+)
 from .norms import WeightedNorm
 from .structure import StarStructure
 

@@ -37,8 +37,8 @@ from typing import Any
 import numpy as np
 
 from netcosim import Simulation, validate
-from netcosim.plant import SolveIVP
 from netcosim.errors import ConfigurationError
+from netcosim.plant import SolveIVP
 
 from .laws import OfflineGain, OnlineGain
 from .norms import WeightedNorm

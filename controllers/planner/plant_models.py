@@ -29,9 +29,8 @@ from typing import Any
 import numpy as np
 
 from netcosim import validate
-from netcosim.plant import SolveIVP
 from netcosim.errors import ConfigurationError
-
+from netcosim.plant import SolveIVP
 from plants.flycrane.input_modes import VelocityTrackingPlant
 from plants.kinematic import KinematicPlant
 
@@ -86,7 +85,8 @@ class VelocityTrackingModel:
     rad/s, m/s); ``compiled``: evaluate the closed-loop dynamics with the CasADi function
     compiled to C (:func:`plants.casadi_tools.compile_functions`, cached on disk; the
     same expression graph, about 4x faster than CasADi's virtual machine; without a C
-    compiler it falls back to the uncompiled function with one warning).  The system must be a :class:`plants.flycrane.kinematics.MultiRobotSystem`.
+    compiler it falls back to the uncompiled function with one warning).  The system must be a
+    :class:`plants.flycrane.kinematics.MultiRobotSystem`.
     """
 
     alpha: float = 30.0

@@ -28,7 +28,8 @@ class StarStructure:
 
     def __post_init__(self):
         if len(self.rows) != len(self.cols) or not self.rows:
-            raise ValueError(f"need one row set and one column set per robot, got {len(self.rows)} and {len(self.cols)}")
+            raise ValueError(f"need one row set and one column set per robot, got {len(self.rows)} and "
+                             f"{len(self.cols)}")
         object.__setattr__(self, "rows", tuple(tuple(int(i) for i in r) for r in self.rows))
         object.__setattr__(self, "cols", tuple(tuple(int(i) for i in c) for c in self.cols))
         object.__setattr__(self, "pivot", tuple(int(i) for i in self.pivot))

@@ -56,8 +56,8 @@ from .kinematics import as_vector, check_period, check_system, diag_gain, jacobi
 from .laws import OfflineGain, OnlineGain, robot_velocity, sampled_velocity
 from .norms import WeightedNorm
 from .plant_models import KinematicModel, KinematicVelocityPlant, VelocityTrackingModel, check_model, plant_integrator
-from .structure import StarStructure
 from .sikm import FEEDFORWARDS, Trajectory
+from .structure import StarStructure
 
 __all__ = ["KinematicVelocityPlant", "KinematicModel", "VelocityTrackingModel", "PlannerLaw", "DeploymentConfig",
            "Deployment", "PlannerResponse",

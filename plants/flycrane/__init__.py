@@ -14,8 +14,13 @@
 from . import configurations
 from .attachments import GeometryError, OneCable, PlanarAgent, TwoCable
 from .input_modes import ForcePlant, KinematicPlant, VelocityTrackingPlant
-from .kinematics import (ConfigurationDomainError, MassProperties, MultiRobotSystem,
-                         SingularConfigurationError, plate_inertia)
+from .kinematics import (
+                         ConfigurationDomainError,
+                         MassProperties,
+                         MultiRobotSystem,
+                         SingularConfigurationError,
+                         plate_inertia,
+)
 
 __all__ = ["configurations", "GeometryError", "OneCable", "PlanarAgent", "TwoCable",
            "ConfigurationDomainError", "MassProperties", "MultiRobotSystem", "SingularConfigurationError",

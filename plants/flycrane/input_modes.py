@@ -27,8 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from netcosim import validate
-from netcosim.plant import ContinuousSystem, HybridEvent
 from netcosim.errors import ConfigurationError
+from netcosim.plant import ContinuousSystem, HybridEvent
 
 from ..kinematic import KinematicPlant
 from .kinematics import MultiRobotSystem, SingularConfigurationError

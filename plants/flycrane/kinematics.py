@@ -23,15 +23,15 @@ from typing import Sequence
 import casadi as ca
 import numpy as np
 
-from ..casadi_tools import BufferedFunction
-from .attachments import GeometryError, OneCable, PlanarAgent, TwoCable
-from .rotations import euler_zyx, rot_2d
-
 from netcosim import validate
 from netcosim.errors import ConfigurationError
 
+from ..casadi_tools import BufferedFunction
+
 # the rank rule is the project's one rule, defined with the kinematic model
 from ..kinematic import SINGULAR_RTOL, SingularConfigurationError, check_singular_values, conditioning, pinv_solve
+from .attachments import GeometryError, OneCable, PlanarAgent, TwoCable
+from .rotations import euler_zyx, rot_2d
 
 __all__ = ["MultiRobotSystem", "MassProperties", "SingularConfigurationError", "ConfigurationDomainError",
            "plate_inertia", "SINGULAR_RTOL", "conditioning", "check_singular_values"]

@@ -77,6 +77,7 @@ def _velocity_tracking(alpha):
 
 def _kin_noise(std):
     import numpy as np
+
     from plants.flycrane.input_modes import KinematicPlant
     return KinematicPlant(_sys(), noise_std=std, rng=np.random.default_rng(0))
 

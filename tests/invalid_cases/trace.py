@@ -6,7 +6,6 @@ import tempfile
 from pathlib import Path
 
 from invalid_cases import Case
-
 from netcosim import Simulation
 from netcosim.errors import ConfigurationError, ConfigurationTypeError, TraceWriteError
 
