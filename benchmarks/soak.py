@@ -37,10 +37,10 @@ def _reset_peak() -> bool:
 
 
 def child(hours: float, memory: int | None = None) -> dict:
-    import netcosim.trace
+    import netcosim.recorder
     from benchmarks.memory import build
     if memory is not None:
-        netcosim.trace.DEFAULT_MEMORY = memory
+        netcosim.recorder.DEFAULT_MEMORY = memory
     sim = build("default")
     t0 = time.perf_counter()
     sim.run(hours * 3600.0)
@@ -85,7 +85,7 @@ if __name__ == "__main__":
     ap.add_argument("--child", metavar="HOURS", help=argparse.SUPPRESS)
     ap.add_argument("--hours", type=float, default=1.0, help="simulated hours (default 1)")
     ap.add_argument("--memory", type=int, default=None,
-                    help="in-memory bytes per keep-mode table instead of netcosim.trace.DEFAULT_MEMORY")
+                    help="in-memory bytes per keep-mode table instead of netcosim.recorder.DEFAULT_MEMORY")
     args = ap.parse_args()
     if args.child:
         print(json.dumps(child(float(args.child), args.memory)))

@@ -8,7 +8,7 @@ import os
 import pandas as pd
 import pytest
 
-import netcosim.trace as trace_mod
+import netcosim.recorder as trace_mod
 from benchmarks.memory import build
 from netcosim.columns import ColumnStore, _chunk_bytes
 from netcosim.errors import ConfigurationError

@@ -16,8 +16,8 @@ from typing import Any, Callable
 from .. import validate
 from ..clock import Rearmable, Timer
 from ..errors import ConfigurationError, ConfigurationTypeError, NotConnectedError
+from ..recorder import Sink
 from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
-from ..trace import Sink
 from .dispatcher import Dispatcher
 from .io import AnalogIn, AnalogOut
 from .policies import make_policy, own_choose

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, Callable
 
 if TYPE_CHECKING:
     from ..clock import Rearmable, Timer
-    from ..trace import Sink
+    from ..recorder import Sink
     from .policies import SchedulingPolicy
     from .ready import ReadyQueue
     from .releases import Releases

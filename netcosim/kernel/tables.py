@@ -13,14 +13,15 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..columns import categorical_from_codes
 from ..plot import TASK_STATES, plot_schedule
+from ..readback import categorical_from_codes
 from ..timebase import MAX_TICKS, TICKS_PER_SECOND
 
 if TYPE_CHECKING:  # pandas is imported on first use: a simulation does not need it
     import pandas as pd
 
-    from ..trace import Recorder, Trace
+    from ..recorder import Recorder
+    from ..trace import Trace
 
 __all__ = ["JOB_COLUMNS", "JOB_RAW", "SCHEDULE_RAW", "STATE_CODES", "TASK_STATES", "jobs_table", "register",
            "schedule_table"]

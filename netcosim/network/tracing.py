@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ..columns import ticks_as_seconds
+from ..readback import ticks_as_seconds
 from ..timebase import RESOLUTION
 
 FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "attempt", "outcome",
