@@ -16,7 +16,7 @@ from ..errors import ConfigurationError
 from ..timebase import to_ticks
 
 if TYPE_CHECKING:
-    from .node import Node
+    from .state import KernelState
     from .task import Task
 
 
@@ -24,7 +24,7 @@ class KernelTimer:
     """Releases a task at an absolute time ``at`` (s; now when None), then every ``period`` s if
     given (TrueTime's timers)."""
 
-    def __init__(self, node: Node, target: Task, at: float | None, period: float | None):
+    def __init__(self, node: KernelState, target: Task, at: float | None, period: float | None):
         self.node, self.target = node, target
         now = node.sim.env.now
         self._start = now if at is None else to_ticks(at, f"timer for {target.name!r} at")
@@ -54,7 +54,7 @@ class KernelTimer:
 class Trigger:
     """An external trigger edge source; ``fire()`` releases the target unless too soon."""
 
-    def __init__(self, node: Node, target: Task, min_interval: float):
+    def __init__(self, node: KernelState, target: Task, min_interval: float):
         self.node, self.target = node, target
         self._min = to_ticks(min_interval, f"trigger for {target.name!r} min_interval")
         self._last = None
