@@ -1,11 +1,13 @@
 """The layering of ``netcosim/``: no import cycle, and the framework knows nothing of
-the plants, controllers or experiments built on it.
+the plants, controllers or experiments built on it; no import cycle inside ``plants/``
+or ``controllers/`` either (each package read against itself).
 
 Imports are read from the source with :mod:`ast`, including those inside functions
-(a lazy import is still a dependency), except those under ``if TYPE_CHECKING:`` (type
-annotations only); a module name given as a literal to ``importlib.import_module`` counts
-too for the rule on the applications.  A package's ``__init__`` re-exporting its
-submodules is not counted as a dependency of those submodules on the package.
+(a lazy import is still a dependency) and those under ``if TYPE_CHECKING:`` (an
+annotation-only import is still a cycle for the reader and the type checker); a module
+name given as a literal to ``importlib.import_module`` counts too for the rule on the
+applications.  A package's ``__init__`` re-exporting its submodules is not counted as a
+dependency of those submodules on the package.
 """
 
 from __future__ import annotations
@@ -13,8 +15,14 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "netcosim"
+
+
+#: packages checked for cycles, each against itself
+CYCLE_FREE = (PKG, ROOT / "plants", ROOT / "controllers")
 
 
 def _module_name(path: Path) -> str:
@@ -25,15 +33,20 @@ def _module_name(path: Path) -> str:
     return ".".join(parts)
 
 
-def _imports(path: Path) -> set[str]:
-    """Absolute names of every module *path* imports (at module level or inside a function)."""
-    name = _module_name(path)
-    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+def _imports(path: Path, typing: bool = True) -> set[str]:
+    """Absolute names of every module *path* imports (at module level, inside a function,
+    and, unless ``typing=False``, under ``if TYPE_CHECKING:``)."""
+    return _imports_of(ast.parse(path.read_text(), str(path)), _module_name(path), path.name == "__init__.py",
+                       typing)
+
+
+def _imports_of(tree: ast.AST, name: str, is_package: bool = False, typing: bool = True) -> set[str]:
+    package = name if is_package else name.rpartition(".")[0]
     out: set[str] = set()
-    tree = ast.parse(path.read_text(), str(path))
-    typing_only = {id(n) for top in ast.walk(tree) if isinstance(top, ast.If)
-                   and isinstance(top.test, ast.Name) and top.test.id == "TYPE_CHECKING"
-                   for stmt in top.body for n in ast.walk(stmt)}
+    typing_only = set() if typing else {
+        id(n) for top in ast.walk(tree) if isinstance(top, ast.If)
+        and isinstance(top.test, ast.Name) and top.test.id == "TYPE_CHECKING"
+        for stmt in top.body for n in ast.walk(stmt)}
     for node in ast.walk(tree):
         if id(node) in typing_only:
             continue
@@ -51,11 +64,12 @@ def _imports(path: Path) -> set[str]:
     return out
 
 
-def _graph() -> dict[str, set[str]]:
-    modules = {_module_name(p): p for p in PKG.rglob("*.py")}
+def _graph(pkg: Path = PKG, typing: bool = True) -> dict[str, set[str]]:
+    """Module -> the modules of *pkg* it imports (``typing=False``: at run time only)."""
+    modules = {_module_name(p): p for p in pkg.rglob("*.py")}
     graph: dict[str, set[str]] = {}
     for name, path in modules.items():
-        deps = {d for d in _imports(path) if d in modules and d != name}
+        deps = {d for d in _imports(path, typing) if d in modules and d != name}
         if path.name != "__init__.py":
             # importing netcosim.x.y runs netcosim/__init__ and netcosim/x/__init__: not a real edge back
             deps = {d for d in deps if not name.startswith(d + ".")}
@@ -102,12 +116,36 @@ def test_the_graph_is_read_from_the_code():
     assert "netcosim.kernel.node" in g["netcosim.sim"]  # Simulation.node builds a Node (lazily)
 
 
-def test_no_import_cycle_in_netcosim():
-    assert _cycles(_graph()) == []
+#: cycles waiting for a file another change holds: lifecycle.py annotates with Interface
+#: under TYPE_CHECKING (to become a small Protocol there), interface.py builds an Attempt
+KNOWN_CYCLES = [["netcosim.network.interface", "netcosim.network.lifecycle"]]
+
+
+@pytest.mark.parametrize("pkg", CYCLE_FREE, ids=lambda p: p.name)
+def test_no_import_cycle(pkg):
+    assert [c for c in _cycles(_graph(pkg)) if c not in KNOWN_CYCLES] == []
+
+
+def test_the_other_packages_are_read_too():
+    assert "controllers.nmpc.ocp" in _graph(ROOT / "controllers")["controllers.nmpc.rti"]
+    assert _graph(ROOT / "plants")
 
 
 def test_the_cycle_detector_finds_a_cycle():
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == [["a", "b", "c"]]
+
+
+def test_a_cycle_through_type_checking_only_is_found():
+    a = ast.parse("from .b import g\n")
+    b = ast.parse("from typing import TYPE_CHECKING\n"
+                  "if TYPE_CHECKING:\n"
+                  "    from .a import F\n"
+                  "def g(f: F) -> None: ...\n")
+    modules = {"p.a": a, "p.b": b}
+    graph = {n: {d for d in _imports_of(t, n) if d in modules and d != n} for n, t in modules.items()}
+    assert graph == {"p.a": {"p.b"}, "p.b": {"p.a"}}
+    assert _cycles(graph) == [["p.a", "p.b"]]
+    assert _imports_of(b, "p.b", typing=False) == {"typing", "typing.TYPE_CHECKING"}
 
 
 APPLICATIONS = ("plants", "controllers", "experiments")
@@ -164,7 +202,8 @@ def test_the_string_import_detector_finds_one():
 
 
 def test_the_trace_does_not_know_the_kernel():
-    # the kernel registers its tables (netcosim.kernel.tables) with the Trace, as the networks do
+    # the kernel registers its tables (netcosim.kernel.tables) with the Trace, as the networks do;
+    # the tables annotate with Trace (TYPE_CHECKING) but get it handed in at run time
     g = _graph()
     assert not {d for d in g["netcosim.trace"] if d.startswith(("netcosim.kernel", "netcosim.network"))}
-    assert "netcosim.trace" not in g["netcosim.kernel.tables"]
+    assert "netcosim.trace" not in _graph(typing=False)["netcosim.kernel.tables"]

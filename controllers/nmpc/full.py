@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import casadi as ca
 import numpy as np
 
-if TYPE_CHECKING:
-    from .rti import RTINMPC
+from .transcription import _Transcription
 
 __all__ = ["FullSolution", "IpoptOCP"]
 
@@ -37,6 +36,20 @@ class FullSolution:
     t_wall: float
 
 
+class _Iterate(Protocol):
+    """What :class:`IpoptOCP` reads of its :class:`~controllers.nmpc.rti.RTINMPC` (so this
+    module need not import ``rti.py``, which imports it): the transcription, the current
+    iterate and parameters, and the checks of ``x0`` and ``p``."""
+
+    tr: _Transcription
+    _w: np.ndarray
+    _p: np.ndarray
+
+    def _check_x(self, x0, what: str = ...) -> np.ndarray: ...
+
+    def _check_p(self, p) -> np.ndarray: ...
+
+
 class IpoptOCP:
     """Full IPOPT solve of the multiple-shooting NLP of an :class:`RTINMPC`.
 
@@ -44,7 +57,7 @@ class IpoptOCP:
     Lagrangian.  Warm-started from the previous solution when called repeatedly.
     """
 
-    def __init__(self, rti: RTINMPC, options: dict | None = None):
+    def __init__(self, rti: _Iterate, options: dict | None = None):
         tr = rti.tr
         self.rti = rti
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": 1e-10,
