@@ -4,7 +4,7 @@ is drawn in one named hook, ``Network.frame_lost``."""
 import pytest
 
 from netcosim import Simulation
-from netcosim.network import BROADCAST, IdealLink, SlottedAloha, WLAN80211b
+from netcosim.network import BROADCAST, IdealLink, SlottedAloha, SwitchedEthernet, WLAN80211b
 from netcosim.network.lifecycle import Attempt, MacOrderError
 
 
@@ -41,6 +41,8 @@ def test_the_steps_in_order_deliver_and_count():
     (("drop",), "drop of"),
     (("begin",), "begin_attempt of"),
     (("resume",), "resume of"),
+    (("requeue",), "requeue of"),
+    (("end", "requeue"), "requeue of"),
 ])
 def test_a_step_out_of_order_raises_before_any_bookkeeping(steps, message):
     sim, net, a, b, f = _in_service()
@@ -74,6 +76,32 @@ def test_a_failed_attempt_may_be_retried_then_dropped():
     assert net.stats["total"]["frame_attempts"] == 2
 
 
+def test_a_failed_attempt_may_be_requeued_at_the_head_of_the_queue():
+    sim, net, a, b, f = _in_service()
+    a.send(b, None, 100)                    # a second frame behind f
+    att = net.begin_attempt(a, f)
+    att.end("switch_full")
+    att.requeue()
+    assert att.state == "idle" and a.current is None and a.sending == 0
+    assert a.stats["sent"] == 0 and a.stats["dropped"] == 0
+    assert net._next_frame(a) is f          # f first again, then retried
+    net.begin_attempt(a, f).end()
+    assert f.attempts == 2
+
+
+def test_switched_ethernet_carrier_is_the_uplinks_alone():
+    sim = Simulation(seed=0)
+    net = SwitchedEthernet(sim, "sw", data_rate=1e6)
+    a, b = net.attach("a"), net.attach("b")
+    seen = []
+    net._at_switch, at_switch = (lambda f: (seen.append((a.sending, b.receiving, a.attempt.state)),
+                                            at_switch(f))), net._at_switch
+    sim.call_at(0.0, lambda: a.send(b, None, 1000))
+    sim.run(0.1)
+    assert seen == [(1, 0, "on")]           # on the uplink: b receives only from its switch port
+    assert a.attempt.state == "idle" and b.stats["received"] == 1 and b.receiving == 0
+
+
 class _Deaf:
     """Mixin: every frame lost, decided in the one hook."""
 
@@ -93,10 +121,15 @@ class DeafWLAN(_Deaf, WLAN80211b):
     pass
 
 
+class DeafSwitch(_Deaf, SwitchedEthernet):
+    pass
+
+
 @pytest.mark.parametrize("make", [
     lambda sim: DeafLink(sim, "n", loss=0.0),
     lambda sim: DeafAloha(sim, "n", slot_time=1e-3),
     lambda sim: DeafWLAN(sim, "n", retry_limit=2),
+    lambda sim: DeafSwitch(sim, "n", switch_delay=1e-5),
 ])
 @pytest.mark.parametrize("broadcast", [False, True])
 def test_frame_lost_is_the_one_place_frame_loss_is_drawn(make, broadcast):

@@ -10,7 +10,12 @@ interface's :class:`Attempt` (``iface.attempt``, one per interface, reused)::
         a.deliver(rx), a.deliver_all()       OK only: loss drawn (:meth:`frame_lost`), delivery
     a.finish(restart=True)                   OK -> IDLE: sent; stats, ``on_done``, queue served
     a.drop(reason, restart=True)             OK/FAILED -> IDLE: ``lost`` row, dropped, ``on_done``
+    a.requeue()                              FAILED -> IDLE: the frame back at the head of the queue
     (after FAILED: net.begin_attempt(iface, f) again for a retry)
+
+On a network with ``carrier_reaches_receivers = False`` (a full-duplex uplink: the
+switched Ethernet, whose output ports make the receivers ``receiving``), the carrier of
+an attempt is the sender's alone.
 
 A call out of this order (``end`` twice, ``deliver`` after a collision, ``finish`` of a
 failed attempt, a new attempt while one is on the medium) raises :class:`MacOrderError`
@@ -69,9 +74,10 @@ class Attempt:
             self._order("end", "after begin_attempt (state 'on')")
         net, iface, frame = self.net, self.iface, self.frame
         iface.sending = 0
-        for r in net.receivers(frame):
-            r.receiving -= 1
-            r._state()
+        if net.carrier_reaches_receivers:
+            for r in net.receivers(frame):
+                r.receiving -= 1
+                r._state()
         if net._trace_on:
             net._rows.append((net._env.now, net.name, frame.id, "attempt_end", frame.src.name, frame.dname,
                               iface.name, frame.attempts,
@@ -137,6 +143,18 @@ class Attempt:
         if restart:
             net._restart(iface)
 
+    def requeue(self) -> None:
+        """After a failed :meth:`end`, the sender takes the frame out of service and puts it
+        back at the head of its queue, to try it again later (a switch that refused it).  No
+        ``on_done``, no restart: the MAC serves the queue again itself."""
+        if self.state is not FAILED:
+            self._order("requeue", "after a failed end()")
+        iface, frame = self.iface, self.frame
+        self.state, self.frame = IDLE, None
+        iface.current = None
+        iface.queue.push_front(frame)
+        iface._state()
+
     def __repr__(self) -> str:
         return f"<Attempt {self.iface.name} {self.state} {self.frame!r}>"
 
@@ -147,6 +165,9 @@ class FrameLifecycle:
     #: the ``network_schedule`` rows at carrier on list the receivers before the sender
     #: (the ideal link's historic order)
     receivers_first = False
+    #: the carrier of an attempt makes the frame's receivers ``receiving`` (a shared medium
+    #: or link); False: only the sender is ``sending`` (a full-duplex uplink to a switch)
+    carrier_reaches_receivers = True
 
     if TYPE_CHECKING:       # provided by Network
         sim: Any
@@ -184,9 +205,10 @@ class FrameLifecycle:
         iface.sending = 1
         if not self.receivers_first:
             iface._state()
-        for r in self.receivers(frame):
-            r.receiving += 1
-            r._state()
+        if self.carrier_reaches_receivers:
+            for r in self.receivers(frame):
+                r.receiving += 1
+                r._state()
         if self.receivers_first:
             iface._state()
         return a
@@ -256,11 +278,6 @@ class FrameLifecycle:
         # the invariant of the life cycle: a MAC works on the frame in service at the interface
         raise RuntimeError(f"network {self.name!r} ({type(self).__name__}): {iface.name!r} {what} {frame!r}, "
                            f"but the frame in service there is {iface.current!r}")
-
-    def _drop(self, iface: Interface, frame: Frame, reason: str, restart: bool = True) -> None:
-        """The sender gives *frame* up (``lost`` with *reason* at the sender) and is done with it."""
-        self._lost(frame, iface, reason)
-        self._done(iface, frame, False, restart)
 
     # helpers for MACs ---------------------------------------------------------
     def _trace(self, event: str, frame: Frame, node: str, outcome: str = "", bits=_NAN, backoff=_NAN) -> None:

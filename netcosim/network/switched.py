@@ -39,9 +39,15 @@ class SwitchPort:
 class SwitchedEthernet(Network):
     """Star topology around a store-and-forward switch.  See the module docstring.
 
+    On the MAC seam (:class:`~netcosim.network.lifecycle.Attempt`): an attempt is the
+    frame's trip over the uplink (its carrier the sender's alone); it ends when the switch
+    has it, finished (stored), dropped (``queue_overflow``) or requeued (``switch_full``).
+
     ``data_rate`` (each link) in bit/s; ``min_frame_bits`` and ``switch_memory_bits`` (None:
     unbounded) in bits; ``switch_delay`` in s.
     """
+
+    carrier_reaches_receivers = False   # full duplex: the output ports make the receivers receiving
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, min_frame_bits: int = 512,
                  switch_memory_bits: int | None = None, buffer: str = "shared", overflow: str = "drop",
@@ -73,9 +79,7 @@ class SwitchedEthernet(Network):
     def _kick(self, iface):
         f = self._next_frame(iface)
         if f is not None:
-            self._attempt_start(iface, f)
-            iface.sending = 1
-            iface._state()
+            self.begin_attempt(iface, f)        # the carrier is the uplink's alone
             self.sim.call_in_ticks(self.duration(f.bits), self._at_switch, arg=f)
 
     def _fits(self, f, outs) -> bool:
@@ -89,27 +93,24 @@ class SwitchedEthernet(Network):
 
     def _at_switch(self, f):
         src = f.src
-        src.sending = 0
+        a = src.attempt
         outs = self.receivers(f)
         if not self._fits(f, outs):
             if self.overflow == "retransmit":
-                self._attempt_end(src, f, "switch_full")
-                src.current = None
-                src.queue.push_front(f)
-                src._state()
+                a.end("switch_full")
+                a.requeue()
                 self._kick(src)
                 return
-            self._attempt_end(src, f)
-            self._lost(f, "switch", "queue_overflow")
-            self._done(src, f, False)
+            a.end()                             # sent on the uplink, dropped in the switch
+            a.drop("queue_overflow", where="switch")
             return
-        self._attempt_end(src, f)
+        a.end()
         for o in outs:
             o.mac.used += f.bits
         self.memory_used += f.bits * len(outs)
         self.memory_peak = max(self.memory_peak, self.memory_used)
         f.holds += len(outs)        # the copies in the switch keep the message's fate open (stats)
-        self._done(src, f, True, restart=False)
+        a.finish(restart=False)
         if self._switch_delay:
             self.sim.call_in_ticks(self._switch_delay, self._forward, arg=(f, outs))
         else:
@@ -138,7 +139,7 @@ class SwitchedEthernet(Network):
         port.used -= f.bits
         self.memory_used -= f.bits
         o._state()
-        self._deliver(f, o)
+        self._deliver(f, o)     # the switch's copy: loss drawn, hand-over (the sender is done)
         self._let_go(f)
         if port.queue._q:
             self._port_start(o)
