@@ -169,7 +169,7 @@ class ColumnStore:
                 offset = f.seek(0, 2)
                 f.write(data)
                 n = sum(k for k, _ in run)
-                sig = [set() for _ in range(self.ncols)]
+                sig: list[set[str]] = [set() for _ in range(self.ncols)]  # codec names per column
                 for _, (_, cols) in run:
                     for c, (codec, _) in enumerate(cols):
                         sig[c].add(codec)

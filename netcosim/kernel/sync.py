@@ -21,7 +21,7 @@ from typing import Any
 
 from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
-from .task import Blocking
+from .task import Blocking, Job
 
 
 def _check_name(kind: str, name) -> str:
@@ -180,7 +180,7 @@ class Monitor:
         _check_name("monitor", name)
         validate.boolean(inheritance, f"monitor {name!r}: inheritance")
         self.name, self.inheritance = name, inheritance
-        self.holder = None
+        self.holder: Job | None = None
         self.waiters: list = []
 
     def enter(self) -> Blocking:
@@ -222,9 +222,10 @@ class Monitor:
             raise RuntimeError(f"monitor {self.name!r} exited while not held")
         self._release_by(self.holder)
 
-    def _release_by(self, job):
+    def _release_by(self, job: Job) -> None:
         if self.holder is not job:
             return
+        assert job.held, "the holder's held list names this monitor"
         job.held.remove(self)
         self.holder = None
         job.node._reprioritise(job)
@@ -261,7 +262,7 @@ class ConditionVariable:
         """
         return _Op(self, "wait")
 
-    def _try_wait(self, job, op):
+    def _try_wait(self, job: Job, op) -> bool:
         if self.monitor is not None:
             if self.monitor.holder is not job:
                 raise RuntimeError(f"task {job.task.name!r} waits on event {self.name!r} without holding "

@@ -102,7 +102,7 @@ class Job:
         self.killed = False
         self.missed = False
         self.budget_overrun = False
-        self.held: tuple | list = ()  # monitors held (a list once the job enters one)
+        self.held: list | tuple[()] = ()  # monitors held (a list once the job enters one)
 
     gen: Any            # the body's generator (set on activation)
     seq: int            # activation order on the node (FIFO among equal keys)

@@ -114,7 +114,7 @@ class Frame:
         self.created = created
         self.queued = None
         self.sent = None
-        self.remaining = None     # ticks of transmission left (TDMA suspension)
+        self.remaining: int | None = None  # ticks of transmission left (TDMA suspension)
         # message/frame loss bookkeeping (netcosim.network.stats):
         self.holds = 1            # who still works on it: the sender, pending hand-overs, switch copies
         self.lstats: dict = {}    # receiver index -> LinkStats, for the receivers the message goes to

@@ -291,14 +291,14 @@ class AnyLoss(LossModel):
         models = tuple(models)
         if not models:
             raise ConfigurationError("AnyLoss needs at least one loss model, got an empty list")
-        self.models = tuple(as_loss_model(m) for m in models)
-        for m, given in zip(self.models, models):
+        converted = tuple(as_loss_model(m) for m in models)
+        for m, given in zip(converted, models):
             if m is None and given is not None:
                 continue                       # a probability of 0: never loses
             if m is None:
                 raise ConfigurationTypeError(f"AnyLoss: each entry must be a probability or a LossModel, "
                                              f"got {given!r}")
-        self.models = tuple(m for m in self.models if m is not None)
+        self.models: tuple[LossModel, ...] = tuple(m for m in converted if m is not None)
 
     def link(self, rng):
         # independent child streams, derived deterministically from the link stream

@@ -44,7 +44,7 @@ class Transmission:
     def __init__(self, src, kind, frame, dst, start, end, plcp_end, mod):
         self.src, self.kind, self.frame, self.dst = src, kind, frame, dst
         self.start, self.end, self.plcp_end, self.mod = start, end, plcp_end, mod
-        self.powers = None
+        self.powers: list[float] | None = None  # received power per station (W), set by Medium.start
         self.fail = {}            # listener index -> reason it could not decode
         self.dst_reason = None    # why the (unicast) destination failed
         self.acked = False        # the destination decoded it and answers with an ACK
@@ -268,6 +268,7 @@ class WirelessMedium:
         self.active.remove(tx)
         src = tx.src
         powers = tx.powers
+        assert powers is not None, "set by start(tx)"
         mac = self.mac
         for r in mac._stations:
             if r is src:

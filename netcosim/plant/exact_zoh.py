@@ -204,4 +204,6 @@ class _ExactZOHStepper:
             self._cache.move_to_end(ticks)
             self.owner.cache_hits += 1
             Phi, Gamma = pair
-        return t1, Phi.dot(x0) + Gamma.dot(self._plant().u), None
+        plant = self._plant()
+        assert plant is not None, "a stepper is only called by its (live) plant"
+        return t1, Phi.dot(x0) + Gamma.dot(plant.u), None

@@ -147,7 +147,8 @@ class PlantInstance:
                                 or type(stepper) is _RK4Stepper)
         #: how this plant's signals are sampled (also in ``sim.trace.grids``)
         self.log_grid = (f"log_interval {_seconds_text(log_interval)}" if log_interval is not None
-                         else "none" if log == "none" else
+                         # without log_interval, the default grid is on exactly when log="io"
+                         else "none" if self._grid is None else
                          f"default grid {_seconds_text(self._grid / TICKS_PER_SECOND)} until the first read or "
                          f"write, then read/write instants")
         grids = getattr(sim.trace, "grids", None)

@@ -74,11 +74,11 @@ class RK4:
         fired guard or None)``.
         """
         t, x = t0, x0
-        gvals = [g(t, x) for g, _ in gs] if gs else None
+        gvals = [g(t, x) for g, _ in gs] if gs else None  # guard values at the step's start
         for tn in self._instants(t0, t1):
             h = tn - t
             xn = self.step(rhs, t, x, h)
-            if gs:
+            if gvals is not None:  # i.e. there are guards
                 for j, (g, d) in enumerate(gs):
                     g1 = g(tn, xn)
                     if crossed(gvals[j], g1, d):
@@ -177,6 +177,7 @@ class _RK4Stepper:
             return owner.integrate(rhs, t0, x0, t1, gs)
         dt = owner.dt
         plant = self._plant()
+        assert plant is not None, "a stepper is only called by its (live) plant"
         u = plant.u if plant.disturbance is None else None  # held: read once per advance
         deriv = self._deriv
         t, x = t0, x0.tolist()
