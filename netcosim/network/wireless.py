@@ -109,7 +109,9 @@ class RadioNetwork(Network):
     :class:`~netcosim.network.radio.PathLoss`, default log-distance with exponent 3),
     ``tx_power_dbm``, ``threshold_dbm`` (receiver sensitivity, and carrier sense unless
     ``cs_threshold_dbm`` is given), ``capture_db`` (finite, >= 0), ``noise_dbm`` (default
-    the thermal noise of the subclass's channel, :meth:`default_noise_dbm`).
+    the thermal noise of the subclass's channel, :meth:`default_noise_dbm`).  ``loss``
+    (the frame loss model, as :class:`Network`'s) is drawn at the destination before it
+    acknowledges (:meth:`frame_lost`).
 
     Each subclass sets the ACK/retry parameters the shared code reads: ``use_ack``,
     ``max_attempts`` (attempts per frame), ``ack_bits``, and in ticks ``ack_time`` (ACK on
@@ -130,8 +132,8 @@ class RadioNetwork(Network):
 
     def __init__(self, sim, name, *, path_loss: PathLoss | None = None, tx_power_dbm: float,
                  threshold_dbm: float, cs_threshold_dbm: float | None = None, capture_db: float = 10.0,
-                 noise_dbm: float | None = None, **kw):
-        super().__init__(sim, name, **kw)
+                 noise_dbm: float | None = None, loss: Any = None, **kw):
+        super().__init__(sim, name, loss=loss, **kw)
         w = f"network {name!r}"
         self._stations: list[RadioStation] = []
         if path_loss is None:

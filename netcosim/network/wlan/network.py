@@ -68,6 +68,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from typing import Any
 
 from ... import validate
 from ...errors import ConfigurationError, ConfigurationTypeError
@@ -162,10 +163,10 @@ class WLAN80211b(RadioNetwork):
                  mac_overhead_bits: int = 224, ack_bits: int = 112, max_frame_bits: int | None = 2312 * 8,
                  path_loss: PathLoss | None = None, tx_power_dbm: float = 15.0, threshold_dbm: float = -85.0,
                  cs_threshold_dbm: float | None = None, capture_db: float = 10.0, noise_dbm: float | None = None,
-                 modulation: str = "auto", shared_clock: bool = True, **kw):
+                 modulation: str = "auto", shared_clock: bool = True, loss: Any = None, **kw):
         super().__init__(sim, name, data_rate=data_rate, max_frame_bits=max_frame_bits, path_loss=path_loss,
                          tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm, cs_threshold_dbm=cs_threshold_dbm,
-                         capture_db=capture_db, noise_dbm=noise_dbm, **kw)
+                         capture_db=capture_db, noise_dbm=noise_dbm, loss=loss, **kw)
         w = f"network {name!r}"
         if self.max_frame_bits is not None and self.max_frame_bits / self.data_rate > MAX_FRAME_SECONDS:
             raise ConfigurationError(
