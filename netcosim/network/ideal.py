@@ -12,8 +12,6 @@ transmission and delivery.  Timing of a frame: ``queue wait + bits / data_rate +
 
 from __future__ import annotations
 
-from typing import cast
-
 from .. import validate
 from ..errors import ConfigurationError
 from .base import Attempt, Network
@@ -76,8 +74,8 @@ class FDMA(IdealLink):
                                      f"share, got share=None")
         share = validate.real(share, f"network {self.name!r} (FDMA): share of {name!r}", lo=0.0, hi=1.0,
                               lo_open=True, kind="a fraction of the bandwidth in (0, 1]")
-        # every station of an FDMA network is the FdmaStation this hook made (Interface.mac is untyped)
-        total = sum(cast(FdmaStation, i.mac).share for i in self._ifaces) + share
+        # every station of an FDMA network is the FdmaStation this hook made
+        total = sum(i.mac.share for i in self._ifaces) + share
         if total > 1 + 1e-12:
             raise ConfigurationError(f"network {self.name!r} (FDMA): shares would sum to {total:g} > 1 with {name!r}")
         return FdmaStation(share)

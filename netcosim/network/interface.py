@@ -114,7 +114,7 @@ class Interface:
         self._row_t = -1        # tick of this interface's last network-schedule row, and the row
         self._row: tuple | None = None
         self._seq = 0
-        self.mac = None         # the MAC's per-station state (see Network._station)
+        self.mac: Any = None    # the MAC's per-station state (see Network._station)
         #: frames ``sent`` (or acknowledged) and ``dropped`` by this sender, messages ``received``
         self.stats = {"sent": 0, "dropped": 0, "received": 0}
 

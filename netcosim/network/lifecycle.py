@@ -31,14 +31,31 @@ hand-over to the receivers.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from ..kernel.task import Task
 from ..timebase import RESOLUTION
 from .frame import BROADCAST, Frame
 
-if TYPE_CHECKING:
-    from .interface import Interface
+
+class Interface(Protocol):
+    """What the life cycle reads and sets on a network interface
+    (:class:`netcosim.network.interface.Interface`, which builds this module's
+    :class:`Attempt`: a protocol here keeps the import one way)."""
+
+    name: str
+    index: int
+    current: Any            # the frame in service, or None
+    sending: Any
+    receiving: Any
+    queue: Any
+    attempt: Any
+    use_mailbox: bool
+    mailbox: Any
+    handlers: Any
+    stats: Any
+
+    def _state(self) -> None: ...
 
 _NAN = math.nan
 
@@ -181,7 +198,7 @@ class FrameLifecycle:
         _prop: int
 
         def receivers(self, frame: Frame) -> Any: ...
-        def _restart(self, iface: Interface) -> None: ...
+        def _restart(self, iface: Any) -> None: ...   # a Network's interface
 
     def begin_attempt(self, iface: Interface, frame: Frame, bits=None, backoff=_NAN) -> Attempt:
         """A new attempt of *frame* (in service at *iface*) starts now: counted, traced

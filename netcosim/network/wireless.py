@@ -190,7 +190,7 @@ class RadioNetwork(Network):
 
     def station(self, node) -> RadioStation:
         """The radio station (MAC state) of *node* (name, kernel node or interface)."""
-        return self.interface(node).mac  # type: ignore[return-value]  # set by _station at attach
+        return self.interface(node).mac     # set by _station at attach
 
     def position(self, node, t: float | None = None):
         """Position of *node* at time *t* (s; default now)."""
