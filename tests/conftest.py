@@ -138,3 +138,18 @@ def frame_from_tuples(rec):
     ref._buf = list(rec._buf)
     ref.providers = rec.providers
     return ref.frame()
+
+
+def lossy_link():
+    """A finished run: IdealLink a -> b at 1 Mbit/s losing half the frames (seed 3), a 300-bit
+    frame every ms for 10 ms, run to 20 ms."""
+    from netcosim import Simulation
+    from netcosim.network import IdealLink
+    sim = Simulation(seed=3)
+    net = IdealLink(sim, "link", data_rate=1e6, loss=0.5)
+    a = net.attach("a")
+    net.attach("b")
+    for k in range(10):
+        sim.call_at(k * 1e-3, lambda: a.send("b", None, 300))
+    sim.run(0.02)
+    return sim

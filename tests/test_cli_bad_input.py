@@ -159,16 +159,8 @@ def _schedule_frame(**columns) -> pd.DataFrame:
 
 def _network_trace(directory):
     """A small simulated network trace (IdealLink a -> b, half the frames lost) written by to_parquet."""
-    from netcosim import Simulation
-    from netcosim.network import IdealLink
-    sim = Simulation(seed=3)
-    net = IdealLink(sim, "link", data_rate=1e6, loss=0.5)
-    a = net.attach("a")
-    net.attach("b")
-    for k in range(10):
-        sim.call_at(k * 1e-3, lambda: a.send("b", None, 300))
-    sim.run(0.02)
-    sim.trace.to_parquet(directory)
+    from conftest import lossy_link
+    lossy_link().trace.to_parquet(directory)
     return directory / "network_schedule.parquet"
 
 

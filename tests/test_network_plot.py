@@ -6,9 +6,10 @@ matplotlib.use("Agg")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+from conftest import lossy_link  # noqa: E402
 
 from netcosim import Simulation  # noqa: E402
-from netcosim.network import NETWORK_STATES, IdealLink, WLAN80211b  # noqa: E402
+from netcosim.network import NETWORK_STATES, WLAN80211b  # noqa: E402
 from netcosim.network.plot import LOST_LABEL, RETRANSMISSION_LABEL, plot_network_schedule  # noqa: E402
 
 
@@ -17,20 +18,10 @@ def test_levels_put_idle_lowest_and_sending_highest():
     assert NETWORK_STATES["idle"] == 0.0 and NETWORK_STATES["sending"] < 1.0
 
 
-def _lossy_link():
-    sim = Simulation(seed=3)
-    net = IdealLink(sim, "link", data_rate=1e6, loss=0.5)
-    a = net.attach("a")
-    net.attach("b")
-    for k in range(10):
-        sim.call_at(k * 1e-3, lambda: a.send("b", None, 300))
-    sim.run(0.02)
-    return sim
-
 
 def test_staircase_levels_of_a_known_schedule():
     # a sends 300 bits at 1 Mbit/s every ms: sending for 300 us, idle otherwise; b receives
-    sim = _lossy_link()
+    sim = lossy_link()
     ax = plot_network_schedule(sim.trace.frame("network_schedule"), t_range=(0.0, 0.0095))
     b_line, a_line = ax.get_lines()[:2]          # drawn bottom row first: b (row 0), a (row 1)
     x, y = a_line.get_data()
@@ -43,7 +34,7 @@ def test_staircase_levels_of_a_known_schedule():
 
 
 def test_legend_names_every_state_and_marker():
-    sim = _lossy_link()
+    sim = lossy_link()
     ax = plot_network_schedule(sim.trace.frame("network_schedule"), frames=sim.trace.frame("frames"))
     texts = [t.get_text() for t in ax.get_legend().get_texts()]
     assert texts == ["sending", "waiting", "receiving", "idle (baseline)", LOST_LABEL, RETRANSMISSION_LABEL]
@@ -58,7 +49,7 @@ def _marker(ax, label):
 
 
 def test_one_marker_per_lost_frame_in_the_window():
-    sim = _lossy_link()
+    sim = lossy_link()
     frames = sim.trace.frame("frames")
     lost = frames[frames["event"] == "lost"]
     assert 2 <= len(lost) <= 8                       # 10 frames at loss 0.5 (seed 3)
@@ -93,7 +84,7 @@ def test_retransmissions_are_marked_on_the_sender_row():
 
 
 def test_several_networks_need_a_name():
-    sim = _lossy_link()
+    sim = lossy_link()
     df = sim.trace.frame("network_schedule")
     df2 = df.copy()
     df2["network"] = "other"

@@ -7,7 +7,7 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
-from test_network_plot import _lossy_link  # noqa: E402
+from conftest import lossy_link as _lossy_link  # noqa: E402
 
 from netcosim import Simulation  # noqa: E402
 from netcosim.errors import ConfigurationError  # noqa: E402
