@@ -156,7 +156,13 @@ class ColumnStore:
         A chunk of plain values (numbers, None, coded strings) is spilled; one holding
         arbitrary objects (``obj`` columns, ``rows`` chunks) stays in memory, so that
         every value read back is the very object appended.  The category tables stay in
-        memory: a code read back from the file names the same object."""
+        memory: a code read back from the file names the same object.
+
+        A segment is written column by column: each run of consecutive chunks whose
+        columns have the same codecs and buffer types becomes one chunk of all their
+        rows, each column's buffers joined and written raw, after a small header (the
+        rows and codecs of each such chunk).  No object graph is pickled: a write costs
+        about a copy of its bytes."""
         if self._file is None:
             self._file = tempfile.TemporaryFile(prefix="netcosim-trace-")  # deleted when closed
         f = self._file
@@ -165,15 +171,36 @@ class ColumnStore:
 
         def write_run():
             if run:
-                data = pickle.dumps(run, protocol=pickle.HIGHEST_PROTOCOL)
+                groups: list[list] = []   # [rows, layout, columns of each chunk]
+                for n, (_, cols) in run:
+                    layout = tuple([(codec, _buffer_type(codec, v)) for codec, v in cols])
+                    if groups and groups[-1][1] == layout:
+                        g = groups[-1]
+                        g[0] += n
+                        g[2].append(cols)
+                    else:
+                        groups.append([n, layout, [cols]])
+                shared: dict = {}         # one tuple per distinct layout: the header pickles it once
+                header = pickle.dumps([(n, shared.setdefault(layout, layout)) for n, layout, _ in groups],
+                                      protocol=pickle.HIGHEST_PROTOCOL)
                 offset = f.seek(0, 2)
-                f.write(data)
-                n = sum(k for k, _ in run)
+                f.write(header)
+                for _, layout, chunks in groups:
+                    for c, (codec, _) in enumerate(layout):
+                        if codec == "none":
+                            continue
+                        if codec in _TAGGED:
+                            f.write(_joined([cols[c][1][0] for cols in chunks]))
+                            f.write(_joined([cols[c][1][1] for cols in chunks]))
+                        else:
+                            f.write(_joined([cols[c][1] for cols in chunks]))
+                n = sum(g[0] for g in groups)
                 sig: list[set[str]] = [set() for _ in range(self.ncols)]  # codec names per column
-                for _, (_, cols) in run:
-                    for c, (codec, _) in enumerate(cols):
+                for layout in shared:
+                    for c, (codec, _) in enumerate(layout):
                         sig[c].add(codec)
-                out.append((n, ("spill", (offset, len(data), tuple(frozenset(x) for x in sig)))))
+                out.append((n, ("spill", (offset, f.tell() - offset, tuple(frozenset(x) for x in sig),
+                                          len(header)))))
                 self._spilled += n
                 run.clear()
         for entry in self._chunks[:-1]:
@@ -192,14 +219,34 @@ class ColumnStore:
         self.spills += 1
 
     def _load(self, ref) -> list[tuple[int, Any]]:
-        """The chunks of the spilled segment *ref*."""
-        offset, length, _ = ref
+        """The chunks of the spilled segment *ref* (each a run of the chunks spilled, as
+        one chunk of all their rows)."""
+        offset, _, _, header = ref
         f = self._file
         f.seek(offset)
-        return pickle.loads(f.read(length))
+        chunks: list[tuple[int, Any]] = []
+        for n, layout in pickle.loads(f.read(header)):
+            cols: list = []
+            for codec, typecode in layout:
+                if codec == "none":
+                    cols.append((codec, None))
+                elif codec in _TAGGED:
+                    tags = f.read(n)
+                    vals = array(typecode)
+                    vals.fromfile(f, n)
+                    cols.append((codec, (tags, vals)))
+                elif typecode:
+                    a = array(typecode)
+                    a.fromfile(f, n)
+                    cols.append((codec, a))
+                else:
+                    cols.append((codec, f.read(n)))
+            chunks.append((n, ("cols", cols)))
+        return chunks
 
     def _chunks_in_order(self) -> Iterator[tuple[int, Any]]:
-        """Every encoded chunk, oldest first, spilled segments loaded one at a time."""
+        """Every encoded chunk, oldest first, spilled segments loaded one at a time (a
+        spilled chunk may hold any number of rows)."""
         for n, chunk in self._chunks:
             if chunk[0] == "spill":
                 yield from self._load(chunk[1])
@@ -319,8 +366,14 @@ class ColumnStore:
         return self._n + len(self._tail)
 
     def __iter__(self) -> Iterator[tuple]:
+        k = self.chunk_rows
         for n, chunk in self._chunks_in_order():
-            yield from self._decode(n, chunk)
+            if n <= k:
+                yield from self._decode(n, chunk)
+            else:   # a spilled run of chunks: decoded a chunk's rows at a time
+                for a in range(0, n, k):
+                    b = min(a + k, n)
+                    yield from self._decode(b - a, _piece(chunk, a, b))
         yield from list(self._tail)
 
     def __getitem__(self, i: int) -> tuple:
@@ -338,7 +391,7 @@ class ColumnStore:
                 if chunk[0] == "spill":
                     for k2, c2 in self._load(chunk[1]):
                         if i < k2:
-                            return self._decode(k2, c2)[i]
+                            return self._decode(1, _piece(c2, i, i + 1))[0]
                         i -= k2
                 return self._decode(k, chunk)[i]
             i -= k
@@ -536,6 +589,35 @@ def _small_int(n: int):
     """The smallest unsigned numpy integer type holding codes ``0 .. n - 1``."""
     import numpy as np
     return np.uint8 if n <= 0x100 else np.uint16 if n <= 0x10000 else np.uint32
+
+
+def _buffer_type(codec: str, v) -> str:
+    """The type of an encoded column's buffer: an array's typecode, ``""`` for bytes
+    (or no buffer, codec ``none``); of the values for a tagged codec."""
+    if codec in _TAGGED:
+        return v[1].typecode
+    return v.typecode if type(v) is array else ""
+
+
+def _joined(buffers: list):
+    """The buffers (bytes or arrays) as one bytes-like object, to write."""
+    return buffers[0] if len(buffers) == 1 else b"".join(buffers)
+
+
+def _piece(chunk, a: int, b: int):
+    """Rows *a* to *b* (excluded) of an encoded chunk, as a chunk."""
+    kind, data = chunk
+    if kind != "cols":
+        return (kind, data[a:b])
+    cols: list = []
+    for codec, v in data:
+        if codec == "none":
+            cols.append((codec, None))
+        elif codec in _TAGGED:
+            cols.append((codec, (v[0][a:b], v[1][a:b])))
+        else:
+            cols.append((codec, v[a:b]))
+    return ("cols", cols)
 
 
 def _chunk_bytes(chunk) -> int:
