@@ -22,6 +22,7 @@ from netcosim.network import (
 from netcosim.network.ethernet import EthernetStation
 from netcosim.network.frame import Frame
 from netcosim.network.ideal import FdmaStation
+from netcosim.network.lifecycle import MacOrderError
 from netcosim.network.lrwpan import CsmaCaStation
 from netcosim.network.switched import SwitchPort
 from netcosim.network.tdma import TdmaStation
@@ -85,15 +86,14 @@ class Instant(Network):
     def _kick(self, iface):
         f = self._next_frame(iface)
         if f is not None:
-            self._attempt_start(iface, f)
-            self._carrier_on(iface, f)
+            self.begin_attempt(iface, f)
             self.sim.call_in_ticks(self.duration(f.bits), self._end, arg=f)
 
     def _end(self, f):
-        self._carrier_off(f.src, f)
-        self._attempt_end(f.src, f)
-        self._deliver_all(f)
-        self._done(f.src, f, True)
+        a = f.src.attempt
+        a.end()
+        a.deliver_all()
+        a.finish()
 
 
 def test_a_mac_written_from_the_hooks_gets_the_whole_pipeline():
@@ -123,7 +123,7 @@ class Twice(Instant):
 
     def _end(self, f):
         super()._end(f)
-        self._done(f.src, f, True)
+        f.src.attempt.finish()
 
 
 def test_the_base_checks_that_a_mac_works_on_the_frame_in_service():
@@ -131,6 +131,6 @@ def test_the_base_checks_that_a_mac_works_on_the_frame_in_service():
     net = Twice(sim, "n", data_rate=1e6)
     a, _ = net.attach("a"), net.attach("b")
     a.send("b", None, 1000)
-    with pytest.raises(RuntimeError, match=r"'a' is done with <Frame #1 a->b 1000 bit>, but the frame in service "
-                                           r"there is None"):
+    with pytest.raises(MacOrderError, match=r"network 'n' \(Twice\): finish of None at 'a' in state 'idle'; "
+                                            r"allowed only after a successful end\(\)"):
         sim.run(1.0)

@@ -4,8 +4,9 @@ is drawn in one named hook, ``Network.frame_lost``."""
 import pytest
 
 from netcosim import Simulation
-from netcosim.network import BROADCAST, IdealLink, SlottedAloha, SwitchedEthernet, WLAN80211b
-from netcosim.network.lifecycle import Attempt, MacOrderError
+from netcosim.errors import ConfigurationError
+from netcosim.network import BROADCAST, IEEE802154, IdealLink, SlottedAloha, SwitchedEthernet, WLAN80211b
+from netcosim.network.lifecycle import CARRIER_LINK, CARRIER_MEDIUM, CARRIER_SENDER, Attempt, MacOrderError
 
 
 def _in_service():
@@ -145,3 +146,79 @@ def test_frame_lost_is_the_one_place_frame_loss_is_drawn(make, broadcast):
     assert b.stats["received"] == 0
     lost = net.frames().query("event == 'lost'")
     assert set(lost["outcome"]) <= {"random_loss", "retry_limit"} and len(lost)
+
+
+def _radio_in_service(broadcast=False):
+    """A WLAN whose sender a has a frame in service (medium access not started)."""
+    sim = Simulation(seed=0)
+    net = WLAN80211b(sim, "w")
+    a, b = net.attach("a", position=(0.0, 0.0)), net.attach("b", position=(5.0, 0.0))
+    net._kick = lambda iface: None
+    a.send(BROADCAST if broadcast else b, None, 100)
+    return sim, net, a, b, net._next_frame(a)
+
+
+def test_the_radio_carrier_is_the_mediums_and_a_reception_completes_while_the_attempt_is_on():
+    sim, net, a, b, f = _radio_in_service(broadcast=True)
+    att = net.begin_attempt(a, f)
+    assert att.state == "on" and a.sending == 0 and b.receiving == 0     # the medium turns them on
+    assert att.deliver(b)                   # legal while on: the frame left the air at b
+    att.end()
+    assert a.sending == 0 and att.state == "ok"
+    with pytest.raises(MacOrderError, match=r"deliver of .* in state 'ok'; allowed only while the frame is on the "
+                                            r"air \(state 'on': the carrier is the medium's\)"):
+        att.deliver(b)
+    att.finish(restart=False)
+    with pytest.raises(MacOrderError, match="deliver_all of None at 'a' in state 'idle'"):
+        att.deliver_all()
+
+
+def test_radio_unicast_is_received_and_acknowledged_while_the_senders_attempt_is_on():
+    sim = Simulation(seed=0)
+    net = WLAN80211b(sim, "w")
+    a, b = net.attach("a", position=(0.0, 0.0)), net.attach("b", position=(5.0, 0.0))
+    seen = []
+    b.on_receive(lambda msg: seen.append((sim.now, a.attempt.state)))
+    done = []
+    a.on_done.append(lambda frame, ok: done.append((sim.now, ok, a.attempt.state)))
+    sim.call_at(0.0, lambda: a.send(b, None, 1000))
+    sim.run(0.1)
+    assert [s for _, s in seen] == ["on"]   # data received, a's attempt still on
+    assert [(ok, s) for _, ok, s in done] == [(True, "idle")]
+    assert done[0][0] - seen[0][0] > net.timing()["ack_time"]     # ... until its ACK came
+    ev = net.frames()
+    assert list(ev[ev["event"] == "attempt_end"]["outcome"]) == ["ok"]
+
+
+def test_a_channel_access_failure_ends_an_attempt_that_never_went_on_the_air():
+    sim = Simulation(seed=0)
+    net = IEEE802154(sim, "z")
+    a = net.attach("a", position=(0.0, 0.0))
+    net.attach("b", position=(5.0, 0.0))
+    net._kick = lambda iface: None
+    a.send("b", None, 100)
+    f = net._next_frame(a)
+    att = a.attempt
+    att.fail("channel_access")
+    assert att.state == "failed" and f.attempts == 0
+    att.drop("channel_access", restart=False)
+    assert a.stats["dropped"] == 1
+    ev = net.frames()
+    assert list(ev[ev["node"] == "a"]["event"])[-2:] == ["attempt_end", "lost"]
+    with pytest.raises(MacOrderError, match="fail of None at 'a' in state 'idle'"):
+        att.fail("channel_access")          # no frame in service
+    a.send("b", None, 100)
+    net.begin_attempt(a, net._next_frame(a))
+    with pytest.raises(MacOrderError, match="fail of .* in state 'on'"):
+        att.fail("channel_access")          # an attempt is on the medium
+
+
+def test_the_carrier_setting_is_one_of_three():
+    class Odd(IdealLink):
+        carrier = "air"
+
+    with pytest.raises(ConfigurationError, match=r"carrier must be one of \('link', 'sender', 'medium'\), "
+                                                 r"got 'air'"):
+        Odd(Simulation(seed=0), "n").attach("a")
+    assert (IdealLink.carrier, SwitchedEthernet.carrier, WLAN80211b.carrier, IEEE802154.carrier) == (
+        CARRIER_LINK, CARRIER_SENDER, CARRIER_MEDIUM, CARRIER_MEDIUM)

@@ -7,21 +7,36 @@ interface's :class:`Attempt` (``iface.attempt``, one per interface, reused)::
     a = net.begin_attempt(iface, f)          IDLE/FAILED -> ON: attempt counted + traced, carrier on
         a.suspend() / a.resume()             ON <-> SUSPENDED: carrier off/on mid-attempt (TDMA)
     a.end()            or a.end("reason")    ON -> OK / FAILED: carrier off, ``attempt_end`` row
-        a.deliver(rx), a.deliver_all()       OK only: loss drawn (:meth:`frame_lost`), delivery
+        a.deliver(rx), a.deliver_all()       OK only (ON only if the carrier is the medium's):
+                                             loss drawn (:meth:`frame_lost`), delivery
     a.finish(restart=True)                   OK -> IDLE: sent; stats, ``on_done``, queue served
     a.drop(reason, restart=True)             OK/FAILED -> IDLE: ``lost`` row, dropped, ``on_done``
     a.requeue()                              FAILED -> IDLE: the frame back at the head of the queue
+    a.fail(reason)                           IDLE/FAILED -> FAILED: access failed, nothing sent
     (after FAILED: net.begin_attempt(iface, f) again for a retry)
 
-On a network with ``carrier_reaches_receivers = False`` (a full-duplex uplink: the
-switched Ethernet, whose output ports make the receivers ``receiving``), the carrier of
-an attempt is the sender's alone.
+Who turns the carrier on and off is the network's ``carrier`` setting (one of three):
+
+* :data:`CARRIER_LINK` (default): the sender is ``sending`` and the frame's receivers
+  ``receiving`` from ``begin_attempt`` to ``end`` (a shared bus or link);
+* :data:`CARRIER_SENDER`: only the sender is ``sending`` (a full-duplex uplink: the
+  switched Ethernet, whose output ports make the receivers ``receiving``);
+* :data:`CARRIER_MEDIUM`: the medium owns the carrier (the radio networks: power on the
+  air, per-listener reception and lock, :mod:`netcosim.network.medium`); the steps count,
+  trace and enforce the order but touch neither ``sending`` nor ``receiving``.  A
+  reception completes at each receiver as the frame leaves the air, while the sender's
+  attempt is still on (a unicast frame is received, acknowledged, and only then does the
+  sender's attempt end), so there ``deliver`` is legal in state ``on`` and only there.
+
+One more step serves a MAC whose medium access can fail before anything is sent (the
+802.15.4 CSMA-CA giving up): ``a.fail(reason)``, IDLE (frame in service)/FAILED ->
+FAILED, an ``attempt_end`` row with *reason* and no attempt counted; ``a.drop`` follows.
 
 A call out of this order (``end`` twice, ``deliver`` after a collision, ``finish`` of a
 failed attempt, a new attempt while one is on the medium) raises :class:`MacOrderError`
 naming the network, the station, the frame and the state, before any counter or row
-is touched.  The steps below the seam (``_attempt_start``, ``_carrier_on`` ...,
-``_done``) remain for the radio MACs, whose medium model interleaves them.
+is touched.  Every MAC, wired or radio, goes through these steps: there is no other way
+to count an attempt or to let a frame go.
 
 :class:`FrameLifecycle` is a part of :class:`~netcosim.network.base.Network` (a mixin);
 it also holds the single frame-loss draw :meth:`FrameLifecycle.frame_lost` and the
@@ -33,6 +48,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any, Protocol
 
+from ..errors import ConfigurationError
 from ..kernel.task import Task
 from ..timebase import RESOLUTION
 from .frame import BROADCAST, Frame
@@ -62,6 +78,12 @@ _NAN = math.nan
 #: states of an :class:`Attempt`
 IDLE, ON, SUSPENDED, OK, FAILED = "idle", "on", "suspended", "ok", "failed"
 
+#: values of a network's ``carrier`` (who is ``sending``/``receiving`` during an attempt)
+CARRIER_LINK, CARRIER_SENDER, CARRIER_MEDIUM = "link", "sender", "medium"
+CARRIERS = (CARRIER_LINK, CARRIER_SENDER, CARRIER_MEDIUM)
+
+_SUCCESS = ("ok", "sent")       # the outcomes of end() that are no failure
+
 
 class MacOrderError(RuntimeError):
     """A MAC called a life-cycle step of :class:`Attempt` out of order."""
@@ -71,13 +93,19 @@ class Attempt:
     """The frame in service at one sender interface and the state of its current attempt
     (see the module docstring for the order).  Got from :meth:`FrameLifecycle.begin_attempt`."""
 
-    __slots__ = ("net", "iface", "frame", "state")
+    __slots__ = ("net", "iface", "frame", "state", "_rx_state")
 
     def __init__(self, net, iface: Interface):
+        if net.carrier not in CARRIERS:
+            raise ConfigurationError(f"network {net.name!r} ({type(net).__name__}): carrier must be one of "
+                                     f"{CARRIERS}, got {net.carrier!r}")
         self.net = net
         self.iface = iface
         self.frame: Any = None     # the frame in service (None when idle)
         self.state = IDLE
+        # the state in which the frame is received (deliver): over (OK), or still on the air
+        # (ON) where the medium owns the carrier
+        self._rx_state = ON if net.carrier == CARRIER_MEDIUM else OK
 
     def _order(self, step: str, allowed: str):
         net = self.net
@@ -86,49 +114,84 @@ class Attempt:
 
     def end(self, outcome: str | None = None) -> None:
         """The attempt is over: carrier off, ``attempt_end`` row with ``ok``/``sent``
-        (broadcast) when *outcome* is None (-> OK), else the failure *outcome* (-> FAILED)."""
+        (broadcast) when *outcome* is None (-> OK); ``"ok"`` or ``"sent"`` (a unicast frame
+        nobody acknowledges) are successes too (-> OK); any other *outcome* is the reason
+        the attempt failed (-> FAILED)."""
         if self.state is not ON:
             self._order("end", "after begin_attempt (state 'on')")
         net, iface, frame = self.net, self.iface, self.frame
-        iface.sending = 0
-        if net.carrier_reaches_receivers:
-            for r in net.receivers(frame):
-                r.receiving -= 1
-                r._state()
+        carrier = net.carrier
+        if carrier != CARRIER_MEDIUM:
+            iface.sending = 0
+            if carrier == CARRIER_LINK:
+                for r in net.receivers(frame):
+                    r.receiving -= 1
+                    r._state()
         if net._trace_on:
             net._rows.append((net._env.now, net.name, frame.id, "attempt_end", frame.src.name, frame.dname,
                               iface.name, frame.attempts,
                               ("sent" if frame.dst is BROADCAST else "ok") if outcome is None else outcome,
                               _NAN, _NAN))
-        self.state = OK if outcome is None else FAILED
+        self.state = OK if outcome is None or outcome in _SUCCESS else FAILED
+
+    def fail(self, reason: str) -> None:
+        """Medium access failed before the frame in service went on the air (802.15.4:
+        CSMA-CA gave up): ``attempt_end`` row with *reason*, no attempt counted (-> FAILED;
+        :meth:`drop` or a new attempt follows)."""
+        iface = self.iface
+        if (self.state is not IDLE and self.state is not FAILED) or iface.current is None:
+            self._order("fail", "with a frame in service and no attempt on the medium")
+        self.frame = frame = iface.current
+        self.net._trace("attempt_end", frame, iface.name, reason)
+        self.state = FAILED
 
     def suspend(self) -> None:
         """Carrier off in the middle of the attempt (``suspended`` row); :meth:`resume` goes on."""
         if self.state is not ON:
             self._order("suspend", "while on the medium (state 'on')")
-        self.net._carrier_off(self.iface, self.frame)
-        self.net._trace("suspended", self.frame, self.iface.name)
+        net, iface = self.net, self.iface
+        if net.carrier != CARRIER_MEDIUM:
+            iface.sending = 0
+            if net.carrier == CARRIER_LINK:
+                for r in net.receivers(self.frame):
+                    r.receiving -= 1
+                    r._state()
+        net._trace("suspended", self.frame, iface.name)
         self.state = SUSPENDED
 
     def resume(self) -> None:
         """Carrier on again after :meth:`suspend` (``resumed`` row)."""
         if self.state is not SUSPENDED:
             self._order("resume", "after suspend")
-        self.net._trace("resumed", self.frame, self.iface.name)
-        self.net._carrier_on(self.iface, self.frame)
+        net, iface = self.net, self.iface
+        net._trace("resumed", self.frame, iface.name)
+        if net.carrier != CARRIER_MEDIUM:
+            iface.sending = 1
+            iface._state()
+            if net.carrier == CARRIER_LINK:
+                for r in net.receivers(self.frame):
+                    r.receiving += 1
+                    r._state()
         self.state = ON
+
+    def _rx_order(self, step: str):
+        if self._rx_state is ON:
+            self._order(step, "while the frame is on the air (state 'on': the carrier is the medium's)")
+        self._order(step, "after a successful end()")
 
     def deliver(self, rx: Interface) -> bool:
         """*rx* received the frame now: loss drawn (:meth:`FrameLifecycle.frame_lost`), then
-        handed over after the delays; False if lost."""
-        if self.state is not OK:
-            self._order("deliver", "after a successful end()")
+        handed over after the delays; False if lost.  Legal after a successful :meth:`end`,
+        or, where the carrier is the medium's, while the attempt is on (the reception
+        completes as the frame leaves the air, before the sender's attempt ends)."""
+        if self.state is not self._rx_state:
+            self._rx_order("deliver")
         return self.net._deliver(self.frame, rx)
 
     def deliver_all(self) -> None:
         """Every receiver of the frame received it now (:meth:`deliver` to each)."""
-        if self.state is not OK:
-            self._order("deliver_all", "after a successful end()")
+        if self.state is not self._rx_state:
+            self._rx_order("deliver_all")
         net, frame = self.net, self.frame
         for r in net.receivers(frame):
             net._deliver(frame, r)
@@ -182,9 +245,11 @@ class FrameLifecycle:
     #: the ``network_schedule`` rows at carrier on list the receivers before the sender
     #: (the ideal link's historic order)
     receivers_first = False
-    #: the carrier of an attempt makes the frame's receivers ``receiving`` (a shared medium
-    #: or link); False: only the sender is ``sending`` (a full-duplex uplink to a switch)
-    carrier_reaches_receivers = True
+    #: who carries an attempt (see the module docstring): :data:`CARRIER_LINK` (the sender
+    #: ``sending``, the frame's receivers ``receiving``), :data:`CARRIER_SENDER` (the sender
+    #: alone: a full-duplex uplink to a switch) or :data:`CARRIER_MEDIUM` (the radio
+    #: medium's power and locks; the steps leave ``sending``/``receiving`` alone)
+    carrier = CARRIER_LINK
 
     if TYPE_CHECKING:       # provided by Network
         sim: Any
@@ -203,8 +268,8 @@ class FrameLifecycle:
     def begin_attempt(self, iface: Interface, frame: Frame, bits=None, backoff=_NAN) -> Attempt:
         """A new attempt of *frame* (in service at *iface*) starts now: counted, traced
         (``bits`` on the air, default the frame's; ``backoff`` slots drawn before it), the
-        carrier on (sender ``sending``, receivers ``receiving``).  Returns ``iface.attempt``
-        in state ``on``."""
+        carrier on (sender ``sending``, receivers ``receiving``, as ``carrier`` says).
+        Returns ``iface.attempt`` in state ``on``."""
         a = iface.attempt
         if iface.current is not frame:
             self._not_in_service(iface, frame, "starts an attempt of")
@@ -219,10 +284,13 @@ class FrameLifecycle:
         if self._trace_on:
             self._rows.append((now, self.name, frame.id, "attempt_start", iface.name, frame.dname,
                                iface.name, frame.attempts, "", frame.bits if bits is None else bits, backoff))
+        carrier = self.carrier
+        if carrier == CARRIER_MEDIUM:
+            return a
         iface.sending = 1
         if not self.receivers_first:
             iface._state()
-        if self.carrier_reaches_receivers:
+        if carrier == CARRIER_LINK:
             for r in self.receivers(frame):
                 r.receiving += 1
                 r._state()
@@ -237,62 +305,8 @@ class FrameLifecycle:
             return f
         return None
 
-    def _attempt_start(self, iface: Interface, frame: Frame, bits=None, backoff=_NAN) -> None:
-        """Count a new attempt of *frame* starting now and trace it (``bits`` on the air,
-        default the frame's; ``backoff`` slots drawn before it)."""
-        if iface.current is not frame:
-            self._not_in_service(iface, frame, "starts an attempt of")
-        if frame.attempts:
-            self._attempt_over(frame)
-        frame.attempts += 1
-        frame.sent = self._env.now
-        if self._trace_on:
-            self._rows.append((frame.sent, self.name, frame.id, "attempt_start", iface.name, frame.dname,
-                               iface.name, frame.attempts, "", frame.bits if bits is None else bits, backoff))
-
-    def _carrier_on(self, iface: Interface, frame: Frame) -> None:
-        """*iface* puts *frame* on the medium: it is sending, its receivers are receiving."""
-        iface.sending = 1
-        iface._state()
-        for r in self.receivers(frame):
-            r.receiving += 1
-            r._state()
-
-    def _carrier_off(self, iface: Interface, frame: Frame) -> None:
-        """*iface* stops sending *frame* (ended, cut or aborted)."""
-        iface.sending = 0
-        for r in self.receivers(frame):
-            r.receiving -= 1
-            r._state()
-
-    def _attempt_end(self, iface: Interface, frame: Frame, outcome: str | None = None) -> None:
-        """Trace the end of the current attempt: ``ok``/``sent`` (broadcast) by default, or the
-        failure *outcome*."""
-        if self._trace_on:
-            if outcome is None:
-                outcome = "sent" if frame.dst is BROADCAST else "ok"
-            self._rows.append((self._env.now, self.name, frame.id, "attempt_end", frame.src.name, frame.dname,
-                               iface.name, frame.attempts, outcome, _NAN, _NAN))
-
-    def _deliver_all(self, frame: Frame) -> None:
-        """Every receiver of *frame* got it now (loss drawn per receiver)."""
-        for r in self.receivers(frame):
-            self._deliver(frame, r)
-
-    def _done(self, iface: Interface, frame: Frame, ok: bool, restart: bool = True) -> None:
-        """The sender is done with *frame* (sent/acknowledged, or dropped): free the interface,
-        count and notify (:meth:`_finish`), then serve the queue (:meth:`_restart`) unless
-        ``restart=False`` (the MAC restarts it itself later)."""
-        if iface.current is not frame:
-            self._not_in_service(iface, frame, "is done with")
-        iface.current = None
-        iface._state()
-        self._finish(frame, ok)
-        if restart:
-            self._restart(iface)
-
     def _not_in_service(self, iface: Interface, frame: Frame, what: str):
-        # the invariant of the life cycle: a MAC works on the frame in service at the interface
+        # the invariant of the life cycle: an attempt is of the frame in service at the interface
         raise RuntimeError(f"network {self.name!r} ({type(self).__name__}): {iface.name!r} {what} {frame!r}, "
                            f"but the frame in service there is {iface.current!r}")
 
@@ -342,11 +356,12 @@ class FrameLifecycle:
         lost on the link to *rx*?  One draw from the link's own state (``<net>/loss/<src>-><rx>``).
 
         Every MAC reaches it in one of two ways: :meth:`Attempt.deliver` /
-        :meth:`Attempt.deliver_all` (the wired MACs: drawn at delivery), or directly before
-        an acknowledgement (the radio MACs' unicast, so a frame lost so is not
-        acknowledged).  Callers on the hot path test ``self.loss is not None`` first (no
-        call on a lossless network); without a loss model it returns False.  Override it
-        for a loss that depends on more than the link (the frame, the instant).
+        :meth:`Attempt.deliver_all` (drawn at delivery: the wired MACs, and a radio
+        broadcast at each listener), or directly before an acknowledgement (the radio MACs'
+        unicast, so a frame lost so is not acknowledged).  Callers on the hot path test
+        ``self.loss is not None`` first (no call on a lossless network); without a loss
+        model it returns False.  Override it for a loss that depends on more than the link
+        (the frame, the instant).
         """
         loss = self.loss
         if loss is None:

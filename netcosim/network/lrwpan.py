@@ -159,10 +159,8 @@ class IEEE802154(RadioNetwork):
             r.nb += 1
             r.be = min(r.be + 1, self.max_be)
             if r.nb > self.max_csma_backoffs:
-                f = r.iface.current
-                self._attempt_end(r.iface, f, "channel_access")
-                self._lost(f, r.iface, "channel_access")
-                self._frame_done(r, f, False)
+                r.iface.attempt.fail("channel_access")
+                self._frame_dropped(r, "channel_access")
                 return
             self._backoff(r)
             return
@@ -174,7 +172,7 @@ class IEEE802154(RadioNetwork):
             return
         f = r.iface.current
         bits = self.mac_overhead_bits + f.bits
-        self._attempt_start(r.iface, f, bits, r.bo_drawn)
+        self.begin_attempt(r.iface, f, bits, r.bo_drawn)
         now = self._env.now
         tx = Transmission(r, "data", f, f.dst if f.dst is BROADCAST else f.dst.mac, now,
                           now + self.shr + self.duration(bits), now, self.mod)
@@ -183,10 +181,9 @@ class IEEE802154(RadioNetwork):
     def _ifs(self, bits) -> int:
         return self.sifs if bits <= 18 * 8 else self.lifs
 
-    def _frame_done(self, r, f, ok: bool) -> None:
-        if ok:
-            r.ifs_until = self._env.now + self._ifs(self.mac_overhead_bits + f.bits)
-        self._done(r.iface, f, ok)
+    def _frame_sent(self, r) -> None:
+        r.ifs_until = self._env.now + self._ifs(self.mac_overhead_bits + r.iface.current.bits)
+        r.iface.attempt.finish()
 
     def _retry(self, r) -> None:
         self._csma_start(r)
@@ -208,7 +205,7 @@ class IEEE802154(RadioNetwork):
                     self._receive_unicast(r, tx, self.use_ack)
             elif tx.dst is BROADCAST:
                 if ok:
-                    self._deliver(f, r.iface)
+                    tx.src.iface.attempt.deliver(r.iface)   # the sender's attempt is still on
                 else:
                     self._lost(f, r.iface, reason)
         elif ok and tx.dst is r and r.awaiting is not None and r.awaiting.frame is f:

@@ -22,6 +22,7 @@ from .. import validate
 from ..errors import ConfigurationError
 from .base import Network
 from .interface import TxQueue
+from .lifecycle import CARRIER_SENDER
 
 
 class SwitchPort:
@@ -47,7 +48,7 @@ class SwitchedEthernet(Network):
     unbounded) in bits; ``switch_delay`` in s.
     """
 
-    carrier_reaches_receivers = False   # full duplex: the output ports make the receivers receiving
+    carrier = CARRIER_SENDER   # full duplex: the output ports make the receivers receiving
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, min_frame_bits: int = 512,
                  switch_memory_bits: int | None = None, buffer: str = "shared", overflow: str = "drop",

@@ -14,12 +14,20 @@ A wireless MAC subclasses it and provides:
 * ``_reeval(r)`` -- the medium's view of station *r* changed (carrier sense);
 * ``_rx_end(r, tx, ok, reason, locked)`` -- *tx* ended at listener *r*;
 * ``_retry(r)`` -- the ACK did not come and attempts remain;
-* optionally ``_frame_done(r, f, ok)`` -- the station is done with a frame (default
-  :meth:`~netcosim.network.base.Network._done`);
+* optionally ``_frame_sent(r)`` / ``_frame_dropped(r, reason)`` -- the station is done
+  with its frame, sent (acknowledged) or given up (default: ``r.iface.attempt.finish()`` /
+  ``.drop(reason)``, the life cycle of :mod:`netcosim.network.lifecycle`);
 * attributes ``use_ack``, ``max_attempts`` (transmissions of a unicast frame),
   ``_ack_timeout_ticks`` (from the end of a data frame), ``_ack_delay`` (ticks from
   the end of a data frame to its ACK), ``ack_time``, ``ack_bits``, ``_ack_plcp`` and
   ``_ack_mod`` for :meth:`RadioNetwork._send_ack`.
+
+A data frame goes through the life cycle of every MAC (:class:`~netcosim.network.lifecycle.Attempt`):
+``begin_attempt`` as it goes on the air, ``deliver`` at each listener that decoded a
+broadcast (while the attempt is still on), ``end`` when it left the air (broadcast,
+unacknowledged) or when its ACK came or did not, then ``finish``, ``drop`` or a retry.
+The carrier is the medium's (``carrier = CARRIER_MEDIUM``): :meth:`RadioNetwork._start_tx`
+and the medium's locks turn ``sending`` and ``receiving`` on and off, for the ACKs too.
 """
 
 from __future__ import annotations
@@ -33,6 +41,7 @@ from ..errors import ConfigurationError, ConfigurationTypeError
 from .base import Network
 from .frame import BROADCAST
 from .interface import Interface
+from .lifecycle import CARRIER_MEDIUM
 from .medium import Transmission, WirelessMedium
 from .radio import LogDistance, PathLoss, as_position, db_to_ratio, dbm_to_watt, watt_to_dbm
 
@@ -129,6 +138,8 @@ class RadioNetwork(Network):
     _ack_mod: Any
 
     station_class = RadioStation
+    #: the medium owns the carrier: power on the air, per-listener reception and lock
+    carrier = CARRIER_MEDIUM
 
     def __init__(self, sim, name, *, path_loss: PathLoss | None = None, tx_power_dbm: float,
                  threshold_dbm: float, cs_threshold_dbm: float | None = None, capture_db: float = 10.0,
@@ -220,16 +231,21 @@ class RadioNetwork(Network):
         if tx.kind != "data":
             r.responding -= 1
         elif tx.dst is BROADCAST or not self.use_ack:
-            self._attempt_end(r.iface, tx.frame, "sent")
-            self._frame_done(r, tx.frame, True)
+            r.iface.attempt.end("sent")
+            self._frame_sent(r)
         else:
             self._await_ack(r, tx, self._ack_timeout_ticks)
         r.iface._state()
         self._reeval(r)
 
-    def _frame_done(self, r: RadioStation, f, ok: bool) -> None:
-        """Hook: station *r* is done with *f* (sent/acknowledged, or dropped)."""
-        self._done(r.iface, f, ok)
+    def _frame_sent(self, r: RadioStation) -> None:
+        """Hook: *r*'s attempt ended well (acknowledged, or sent unacknowledged): done with
+        its frame."""
+        r.iface.attempt.finish()
+
+    def _frame_dropped(self, r: RadioStation, reason: str) -> None:
+        """Hook: *r* gives its frame up after a failed attempt (``lost`` row *reason*)."""
+        r.iface.attempt.drop(reason)
 
     def _retry(self, r: RadioStation) -> None:
         """Hook: the ACK for *r*'s current frame did not come; try again."""
@@ -263,9 +279,9 @@ class RadioNetwork(Network):
         return tx
 
     def _ack_ok(self, r: RadioStation) -> None:
-        f = self._stop_waiting(r).frame
-        self._attempt_end(r.iface, f, "ok")
-        self._frame_done(r, f, True)
+        self._stop_waiting(r)
+        r.iface.attempt.end()
+        self._frame_sent(r)
         r.iface._state()
 
     def _ack_fail(self, r: RadioStation) -> None:
@@ -276,10 +292,9 @@ class RadioNetwork(Network):
         reason = tx.dst_reason or ("ack_lost" if tx.acked else "no_ack")
         if reason == "collision":
             self.collisions += 1
-        self._attempt_end(r.iface, f, reason)
+        r.iface.attempt.end(reason)
         if f.attempts >= self.max_attempts:
-            self._lost(f, r.iface, "retry_limit")
-            self._frame_done(r, f, False)
+            self._frame_dropped(r, "retry_limit")
         else:
             self._retry(r)
         r.iface._state()

@@ -132,7 +132,7 @@ class PerStationAccess:
                 if dst is r:
                     net._receive_unicast(r, tx, True)
                 elif dst is BROADCAST:
-                    net._deliver(f, r.iface)
+                    tx.src.iface.attempt.deliver(r.iface)   # the sender's attempt is still on
                 else:
                     net._set_nav(r, self.env.now + net.sifs + net.ack_time)
             else:

@@ -326,7 +326,7 @@ class WLAN80211b(RadioNetwork):
             if f is None:
                 return              # post-backoff finished, nothing to send
         bits = self.mac_overhead_bits + f.bits
-        self._attempt_start(iface, f, bits, r.bo_drawn)
+        self.begin_attempt(iface, f, bits, r.bo_drawn)
         r.bo_drawn = math.nan
         now = self._env.now
         tx = Transmission(r, "data", f, f.dst if f.dst is BROADCAST else f.dst.mac, now,
@@ -337,10 +337,15 @@ class WLAN80211b(RadioNetwork):
         r.mac_busy = True
         super()._start_tx(r, tx)
 
-    def _frame_done(self, r, f, ok: bool) -> None:
+    def _frame_sent(self, r) -> None:
         r.cw = self.cw_min
         self._draw(r)                 # post-backoff, drawn before the sender hears it is free
-        self._done(r.iface, f, ok, restart=False)
+        r.iface.attempt.finish(restart=False)
+
+    def _frame_dropped(self, r, reason: str) -> None:
+        r.cw = self.cw_min
+        self._draw(r)                 # post-backoff, as after a frame sent
+        r.iface.attempt.drop(reason, restart=False)
 
     def _retry(self, r) -> None:
         r.cw = min(2 * (r.cw + 1) - 1, self.cw_max)

@@ -395,7 +395,7 @@ class SharedClockAccess(PerStationAccess):
                         r.iface._state()
                     self.end_mid = r
                     if c_ok:
-                        self.net._deliver(f, r.iface)
+                        src.iface.attempt.deliver(r.iface)
                     else:
                         self.net._lost(f, r.iface, c_reason)
                     self.end_mid = None
