@@ -37,9 +37,11 @@ whole batches, which is what the chunks are, but would be imported by every simu
 
 from __future__ import annotations
 
+import os
 import pickle
 import tempfile
 from array import array
+from operator import itemgetter
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from .readback import categorical_from_codes
@@ -164,56 +166,69 @@ class ColumnStore:
         rows and codecs of each such chunk).  No object graph is pickled: a write costs
         about a copy of its bytes."""
         if self._file is None:
-            self._file = tempfile.TemporaryFile(prefix="netcosim-trace-")  # deleted when closed
+            # unbuffered: the buffers are written as they are, straight from the arrays
+            self._file = tempfile.TemporaryFile(prefix="netcosim-trace-", buffering=0)  # deleted when closed
         f = self._file
+        first, second = itemgetter(0), itemgetter(1)
         out: list = []
-        run: list = []
+        #: the run of spillable chunks gathered: [rows, (codecs, buffer types), [(n, columns), ...]]
+        groups: list[list] = []
 
         def write_run():
-            if run:
-                groups: list[list] = []   # [rows, layout, columns of each chunk]
-                for n, (_, cols) in run:
-                    layout = tuple([(codec, _buffer_type(codec, v)) for codec, v in cols])
-                    if groups and groups[-1][1] == layout:
+            if not groups:
+                return
+            merged: list[tuple[int, tuple, list]] = []   # (rows, layout, [(n, columns), ...])
+            for _, (codecs, types), chunks in groups:
+                # the typecode of codes (2 or 4 bytes) and of mixed values (d or q) may differ
+                # between chunks of the same codecs and types: split where it changes
+                varying = [c for c, codec in enumerate(codecs)
+                           if codec == "mixed" or (codec == "str" and types[c] is array)]
+                for part in _runs(chunks, varying):
+                    layout = tuple([(codec, _buffer_type(codec, v)) for codec, v in part[0][1]])
+                    merged.append((sum(n for n, _ in part), layout, part))
+            shared: dict = {}         # one tuple per distinct layout: the header pickles it once
+            header = pickle.dumps([(n, shared.setdefault(layout, layout)) for n, layout, _ in merged],
+                                  protocol=pickle.HIGHEST_PROTOCOL)
+            offset = f.seek(0, 2)
+            _write_all(f, header)
+            for _, layout, part in merged:
+                ns = [n for n, _ in part]
+                colslist = [cols for _, cols in part]
+                for c, (codec, typecode) in enumerate(layout):
+                    if codec == "none":
+                        continue
+                    v = list(map(second, map(itemgetter(c), colslist)))   # the column's buffers
+                    if codec in _TAGGED:
+                        _write(f, list(map(first, v)), ns, 1)
+                        v = list(map(second, v))
+                    _write(f, v, ns, array(typecode).itemsize if typecode else 1)
+            n = sum(m[0] for m in merged)
+            sig: list[set[str]] = [set() for _ in range(self.ncols)]  # codec names per column
+            for layout in shared:
+                for c, (codec, _) in enumerate(layout):
+                    sig[c].add(codec)
+            out.append((n, ("spill", (offset, f.tell() - offset, tuple(frozenset(x) for x in sig),
+                                      len(header)))))
+            self._spilled += n
+            groups.clear()
+        for entry in self._chunks[:-1]:
+            n, (kind, data) = entry
+            if kind == "cols":
+                codecs = tuple(map(first, data))
+                if "obj" not in codecs:
+                    key = (codecs, tuple(map(type, map(second, data))))
+                    if groups and groups[-1][1] == key:
                         g = groups[-1]
                         g[0] += n
-                        g[2].append(cols)
+                        g[2].append((n, data))
                     else:
-                        groups.append([n, layout, [cols]])
-                shared: dict = {}         # one tuple per distinct layout: the header pickles it once
-                header = pickle.dumps([(n, shared.setdefault(layout, layout)) for n, layout, _ in groups],
-                                      protocol=pickle.HIGHEST_PROTOCOL)
-                offset = f.seek(0, 2)
-                f.write(header)
-                for _, layout, chunks in groups:
-                    for c, (codec, _) in enumerate(layout):
-                        if codec == "none":
-                            continue
-                        if codec in _TAGGED:
-                            f.write(_joined([cols[c][1][0] for cols in chunks]))
-                            f.write(_joined([cols[c][1][1] for cols in chunks]))
-                        else:
-                            f.write(_joined([cols[c][1] for cols in chunks]))
-                n = sum(g[0] for g in groups)
-                sig: list[set[str]] = [set() for _ in range(self.ncols)]  # codec names per column
-                for layout in shared:
-                    for c, (codec, _) in enumerate(layout):
-                        sig[c].add(codec)
-                out.append((n, ("spill", (offset, f.tell() - offset, tuple(frozenset(x) for x in sig),
-                                          len(header)))))
-                self._spilled += n
-                run.clear()
-        for entry in self._chunks[:-1]:
-            kind, data = entry[1]
-            if kind == "cols" and not any(codec == "obj" for codec, _ in data):
-                run.append(entry)
-            else:
-                write_run()
-                out.append(entry)
+                        groups.append([n, key, [(n, data)]])
+                    continue
+            write_run()
+            out.append(entry)
         write_run()
         out.append(self._chunks[-1])
         self._chunks[:] = out
-        f.flush()
         self._bytes = sum(_chunk_bytes(ch) for _, ch in out)
         self._limit = self._bytes + self.memory if self.memory is not None else None
         self.spills += 1
@@ -225,22 +240,22 @@ class ColumnStore:
         f = self._file
         f.seek(offset)
         chunks: list[tuple[int, Any]] = []
-        for n, layout in pickle.loads(f.read(header)):
+        for n, layout in pickle.loads(_read(f, header)):
             cols: list = []
             for codec, typecode in layout:
                 if codec == "none":
                     cols.append((codec, None))
                 elif codec in _TAGGED:
-                    tags = f.read(n)
+                    tags = _read(f, n)
                     vals = array(typecode)
-                    vals.fromfile(f, n)
+                    vals.frombytes(_read(f, n * vals.itemsize))
                     cols.append((codec, (tags, vals)))
                 elif typecode:
                     a = array(typecode)
-                    a.fromfile(f, n)
+                    a.frombytes(_read(f, n * a.itemsize))
                     cols.append((codec, a))
                 else:
-                    cols.append((codec, f.read(n)))
+                    cols.append((codec, _read(f, n)))
             chunks.append((n, ("cols", cols)))
         return chunks
 
@@ -599,9 +614,64 @@ def _buffer_type(codec: str, v) -> str:
     return v.typecode if type(v) is array else ""
 
 
-def _joined(buffers: list):
-    """The buffers (bytes or arrays) as one bytes-like object, to write."""
-    return buffers[0] if len(buffers) == 1 else b"".join(buffers)
+def _runs(chunks: list, varying: list[int]) -> Iterator[list]:
+    """*chunks* (``(n, columns)``) in runs whose columns *varying* have the same buffer types."""
+    if not varying:
+        yield chunks
+        return
+    run: list = []
+    last = None
+    for entry in chunks:
+        cols = entry[1]
+        key = tuple([_buffer_type(*cols[c]) for c in varying])
+        if run and key != last:
+            yield run
+            run = []
+        run.append(entry)
+        last = key
+    if run:
+        yield run
+
+
+#: the most buffers one ``os.writev`` call takes
+try:
+    _IOV_MAX = max(1, min(os.sysconf("SC_IOV_MAX"), 1024))
+except (AttributeError, ValueError, OSError):
+    _IOV_MAX = 16
+
+
+def _write(f, buffers: list, rows: list[int], itemsize: int) -> None:
+    """Write *buffers* (bytes or arrays, of ``rows[i] * itemsize`` bytes each), one after the
+    other, to the unbuffered file *f* at its position: gathered by ``os.writev`` where there
+    is one, without copying them into one buffer first."""
+    if not hasattr(os, "writev"):
+        _write_all(f, b"".join(buffers))
+        return
+    fd = f.fileno()
+    for i in range(0, len(buffers), _IOV_MAX):
+        batch = buffers[i:i + _IOV_MAX]
+        size = sum(rows[i:i + _IOV_MAX]) * itemsize
+        done = os.writev(fd, batch)
+        if done < size:   # a short write: the rest of the batch, in one piece
+            _write_all(f, memoryview(b"".join(batch))[done:])
+
+
+def _write_all(f, data) -> None:
+    """Write all of *data* to the unbuffered file *f* (whose writes may be short)."""
+    view = memoryview(data).cast("B")
+    while view:
+        view = view[f.write(view):]
+
+
+def _read(f, n: int) -> bytes:
+    """*n* bytes from the unbuffered file *f*."""
+    data = f.read(n)
+    while len(data) < n:
+        more = f.read(n - len(data))
+        if not more:
+            raise EOFError(f"the trace's temporary file ends {n - len(data)} bytes early")
+        data += more
+    return data
 
 
 def _piece(chunk, a: int, b: int):
