@@ -20,12 +20,12 @@ $(STAMP): pyproject.toml | $(BIN)/python
 # The main job: the networked Fly-crane of the thesis (§4.6.1, Fig. 4.11) over lossy 802.11b,
 # offline vs online strategy, as a loss sweep on the sweep engine (1 to 3 minutes on 2 cores).
 run: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m experiments.flycrane_network --outdir results/flycrane_network
+	MPLBACKEND=Agg $(BIN)/python -m netcosim.experiments.flycrane_network --outdir results/flycrane_network
 
 # Every experiment (TrueTime examples and thesis reproductions), each in its own process; see experiments/main.py.
 run-all: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m experiments.main --outdir results
-	$(BIN)/python -m experiments.fidelity --measure --outdir results
+	MPLBACKEND=Agg $(BIN)/python -m netcosim.experiments.main --outdir results
+	$(BIN)/python -m netcosim.experiments.fidelity --measure --outdir results
 
 # Style of the whole tree and types of the library (configured in pyproject.toml); a finding fails `make test`.
 lint: $(STAMP)

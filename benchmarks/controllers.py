@@ -22,11 +22,10 @@ from __future__ import annotations
 import statistics
 import time
 
+import netcosim.plants.casadi_tools as casadi_tools
 import numpy as np
-
-import plants.casadi_tools as casadi_tools
-from controllers.planner import OnlineGain, WeightedNorm, online_gain, simulate_sampled
-from plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
+from netcosim.controllers.planner import OnlineGain, WeightedNorm, online_gain, simulate_sampled
+from netcosim.plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
 
 #: The shortest sampling period of the experiments (Fig. 3.8), s.
 T_MIN = 0.01

@@ -1,13 +1,13 @@
 """Real-time factor of the networked Fly-crane (5 nodes on 802.11b, §4.6.1) per plant.
 
-One run of :func:`controllers.planner.networked.run` (45 s simulated, 30 % loss,
+One run of :func:`netcosim.controllers.planner.networked.run` (45 s simulated, 30 % loss,
 broadcast, both strategies) is timed on this core, best of ``--repeats``; the real-time
 factor is simulated seconds per wall second.  Baseline measured in the same run: the
 same scenario on the dynamic plant whose dynamics run uncompiled in CasADi's virtual
 machine (what the plant costs without :class:`VelocityTrackingModel`'s compiled code),
 reported as a ratio.  Target: the dynamic plant at >= 100x real time.
 
-``--sweep`` also times the default ``python -m experiments.flycrane_network`` sweep
+``--sweep`` also times the default ``python -m netcosim.experiments.flycrane_network`` sweep
 (10 losses x 2 strategies x 20 seeds on 2 processes; several minutes).
 ``--profile`` prints the functions that dominate one dynamic run.
 
@@ -32,8 +32,8 @@ def _best(fn, repeats: int) -> float:
 
 
 def main(repeats: int = 3, sweep: bool = False, profile: bool = False) -> list[tuple[str, float]]:
-    import controllers.planner.networked as nw
-    from controllers.planner.plant_models import VelocityTrackingModel
+    import netcosim.controllers.planner.networked as nw
+    from netcosim.controllers.planner.plant_models import VelocityTrackingModel
 
     rows = []
     cfg = nw.FlyCraneNetworkConfig(loss=0.3, horizon=HORIZON)
@@ -64,7 +64,7 @@ def main(repeats: int = 3, sweep: bool = False, profile: bool = False) -> list[t
     if sweep:
         import tempfile
 
-        from experiments import flycrane_network as fn
+        from netcosim.experiments import flycrane_network as fn
         with tempfile.TemporaryDirectory() as d:
             t0 = time.perf_counter()
             fn.main(d)

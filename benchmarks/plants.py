@@ -8,7 +8,7 @@ machines are noisy.
 Measured, for the 3-robot Fly-crane (n = m = 9) and the 4-robot system (n = 12, m = 10):
 
 * the CasADi kinematics ``h_fun`` / ``A_fun`` through the numpy wrappers (CasADi's
-  buffer interface, :class:`plants.casadi_tools.BufferedFunction`), and ``h_fun`` called the plain way (with
+  buffer interface, :class:`netcosim.plants.casadi_tools.BufferedFunction`), and ``h_fun`` called the plain way (with
   DM conversions) to show what the buffer interface saves;
 * the dynamics right-hand side of :class:`ForcePlant` (4.10) and of
   :class:`VelocityTrackingPlant` (4.10)-(4.11) with gravity compensation;
@@ -24,11 +24,11 @@ import math
 import time
 
 import numpy as np
+from netcosim.plants.flycrane import configurations as C
+from netcosim.plants.flycrane.input_modes import ForcePlant, VelocityTrackingPlant
+from netcosim.plants.tethered_uav import TetheredUAV, TetheredUAVParams
 
 from netcosim.plant import RK4
-from plants.flycrane import configurations as C
-from plants.flycrane.input_modes import ForcePlant, VelocityTrackingPlant
-from plants.tethered_uav import TetheredUAV, TetheredUAVParams
 
 
 def _rot(phi, theta, psi):

@@ -15,9 +15,10 @@ from __future__ import annotations
 import statistics
 import time
 
-from controllers.pid import PID
+from netcosim.controllers.pid import PID
+from netcosim.plants.dc_servo import DCServo
+
 from netcosim import RK4, ExactZOH, Simulation
-from plants.dc_servo import DCServo
 
 UNTIL = 1.0  # simulated seconds per run
 

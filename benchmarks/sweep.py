@@ -1,7 +1,7 @@
 """Sweeps: runs per second serially, on the process pool and on Dask, and each executor's overhead per run.
 
 1. Throughput for runs of about 1 s: the networked servo
-   (``experiments.networked_servo``: DC servo over CSMA/CD with 30 % interfering
+   (``netcosim.experiments.networked_servo``: DC servo over CSMA/CD with 30 % interfering
    traffic), its simulated horizon sized so that one run takes about ``RUN_S`` s here
    (measured before the sweeps), swept over seeds serially (``SERIAL_RUNS`` runs), on a
    pool of 2 workers and on a 2-worker Dask ``LocalCluster`` (``PARALLEL_RUNS`` runs
@@ -53,7 +53,7 @@ OVERHEAD_RUNS = {"serial": (100, 5100), "pool": (100, 5100), "dask": (50, 1050)}
 
 def servo_run(params: dict, seed: int) -> dict:
     """One networked-servo run of ``params["horizon"]`` simulated seconds (s); its frame count."""
-    from experiments.networked_servo import build
+    from netcosim.experiments.networked_servo import build
 
     sim, net = build(share=0.3, seed=seed)
     sim.run(params["horizon"])

@@ -1,6 +1,6 @@
 """Serial sweeps: resident memory over 200 runs of the networked servo in one process.
 
-Scenario: ``experiments.networked_servo.build(share=0.3, seed=k)`` (the DC servo closed
+Scenario: ``netcosim.experiments.networked_servo.build(share=0.3, seed=k)`` (the DC servo closed
 over CSMA/CD with 30 % interfering traffic), run for ``HORIZON`` simulated seconds, its
 frame table read, then every reference to the simulation dropped -- what a sweep over
 seeds does.  After each run the resident set size (``/proc/self/statm``) is recorded.
@@ -58,7 +58,7 @@ def sweep(mode: str, runs: int, horizon: float) -> dict:
     """Run the sweep in this process; returns RSS after each run and the timings."""
     import gc
 
-    from experiments.networked_servo import build
+    from netcosim.experiments.networked_servo import build
 
     rss, collect_s = [], []
     t0 = time.perf_counter()

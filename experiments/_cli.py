@@ -1,6 +1,6 @@
 """One command-line convention for every experiment.
 
-``python -m experiments.NAME [--outdir DIR] [--quick] [own options]``: the help text
+``python -m netcosim.experiments.NAME [--outdir DIR] [--quick] [own options]``: the help text
 is the module docstring, ``--outdir`` is where the plots (PNG) and tables (Parquet)
 go, ``--quick`` selects the experiment's short run.  Parsing happens before any
 computation, so ``--help`` and bad arguments return at once and write nothing.

@@ -1,7 +1,7 @@
 """Thesis ch. 2, §2.6.2: landing of the tethered UAV on a 30° slope.
 
 Runs, on the simulation model with landers (1 cm, see
-:data:`controllers.landing.SIM_PARAMS`) and optionally the wind of §2.6.1:
+:data:`netcosim.controllers.landing.SIM_PARAMS`) and optionally the wind of §2.6.1:
 
 * ``ideal``: NMPC alone and the two-layer controller (2LC) as the thesis built it
   (the NMPC re-initialized from the measured state at every sample), without and
@@ -20,7 +20,7 @@ Runs, on the simulation model with landers (1 cm, see
   wants their own machine's.
 
 Writes PNG figures and Parquet tables to *outdir* and returns the metrics table.
-Also draws Fig. 2.5 (the sigmoid (2.11)).  Run ``python -m experiments.ch2_landing``.
+Also draws Fig. 2.5 (the sigmoid (2.11)).  Run ``python -m netcosim.experiments.ch2_landing``.
 """
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from netcosim.controllers.landing import SIM_PARAMS, LandingConfig, LandingTiming, landing_metrics, run_landing, sigmoid
 
-from controllers.landing import SIM_PARAMS, LandingConfig, LandingTiming, landing_metrics, run_landing, sigmoid
 from netcosim.cputime import RecordedCPUTime  # noqa: E402
 from netcosim.plot import plot_schedule  # noqa: E402
 
@@ -410,7 +410,7 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     ap = experiment_parser(__doc__, "results/ch2",
                            quick="1 s landings instead of 1.5 s; delays 0 and 5 ms (5 ms: 2LC schemes only); "
                                  "no two-node run")

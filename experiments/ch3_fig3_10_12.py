@@ -1,6 +1,6 @@
 """Figs. 3.10-3.12: the LAAS Fly-crane experiment of Sec. 3.6 in simulation, offline vs online gain.
 
-The rig (:func:`plants.flycrane.configurations.experimental_flycrane`): 1.2 m cables,
+The rig (:func:`netcosim.plants.flycrane.configurations.experimental_flycrane`): 1.2 m cables,
 robots 1.03 kg, platform 0.338 kg, start ``q_V(0) = (0, 0, 0.4 m, 0, 0, 0)``,
 ``q_i(0) = 55 deg``.  The planner runs every T = 1.5 s on the load's node and talks to
 the three robots over one lossy IEEE 802.11b link (broadcast, no retry: a robot misses
@@ -18,7 +18,7 @@ a ball holding every switch's step (the thesis's ball "containing all the config
 along the path"); a robot holds the last command on a loss.  Online: centralized law
 with (3.26) recomputed every sample; a robot zeroes a command older than T.
 
-Run ``python -m experiments.ch3_fig3_10_12`` (``--quick``: 5 s per waypoint, fewer
+Run ``python -m netcosim.experiments.ch3_fig3_10_12`` (``--quick``: 5 s per waypoint, fewer
 Monte-Carlo samples).  Writes ``fig3_10.png`` (q(t): load position, orientation, cable
 angles), ``fig3_11.png`` (robot velocities), ``fig3_12.png`` (tau_o and k per sample),
 ``series.parquet`` (0.1 s grid), ``samples.parquet`` (one row per period) and
@@ -33,16 +33,16 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from netcosim.controllers.planner import OfflineGain, OnlineGain
+from netcosim.controllers.planner.gain_design import design, estimate_mu
+from netcosim.controllers.planner.networked import GridRecorder
+from netcosim.controllers.planner.plant_models import VelocityTrackingModel
+from netcosim.controllers.planner.sikm import Trajectory
+from netcosim.controllers.planner.tasks import DeploymentConfig, PlannerLaw, deploy
+from netcosim.plants.flycrane.configurations import experimental_flycrane
 
-from controllers.planner import OfflineGain, OnlineGain
-from controllers.planner.gain_design import design, estimate_mu
-from controllers.planner.networked import GridRecorder
-from controllers.planner.plant_models import VelocityTrackingModel
-from controllers.planner.sikm import Trajectory
-from controllers.planner.tasks import DeploymentConfig, PlannerLaw, deploy
 from netcosim import Simulation, validate
 from netcosim.errors import ConfigurationError
-from plants.flycrane.configurations import experimental_flycrane
 
 T = 1.5
 #: Seconds between waypoint switches (the thesis assigns the final one at 30 s).
@@ -50,7 +50,7 @@ WAYPOINT_PERIOD = 10.0
 #: Per-receiver frame loss probability of the broadcast link (assumed; not in the thesis).
 LOSS = 0.1
 ALPHA = 30.0
-#: 802.11b rate (bit/s) and execution times (s) as in :mod:`controllers.planner.networked`.
+#: 802.11b rate (bit/s) and execution times (s) as in :mod:`netcosim.controllers.planner.networked`.
 DATA_RATE = 1.2e6
 EXEC_POSE, EXEC_PLANNER, EXEC_ROBOT = 0.5e-3, 5e-3, 1e-3
 SAMPLE_DT = 0.1
@@ -214,7 +214,7 @@ def main(outdir: str = "results/ch3_fig3_10_12", quick: bool = False, loss: floa
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     p = experiment_parser(__doc__, "results/ch3_fig3_10_12")
     p.add_argument("--loss", type=float, default=LOSS, help=f"per-receiver frame loss probability (default {LOSS})")
     a = p.parse_args()

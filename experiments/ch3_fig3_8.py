@@ -11,7 +11,7 @@ the three scenarios mu < 1/2, 1/2 <= mu < 1, mu >= 1, with ``tau_s_bar`` and
 ``tau_o_bar``) and Fig. 3.6 (``tau_s_bar(mu)`` (3.21), ``tau_o_bar(mu)`` (3.23),
 ``rho(mu)`` (3.24)).
 
-Run ``python -m experiments.ch3_fig3_8`` (``--quick`` for a fast check).  Writes
+Run ``python -m netcosim.experiments.ch3_fig3_8`` (``--quick`` for a fast check).  Writes
 ``fig3_5.png``, ``fig3_6.png``, ``fig3_8.png``, ``samples.parquet`` (one row per sample,
 strategy and case) and ``summary.parquet`` under *outdir*.
 """
@@ -23,10 +23,9 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-
-from controllers.planner import OfflineGain, OnlineGain, simulate_sampled
-from controllers.planner.gain_design import design, estimate_mu, g_square, rho, tau_o_bar, tau_s_bar
-from plants.flycrane.configurations import thesis_flycrane
+from netcosim.controllers.planner import OfflineGain, OnlineGain, simulate_sampled
+from netcosim.controllers.planner.gain_design import design, estimate_mu, g_square, rho, tau_o_bar, tau_s_bar
+from netcosim.plants.flycrane.configurations import thesis_flycrane
 
 T = 0.01
 RADII = {"small": 0.08, "large": 0.5}
@@ -138,7 +137,7 @@ def main(outdir: str = "results/ch3_fig3_8", quick: bool = False) -> pd.DataFram
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/ch3_fig3_8").parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(main(a.outdir, a.quick))

@@ -5,7 +5,7 @@ non-square system, T = 1.5 s, ``K_bar = I_10``, ``D = diag(I_4, 4 I_6)``, weight
 2-norm, ``q^0`` = 80 deg, ``q^r`` = 60 deg), but the robot velocities are applied to the
 Lagrangian model (4.10) through the velocity-tracking force
 ``F = -alpha (p_dot - u) + F_g(q)`` (4.11) with gravity compensation
-(:class:`plants.flycrane.input_modes.VelocityTrackingPlant`), starting at rest.
+(:class:`netcosim.plants.flycrane.input_modes.VelocityTrackingPlant`), starting at rest.
 Theorem 4.4.1: for large alpha the closed loop behaves like the kinematic one; for
 small alpha the time-scale separation is lost and convergence is not guaranteed.
 
@@ -23,7 +23,7 @@ grow, and the robot velocities ``p_dot = A_q q_dot`` then follow the projection
 ``u_q = A_q A_q^+ u`` instead of ``u`` (alpha = 30 N s/m, 2 s, before the cable angles
 reach the singular configuration near 110 deg).
 
-Run ``python -m experiments.ch4_fig4_10`` (``--quick``: 10 samples, 16 Monte-Carlo
+Run ``python -m netcosim.experiments.ch4_fig4_10`` (``--quick``: 10 samples, 16 Monte-Carlo
 samples).  Writes ``fig4_4.png``, ``fig4_10.png``, ``samples.parquet``, ``summary.parquet``.
 """
 
@@ -34,12 +34,11 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from netcosim.controllers.planner import OfflineGain, OnlineGain, WeightedNorm, sampled_velocity
+from netcosim.controllers.planner.gain_design import design_nonsquare, estimate_mu
+from netcosim.experiments.ch4_fig4_8_9 import KBAR, WEIGHTS, T, setting
+from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
 from scipy.integrate import solve_ivp
-
-from controllers.planner import OfflineGain, OnlineGain, WeightedNorm, sampled_velocity
-from controllers.planner.gain_design import design_nonsquare, estimate_mu
-from experiments.ch4_fig4_8_9 import KBAR, WEIGHTS, T, setting
-from plants.flycrane.input_modes import VelocityTrackingPlant
 
 ALPHAS = (0.3, 3.0, 30.0)
 
@@ -170,7 +169,7 @@ def main(outdir: str = "results/ch4_fig4_10", quick: bool = False) -> pd.DataFra
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/ch4_fig4_10").parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(main(a.outdir, a.quick))

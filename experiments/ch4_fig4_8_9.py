@@ -11,7 +11,7 @@ whose radius is 1.05 times the initial error, ``tau_o_bar`` and ``rho`` come fro
 numerical minimisation of ``g`` (4.29), the offline gain is ``tau_o_bar / T`` and the
 online gain ``tau_o(e_h) / T`` (4.30).
 
-D has two readings (:func:`controllers.planner.networked.d_weights`, docs/flycrane_network.md):
+D has two readings (:func:`netcosim.controllers.planner.networked.d_weights`, docs/flycrane_network.md):
 ``--d-reading literal`` (default) weighs pose errors 4 as printed, which under the
 definition ``D_V = I / d_V^2`` of (4.8) means ``d_V = 1/2`` and violates (4.9);
 ``--d-reading assumption`` takes the d of (4.9) as (1, 1, 1, 1, 4, ..., 4), i.e.
@@ -24,7 +24,7 @@ experiment's ``K_bar = I`` every piece is the same line, so the figures use the
 illustrative :data:`KBAR_EXAMPLE`, :data:`D_EXAMPLE`, :data:`MU_EXAMPLE` (the thesis
 draws them without values).
 
-Run ``python -m experiments.ch4_fig4_8_9`` (``--quick`` for fewer Monte-Carlo samples).
+Run ``python -m netcosim.experiments.ch4_fig4_8_9`` (``--quick`` for fewer Monte-Carlo samples).
 Writes ``fig4_6.png``, ``fig4_7.png``, ``fig4_8.png``, ``fig4_9.png``,
 ``samples.parquet``, ``summary.parquet``.
 """
@@ -37,11 +37,10 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-
-from controllers.planner import OfflineGain, OnlineGain, WeightedNorm, simulate_sampled
-from controllers.planner.gain_design import design_nonsquare, estimate_mu, g_nonsquare
-from controllers.planner.networked import D_READINGS, d_weights
-from plants.flycrane.configurations import four_robot_nonsquare
+from netcosim.controllers.planner import OfflineGain, OnlineGain, WeightedNorm, simulate_sampled
+from netcosim.controllers.planner.gain_design import design_nonsquare, estimate_mu, g_nonsquare
+from netcosim.controllers.planner.networked import D_READINGS, d_weights
+from netcosim.plants.flycrane.configurations import four_robot_nonsquare
 
 T = 1.5
 KBAR = np.ones(10)
@@ -161,7 +160,7 @@ def main(outdir: str = "results/ch4_fig4_8_9", quick: bool = False, d_reading: s
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     ap = experiment_parser(__doc__, "results/ch4_fig4_8_9")
     ap.add_argument("--d-reading", choices=D_READINGS, default="literal",
                     help="how D = diag(I4, 4 I6) is read (default: literal)")

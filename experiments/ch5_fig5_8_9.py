@@ -1,7 +1,7 @@
 """Figs. 5.8 and 5.9: the four tracking strategies of Table 5.1 in the realistic environment of Fig. 5.6.
 
 As in the thesis, the strategies run in a "realistic environment"
-(:class:`controllers.planner.sikm_environment.RealisticEnvironment`): the dynamic
+(:class:`netcosim.controllers.planner.sikm_environment.RealisticEnvironment`): the dynamic
 Fly-crane (4.10) (3 robots, edge 1 m, cables 1.5 m) driven through the robots'
 velocity-tracking controllers (4.11) (alpha = 30 N s/m), MoCap measurements at 120 Hz
 with Gaussian noise sigma_2 = 0.003 on every coordinate, and an unscented Kalman filter
@@ -29,7 +29,7 @@ averaged over T in {0.5, 0.75, 1.5, 4} s; Fig. 5.9 (noise, ``fig5_9_noise.png``)
 q(t) under strategy 2 at (k, T) = (1.28 1/s, 0.75 s) for MoCap noise sigma_1 = 0.01
 and sigma_2 = 0.003.
 
-Run ``python -m experiments.ch5_fig5_8_9`` (``--quick``: 21 s horizon, 12 s for the noise
+Run ``python -m netcosim.experiments.ch5_fig5_8_9`` (``--quick``: 21 s horizon, 12 s for the noise
 figure, fewer QP samples, T = 1.5 s only; the full run takes minutes).  Writes
 ``fig5_8.png``, ``fig5_9a.png``, ``fig5_9_noise.png`` (and ``fig5_9b.png``),
 ``dense.parquet``, ``samples.parquet``, ``theta.parquet``, ``summary.parquet``,
@@ -44,8 +44,7 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-
-from controllers.planner.sikm import (
+from netcosim.controllers.planner.sikm import (
     TABLE_5_1,
     SIKMParams,
     Trajectory,
@@ -54,8 +53,8 @@ from controllers.planner.sikm import (
     optimal_offline_gain,
     tau_critical,
 )
-from controllers.planner.sikm_environment import RealisticEnvironment
-from plants.flycrane.configurations import thesis_flycrane
+from netcosim.controllers.planner.sikm_environment import RealisticEnvironment
+from netcosim.plants.flycrane.configurations import thesis_flycrane
 
 OMEGA = 2 * math.pi / 30.0
 D2R = math.pi / 180
@@ -246,7 +245,7 @@ def main(outdir: str = "results/ch5_fig5_8_9", quick: bool = False) -> pd.DataFr
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/ch5_fig5_8_9").parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(main(a.outdir, a.quick))

@@ -17,7 +17,7 @@ All quantities are the closed forms of Propositions 5.4.2-5.4.4 applied to the b
   contractive region ``T < T_c(k)``) and the region ``k T > 2`` where Prop. 5.3.4 rules
   contraction out.
 
-Run ``python -m experiments.ch5_table5_2``.  Writes ``table5_2.parquet``,
+Run ``python -m netcosim.experiments.ch5_table5_2``.  Writes ``table5_2.parquet``,
 ``curves.parquet`` and ``fig5_3.png``, ``fig5_4.png``, ``fig5_5.png``, ``fig5_7.png``.
 """
 
@@ -29,8 +29,7 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-
-from controllers.planner.sikm import (
+from netcosim.controllers.planner.sikm import (
     SIKMParams,
     in_stability_set,
     k_bar,
@@ -177,7 +176,7 @@ def main(outdir: str = "results/ch5_table5_2", quick: bool = False) -> pd.DataFr
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/ch5_table5_2").parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20, "display.max_colwidth", 60):
         print(main(a.outdir, a.quick))

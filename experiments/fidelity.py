@@ -1,9 +1,9 @@
 """The thesis-fidelity table: every reproduced figure/table, the thesis's number, ours.
 
-``python -m experiments.fidelity --measure`` reads the Parquet tables the experiments
-wrote under ``--outdir`` (default ``results/``, as for ``experiments.main``; one folder per experiment, named after
-its module as ``python -m experiments.main`` writes them, or its default output
-directory: ``ch2/`` for ``ch2_landing``),
+``python -m netcosim.experiments.fidelity --measure`` reads the Parquet tables the experiments
+wrote under ``--outdir`` (default ``results/``, as for ``netcosim.experiments.main``; one
+folder per experiment, named after its module as ``python -m netcosim.experiments.main``
+writes them, or its default output directory: ``ch2/`` for ``ch2_landing``),
 reduces them to the numbers the table quotes, stores those in
 ``experiments/data/fidelity_reproduced.json`` and rewrites the table in
 ``docs/fidelity.md`` (between its markers).  Without ``--measure`` the table is
@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parent.parent
 REPRODUCED = Path(__file__).with_name("data") / "fidelity_reproduced.json"
 #: The document holding the table.
 DOC = ROOT / "docs" / "fidelity.md"
-BEGIN, END = "<!-- fidelity table: begin (python -m experiments.fidelity) -->", "<!-- fidelity table: end -->"
+BEGIN, END = "<!-- fidelity table: begin (python -m netcosim.experiments.fidelity) -->", "<!-- fidelity table: end -->"
 
 #: Experiment modules whose default output directory is not ``results/<module>``.
 DEFAULT_OUTDIRS = {"ch2_landing": "ch2"}
@@ -147,7 +147,7 @@ MEASURES: dict[str, Callable[[Path], dict[str, float]]] = {
 def measure(results: str | Path, experiments: list[str] | None = None) -> dict[str, float]:
     """The named numbers of every experiment (default: all of :data:`MEASURES`) whose
     output directory exists under *results*: ``<results>/<module>`` as ``python -m
-    experiments.main`` writes it, else the experiment's default (``<results>/ch2`` for
+    netcosim.experiments.main`` writes it, else the experiment's default (``<results>/ch2`` for
     ``ch2_landing``).  A missing directory is skipped; one without the expected tables
     raises ``FileNotFoundError``.  Keys are ``"<experiment>.<quantity>"``; angles in degrees, distances in mm
     where the key says ``_mm``, forces in N, times in s."""
@@ -351,11 +351,11 @@ def save(values: dict[str, float], path: str | Path = REPRODUCED) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Command line: see the module docstring."""
     lines = __doc__.strip().splitlines()
-    ap = argparse.ArgumentParser(prog="python -m experiments.fidelity", description=lines[0],
+    ap = argparse.ArgumentParser(prog="python -m netcosim.experiments.fidelity", description=lines[0],
                                  epilog="\n".join(lines[1:]).strip(),
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--outdir", default="results", help="parent of the per-experiment folders the experiments "
-                    "wrote, as for experiments.main (default: results)")
+                    "wrote, as for netcosim.experiments.main (default: results)")
     ap.add_argument("--measure", action="store_true", help="read the experiments' outputs under --outdir and "
                     "store their numbers (default: use the stored numbers)")
     ap.add_argument("--check", action="store_true", help="only compare docs/fidelity.md with the stored numbers")

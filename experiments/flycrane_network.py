@@ -15,7 +15,7 @@ error time series); then the figures: fig4_11.png (one seed), fig4_11_band.png (
 and 10-90 % band across seeds), figA_2.png, figA_3.png (20 % loss), figA_4.png,
 figA_5.png (schedules), figA_6.png (gains), cost_vs_loss.png and summary.parquet.
 
-Run ``python -m experiments.flycrane_network`` (``--quick``: 3 losses x 3 seeds,
+Run ``python -m netcosim.experiments.flycrane_network`` (``--quick``: 3 losses x 3 seeds,
 15 s).  ``--seeds N`` sets the number of seeds.
 """
 
@@ -27,8 +27,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-
-from controllers.planner.networked import FlyCraneNetworkConfig, FlyCraneRun, run
+from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, FlyCraneRun, run
 
 #: Loss probabilities of Fig. 4.11.
 FIG_LOSSES = (0.0, 0.3, 0.7)
@@ -348,7 +347,7 @@ def main(outdir: str = "results/flycrane_network", quick: bool = False, seeds: i
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     ap = experiment_parser(__doc__, "results/flycrane_network")
     ap.add_argument("--seeds", type=int, default=None, help="seeds per (loss, strategy) (default 20; quick 3)")
     ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")

@@ -6,7 +6,7 @@ IEEE 802.11b network (1.2 Mbit/s); each robot, on receiving it, reads its own ca
 ``q_i`` and applies the velocity of the sparse law (3.10) with the offline gain (zero-order
 hold).  Here the plant (the dynamic model (4.10) under velocity tracking (4.11)) and the
 network stay simulated, in real time; the five nodes' computations run in five OS
-processes (``experiments.hil_flycrane_node``), one
+processes (``netcosim.experiments.hil_flycrane_node``), one
 :class:`~netcosim.transport.remote.RemoteNode` each: the pivot's samples are LOCAL
 requests answered with a broadcast, a robot's requests are the frames the network
 delivers to it (plus its ``q_i``), answered with ``u_i`` to its plant inputs.
@@ -45,8 +45,8 @@ from typing import Any, Sequence
 
 import numpy as np
 import pandas as pd
+from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, FlyCraneRun, build
 
-from controllers.planner.networked import FlyCraneNetworkConfig, FlyCraneRun, build
 from netcosim.timebase import TICKS_PER_SECOND, to_ticks
 from netcosim.transport.harness import RemoteRun, remote_command, run_with_remotes
 from netcosim.transport.remote import RemoteNode
@@ -78,14 +78,13 @@ def flycrane_config(until: float = UNTIL, *, loss: float = 0.0, seed: int = 0) -
 
 def law_spec(dep: Any, system: Any) -> dict:
     """What a robot process needs to compute the sparse law of deployment *dep* without
-    CasADi (:data:`~experiments.hil_flycrane_node.LAW_FORMAT`): ``kd`` (the offline gain
+    CasADi (:data:`~netcosim.experiments.hil_flycrane_node.LAW_FORMAT`): ``kd`` (the offline gain
     times ``K_bar``'s diagonal, as ``_sparse_feedback`` passes it to ``robot_velocity``),
     ``q_ref``, the star structure and the system's Jacobian as its SX instruction list;
     checked: the tape gives the system's ``A_q`` bit for bit at ``q_ref``."""
     import casadi as ca
-
-    from controllers.planner.kinematics import diag_gain
-    from controllers.planner.laws import OfflineGain
+    from netcosim.controllers.planner.kinematics import diag_gain
+    from netcosim.controllers.planner.laws import OfflineGain
     law, st = dep.law, dep.structure
     if not isinstance(law.gain, OfflineGain) or law.trajectory is not None or law.feedforward != "none":
         raise ValueError("the remote robots run the offline sparse law with a constant reference only")
@@ -141,7 +140,7 @@ def node_command(run: str, endpoints: Sequence[str], node: str, law_path: Any, *
     """The command that starts the process of *node* (``pivot`` or ``robotI``) for run *run*."""
     role = ["--role", "pivot"] if node == "pivot" else ["--role", "robot", "--index", node[len("robot"):],
                                                           "--law", str(Path(law_path).resolve())]
-    return remote_command([python, "-m", "experiments.hil_flycrane_node", *role, "--idle", repr(idle)],
+    return remote_command([python, "-m", "netcosim.experiments.hil_flycrane_node", *role, "--idle", repr(idle)],
                           run=run, node=node, endpoints=endpoints, lease=lease, session=session)
 
 
@@ -257,7 +256,8 @@ def run_hil(config: FlyCraneNetworkConfig, *, law_path: Any = None, spawn: bool 
     processes (started here; ``spawn=False`` prints their commands and waits up to
     ``connect_timeout`` s).  ``law_path``: where to write the robots' law file (default: a
     temporary file, removed after the run); ``prefetch``: :class:`PlantPrefetch`."""
-    from controllers.planner.networked import setting
+    from netcosim.controllers.planner.networked import setting
+
     from netcosim import Simulation
     tmp = None
     if law_path is None:
@@ -286,8 +286,8 @@ def run_hil(config: FlyCraneNetworkConfig, *, law_path: Any = None, spawn: bool 
 # ----------------------------------------------------------------------------- the comparison
 
 def run_simulated(config: FlyCraneNetworkConfig) -> FlyCraneRun:
-    """The all-simulated run (:func:`controllers.planner.networked.run`)."""
-    from controllers.planner.networked import run
+    """The all-simulated run (:func:`netcosim.controllers.planner.networked.run`)."""
+    from netcosim.controllers.planner.networked import run
     return run(config)
 
 
@@ -357,7 +357,7 @@ def deviation(q_a: np.ndarray, q_b: np.ndarray) -> float:
 @dataclass
 class Comparison:
     """The HIL run against the all-simulated run and the replay: ``nominal`` and ``replay``
-    (:class:`~controllers.planner.networked.FlyCraneRun`), ``missing`` (requests without a
+    (:class:`~netcosim.controllers.planner.networked.FlyCraneRun`), ``missing`` (requests without a
     reply), ``deviation`` (HIL vs nominal), ``explained`` (replay vs nominal),
     ``tolerance`` (1.5 x explained + :data:`FLOOR`), ``residual`` (HIL vs replay) and
     ``bit_exact`` (HIL q and u equal the replay's to the bit)."""
@@ -476,7 +476,7 @@ def main(outdir: str = "results/hil_flycrane", quick: bool = False, spawn: bool 
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     p = experiment_parser(__doc__, "results/hil_flycrane", quick=f"{QUICK:g} s instead of {UNTIL:g} s of real time")
     p.add_argument("--no-spawn", action="store_true", help="print the five remote commands instead of starting them")
     p.add_argument("--until", type=float, help=f"simulated (= real) seconds (default {UNTIL:g}; --quick {QUICK:g})")

@@ -16,8 +16,8 @@ the load (``pivot``) and four robots (``robot1..robot4``).  One program serves e
 
 The robot's law is the sparse law (3.10) with the offline gain, computed with the same
 float operations, in the same order, as the simulated robot task
-(``controllers.planner.tasks._sparse_feedback`` -> ``controllers.planner.laws.robot_velocity``).
-That code cannot be imported here: ``controllers.planner`` imports CasADi, and the
+(``netcosim.controllers.planner.tasks._sparse_feedback`` -> ``netcosim.controllers.planner.laws.robot_velocity``).
+That code cannot be imported here: ``netcosim.controllers.planner`` imports CasADi, and the
 system's Jacobian ``A_q`` is a CasADi SX function.  So the simulation side writes a
 **law file** (``--law PATH``, JSON, :data:`LAW_FORMAT`): the gains, ``q^r``, the star
 structure and the Jacobian as the instruction list of that SX function, which
@@ -76,7 +76,7 @@ class JacobianTape:
     ``constant``, OUTPUT stores ``w[in1]`` as nonzero ``in2`` of the output, the others
     compute ``w[out] = op(w[in1], w[in2])``) and the output's nonzeros in their order.
     Calling it returns the dense output (zeros outside the nonzeros), as
-    ``plants.casadi_tools.BufferedFunction`` returns a sparse output.
+    ``netcosim.plants.casadi_tools.BufferedFunction`` returns a sparse output.
     """
 
     def __init__(self, spec: dict):
@@ -127,7 +127,7 @@ class JacobianTape:
 
 class SparseLaw:
     """The sparse law (3.10) of a law file (:data:`LAW_FORMAT`): ``velocity(i, q_i, q_V)``
-    is ``controllers.planner.laws.robot_velocity(system, structure, i, q_i, q_V, q_ref,
+    is ``netcosim.controllers.planner.laws.robot_velocity(system, structure, i, q_i, q_V, q_ref,
     K)`` with the file's ``K`` (the offline gain times ``K_bar``'s diagonal), step by step."""
 
     def __init__(self, spec: dict):
@@ -233,7 +233,8 @@ def serve(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m experiments.hil_flycrane_node", description=__doc__.splitlines()[0],
+    p = argparse.ArgumentParser(prog="python -m netcosim.experiments.hil_flycrane_node",
+                                description=__doc__.splitlines()[0],
                                 epilog="\n".join(__doc__.splitlines()[1:]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--role", choices=("pivot", "robot"), required=True, help="the load (pivot) or a robot")

@@ -4,7 +4,7 @@ The two-layer controller of thesis §2.5 on one node (``topology="single"``, ide
 times): the tethered-UAV plant with landers, the 100 Hz NMPC task and the C²
 interpolator of Fig. 2.6 stay simulated; the feedback linearization (2.14)-(2.16) with
 PID and feed-forward runs in a separate OS process
-(``experiments.hil_landing_llc_controller``) against the simulated plant through
+(``netcosim.experiments.hil_landing_llc_controller``) against the simulated plant through
 :class:`~netcosim.transport.remote.RemotePlantIO` -- the fast local loop, no simulated
 network in between.  Every 2 ms of simulated time the simulation publishes the
 measured ``φ, φ̇, ϑ, ϑ̇`` followed (``extra``) by the interpolator's reference at that
@@ -31,15 +31,15 @@ from typing import Any, Sequence
 
 import numpy as np
 import pandas as pd
+from netcosim.controllers.landing import LandingScenario
+from netcosim.controllers.landing.result import plant_signals
+from netcosim.controllers.landing.topology import build_landing, simulate_landing
+from netcosim.plants.tethered_uav_params import TetheredUAVParams
 
-from controllers.landing import LandingScenario
-from controllers.landing.result import plant_signals
-from controllers.landing.topology import build_landing, simulate_landing
 from netcosim.timebase import RESOLUTION, to_ticks
 from netcosim.transport.harness import RemoteRun, remote_command, run_with_remote
 from netcosim.transport.remote import RemotePlantIO
 from netcosim.transport.session import LOOPBACK, new_run_id, open_session
-from plants.tethered_uav_params import TetheredUAVParams
 
 ROOT = Path(__file__).resolve().parent.parent
 #: the plant outputs a sample carries, before the reference
@@ -70,7 +70,8 @@ def controller_command(run: str, endpoints: Sequence[str], sc: LandingScenario, 
         raise ValueError("the low-level process uses the default TetheredUAVParams; "
                          f"the scenario has {sc.params!r}")
     g = sc.fl_gains
-    return remote_command([python, "-m", "experiments.hil_landing_llc_controller", "--period", repr(sc.fl_period),
+    return remote_command([python, "-m", "netcosim.experiments.hil_landing_llc_controller",
+                           "--period", repr(sc.fl_period),
                            "--gains", repr(g.kp), repr(g.kd), repr(g.ki), "--idle", repr(idle)],
                           run=run, node=node, endpoints=endpoints, lease=lease, session=session)
 
@@ -88,9 +89,9 @@ def attach_remote_llc(sim, uav, loop, session, *, run: str, factor: float = FACT
 
 
 def build(until: float = 1.5):
-    """The landing for ``netcosim hil`` (``experiments.hil_landing_llc:build``): ``(sim,
+    """The landing for ``netcosim hil`` (``netcosim.experiments.hil_landing_llc:build``): ``(sim,
     uav, loop)`` of :func:`scenario` without the low-level task, to be driven by the
-    process through plant ``uav``; pair with ``--extra experiments.hil_landing_llc:reference``."""
+    process through plant ``uav``; pair with ``--extra netcosim.experiments.hil_landing_llc:reference``."""
     import scipy.optimize  # noqa: F401  (see run_hil)
     return build_landing(scenario(until), low_level=False)
 
@@ -106,7 +107,7 @@ class HilLandingRun(RemoteRun):
     """One landing with the remote low-level controller: the fields of
     :class:`~netcosim.transport.harness.RemoteRun` (``remote``: the
     :class:`~netcosim.transport.remote.RemotePlantIO`), ``loop`` (the simulated NMPC's
-    :class:`~controllers.landing.tasks.LandingLoop`) and ``factor`` (the real-time factor)."""
+    :class:`~netcosim.controllers.landing.tasks.LandingLoop`) and ``factor`` (the real-time factor)."""
 
     loop: Any = None
     factor: float = 1.0
@@ -228,7 +229,7 @@ def main(outdir: str = "results/hil_landing_llc", quick: bool = False, spawn: bo
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     p = experiment_parser(__doc__, "results/hil_landing_llc", quick="0.5 s instead of 1.5 s of simulated landing")
     p.add_argument("--no-spawn", action="store_true", help="print the remote command instead of starting it")
     p.add_argument("--factor", type=float, default=FACTOR,

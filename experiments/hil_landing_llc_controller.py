@@ -1,10 +1,10 @@
 """The ch. 2 low-level controller as a real process (the remote side of ``hil_landing_llc``).
 
-It connects to a running ``python -m experiments.hil_landing_llc`` (which prints this
+It connects to a running ``python -m netcosim.experiments.hil_landing_llc`` (which prints this
 command with its endpoint and run id) and answers every sample of the simulated
 tethered UAV with the thrust and torque to apply: the feedback linearization
 (2.14)-(2.16) with PID and feed-forward of thesis §2.5
-(``controllers.landing.feedback_linearization.FeedbackLinearization``), one call per
+(``netcosim.controllers.landing.feedback_linearization.FeedbackLinearization``), one call per
 sample, sampling period ``--period`` (0.002 s: 500 Hz in simulated time).
 
 A sample (the simulation's ``RemotePlantIO`` with ``extra``) carries 10 float64 values:
@@ -26,9 +26,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from controllers.landing.feedback_linearization import DEFAULT_FL_GAINS, FeedbackLinearization, PIDGains
+from netcosim.controllers.landing.feedback_linearization import DEFAULT_FL_GAINS, FeedbackLinearization, PIDGains
+from netcosim.plants.tethered_uav_params import TetheredUAVParams
+
 from netcosim.transport.client import add_arguments, connect, finish
-from plants.tethered_uav_params import TetheredUAVParams
 
 #: values in a sample: the measured state (4), the reference positions, velocities, accelerations (2 each)
 SAMPLE_VALUES = 10
@@ -58,7 +59,7 @@ def serve(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m experiments.hil_landing_llc_controller",
+    p = argparse.ArgumentParser(prog="python -m netcosim.experiments.hil_landing_llc_controller",
                                 description=__doc__.splitlines()[0], epilog="\n".join(__doc__.splitlines()[1:]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     add_arguments(p)

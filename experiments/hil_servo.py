@@ -1,8 +1,8 @@
 """The networked servo with its controller in a real process, over Zenoh (hardware in the loop).
 
-The scenario of ``experiments.networked_servo`` (CSMA/CD at 80 kbit/s, no interferer):
+The scenario of ``netcosim.experiments.networked_servo`` (CSMA/CD at 80 kbit/s, no interferer):
 the plant, the sensor node and the network are simulated in real time; the
-``controller`` node is remote: ``experiments.hil_servo_controller`` runs its PID in a
+``controller`` node is remote: ``netcosim.experiments.hil_servo_controller`` runs its PID in a
 separate OS process, connected over a hermetic Zenoh session (loopback, port chosen by
 the OS, a fresh run id).  The script starts that process itself (``--no-spawn``: it
 prints the command and waits for you to start it, e.g. on a board), runs the
@@ -38,7 +38,7 @@ def controller_command(run: str, endpoints: Sequence[str], *, node: str = "contr
                        lease: float = 1.0, session: int | None = None, python: str = sys.executable) -> list[str]:
     """The command that starts the remote controller process for run *run* (and session
     *session*, if given)."""
-    return remote_command([python, "-m", "experiments.hil_servo_controller", "--idle", repr(idle)],
+    return remote_command([python, "-m", "netcosim.experiments.hil_servo_controller", "--idle", repr(idle)],
                           run=run, node=node, endpoints=endpoints, lease=lease, session=session)
 
 
@@ -127,7 +127,7 @@ def run_replay(until: float, requests: Any, *, seed: int = 0):
     was applied (none otherwise).  *requests*: the remote's
     :meth:`~netcosim.transport.remote.RemoteNode.requests` frame, or response times (s)
     of requests all published and replied, in order.  What the HIL run must reproduce."""
-    from controllers.pid import PID
+    from netcosim.controllers.pid import PID
 
     from .servo import square_wave
     if isinstance(requests, pd.DataFrame):
@@ -225,7 +225,7 @@ def main(outdir: str = "results/hil_servo", quick: bool = False, spawn: bool = T
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     p = experiment_parser(__doc__, "results/hil_servo", quick="2 s instead of 5 s of real time")
     p.add_argument("--no-spawn", action="store_true", help="print the remote command instead of starting it")
     p.add_argument("--policies", action="store_true",

@@ -1,6 +1,6 @@
 """The networked servo's PID controller as a real process (the remote side of ``hil_servo``).
 
-It connects to a running ``python -m experiments.hil_servo`` (or ``netcosim hil``), which
+It connects to a running ``python -m netcosim.experiments.hil_servo`` (or ``netcosim hil``), which
 prints this command with its endpoint and run id, and answers every measurement
 ``(t_sample, y)`` the simulated network delivers with ``(t_sample, u)``: TrueTime's PID
 (K = 0.96, Ti = 0.12, Td = 0.049, beta = 0.5, N = 10, h = 10 ms) on the reference of
@@ -22,7 +22,8 @@ import argparse
 import math
 import sys
 
-from controllers.pid import PID
+from netcosim.controllers.pid import PID
+
 from netcosim.transport.client import add_arguments, connect, finish
 
 PERIOD = 0.010      # the sensor's sampling period (s): the PID's h
@@ -30,7 +31,7 @@ PERIOD = 0.010      # the sensor's sampling period (s): the PID's h
 
 def reference(t: float) -> float:
     """The networked servo's set point at sampling instant *t* (s): +1 on the first half
-    of each second, -1 on the second (``experiments.servo.square_wave(1.0, 1.0)``)."""
+    of each second, -1 on the second (``netcosim.experiments.servo.square_wave(1.0, 1.0)``)."""
     return 1.0 if int(math.floor(t / 0.5 + 1e-12)) % 2 == 0 else -1.0
 
 
@@ -46,7 +47,8 @@ def serve(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m experiments.hil_servo_controller", description=__doc__.splitlines()[0],
+    p = argparse.ArgumentParser(prog="python -m netcosim.experiments.hil_servo_controller",
+                                description=__doc__.splitlines()[0],
                                 epilog="\n".join(__doc__.splitlines()[1:]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     add_arguments(p)

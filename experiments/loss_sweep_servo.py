@@ -37,14 +37,14 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from netcosim.controllers.networked_loop import networked_loop
+from netcosim.controllers.pid import PID
+from netcosim.experiments.servo import square_wave  # absolute: the file also loads as "path.py:scenario"
+from netcosim.plants.dc_servo import DCServo
 
-from controllers.networked_loop import networked_loop
-from controllers.pid import PID
-from experiments.servo import square_wave  # absolute: the file also loads as "path.py:scenario"
 from netcosim import RK4, Simulation, metrics, validate
 from netcosim.errors import ConfigurationError
 from netcosim.network import WLAN80211b
-from plants.dc_servo import DCServo
 
 PERIOD = 0.010          # sampling period (s)
 CONTROL_EXEC = 0.0005   # PID execution time (s)
@@ -176,7 +176,8 @@ def main(outdir: str = "results/loss_sweep_servo", quick: bool = False, executor
     losses = (0.0, 0.5, 0.9) if quick else LOSSES
     seeds = 3 if quick else 20
     # by import path: run as `python -m`, this module is __main__, which workers cannot import
-    result = run_sweep("experiments.loss_sweep_servo:scenario", grid={"loss": list(losses), "mode": list(MODES)},
+    result = run_sweep("netcosim.experiments.loss_sweep_servo:scenario",
+                       grid={"loss": list(losses), "mode": list(MODES)},
                        seeds=seeds, out=out / "dataset", executor=executor)
     runs = result.to_pandas()
     summary = summarize(runs, "loss", "J", hue="mode")
@@ -210,7 +211,7 @@ def main(outdir: str = "results/loss_sweep_servo", quick: bool = False, executor
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/loss_sweep_servo",
                           quick="losses 0, 0.5, 0.9 and 3 seeds (instead of 0..0.9 and 20 seeds)").parse_args()
     main(a.outdir, a.quick)

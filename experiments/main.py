@@ -1,7 +1,7 @@
 """The main job (``make run``): the TrueTime examples and the thesis reproductions.
 
 Runs every experiment of :data:`EXPERIMENTS` (or those named with ``--only``), each in
-its own Python process (``python -m experiments.NAME --outdir OUTDIR/NAME``) with a
+its own Python process (``python -m netcosim.experiments.NAME --outdir OUTDIR/NAME``) with a
 time limit, so an experiment that exits, crashes or hangs cannot stop the others.
 Its output streams through as it runs; it writes its plots (PNG) and data (Parquet)
 under ``OUTDIR/NAME/``, and nothing it wrote is ever deleted, also when it fails.  At
@@ -64,7 +64,7 @@ class Outcome:
 
 
 def module_of(name: str) -> str:
-    """The module run for an experiment entry: ``experiments.NAME`` unless NAME has a dot."""
+    """The module run for an experiment entry: ``netcosim.experiments.NAME`` unless NAME has a dot."""
     return name if "." in name else f"experiments.{name}"
 
 
@@ -236,9 +236,9 @@ def _directory(text: str) -> str:
 
 
 def cli(argv: Sequence[str] | None = None) -> int:
-    """``python -m experiments.main [--outdir DIR] [--only NAME ...] [--timeout S] [--quick]``."""
+    """``python -m netcosim.experiments.main [--outdir DIR] [--only NAME ...] [--timeout S] [--quick]``."""
     names = [n for n, _ in EXPERIMENTS]
-    p = argparse.ArgumentParser(prog="python -m experiments.main", description=__doc__.splitlines()[0],
+    p = argparse.ArgumentParser(prog="python -m netcosim.experiments.main", description=__doc__.splitlines()[0],
                                 epilog="\n".join(__doc__.splitlines()[2:]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--outdir", type=_directory, default="results",

@@ -16,7 +16,7 @@ semantics, 80-bit minimum frame, hence 1 ms backoff slots) or CAN (interferer fr
 with the highest priority, as in a bus shared with a more important stream).  The control
 cost ``J = integral of (r - y)^2 dt`` grows with the interferer's share.
 
-Run: ``python -m experiments.networked_servo`` (PNG + Parquet under results/networked_servo/).
+Run: ``python -m netcosim.experiments.networked_servo`` (PNG + Parquet under results/networked_servo/).
 """
 
 from __future__ import annotations
@@ -26,14 +26,14 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from netcosim.controllers.networked_loop import networked_loop
+from netcosim.controllers.pid import PID
+from netcosim.plants.dc_servo import DCServo
 
-from controllers.networked_loop import networked_loop
-from controllers.pid import PID
 from netcosim import RK4, Simulation
 from netcosim.network import CAN, CSMACD
 from netcosim.network.plot import plot_network_schedule
 from netcosim.plot import plot_schedule
-from plants.dc_servo import DCServo
 
 from .servo import square_wave
 
@@ -176,7 +176,7 @@ def main(outdir: str = "results/networked_servo", quick: bool = False) -> pd.Dat
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/networked_servo",
                           quick="shares 0 and 0.6, one seed, 1.5 s (instead of six shares, three seeds, 3 s)"
                           ).parse_args()

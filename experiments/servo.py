@@ -4,7 +4,7 @@ The task samples the servo angle at job start, computes for ``execution`` second
 CPU, then writes the control signal -- so the computational delay (2 ms by default)
 appears between sampling and actuation, as in TrueTime.
 
-Run: ``python -m experiments.servo`` (writes PNG and Parquet under results/servo/).
+Run: ``python -m netcosim.experiments.servo`` (writes PNG and Parquet under results/servo/).
 """
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from netcosim.controllers.pid import PID
+from netcosim.plants.dc_servo import DCServo
 
-from controllers.pid import PID
 from netcosim import RK4, Simulation
 from netcosim.plot import plot_schedule, plot_signals
-from plants.dc_servo import DCServo
 
 
 def square_wave(amplitude: float = 1.0, period: float = 1.0):
@@ -82,7 +82,7 @@ def main(outdir="results/servo", until=2.0, quick=False):
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/servo", quick="simulate 0.5 s instead of 2 s").parse_args()
     jobs = main(a.outdir, quick=a.quick).trace.jobs()
     print(f"{len(jobs)} PID jobs, mean response {jobs['response_time'].mean() * 1e3:.3f} ms")

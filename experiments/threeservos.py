@@ -4,7 +4,7 @@ Periods 6, 5 and 4 ms, 2 ms of execution each: utilisation 2/6 + 2/5 + 2/4 = 1.2
 Under deadline monotonic the 6 ms loop has the lowest priority and starves; under EDF
 every loop keeps running (all jobs are late, control degrades gracefully).
 
-Run: ``python -m experiments.threeservos`` (PNG + Parquet under results/threeservos/).
+Run: ``python -m netcosim.experiments.threeservos`` (PNG + Parquet under results/threeservos/).
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+from netcosim.plants.dc_servo import DCServo
 
 from netcosim import RK4, Simulation
 from netcosim.plot import plot_schedule
-from plants.dc_servo import DCServo
 
 from .servo import add_pid_loop
 
@@ -69,7 +69,7 @@ def main(outdir="results/threeservos", until=1.0, quick=False):
 
 
 if __name__ == "__main__":
-    from experiments._cli import experiment_parser
+    from netcosim.experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/threeservos", quick="simulate 0.3 s instead of 1 s").parse_args()
     for policy, sim in main(a.outdir, quick=a.quick).items():
         counts = ", ".join(f"{t}: {int(g['finish'].notna().sum())} done/{int(g['deadline_miss'].sum())} missed"

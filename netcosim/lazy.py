@@ -4,7 +4,7 @@
 package's ``__init__``: ``package.Name`` imports ``package.module`` the first time it is
 asked for and keeps the value in the package's namespace, so importing the package
 loads none of its modules (``import netcosim`` stays light; a process that needs only
-the low-level controller of ``controllers.landing`` loads neither SimPy nor CasADi).
+the low-level controller of ``netcosim.controllers.landing`` loads neither SimPy nor CasADi).
 """
 
 from __future__ import annotations

@@ -8,8 +8,8 @@ A *kinematic system* (:class:`KinematicSystem`) is any object with
 * ``pinv(q) -> A_q^+`` (shape ``(m, n)``), the Moore-Penrose inverse (``A_q^{-1}``
   when ``n == m``); optional: :func:`pinv` computes it from ``jacobian`` otherwise.
 
-The Fly-crane configurations (:class:`plants.flycrane.MultiRobotSystem`) implement all
-five; the planners of :mod:`controllers.planner` only need ``n, m, h, jacobian``.
+The Fly-crane configurations (:class:`netcosim.plants.flycrane.MultiRobotSystem`) implement all
+five; the planners of :mod:`netcosim.controllers.planner` only need ``n, m, h, jacobian``.
 
 One rank rule (:data:`SINGULAR_RTOL`, :func:`conditioning`), one exception
 (:class:`SingularConfigurationError`, defined here), one pseudo-inverse
@@ -37,8 +37,8 @@ class SingularConfigurationError(NetcosimError, ValueError):
     """A kinematic Jacobian ``A_q`` lost column rank (or is too ill-conditioned to use)
     at the configuration where it was needed (the message names q, the rank, the smallest
     singular value and the condition number).  Raised by the kinematic plants and
-    planners (Fly-crane, :mod:`controllers.planner`), re-exported by :mod:`plants.flycrane`
-    and :mod:`controllers.planner`: one class."""
+    planners (Fly-crane, :mod:`netcosim.controllers.planner`), re-exported by :mod:`netcosim.plants.flycrane`
+    and :mod:`netcosim.controllers.planner`: one class."""
 
 
 #: The one rank rule of the project (plants and planners): ``A_q`` counts as singular

@@ -1,9 +1,9 @@
 """Physical parameters of the tethered UAV of thesis ch. 2 (SI units, no CasADi).
 
 :class:`TetheredUAVParams` lives here, apart from the equations of
-:mod:`plants.tethered_uav` (which need CasADi), so that code running on a vehicle --
+:mod:`netcosim.plants.tethered_uav` (which need CasADi), so that code running on a vehicle --
 the low-level controller of §2.5 in a separate process -- can use the parameters with
-NumPy alone.  :mod:`plants.tethered_uav` re-exports it.
+NumPy alone.  :mod:`netcosim.plants.tethered_uav` re-exports it.
 """
 
 from __future__ import annotations

@@ -19,6 +19,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "netcosim"
+#: the repository's folders built on the framework (installed under its namespace)
+APPLICATIONS = ("plants", "controllers", "experiments")
 
 
 #: packages checked for cycles, each against itself
@@ -28,6 +30,8 @@ CYCLE_FREE = (PKG, ROOT / "plants", ROOT / "controllers")
 def _module_name(path: Path) -> str:
     rel = path.relative_to(ROOT).with_suffix("")
     parts = list(rel.parts)
+    if parts[0] in APPLICATIONS:    # installed as netcosim.plants ... (pyproject package-dir)
+        parts.insert(0, "netcosim")
     if parts[-1] == "__init__":
         parts = parts[:-1]
     return ".".join(parts)
@@ -127,7 +131,7 @@ def test_no_import_cycle(pkg):
 
 
 def test_the_other_packages_are_read_too():
-    assert "controllers.nmpc.ocp" in _graph(ROOT / "controllers")["controllers.nmpc.rti"]
+    assert "netcosim.controllers.nmpc.ocp" in _graph(ROOT / "controllers")["netcosim.controllers.nmpc.rti"]
     assert _graph(ROOT / "plants")
 
 
@@ -147,8 +151,6 @@ def test_a_cycle_through_type_checking_only_is_found():
     assert _cycles(graph) == [["p.a", "p.b"]]
     assert _imports_of(b, "p.b", typing=False) == {"typing", "typing.TYPE_CHECKING"}
 
-
-APPLICATIONS = ("plants", "controllers", "experiments")
 
 #: Functions that import (or find) a module named by their first argument.
 _IMPORTERS = {"import_module", "__import__", "find_spec"}
@@ -177,7 +179,14 @@ def _string_imports(tree: ast.AST) -> set[str]:
 
 def _application_imports(path: Path) -> list[str]:
     deps = _imports(path) | _string_imports(ast.parse(path.read_text(), str(path)))
-    return sorted(d for d in deps if d.split(".")[0] in APPLICATIONS)
+    return sorted(d for d in deps if _is_application(d))
+
+
+def _is_application(module: str) -> bool:
+    """*module* is in the applications: by its installed name (netcosim.plants ...) or by the
+    folder's own name (which would import a user's package of that name)."""
+    parts = module.split(".")
+    return parts[0] in APPLICATIONS or (parts[0] == "netcosim" and parts[1:2] != [] and parts[1] in APPLICATIONS)
 
 
 def test_netcosim_does_not_import_the_applications():
@@ -195,10 +204,12 @@ def test_the_string_import_detector_finds_one():
     tree = ast.parse("import importlib\n"
                      "def f(name):\n"
                      "    importlib.import_module(f'experiments.{name}')\n"
-                     "    __import__('plants.servo')\n"
+                     "    __import__('netcosim.plants.servo')\n"
                      "    importlib.util.find_spec('controllers')\n"
                      "    importlib.import_module(name)\n")
-    assert _string_imports(tree) == {"experiments.", "plants.servo", "controllers"}
+    assert _string_imports(tree) == {"experiments.", "netcosim.plants.servo", "controllers"}
+    assert all(map(_is_application, _string_imports(tree)))
+    assert not _is_application("netcosim.plant.system") and not _is_application("netcosim")
 
 
 def test_the_trace_does_not_know_the_kernel():

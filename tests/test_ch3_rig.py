@@ -19,7 +19,7 @@ ONLINE_TOL = {True: 0.05, False: 0.005}
 
 @QUICK
 def test_rig_reproduces_the_measured_behaviour(tmp_path, quick):
-    from experiments import ch3_fig3_10_12 as ex
+    from netcosim.experiments import ch3_fig3_10_12 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
     for n in ("fig3_10.png", "fig3_11.png", "fig3_12.png", "series.parquet", "samples.parquet", "summary.parquet"):
         assert (tmp_path / n).stat().st_size > 0, n
@@ -55,7 +55,7 @@ def test_rig_reproduces_the_measured_behaviour(tmp_path, quick):
 
 
 def test_rig_is_deterministic_and_the_link_loses_frames():
-    from experiments import ch3_fig3_10_12 as ex
+    from netcosim.experiments import ch3_fig3_10_12 as ex
     a, _ = ex.simulate("online", 0.3, period=1.5, loss=0.3, seed=4)
     b, _ = ex.simulate("online", 0.3, period=1.5, loss=0.3, seed=4)
     pd.testing.assert_frame_equal(a, b)
@@ -64,7 +64,7 @@ def test_rig_is_deterministic_and_the_link_loses_frames():
 
 
 def test_rig_rejects_bad_input():
-    from experiments import ch3_fig3_10_12 as ex
+    from netcosim.experiments import ch3_fig3_10_12 as ex
     with pytest.raises(ConfigurationError, match="loss"):
         ex.run(quick=True, loss=1.5)
     with pytest.raises(ConfigurationError, match="strategy"):

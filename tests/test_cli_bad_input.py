@@ -14,7 +14,7 @@ import pytest
 
 from netcosim.cli import main
 
-SCENARIO = "experiments.networked_servo:build"      # nodes sensor, controller, interferer; plant servo (y; u)
+SCENARIO = "netcosim.experiments.networked_servo:build"      # nodes sensor, controller, interferer; plant servo (y; u)
 NODE = [SCENARIO, "--remote", "controller", "--period", "0.01"]
 PLANT = [SCENARIO, "--remote", "servo", "--period", "0.01"]
 
@@ -133,7 +133,7 @@ def test_run_servo_says_where_it_wrote(tmp_path, capsys):
     assert main(["run", "servo", "--quick", "--outdir", str(out)]) == 0
     printed = capsys.readouterr().out.strip().splitlines()
     assert len(printed) == 1 and printed[0].endswith(f"to {out}"), printed
-    assert "experiments.servo.main(" in printed[0] and "quick=True" in printed[0]
+    assert "netcosim.experiments.servo.main(" in printed[0] and "quick=True" in printed[0]
     assert (out / "schedule.parquet").is_file()
 
 

@@ -30,14 +30,60 @@ def netcosim_cli(args, cwd, *, timeout=120):
                           capture_output=True, text=True, timeout=timeout)
 
 
-def test_experiments_is_one_of_the_installed_packages():
-    # what `pip install .` installs: the packages setuptools finds with pyproject's include list
-    from setuptools import find_packages
-    conf = tomllib.loads((REPO / "pyproject.toml").read_text())
-    include = conf["tool"]["setuptools"]["packages"]["find"]["include"]
-    found = set(find_packages(where=str(REPO), include=include))
-    assert {"netcosim", "netcosim.kernel", "netcosim.network", "plants", "controllers", "experiments"} <= found
-    assert not any(p.startswith("tests") for p in found)
+def test_the_installed_packages_are_the_tree_under_one_namespace():
+    # what `pip install .` installs: pyproject's package list, the repository's folders
+    # plants/, controllers/, experiments/ mapped under netcosim (package-dir)
+    conf = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    mapping = {"netcosim": "netcosim", **conf["package-dir"]}
+    assert conf["package-dir"] == {f"netcosim.{d}": d for d in ("plants", "controllers", "experiments")}
+    tree = set()
+    for name, folder in mapping.items():
+        for init in (REPO / folder).rglob("__init__.py"):
+            rel = init.parent.relative_to(REPO / folder).parts
+            tree.add(".".join((name, *rel)))
+    assert sorted(conf["packages"]) == sorted(tree)
+    assert not any(p.split(".")[0] != "netcosim" for p in conf["packages"])
+
+
+def _user_project(root: Path) -> Path:
+    """A user's directory with packages named like the repository's folders, and an
+    experiment of its own that uses the installed plant and controller."""
+    for pkg in ("plants", "controllers", "experiments"):
+        (root / pkg).mkdir(parents=True)
+        (root / pkg / "__init__.py").write_text("OWNER = 'user'\n")
+    (root / "plants" / "dc_servo.py").write_text("raise ImportError('the user plants.dc_servo was imported')\n")
+    (root / "controllers" / "pid.py").write_text("raise ImportError('the user controllers.pid was imported')\n")
+    (root / "experiments" / "servo.py").write_text("raise ImportError('the user experiments.servo was imported')\n")
+    (root / "experiments" / "mine.py").write_text(
+        "from netcosim import Simulation\n"
+        "from netcosim.controllers.pid import PID\n"
+        "from netcosim.plants.dc_servo import DCServo\n"
+        "import plants\n\n"
+        "def main(outdir=None, quick=False):\n"
+        "    sim = Simulation()\n"
+        "    sim.plant(DCServo(), x0=[0.0, 0.0], name='servo')\n"
+        "    sim.run(0.1)\n"
+        "    print('mine', plants.OWNER, DCServo.__module__, type(PID(h=0.006)).__module__)\n")
+    return root
+
+
+def test_a_user_directory_with_its_own_experiments_and_plants(tmp_path):
+    """``netcosim run`` and the documented imports work from a directory holding the user's
+    own ``experiments``, ``plants`` and ``controllers`` packages: the repository's are
+    ``netcosim.experiments`` ..., the user's keep their names."""
+    work = _user_project(tmp_path / "project")
+    r = netcosim_cli(["run", "servo", "--quick", "--outdir", str(tmp_path / "out")], cwd=work)
+    assert r.returncode == 0, r.stderr
+    assert len(pd.read_parquet(tmp_path / "out" / "jobs.parquet")) == 84
+    r = netcosim_cli(["run", "experiments.mine:main"], cwd=work)
+    assert r.returncode == 0, r.stderr
+    assert "mine user netcosim.plants.dc_servo netcosim.controllers.pid" in r.stdout
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    code = ("import experiments, plants, controllers, netcosim.experiments.servo as s, netcosim.plants.flycrane; "
+            "print(experiments.OWNER, plants.OWNER, controllers.OWNER, s.__name__)")
+    out = subprocess.run([sys.executable, "-c", code], cwd=work, env=env, capture_output=True, text=True,
+                         timeout=120)
+    assert out.stdout.split() == ["user", "user", "user", "netcosim.experiments.servo"], out.stderr
 
 
 def test_run_servo_from_an_unrelated_directory(tmp_path):
@@ -83,7 +129,8 @@ def test_installed_package_runs_servo_from_a_temporary_directory(tmp_path):
                     str(src)], check=True, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     work = tmp_path / "work"
     work.mkdir()
-    where = subprocess.run([str(py), "-c", "import experiments, netcosim; print(experiments.__file__); "
+    where = subprocess.run([str(py), "-c", "import netcosim.experiments, netcosim; "
+                            "print(netcosim.experiments.__file__); "
                             "print(netcosim.__file__)"], cwd=work, env=env, check=True, capture_output=True,
                            text=True).stdout.split()
     assert all(Path(w).is_relative_to(venv) for w in where), where

@@ -1,4 +1,4 @@
-"""The compiled-code cache of the auxiliary flow (plants.casadi_tools.compile_functions).
+"""The compiled-code cache of the auxiliary flow (netcosim.plants.casadi_tools.compile_functions).
 
 A shared library is loaded only from a private cache directory and only if its sha256
 matches the digest recorded when it was built; every failure falls back to the
@@ -15,12 +15,11 @@ import subprocess
 import warnings
 from pathlib import Path
 
+import netcosim.controllers.planner.flow as aux_flow
+import netcosim.plants.casadi_tools as ct
 import numpy as np
 import pytest
-
-import controllers.planner.flow as aux_flow
-import plants.casadi_tools as ct
-from plants.flycrane.configurations import formation_2d
+from netcosim.plants.flycrane.configurations import formation_2d
 
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
 

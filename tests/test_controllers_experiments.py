@@ -21,7 +21,7 @@ def _files(tmp_path, names):
 
 @QUICK
 def test_ch3_fig3_8(tmp_path, quick):
-    from experiments import ch3_fig3_8 as ex
+    from netcosim.experiments import ch3_fig3_8 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
     _files(tmp_path, ["fig3_5.png", "fig3_6.png", "fig3_8.png", "samples.parquet", "summary.parquet"])
     s = summary.set_index(["case", "strategy"])
@@ -47,8 +47,8 @@ def test_fig3_6_design_curves():
     """Fig. 3.6 (Prop. 3.4.3-3.4.4): tau_s_bar = 2 and rho = 0 at mu = 0 (dead beat),
     tau_o_bar = 1 and rho = mu below 1/2, tau_o_bar = 1/(2 mu) and rho = 1 - 1/(4 mu)
     above, tau_s_bar = 1/mu from 1 on; rho < 1 everywhere ("Note that rho < 1")."""
-    from controllers.planner.gain_design import g_square
-    from experiments.ch3_fig3_8 import design_curves
+    from netcosim.controllers.planner.gain_design import g_square
+    from netcosim.experiments.ch3_fig3_8 import design_curves
     c = design_curves(mu_max=3.0, n=301).set_index("mu")
     assert c.loc[0.0].tolist() == [2.0, 1.0, 0.0]
     assert c.loc[0.3, "tau_o_bar"] == 1.0 and c.loc[0.3, "rho"] == pytest.approx(0.3)
@@ -64,7 +64,7 @@ def test_fig3_6_design_curves():
 
 @QUICK
 def test_ch4_fig4_8_9(tmp_path, quick):
-    from experiments import ch4_fig4_8_9 as ex
+    from netcosim.experiments import ch4_fig4_8_9 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
     _files(tmp_path, ["fig4_6.png", "fig4_7.png", "fig4_8.png", "fig4_9.png", "samples.parquet", "summary.parquet"])
     assert len(summary) == 8
@@ -79,8 +79,8 @@ def test_fig4_6_4_7_pieces():
     """Figs. 4.6/4.7, (4.29) as printed: each piece |1 - tau k_i| / d_i^2 vanishes at
     tau = 1/k_i; g = max + mu tau^2 equals g_nonsquare(form="thesis"), is 1 at
     tau_s_bar and rho at tau_o_bar of design_nonsquare."""
-    from controllers.planner.gain_design import design_nonsquare
-    from experiments.ch4_fig4_8_9 import D_EXAMPLE, KBAR_EXAMPLE, MU_EXAMPLE, g_pieces
+    from netcosim.controllers.planner.gain_design import design_nonsquare
+    from netcosim.experiments.ch4_fig4_8_9 import D_EXAMPLE, KBAR_EXAMPLE, MU_EXAMPLE, g_pieces
     df = g_pieces([0.0, 0.5, 1.0, 2.0])
     assert df.loc[0, ["piece_0", "piece_1", "piece_2"]].tolist() == pytest.approx([1.0, 1 / 1.44, 1 / 2.25])
     assert df.loc[3, "piece_0"] == 0.0 and df.loc[2, "piece_1"] == 0.0 and df.loc[1, "piece_2"] == 0.0
@@ -97,7 +97,7 @@ def test_ch4_fig4_8_9_under_the_other_reading_of_D():
     # reading that keeps (4.9) is D = diag(I4, I6/16).  Under it the pose errors barely count,
     # the Monte-Carlo mu_hat* (4.27) exceeds 1 in every case and the offline design of (4.29)
     # is a crawl (rho > 0.99), while the online gain (4.30) still converges in a few samples.
-    from experiments import ch4_fig4_8_9 as ex
+    from netcosim.experiments import ch4_fig4_8_9 as ex
     _, summary = ex.run(quick=True, d_reading="assumption")
     assert (summary.mu_hat > 30).all() and (summary.rho > 0.99).all()
     off = summary[summary.strategy == "offline"]
@@ -113,7 +113,7 @@ def test_fig4_4_robot_velocities_follow_the_projection():
     the angles grow (||u - u_q|| reaches 0.27 m/s at 2 s); the robot velocities
     follow u_q, not u: ||p_dot - u_q|| stays under a fifth of ||p_dot - u|| from 0.2 s on
     (alpha = 30 N s/m, velocity time constant m_i / alpha = 0.034 s)."""
-    from experiments.ch4_fig4_10 import projection_run
+    from netcosim.experiments.ch4_fig4_10 import projection_run
     df = projection_run(n=41)
     assert df.infeasible.iloc[0] < 1e-12 and df.dist_u.iloc[0] < 1e-12
     assert df.infeasible.iloc[-1] == pytest.approx(0.271, abs=0.002)
@@ -124,7 +124,7 @@ def test_fig4_4_robot_velocities_follow_the_projection():
 
 @QUICK
 def test_ch4_fig4_10(tmp_path, quick):
-    from experiments import ch4_fig4_10 as ex
+    from netcosim.experiments import ch4_fig4_10 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
     _files(tmp_path, ["fig4_4.png", "fig4_10.png", "samples.parquet", "summary.parquet"])
     s = summary.set_index(["alpha", "strategy"])
@@ -139,7 +139,7 @@ def test_ch4_fig4_10(tmp_path, quick):
 
 
 def test_ch5_table5_2(tmp_path):
-    from experiments import ch5_table5_2 as ex
+    from netcosim.experiments import ch5_table5_2 as ex
     tab = ex.main(outdir=str(tmp_path), quick=True)
     _files(tmp_path, ["table5_2.parquet", "curves.parquet", "fig5_3.png", "fig5_4.png", "fig5_5.png", "fig5_7.png"])
     t = tab.set_index("T")
@@ -155,7 +155,7 @@ def test_ch5_table5_2(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("quick", [True, False])
 def test_ch5_fig5_8_9(tmp_path, quick):
-    from experiments import ch5_fig5_8_9 as ex
+    from netcosim.experiments import ch5_fig5_8_9 as ex
     summary = ex.main(outdir=str(tmp_path), quick=quick)
     _files(tmp_path, ["fig5_8.png", "fig5_9a.png", "fig5_9_noise.png", "dense.parquet", "samples.parquet",
                       "theta.parquet", "noise.parquet"])
@@ -191,8 +191,8 @@ def test_ch5_fig5_8_9(tmp_path, quick):
 
 
 def _ch5_setup():
-    from experiments import ch5_fig5_8_9 as ex
-    from plants.flycrane.configurations import thesis_flycrane
+    from netcosim.experiments import ch5_fig5_8_9 as ex
+    from netcosim.plants.flycrane.configurations import thesis_flycrane
     sys_ = thesis_flycrane(cable_length=1.5)
     tr = ex.reference(sys_)
     return ex, sys_, tr, tr(0.0)[0] + ex.E0
@@ -209,8 +209,8 @@ CH5_THETA = {"truth": ((0.1673270858830764, 0.0836635429415382, 0.08366354294153
 def test_ch5_fig5_8_9_theta_fits():
     """The offline-gain fit of ch5_fig5_8_9 (quick samples), as in its quick mode: the
     recorded theta, the Table 5.2 split it gives, and the MoCap-error fit's smaller tau_CR."""
-    from controllers.planner.sikm import in_stability_set, tau_critical
-    from controllers.planner.sikm_environment import RealisticEnvironment
+    from netcosim.controllers.planner.sikm import in_stability_set, tau_critical
+    from netcosim.controllers.planner.sikm_environment import RealisticEnvironment
     ex, sys_, tr, _ = _ch5_setup()
     env = RealisticEnvironment(noise_std=ex.SIGMA_2)
     fits = {}
@@ -232,8 +232,8 @@ def test_ch5_fig5_8_9_strategies_on_a_short_horizon():
     tracking at T = 1.5 s, 4.5 s at (k, T) = (1.28, 0.75)), with the fitted theta recorded
     above; the full horizons are in the slow test_ch5_fig5_8_9.  Expected values measured
     at commit c15f1a8 on this environment (seeds 1 and 2, as ch5_fig5_8_9.run(seed=0))."""
-    from controllers.planner.sikm import TABLE_5_1, SIKMParams, optimal_offline_gain
-    from controllers.planner.sikm_environment import RealisticEnvironment
+    from netcosim.controllers.planner.sikm import TABLE_5_1, SIKMParams, optimal_offline_gain
+    from netcosim.controllers.planner.sikm_environment import RealisticEnvironment
     ex, sys_, tr, q0 = _ch5_setup()
     theta = SIKMParams(*CH5_THETA["truth"][0])
     k_off = optimal_offline_gain(1.5, theta)
@@ -270,8 +270,8 @@ def test_fig5_5_plots_rates_only_where_they_contract():
     """Fig. 5.5 (§5.4.2: "the convergence rate is always smaller than one"): beyond
     tau_CR no gain stabilises and rho_o(tau) exceeds 1 (up to 22 here); those points are
     not plotted, the rest are unchanged."""
-    from controllers.planner.sikm import tau_critical
-    from experiments.ch5_table5_2 import EXAMPLES, convergent, curves
+    from netcosim.controllers.planner.sikm import tau_critical
+    from netcosim.experiments.ch5_table5_2 import EXAMPLES, convergent, curves
     for name, p in EXAMPLES.items():
         c = curves(p, name)
         assert c.rho_tau.max() > 20.0

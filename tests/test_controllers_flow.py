@@ -14,15 +14,11 @@ from __future__ import annotations
 import math
 import shutil
 
+import netcosim.controllers.planner.flow as aux_flow
+import netcosim.plants.casadi_tools as ct
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-from scipy.optimize import minimize_scalar
-from test_controllers_systems import CRANE4_QREF, PlanarCrane
-
-import controllers.planner.flow as aux_flow
-import plants.casadi_tools as ct
-from controllers.planner import (
+from netcosim.controllers.planner import (
     SingularConfigurationError,
     WeightedNorm,
     diag_gain,
@@ -31,7 +27,10 @@ from controllers.planner import (
     pinv_solve,
     solve_auxiliary_flow,
 )
-from controllers.planner.dop853 import root_increasing
+from netcosim.controllers.planner.dop853 import root_increasing
+from scipy.integrate import solve_ivp
+from scipy.optimize import minimize_scalar
+from test_controllers_systems import CRANE4_QREF, PlanarCrane
 
 
 def reference_flow(system, q_ref, e_h, *, kbar=None, norm=None, tau_max=None, n_grid=64):
@@ -83,7 +82,7 @@ class NumericOnly:
 
 
 def _flycranes():
-    from plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
+    from netcosim.plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
     s3, s4 = thesis_flycrane(cable_length=1.5), four_robot_nonsquare()
     q4 = s4.q_from([60] * 4, [0] * 6)
     w4 = (1.0,) * 4 + (4.0,) * 6
@@ -138,7 +137,7 @@ def test_compiled_and_svd_right_hand_sides_agree():
 
 
 def test_compilation_cache_and_fallback_without_compiler(tmp_path, monkeypatch):
-    from plants.flycrane.configurations import thesis_flycrane
+    from netcosim.plants.flycrane.configurations import thesis_flycrane
     funs = aux_flow._casadi_flow_functions(thesis_flycrane(cable_length=1.5))
     monkeypatch.setenv("NETCOSIM_CACHE", str(tmp_path))
     monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
@@ -158,7 +157,7 @@ def test_compilation_cache_and_fallback_without_compiler(tmp_path, monkeypatch):
 
 
 def test_singular_configuration_raises_through_the_fallback():
-    from plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
+    from netcosim.plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
     for s in (thesis_flycrane(cable_length=1.5), four_robot_nonsquare()):
         qr = s.q_nominal
         q = qr.copy()
@@ -173,7 +172,7 @@ def test_singular_configuration_raises_through_the_fallback():
 
 
 def test_dense_output_and_its_derivatives():
-    from plants.flycrane.configurations import four_robot_nonsquare
+    from netcosim.plants.flycrane.configurations import four_robot_nonsquare
     s = four_robot_nonsquare()
     qr = s.q_from([60] * 4, [0] * 6)
     f = solve_auxiliary_flow(s, qr, s.q_from([75] * 4, [0.05, 0, 0, 0, 0, 0]) - qr)

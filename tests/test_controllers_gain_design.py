@@ -6,9 +6,8 @@ import math
 
 import numpy as np
 import pytest
-
-from controllers.planner import WeightedNorm, solve_auxiliary_flow
-from controllers.planner.gain_design import (
+from netcosim.controllers.planner import WeightedNorm, solve_auxiliary_flow
+from netcosim.controllers.planner.gain_design import (
     design,
     design_nonsquare,
     estimate_mu,

@@ -6,11 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-from scipy.linalg import expm
-from test_controllers_systems import CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane
-
-from controllers.planner import (
+from netcosim.controllers.planner import (
     OfflineGain,
     OnlineGain,
     SingularConfigurationError,
@@ -25,7 +21,10 @@ from controllers.planner import (
     simulate_sampled,
     solve_auxiliary_flow,
 )
-from controllers.planner.gain_design import design, design_nonsquare, estimate_mu
+from netcosim.controllers.planner.gain_design import design, design_nonsquare, estimate_mu
+from scipy.integrate import solve_ivp
+from scipy.linalg import expm
+from test_controllers_systems import CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane
 
 SYSTEMS = [(Formation2D(), FORMATION_QREF), (PlanarCrane(3), CRANE3_QREF), (PlanarCrane(4), CRANE4_QREF)]
 
@@ -156,7 +155,7 @@ def test_online_gain_uses_the_norm_minimiser_of_the_flow():
 
 
 def _plant_systems():
-    from plants.flycrane import configurations as c
+    from netcosim.plants.flycrane import configurations as c
     return [c.thesis_flycrane(), c.four_robot_nonsquare(), c.formation_2d()] + \
         [c.square_family(a, b) for a, b, _ in c.SQUARE_FAMILY[1:]]
 

@@ -8,16 +8,16 @@ import pathlib
 
 import numpy as np
 import pytest
+from netcosim.controllers.planner import OfflineGain, OnlineGain, configuration_rate, simulate_sampled
+from netcosim.controllers.planner import dop853_coefficients as vendored
+from netcosim.controllers.planner.deployment import CommandRecord, PlannerRecord, PlannerResponse, PoseRecord
+from netcosim.controllers.planner.tasks import DeploymentConfig, KinematicVelocityPlant, PlannerLaw, deploy
+from netcosim.plants import kinematic
+from netcosim.plants.flycrane.configurations import thesis_flycrane
+from netcosim.plants.flycrane.input_modes import KinematicPlant
 from test_controllers_systems import CRANE3_QREF, PlanarCrane
 
-from controllers.planner import OfflineGain, OnlineGain, configuration_rate, simulate_sampled
-from controllers.planner import dop853_coefficients as vendored
-from controllers.planner.deployment import CommandRecord, PlannerRecord, PlannerResponse, PoseRecord
-from controllers.planner.tasks import DeploymentConfig, KinematicVelocityPlant, PlannerLaw, deploy
 from netcosim import Simulation
-from plants import kinematic
-from plants.flycrane.configurations import thesis_flycrane
-from plants.flycrane.input_modes import KinematicPlant
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 E3 = np.array([0.1, -0.08, 0.05, 0.04, -0.03, 0.06])

@@ -1,16 +1,16 @@
 """The realistic environment of thesis Fig. 5.6: dynamic Fly-crane, velocity-tracking robots,
-noisy MoCap, UKF (controllers.planner.sikm_environment)."""
+noisy MoCap, UKF (netcosim.controllers.planner.sikm_environment)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from netcosim.controllers.planner.sikm import SIKMParams, simulate_tracking
+from netcosim.controllers.planner.sikm_environment import RealisticEnvironment
+from netcosim.experiments.ch5_fig5_8_9 import E0, reference
+from netcosim.plants.flycrane.configurations import thesis_flycrane
 
-from controllers.planner.sikm import SIKMParams, simulate_tracking
-from controllers.planner.sikm_environment import RealisticEnvironment
-from experiments.ch5_fig5_8_9 import E0, reference
 from netcosim.errors import ConfigurationError
-from plants.flycrane.configurations import thesis_flycrane
 
 Q = [f"q{i}" for i in range(9)]
 QHAT = [f"qhat{i}" for i in range(9)]

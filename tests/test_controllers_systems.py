@@ -16,8 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from controllers.planner import StarStructure
+from netcosim.controllers.planner import StarStructure
 
 
 def _rot(a):

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from netcosim.controllers.planner import OfflineGain, OnlineGain, simulate_sampled
+from netcosim.controllers.planner.sikm import Trajectory
+from netcosim.controllers.planner.tasks import PlannerLaw, deploy_planner
 from test_controllers_systems import CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane
 
-from controllers.planner import OfflineGain, OnlineGain, simulate_sampled
-from controllers.planner.sikm import Trajectory
-from controllers.planner.tasks import PlannerLaw, deploy_planner
 from netcosim import Simulation
 
 E3 = np.array([0.1, -0.08, 0.05, 0.04, -0.03, 0.06])
@@ -52,8 +52,8 @@ def test_online_gain_in_sparse_architecture_is_rejected():
         deploy_planner(sim, PlanarCrane(3), CRANE3_QREF, 0.5, PlannerLaw(OnlineGain(), q_ref=CRANE3_QREF))
     with pytest.raises(ValueError, match="T must be a finite positive.*-1"):
         deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, -1, PlannerLaw(OfflineGain(1.0), q_ref=CRANE3_QREF))
-    from controllers.planner.gain_design import design
-    from controllers.planner.sikm import SIKMParams
+    from netcosim.controllers.planner.gain_design import design
+    from netcosim.controllers.planner.sikm import SIKMParams
     with pytest.raises(ValueError, match="outside the stability interval"):
         deploy_planner(Simulation(), PlanarCrane(3), CRANE3_QREF, 1.0,
                        PlannerLaw(OfflineGain(2.5), q_ref=CRANE3_QREF), guarantee=design(0.3))
@@ -126,7 +126,7 @@ def test_sikm_tasks_track_with_reference_feedforward_in_both_architectures():
 
 
 def test_flycrane_sparse_and_centralized_tasks_match_pure_math():
-    from plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
+    from netcosim.plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
     for sys_, gain, arch in ((thesis_flycrane(cable_length=1.5), OfflineGain(100.0), "sparse"),
                              (four_robot_nonsquare(), OnlineGain(), "centralized")):
         qr = sys_.q_nominal

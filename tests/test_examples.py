@@ -4,9 +4,9 @@ import time
 
 import numpy as np
 import pytest
+from netcosim.experiments import main as main_job
+from netcosim.experiments import threeservos
 
-from experiments import main as main_job
-from experiments import threeservos
 from netcosim import Simulation
 from netcosim.plot import plot_schedule
 

@@ -9,17 +9,16 @@ import subprocess
 import sys
 from pathlib import Path
 
+import netcosim.experiments
 import pytest
 
-import experiments
-
 REPO = Path(__file__).resolve().parents[1]
-MODULES = sorted(f"experiments.{m.name}" for m in pkgutil.iter_modules(experiments.__path__)
+MODULES = sorted(f"netcosim.experiments.{m.name}" for m in pkgutil.iter_modules(netcosim.experiments.__path__)
                  if not m.name.startswith("_"))
 #: Programs that stand in for a remote node (hardware in the loop): they answer --help but
 #: write no results, so they have no --outdir
-REMOTE_PROCESSES = {"experiments.hil_servo_controller", "experiments.hil_landing_llc_controller",
-                    "experiments.hil_flycrane_node"}
+REMOTE_PROCESSES = {"netcosim.experiments.hil_servo_controller", "netcosim.experiments.hil_landing_llc_controller",
+                    "netcosim.experiments.hil_flycrane_node"}
 #: Seconds a `--help` may take: imports only (a full run takes seconds to minutes).
 HELP_TIMEOUT = 120
 
@@ -29,9 +28,10 @@ def _env(**extra):
 
 
 def test_the_experiment_list_is_complete():
-    assert len(MODULES) == 20 and "experiments.hil_servo" in MODULES and "experiments.flycrane_network" in MODULES
-    assert "experiments.fidelity" in MODULES and "experiments.hil_landing_llc" in MODULES
-    assert "experiments.main" in MODULES and "experiments.servo" in MODULES
+    assert len(MODULES) == 20 and "netcosim.experiments.hil_servo" in MODULES
+    assert "netcosim.experiments.flycrane_network" in MODULES
+    assert "netcosim.experiments.fidelity" in MODULES and "netcosim.experiments.hil_landing_llc" in MODULES
+    assert "netcosim.experiments.main" in MODULES and "netcosim.experiments.servo" in MODULES
 
 
 HELP_ALL = """

@@ -4,9 +4,14 @@ import math
 
 import numpy as np
 import pytest
-
-from controllers.landing import C2Interpolator, FeedbackLinearization, PIDGains, SingularityError, quintic_coefficients
-from plants.tethered_uav import TetheredUAVParams, ddphi_ddtheta, force_dynamics
+from netcosim.controllers.landing import (
+    C2Interpolator,
+    FeedbackLinearization,
+    PIDGains,
+    SingularityError,
+    quintic_coefficients,
+)
+from netcosim.plants.tethered_uav import TetheredUAVParams, ddphi_ddtheta, force_dynamics
 
 P = TetheredUAVParams()
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from netcosim.experiments import fidelity
 
-from experiments import fidelity
 from netcosim.errors import ConfigurationError
 
 COLUMNS = ["figure", "source", "experiment", "thesis", "reproduced", "status"]
@@ -34,7 +34,7 @@ def test_stored_numbers_cover_every_claim():
 
 
 def test_measure_reads_quick_outputs(tmp_path):
-    from experiments import ch3_fig3_8, ch5_table5_2
+    from netcosim.experiments import ch3_fig3_8, ch5_table5_2
     ch3_fig3_8.main(str(tmp_path / "ch3_fig3_8"), quick=True)
     ch5_table5_2.main(str(tmp_path / "ch5_table5_2"), quick=True)
     v = fidelity.measure(tmp_path)

@@ -1,5 +1,5 @@
 """The networked Fly-crane (thesis §4.6.1, appendix A): the planners on five nodes over
-802.11b with loss (:mod:`controllers.planner.networked`, :mod:`experiments.flycrane_network`)."""
+802.11b with loss (:mod:`netcosim.controllers.planner.networked`, :mod:`netcosim.experiments.flycrane_network`)."""
 
 from __future__ import annotations
 
@@ -7,19 +7,19 @@ import math
 
 import numpy as np
 import pytest
+from netcosim.controllers.planner import OfflineGain, OnlineGain, WeightedNorm
+from netcosim.controllers.planner.tasks import DeploymentConfig, PlannerLaw, VelocityTrackingModel, deploy
+from netcosim.experiments.ch4_fig4_8_9 import KBAR, WEIGHTS, T, setting
+from netcosim.experiments.ch4_fig4_10 import simulate_dynamic
+from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
 
-from controllers.planner import OfflineGain, OnlineGain, WeightedNorm
-from controllers.planner.tasks import DeploymentConfig, PlannerLaw, VelocityTrackingModel, deploy
-from experiments.ch4_fig4_8_9 import KBAR, WEIGHTS, T, setting
-from experiments.ch4_fig4_10 import simulate_dynamic
 from netcosim import Simulation
-from plants.flycrane.input_modes import VelocityTrackingPlant
 
 
 @pytest.mark.parametrize("architecture, gain", [("centralized", OnlineGain()), ("sparse", OfflineGain(0.2163))])
 def test_ideal_network_dynamic_plant_equals_fig4_10_simulation(architecture, gain):
     """Zero delays and execution times: the deployment on the dynamic plant (alpha = 3 N s/m)
-    gives the samples of experiments.ch4_fig4_10.simulate_dynamic (same LSODA settings;
+    gives the samples of netcosim.experiments.ch4_fig4_10.simulate_dynamic (same LSODA settings;
     the deployment integrates over [hT, (h+1)T] in absolute time, the reference over
     [0, T]: the only difference is the rounding of t, measured below 1e-10)."""
     sys_, q_ref, q0s = setting()
@@ -40,9 +40,9 @@ def test_ideal_network_dynamic_plant_equals_fig4_10_simulation(architecture, gai
 
 # ---------------------------------------------------------------- the networked scenario
 
+from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, build, d_weights, offline_gain, run  # noqa: E402
 from scipy.stats import binom  # noqa: E402
 
-from controllers.planner.networked import FlyCraneNetworkConfig, build, d_weights, offline_gain, run  # noqa: E402
 from netcosim.errors import ConfigurationError  # noqa: E402
 from netcosim.network import WLAN80211b  # noqa: E402
 from netcosim.network.loss import LinkLoss, LossModel  # noqa: E402
@@ -192,7 +192,7 @@ def test_bad_configuration_is_named(bad):
 
 # ---------------------------------------------------------------- the experiment
 
-from experiments import flycrane_network as fn  # noqa: E402
+from netcosim.experiments import flycrane_network as fn  # noqa: E402
 
 
 def test_scenario_contract_for_the_sweep_engine():

@@ -30,9 +30,9 @@ needs_zenoh = pytest.mark.skipif(not zenoh_available(), reason="the zenoh extra 
 
 
 @pytest.mark.parametrize("process, loaded", [
-    ("experiments.hil_servo_controller", []),
+    ("netcosim.experiments.hil_servo_controller", []),
     # the ch. 2 low-level controller computes with NumPy, still without SimPy or CasADi
-    ("experiments.hil_landing_llc_controller", ["numpy"]),
+    ("netcosim.experiments.hil_landing_llc_controller", ["numpy"]),
 ])
 def test_client_and_controller_processes_load_neither_simpy_nor_casadi(process, loaded):
     code = (f"import sys, netcosim.transport.client, {process}; "
@@ -94,7 +94,7 @@ def test_session_listens_on_a_real_loopback_port_and_closes():
 
 
 def _hil():
-    from experiments import hil_servo
+    from netcosim.experiments import hil_servo
     return hil_servo
 
 
@@ -215,19 +215,21 @@ def test_malformed_messages_are_dropped_counted_and_the_run_goes_on():
 @pytest.mark.parametrize("encoding", [[], ["--encoding", "cdr"]])
 def test_cli_prints_the_remote_command_and_runs_with_it(encoding):
     # a 0.1 s deadline: a loaded machine's timing is not what this test is about
-    run_hil_cli(["experiments.networked_servo:build", "--remote", "controller", "--period", "0.01", "--until", "0.5",
+    run_hil_cli(["netcosim.experiments.networked_servo:build", "--remote", "controller", "--period", "0.01",
+                 "--until", "0.5",
                  "--deadline", "0.1", "--wait", "30", *encoding],
-                module="experiments.hil_servo_controller", node="controller", messages=50, timeout=60)
+                module="netcosim.experiments.hil_servo_controller", node="controller", messages=50, timeout=60)
 
 
 @needs_zenoh
 def test_cli_compares_with_the_simulated_run_and_the_replay():
     # the replay reproduces the HIL run bit for bit; the all-simulated run differs by what the
     # measured response times (not the simulated 0.5 ms of CPU time) explain
-    run_hil_cli(["experiments.networked_servo:build", "--remote", "controller", "--period", "0.01", "--until", "0.5",
+    run_hil_cli(["netcosim.experiments.networked_servo:build", "--remote", "controller", "--period", "0.01",
+                 "--until", "0.5",
                  "--reply-values", "2", "--deadline", "0.1", "--wait", "30", "--compare", "--replay",
-                 "experiments.hil_servo:run_replay"],
-                module="experiments.hil_servo_controller", node="controller", messages=50, timeout=60,
+                 "netcosim.experiments.hil_servo:run_replay"],
+                module="netcosim.experiments.hil_servo_controller", node="controller", messages=50, timeout=60,
                 expect=[r"max deviation from the all-simulated run: [1-9]\.\d+e-0\d \(servo\.y\.y\)",
                         r"max deviation from the replay with the measured response times: 0\.000e\+00"])
 
@@ -254,8 +256,9 @@ print(rp.received, rp.published)
 
 
 def _servo_sim():
+    from netcosim.plants.dc_servo import DCServo
+
     from netcosim import RK4, Simulation
-    from plants.dc_servo import DCServo
     sim = Simulation()
     plant = sim.plant(DCServo(), x0=[0.0, 0.0], name="servo", integrator=RK4(dt=1e-4), log_interval=1e-3)
     return sim, plant

@@ -37,7 +37,7 @@ AT = 20          # the request at which the fault starts
 
 
 def _hs():
-    from experiments import hil_servo
+    from netcosim.experiments import hil_servo
     return hil_servo
 
 
@@ -275,9 +275,10 @@ def test_the_remote_exits_non_zero_within_a_lease_when_the_simulation_is_gone(re
     lease = 1.0
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     prog = f"{sys.executable} {REMOTE}" if remote == "independent" else \
-        f"{sys.executable} -m experiments.hil_servo_controller"
+        f"{sys.executable} -m netcosim.experiments.hil_servo_controller"
     sim_side = subprocess.Popen(
-        [sys.executable, "-m", "netcosim.cli", "hil", "experiments.networked_servo:build", "--remote", "controller",
+        [sys.executable, "-m", "netcosim.cli", "hil", "netcosim.experiments.networked_servo:build",
+         "--remote", "controller",
          "--period", "0.01", "--until", "30", "--wait", "30", "--remote-cmd", prog],
         cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     proc = observer = None

@@ -1,5 +1,5 @@
 """The networked Fly-crane with its five nodes in five real processes over Zenoh
-(``experiments.hil_flycrane`` and ``experiments.hil_flycrane_node``): loopback only,
+(``netcosim.experiments.hil_flycrane`` and ``netcosim.experiments.hil_flycrane_node``): loopback only,
 bounded in time, every child reaped and every session closed by the harness.
 
 The robots' law in the process is the simulated one to the bit (a CasADi-free copy fed
@@ -34,12 +34,13 @@ UNTIL = 4.5
 
 
 def _h():
-    from experiments import hil_flycrane
+    from netcosim.experiments import hil_flycrane
     return hil_flycrane
 
 
 def _deployment(until=3.0):
-    from controllers.planner.networked import build, setting
+    from netcosim.controllers.planner.networked import build, setting
+
     from netcosim import Simulation
     config = _h().flycrane_config(until)
     sim = Simulation(config.seed)
@@ -48,7 +49,7 @@ def _deployment(until=3.0):
 
 
 def test_node_process_loads_neither_simpy_nor_casadi():
-    code = ("import sys, netcosim.transport.client, experiments.hil_flycrane_node; "
+    code = ("import sys, netcosim.transport.client, netcosim.experiments.hil_flycrane_node; "
             "print(sorted(m for m in ('simpy', 'casadi', 'numpy', 'pandas', 'scipy') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=dict(os.environ, PYTHONPATH=str(ROOT)),
                          capture_output=True, text=True, timeout=60, check=True).stdout
@@ -56,10 +57,11 @@ def test_node_process_loads_neither_simpy_nor_casadi():
 
 
 def test_the_process_computes_the_simulated_robot_law_bit_for_bit(tmp_path):
-    from controllers.planner.deployment import CommandRecord, PoseRecord
-    from controllers.planner.kinematics import diag_gain
-    from controllers.planner.laws import robot_velocity
-    from experiments.hil_flycrane_node import SparseLaw, pivot_reply, robot_command
+    from netcosim.controllers.planner.deployment import CommandRecord, PoseRecord
+    from netcosim.controllers.planner.kinematics import diag_gain
+    from netcosim.controllers.planner.laws import robot_velocity
+    from netcosim.experiments.hil_flycrane_node import SparseLaw, pivot_reply, robot_command
+
     from netcosim.transport import wire
     config, sim, dep, _, system = _deployment(3.0)
     law = SparseLaw.load(_h().write_law(tmp_path / "law.json", dep, system))   # through the JSON file
@@ -88,7 +90,7 @@ def test_the_process_computes_the_simulated_robot_law_bit_for_bit(tmp_path):
 
 
 def test_jacobian_tape_refuses_unknown_operations():
-    from experiments.hil_flycrane_node import JacobianTape
+    from netcosim.experiments.hil_flycrane_node import JacobianTape
     spec = {"n_in": 1, "shape": [1, 1], "work": 2, "nz": [[0, 0]],
             "tape": [["INPUT", 0, 0, 0, None], ["ERF", 1, 0, 0, None], ["OUTPUT", 0, 1, 0, None]]}
     with pytest.raises(ValueError, match="'ERF' is not supported"):
@@ -100,7 +102,8 @@ def test_jacobian_tape_refuses_unknown_operations():
 def test_the_replay_with_nominal_times_is_the_simulated_run():
     # networked.build with the execution times given (as the replay gives them) is run(config)
     # for config's constants; ReplayTimes tells the nodes apart by their tasks' execution-time streams
-    from controllers.planner.networked import build, run
+    from netcosim.controllers.planner.networked import build, run
+
     from netcosim import Simulation
     h = _h()
     config = h.flycrane_config(4.5)
@@ -184,12 +187,12 @@ def test_hil_flycrane_example_writes_its_results(tmp_path):
     assert json.loads((tmp_path / "flycrane_law.json").read_text())["format"] == "netcosim.flycrane.sparse_law/1"
 
 
-@pytest.mark.parametrize("module", ["experiments.hil_flycrane", "experiments.hil_flycrane_node"])
+@pytest.mark.parametrize("module", ["netcosim.experiments.hil_flycrane", "netcosim.experiments.hil_flycrane_node"])
 def test_help_answers_without_running(module, tmp_path):
     r = subprocess.run([sys.executable, "-m", module, "--help"], cwd=tmp_path,
                        env=dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg"), capture_output=True, text=True,
                        timeout=120)
     assert r.returncode == 0 and f"usage: python -m {module}" in r.stdout, r.stderr
-    assert ("--outdir" in r.stdout) == (module == "experiments.hil_flycrane")
+    assert ("--outdir" in r.stdout) == (module == "netcosim.experiments.hil_flycrane")
     assert "--no-spawn" in r.stdout or "--role" in r.stdout
     assert list(tmp_path.iterdir()) == []

@@ -1,5 +1,5 @@
 """The ch. 2 landing with its low-level controller in a real process over Zenoh
-(``experiments.hil_landing_llc``): loopback only, bounded in time, every child killed and
+(``netcosim.experiments.hil_landing_llc``): loopback only, bounded in time, every child killed and
 every session closed.
 
 The process's law is the simulated one (same code, same numbers); the HIL landing must
@@ -20,7 +20,7 @@ needs_zenoh = pytest.mark.skipif(not zenoh_available(), reason="the zenoh extra 
 
 
 def _h():
-    from experiments import hil_landing_llc
+    from netcosim.experiments import hil_landing_llc
     return hil_landing_llc
 
 
@@ -42,8 +42,8 @@ def test_replay_without_delay_is_the_simulated_two_layer_controller():
 
 
 def test_the_process_computes_the_simulated_low_level_command_bit_for_bit():
-    from controllers.landing.topology import build_landing
-    from experiments.hil_landing_llc_controller import SAMPLE_VALUES, command, controller
+    from netcosim.controllers.landing.topology import build_landing
+    from netcosim.experiments.hil_landing_llc_controller import SAMPLE_VALUES, command, controller
     h = _h()
     sc = h.scenario(0.1)
     sim, uav, loop = build_landing(sc, low_level=False)
@@ -64,16 +64,16 @@ def test_the_process_computes_the_simulated_low_level_command_bit_for_bit():
 def test_controller_command_carries_the_scenario_gains_and_period():
     from dataclasses import replace
 
-    from controllers.landing import PIDGains
+    from netcosim.controllers.landing import PIDGains
     h = _h()
     sc = replace(h.scenario(0.1), fl_gains=PIDGains(1.5, 2.25, 0.1))
     cmd = h.controller_command("abc", ["tcp/127.0.0.1:7447"], sc, python="py", session=0xABC)
-    assert cmd[:3] == ["py", "-m", "experiments.hil_landing_llc_controller"]
+    assert cmd[:3] == ["py", "-m", "netcosim.experiments.hil_landing_llc_controller"]
     assert cmd[cmd.index("--session") + 1] == "0000000000000abc"
     i = cmd.index("--gains")
     assert cmd[i + 1:i + 4] == ["1.5", "2.25", "0.1"] and cmd[cmd.index("--period") + 1] == "0.002"
     assert cmd[cmd.index("--node") + 1] == "uav" and cmd[cmd.index("--connect") + 1] == "tcp/127.0.0.1:7447"
-    from controllers.landing import SIM_PARAMS
+    from netcosim.controllers.landing import SIM_PARAMS
     with pytest.raises(ValueError, match="default TetheredUAVParams"):
         h.controller_command("abc", [], replace(sc, params=replace(SIM_PARAMS, m_B=2.0)))
 
@@ -132,10 +132,10 @@ def test_hil_landing_example_writes_its_results(tmp_path):
 @needs_zenoh
 def test_cli_runs_the_landing_with_a_remote_plant():
     r_out = run_hil_cli(
-        ["experiments.hil_landing_llc:build", "--remote", "uav", "--period", "0.002",
-         "--outputs", "phi,dphi,theta,dtheta", "--extra", "experiments.hil_landing_llc:reference",
+        ["netcosim.experiments.hil_landing_llc:build", "--remote", "uav", "--period", "0.002",
+         "--outputs", "phi,dphi,theta,dtheta", "--extra", "netcosim.experiments.hil_landing_llc:reference",
          "--factor", "10", "--until", "0.2", "--deadline", "0.02", "--wait", "60"],
-        module="experiments.hil_landing_llc_controller", node="uav", messages=100)
+        module="netcosim.experiments.hil_landing_llc_controller", node="uav", messages=100)
     assert '"status": "ended"' in r_out
 
 
@@ -150,5 +150,5 @@ def test_cli_runs_the_landing_with_a_remote_plant():
 ])
 def test_cli_names_a_bad_remote(args, message, capsys):
     from netcosim.cli import main
-    assert main(["hil", "experiments.hil_landing_llc:build", *args]) == 2
+    assert main(["hil", "netcosim.experiments.hil_landing_llc:build", *args]) == 2
     assert message in capsys.readouterr().err

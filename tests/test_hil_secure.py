@@ -265,7 +265,7 @@ def test_hil_run_with_user_password_keeps_an_unauthenticated_sniffer_out(usrpwd)
     file (``run_hil(zenoh_config=...)`` passes ``--zenoh-config`` to the process): the run is
     complete, and a session without credentials connecting to the simulation's endpoint
     sees nothing of it (``netcosim/**``) while the run goes on."""
-    from experiments import hil_servo
+    from netcosim.experiments import hil_servo
     listener, _ = usrpwd
     seen = []
     sniffers = []

@@ -6,8 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import SteppingClock
-
-from controllers.landing import (
+from netcosim.controllers.landing import (
     LandingConfig,
     LandingTiming,
     initial_state,
@@ -17,6 +16,7 @@ from controllers.landing import (
     run_landing,
     sigmoid,
 )
+
 from netcosim.cputime import NonReproducibleWarning, RecordedCPUTime
 
 DEG = math.pi / 180

@@ -2,8 +2,7 @@
 
 import pandas as pd
 import pytest
-
-from experiments import ch2_landing
+from netcosim.experiments import ch2_landing
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,7 @@ import matplotlib
 import numpy as np
 import pandas as pd
 import pytest
-
-from controllers.landing import (
+from netcosim.controllers.landing import (
     DEFAULT_FL_GAINS,
     SIM_PARAMS,
     LandingConfig,
@@ -17,8 +16,8 @@ from controllers.landing import (
     run_landing,
     simulate_landing,
 )
-from controllers.landing.scenario import TOPOLOGIES
-from controllers.landing.topology import WIRINGS
+from netcosim.controllers.landing.scenario import TOPOLOGIES
+from netcosim.controllers.landing.topology import WIRINGS
 
 matplotlib.use("Agg")
 
@@ -126,8 +125,8 @@ def test_every_function_of_the_landing_package_and_the_nmpc_is_below_complexity_
     radon = pytest.importorskip("radon.complexity")
     from pathlib import Path
 
-    import controllers.landing as pkg
-    import controllers.nmpc as nmpc
+    import netcosim.controllers.landing as pkg
+    import netcosim.controllers.nmpc as nmpc
     worst = {}
     for path in [*Path(pkg.__file__).parent.glob("*.py"), *Path(nmpc.__file__).parent.glob("*.py")]:
         for block in radon.cc_visit(path.read_text()):

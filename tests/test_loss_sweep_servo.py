@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from netcosim.experiments import loss_sweep_servo as exp
 from scipy.stats import binomtest
 
-from experiments import loss_sweep_servo as exp
 from netcosim.errors import ConfigurationError
 
 

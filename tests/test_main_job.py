@@ -5,8 +5,7 @@ from __future__ import annotations
 import re
 
 import pytest
-
-from experiments import main as main_job
+from netcosim.experiments import main as main_job
 
 FAKES = {
     "exits": "import sys\nprint('exits: about to call sys.exit(3)')\nsys.exit(3)\n",

@@ -1,8 +1,7 @@
 """The networked servo experiment runs, writes its plots, and shows what it claims."""
 
 import pytest
-
-from experiments import networked_servo
+from netcosim.experiments import networked_servo
 
 
 def test_networked_servo_quick(tmp_path):

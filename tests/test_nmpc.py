@@ -8,8 +8,7 @@ Lagrange's equations for a point mass m on a massless rod of length l give
 import casadi as ca
 import numpy as np
 import pytest
-
-from controllers.nmpc import OCP, RTINMPC
+from netcosim.controllers.nmpc import OCP, RTINMPC
 
 M, m, L, G = 1.0, 0.1, 0.5, 9.81
 
@@ -228,7 +227,7 @@ def test_bad_solver_and_state_raise(ocp):
     ("osqp", "primal infeasible", "primal infeasible"),
 ])
 def test_bare_qp_status_numbers_are_named(solver, status, text):
-    from controllers.nmpc.qp import _status_text
+    from netcosim.controllers.nmpc.qp import _status_text
     assert _status_text(solver, status) == text
 
 

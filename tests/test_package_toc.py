@@ -88,7 +88,7 @@ def test_the_type_checking_imports_mirror_the_table():
 
 def test_dropped_names_are_gone():
     # Event was an alias of ConditionVariable (clashing with simpy.Event by name);
-    # SingularConfigurationError lives with the kinematic plants (plants.kinematic)
+    # SingularConfigurationError lives with the kinematic plants (netcosim.plants.kinematic)
     for name in ("Event", "SingularConfigurationError"):
         assert name not in netcosim.__all__
         assert not hasattr(netcosim, name)

@@ -10,8 +10,9 @@ import warnings
 
 import numpy as np
 import pytest
+from netcosim.experiments.servo import add_pid_loop
+from netcosim.plants.dc_servo import DCServo
 
-from experiments.servo import add_pid_loop
 from netcosim import RK4, Simulation, metrics
 from netcosim.plant import (
     DEFAULT_LOG_INTERVAL,
@@ -22,7 +23,6 @@ from netcosim.plant import (
     default_log_interval,
 )
 from netcosim.trace import UnknownSignalError
-from plants.dc_servo import DCServo
 
 G = DEFAULT_LOG_INTERVAL
 INTEGRATORS = [lambda: None, lambda: RK4(dt=1e-4), lambda: ExactZOH(), lambda: SolveIVP(method="Radau")]

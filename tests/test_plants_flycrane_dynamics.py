@@ -4,13 +4,13 @@ import math
 
 import numpy as np
 import pytest
+from netcosim.plants.flycrane import SingularConfigurationError
+from netcosim.plants.flycrane import configurations as C
+from netcosim.plants.flycrane.input_modes import ForcePlant, KinematicPlant, VelocityTrackingPlant
+from netcosim.plants.flycrane.rotations import body_rate_matrix, euler_zyx
 
 from netcosim.plant import RK4, SolveIVP
 from netcosim.sim import Simulation
-from plants.flycrane import SingularConfigurationError
-from plants.flycrane import configurations as C
-from plants.flycrane.input_modes import ForcePlant, KinematicPlant, VelocityTrackingPlant
-from plants.flycrane.rotations import body_rate_matrix, euler_zyx
 
 RNG = np.random.default_rng(11)
 _cache = {}

@@ -5,8 +5,7 @@ import math
 import casadi as ca
 import numpy as np
 import pytest
-
-from plants.flycrane import (
+from netcosim.plants.flycrane import (
     ConfigurationDomainError,
     GeometryError,
     MultiRobotSystem,
@@ -15,8 +14,8 @@ from plants.flycrane import (
     TwoCable,
     plate_inertia,
 )
-from plants.flycrane import configurations as C
-from plants.flycrane.rotations import body_rate_matrix, euler_zyx
+from netcosim.plants.flycrane import configurations as C
+from netcosim.plants.flycrane.rotations import body_rate_matrix, euler_zyx
 
 RNG = np.random.default_rng(7)
 
@@ -269,7 +268,7 @@ def test_functions_are_built_once():
 
 
 def test_buffered_evaluation_matches_casadi_call():
-    from plants.casadi_tools import BufferedFunction
+    from netcosim.plants.casadi_tools import BufferedFunction
     sys = get("four")
     for q in sys.random_configurations(RNG, 3):
         np.testing.assert_array_equal(sys.jacobian(q), np.asarray(sys.A_fun(q)))

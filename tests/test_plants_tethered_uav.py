@@ -5,11 +5,7 @@ import math
 import casadi as ca
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-
-from netcosim.plant import RK4, SolveIVP
-from netcosim.sim import Simulation
-from plants.tethered_uav import (
+from netcosim.plants.tethered_uav import (
     TetheredUAV,
     TetheredUAVParams,
     cable_stress,
@@ -21,6 +17,10 @@ from plants.tethered_uav import (
     wind,
     wind_disturbance,
 )
+from scipy.integrate import solve_ivp
+
+from netcosim.plant import RK4, SolveIVP
+from netcosim.sim import Simulation
 
 P = TetheredUAVParams()
 RNG = np.random.default_rng(4)

@@ -22,12 +22,12 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from netcosim.plants.dc_servo import DCServo
 
 import netcosim.network as N
 from netcosim import RK4, ExactZOH, Simulation, SolveIVP
 from netcosim.errors import NetcosimError
 from netcosim.timebase import MAX_SECONDS
-from plants.dc_servo import DCServo
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -14,16 +14,16 @@ from __future__ import annotations
 import math
 import re
 
+import netcosim.controllers.planner as lp
 import numpy as np
 import pytest
+from netcosim.plants.flycrane import kinematics as kin
+from netcosim.plants.flycrane.configurations import thesis_flycrane
+from netcosim.plants.flycrane.input_modes import KinematicPlant
+from netcosim.plants.kinematic import SingularConfigurationError
 
-import controllers.planner as lp
 from netcosim import Simulation
 from netcosim.plant import RK4, SolveIVP
-from plants.flycrane import kinematics as kin
-from plants.flycrane.configurations import thesis_flycrane
-from plants.flycrane.input_modes import KinematicPlant
-from plants.kinematic import SingularConfigurationError
 
 T_STAR = 2.0 - math.sqrt(3.0)
 
@@ -51,7 +51,7 @@ def _time_in(msg: str) -> float:
 
 
 def test_one_exception_class_for_the_whole_project():
-    from plants.flycrane import SingularConfigurationError as from_package
+    from netcosim.plants.flycrane import SingularConfigurationError as from_package
     assert kin.SingularConfigurationError is SingularConfigurationError
     assert lp.SingularConfigurationError is SingularConfigurationError
     assert from_package is SingularConfigurationError

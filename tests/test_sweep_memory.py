@@ -11,8 +11,7 @@ import gc
 import weakref
 
 import pytest
-
-from experiments.networked_servo import build
+from netcosim.experiments.networked_servo import build
 
 
 @pytest.mark.parametrize("network", ["csma_cd", "can"])

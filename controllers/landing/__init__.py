@@ -3,17 +3,17 @@
 Modules, from the problem to the scenario:
 
 =====================================================  =============================================
-:mod:`~controllers.landing.ocp`                        the landing OCP of §2.3 and its RTI NMPC (§2.4)
-:mod:`~controllers.landing.feedback_linearization`     low-level controller of §2.5
-:mod:`~controllers.landing.interpolation`              the C² reference interpolator of Fig. 2.6
-:mod:`~controllers.landing.timing`                     CPU times of the tasks
-:mod:`~controllers.landing.scenario`                   one run's validated configuration
-:mod:`~controllers.landing.tasks`                      shared loop state and the task factories
-:mod:`~controllers.landing.topology`                   wiring per topology, :func:`run_landing`
-:mod:`~controllers.landing.result`                     :class:`LandingRun`, metrics, plot
+:mod:`~netcosim.controllers.landing.ocp`                        the landing OCP of §2.3 and its RTI NMPC (§2.4)
+:mod:`~netcosim.controllers.landing.feedback_linearization`     low-level controller of §2.5
+:mod:`~netcosim.controllers.landing.interpolation`              the C² reference interpolator of Fig. 2.6
+:mod:`~netcosim.controllers.landing.timing`                     CPU times of the tasks
+:mod:`~netcosim.controllers.landing.scenario`                   one run's validated configuration
+:mod:`~netcosim.controllers.landing.tasks`                      shared loop state and the task factories
+:mod:`~netcosim.controllers.landing.topology`                   wiring per topology, :func:`run_landing`
+:mod:`~netcosim.controllers.landing.result`                     :class:`LandingRun`, metrics, plot
 =====================================================  =============================================
 
-Every public name is re-exported here, so ``from controllers.landing import
+Every public name is re-exported here, so ``from netcosim.controllers.landing import
 LandingConfig, landing_nmpc, run_landing`` works whatever module holds it.  Names are imported on first
 use, so that importing one module
 (e.g. the low-level controller) does not load the others.
@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from .topology import run_landing, simulate_landing
 
 # Names are imported on first use (PEP 562): importing a light module such as
-# controllers.landing.feedback_linearization (the low-level controller, which runs in a
+# netcosim.controllers.landing.feedback_linearization (the low-level controller, which runs in a
 # process without SimPy or CasADi) does not load the NMPC or the simulation.
 _LAZY = {
     "FeedbackLinearization": "feedback_linearization",

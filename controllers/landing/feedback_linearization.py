@@ -21,7 +21,7 @@
     command then stays finite and the output saturation bounds it.
 
 The C² interpolator of Fig. 2.6 that feeds it lives in
-:mod:`controllers.landing.interpolation`.
+:mod:`netcosim.controllers.landing.interpolation`.
 
 Angles in radians, rates in rad/s, thrust in N, torque in N·m, time in seconds.
 """
@@ -32,10 +32,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from netcosim.plants.tethered_uav_params import TetheredUAVParams
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError
-from plants.tethered_uav_params import TetheredUAVParams
 
 __all__ = ["FeedbackLinearization", "PIDGains", "SingularityError", "DEFAULT_FL_GAINS"]
 

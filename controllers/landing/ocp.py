@@ -1,6 +1,6 @@
 """The landing optimal control problem of thesis §2.3 and its NMPC (§2.4).
 
-The OCP is built from the symbolic tethered-UAV model of :mod:`plants.tethered_uav`
+The OCP is built from the symbolic tethered-UAV model of :mod:`netcosim.plants.tethered_uav`
 (one source of truth for the equations):
 
 * state (2.5) ``x = [φ, φ̇, ϑ, ϑ̇, f_R, τ_R]`` (rad, rad/s, rad, rad/s, N, N·m),
@@ -24,10 +24,10 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+from netcosim.plants.tethered_uav import TetheredUAVParams, casadi_model, hover_thrust
 
 from netcosim import validate
 from netcosim.validate import numeric_fields
-from plants.tethered_uav import TetheredUAVParams, casadi_model, hover_thrust
 
 from ..nmpc import OCP, RTINMPC
 

@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from netcosim.plants.tethered_uav import wind_disturbance
 
 from netcosim import Simulation
-from plants.tethered_uav import wind_disturbance
 
 __all__ = ["LandingRun", "landing_metrics", "plant_signals", "REFERENCE_COLUMNS"]
 
@@ -41,7 +41,7 @@ def plant_signals(sim: Simulation, plant_name: str, wind_on: bool, params) -> pd
 
 @dataclass
 class LandingRun:
-    """Result of :func:`~controllers.landing.run_landing`.
+    """Result of :func:`~netcosim.controllers.landing.run_landing`.
 
     ``signals``: wide DataFrame sampled every ``log_interval`` s, columns ``time,
     phi, dphi, theta, dtheta, f_R, tau_R, f_L, d_PG1, d_PG2, f_RF, wind`` (plant
@@ -54,7 +54,7 @@ class LandingRun:
     (:meth:`netcosim.cputime.CPUTimeModel.record`: replay it with
     :class:`~netcosim.cputime.RecordedCPUTime` to reproduce the run);
     ``reproducible``: False when the CPU times were measured on the wall clock;
-    ``scenario``: the :class:`~controllers.landing.LandingScenario` that was run.
+    ``scenario``: the :class:`~netcosim.controllers.landing.LandingScenario` that was run.
     The ``t_feedback``/``t_prepare`` columns of ``steps`` are the solver's own
     wall-clock diagnostics; only ``c_feedback``/``c_prepare`` enter the simulation.
     """

@@ -1,6 +1,6 @@
 """The configuration of one landing run (§2.6.2): which controller, where, how fast.
 
-:class:`LandingScenario` gathers every choice :func:`~controllers.landing.run_landing`
+:class:`LandingScenario` gathers every choice :func:`~netcosim.controllers.landing.run_landing`
 takes, checks it once when built (errors name the bad value) and fills in the
 defaults, so the wiring and the tasks read plain, valid values.
 
@@ -14,10 +14,10 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
+from netcosim.plants.tethered_uav import TetheredUAVParams
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError
-from plants.tethered_uav import TetheredUAVParams
 
 from .feedback_linearization import DEFAULT_FL_GAINS, PIDGains
 from .ocp import LandingConfig, initial_state
@@ -42,7 +42,7 @@ _CHOICES = {"nmpc_init": ("measured", "reference"), "topology": TOPOLOGIES,
 
 @dataclass(frozen=True, eq=False)
 class LandingScenario:
-    """One landing run of §2.6.2, validated; see :func:`~controllers.landing.run_landing`
+    """One landing run of §2.6.2, validated; see :func:`~netcosim.controllers.landing.run_landing`
     for the meaning of each field.
 
     Defaults left as ``None`` are filled in when the scenario is built: ``params`` →

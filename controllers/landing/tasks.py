@@ -1,7 +1,7 @@
 """The landing controllers of thesis ch. 2 as netcosim tasks.
 
 Two controllers close the loop on the simulation model of §2.6.1
-(:class:`plants.tethered_uav.TetheredUAV`, landers (2.17), optional wind):
+(:class:`netcosim.plants.tethered_uav.TetheredUAV`, landers (2.17), optional wind):
 
 ``"nmpc"``  NMPC alone: a 100 Hz task runs one real-time iteration of the landing
             NMPC on the measured state and writes its first input ``(ḟ_R, τ̇_R)``
@@ -13,7 +13,7 @@ Two controllers close the loop on the simulation model of §2.6.1
             ``(f_R, τ_R)`` to the force-input plant (2.3).  The NMPC's measured state
             is ``[φ, φ̇, ϑ, ϑ̇]`` with the thrust and torque currently applied.
 
-Timing of the NMPC job (:class:`~controllers.landing.LandingTiming`): each job reads
+Timing of the NMPC job (:class:`~netcosim.controllers.landing.LandingTiming`): each job reads
 the plant at its start, runs the RTI *feedback* phase (QP solve), outputs, then runs
 the *preparation* phase (shift + linearization) for the next sample.  The CPU time of
 each phase comes from a :mod:`netcosim.cputime` model: zero (ideal, the thesis's
@@ -26,7 +26,7 @@ and warned about).
 :class:`LandingLoop` holds what the tasks of one run share (the NMPC, the
 interpolator, the low-level controller, the logs); the task factories
 (:func:`nmpc_task`, :func:`ground_nmpc_task`, :func:`sensor_task`, :func:`fl_task`)
-return task bodies to register on a node; :mod:`controllers.landing.topology` wires
+return task bodies to register on a node; :mod:`netcosim.controllers.landing.topology` wires
 them for each topology.
 
 All angles in radians, forces in N, torques in N·m, times in seconds.
@@ -36,8 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-
-from plants.tethered_uav import ddphi_ddtheta
+from netcosim.plants.tethered_uav import ddphi_ddtheta
 
 from .feedback_linearization import FeedbackLinearization
 from .interpolation import C2Interpolator
@@ -51,10 +50,10 @@ __all__ = ["LandingLoop", "nmpc_task", "ground_nmpc_task", "sensor_task", "fl_ta
 class LandingLoop:
     """The controller state the tasks of one landing run share.
 
-    Built from a validated :class:`~controllers.landing.LandingScenario`, the plant's
+    Built from a validated :class:`~netcosim.controllers.landing.LandingScenario`, the plant's
     input and output ports and the initial state ``xs0 = [φ, φ̇, ϑ, ϑ̇, f_R, τ_R]``.
     ``steps``: one dict per NMPC job; ``ref_rows``: one tuple per low-level job
-    (:data:`~controllers.landing.result.REFERENCE_COLUMNS`); ``init_log``: ``(time,
+    (:data:`~netcosim.controllers.landing.result.REFERENCE_COLUMNS`); ``init_log``: ``(time,
     "reference" | "measured")`` per NMPC initialization of the 2LC.
     """
 
@@ -137,7 +136,7 @@ class LandingLoop:
 
     def initial_measurement(self, y, t: float) -> np.ndarray:
         """The state the NMPC starts from at *t* [s] (see ``nmpc_init`` of
-        :func:`~controllers.landing.run_landing`)."""
+        :func:`~netcosim.controllers.landing.run_landing`)."""
         y = np.array(y, dtype=float)
         if self.scenario.nmpc_init == "measured":
             return y

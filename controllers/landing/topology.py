@@ -1,10 +1,10 @@
 """Wiring of the landing tasks onto nodes, one function per topology, and the runner.
 
-:func:`simulate_landing` runs a :class:`~controllers.landing.LandingScenario`: it
+:func:`simulate_landing` runs a :class:`~netcosim.controllers.landing.LandingScenario`: it
 builds (:func:`build_landing`) the simulation, the plant and node ``onboard``, the shared
-:class:`~controllers.landing.tasks.LandingLoop`, calls the wiring function of the
+:class:`~netcosim.controllers.landing.tasks.LandingLoop`, calls the wiring function of the
 scenario's topology (:data:`WIRINGS`), adds the low-level task of the 2LC, runs it
-and collects a :class:`~controllers.landing.LandingRun` (:func:`landing_result`).
+and collects a :class:`~netcosim.controllers.landing.LandingRun` (:func:`landing_result`).
 :func:`run_landing` is the keyword interface to it.
 
 Times in seconds.
@@ -15,9 +15,9 @@ from __future__ import annotations
 import math
 
 import pandas as pd
+from netcosim.plants.tethered_uav import TetheredUAV, TetheredUAVParams, wind_disturbance
 
 from netcosim import RK4, Simulation
-from plants.tethered_uav import TetheredUAV, TetheredUAVParams, wind_disturbance
 
 from .feedback_linearization import PIDGains
 from .ocp import LandingConfig
@@ -74,7 +74,7 @@ def _add_plant(sim: Simulation, sc: LandingScenario, xs0):
 def build_landing(scenario: LandingScenario, *, low_level: bool = True):
     """The simulation of *scenario*, ready to run: ``(sim, uav, loop)`` -- the
     :class:`~netcosim.Simulation`, the plant, the shared
-    :class:`~controllers.landing.tasks.LandingLoop` with the tasks of the scenario's
+    :class:`~netcosim.controllers.landing.tasks.LandingLoop` with the tasks of the scenario's
     topology.  ``low_level=False`` leaves out the 2LC's 500 Hz task (priority 1 on node
     ``onboard``): something else then drives the force inputs, e.g. the low-level
     controller in a separate process (``experiments/hil_landing_llc.py``)."""
@@ -91,7 +91,7 @@ def build_landing(scenario: LandingScenario, *, low_level: bool = True):
 
 
 def landing_result(sim: Simulation, loop: LandingLoop) -> LandingRun:
-    """The :class:`~controllers.landing.LandingRun` of a simulation built by
+    """The :class:`~netcosim.controllers.landing.LandingRun` of a simulation built by
     :func:`build_landing` (after ``sim.run``)."""
     sc = loop.scenario
     return LandingRun(controller=sc.controller, wind=sc.wind, signals=plant_signals(sim, "uav", sc.wind, sc.params),
@@ -120,7 +120,7 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
                 reset_tol: tuple[float, float] = (math.radians(2.0), math.radians(20.0))) -> LandingRun:
     """Simulate the landing of §2.6.2 with *controller* ``"nmpc"`` or ``"2lc"``.
 
-    Builds a :class:`~controllers.landing.LandingScenario` of the arguments and runs
+    Builds a :class:`~netcosim.controllers.landing.LandingScenario` of the arguments and runs
     it (:func:`simulate_landing`).
 
     ``params``: simulation-model parameters (default :data:`SIM_PARAMS`); the NMPC and

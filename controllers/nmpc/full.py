@@ -1,6 +1,6 @@
 """Fully converged solves of the OCP: :class:`FullSolution` and the IPOPT solver
 (:class:`IpoptOCP`); the Gauss–Newton SQP is :meth:`RTINMPC.solve_sqp
-<controllers.nmpc.rti.RTINMPC.solve_sqp>`."""
+<netcosim.controllers.nmpc.rti.RTINMPC.solve_sqp>`."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ class FullSolution:
 
 
 class _Iterate(Protocol):
-    """What :class:`IpoptOCP` reads of its :class:`~controllers.nmpc.rti.RTINMPC` (so this
+    """What :class:`IpoptOCP` reads of its :class:`~netcosim.controllers.nmpc.rti.RTINMPC` (so this
     module need not import ``rti.py``, which imports it): the transcription, the current
     iterate and parameters, and the checks of ``x0`` and ``p``."""
 

@@ -122,7 +122,7 @@ class RTINMPC:
         CasADi ``conic`` plugin: ``"hpipm"`` (default, structure-exploiting IPM),
         ``"qpoases"``, ``"osqp"``, ``"daqp"``, ``"proxqp"``, ``"qrqp"``, ``"highs"``.
     qp_options:
-        Options merged over the defaults of :mod:`~controllers.nmpc.qp` for the plugin.
+        Options merged over the defaults of :mod:`~netcosim.controllers.nmpc.qp` for the plugin.
     hessian_reg:
         Levenberg–Marquardt term added to the Gauss–Newton Hessian (does not change
         the fixed point of the iteration, only the step).

@@ -1,4 +1,4 @@
-"""The multiple-shooting transcription of an :class:`~controllers.nmpc.ocp.OCP` into an NLP
+"""The multiple-shooting transcription of an :class:`~netcosim.controllers.nmpc.ocp.OCP` into an NLP
 (shared by the RTI and the full solvers)."""
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The kinematic local planners of thesis ch. 3-5 for star-shaped multi-robot systems.
 
 A kinematic system is any object with ``n``, ``m``, ``h(q)`` and ``jacobian(q)`` (and
-``pinv(q)``): :class:`plants.kinematic.KinematicSystem`, the one model shared with the
+``pinv(q)``): :class:`netcosim.plants.kinematic.KinematicSystem`, the one model shared with the
 plants.  The robots are velocity controlled, ``p_dot = u`` (3.4); the configuration
 moves as ``q_dot = A_q^+ u`` (3.7)/(4.6)/(4.13).
 
@@ -9,7 +9,7 @@ moves as ``q_dot = A_q^+ u`` (3.7)/(4.6)/(4.13).
 module                        holds
 ============================  ==========================================================
 :mod:`.kinematics`            argument checks, the kinematic model re-exported from
-                              :mod:`plants.kinematic`, ``integrate_kinematics``
+                              :mod:`netcosim.plants.kinematic`, ``integrate_kinematics``
 :mod:`.norms`                 :class:`WeightedNorm` ``||D e||_p``
 :mod:`.structure`             :class:`StarStructure`, the sparsity (3.3)
 :mod:`.laws`                  the laws (3.8)/(3.10)/(3.11)/(4.14)/(4.16), gains, closed loop

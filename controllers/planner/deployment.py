@@ -1,4 +1,4 @@
-"""What a planner deployment (:func:`controllers.planner.tasks.deploy`) built and recorded.
+"""What a planner deployment (:func:`netcosim.controllers.planner.tasks.deploy`) built and recorded.
 
 Every computation of a task leaves one typed record (named fields, no optional keys):
 
@@ -144,7 +144,7 @@ class _Sample:
 
 @dataclass
 class Deployment:
-    """What :func:`~controllers.planner.tasks.deploy` built: the plant, nodes, network and
+    """What :func:`~netcosim.controllers.planner.tasks.deploy` built: the plant, nodes, network and
     the records of every computation (:class:`PlannerRecord`, :class:`PoseRecord`,
     :class:`CommandRecord`, in the order they completed)."""
 

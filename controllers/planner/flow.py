@@ -7,12 +7,12 @@ sampled closed loop by time rescaling (3.13)/(4.18); ``tau_s`` is its return tim
 Two right-hand sides give the DOP853 stages (:mod:`.dop853`):
 
 * for systems with a CasADi Jacobian ``A_fun`` (every
-  :class:`plants.flycrane.MultiRobotSystem`), one CasADi Function per step (QR solve,
+  :class:`netcosim.plants.flycrane.MultiRobotSystem`), one CasADi Function per step (QR solve,
   all stages and the dense output), compiled to machine code by
-  :func:`plants.casadi_tools.compile_functions` when a C compiler is available;
+  :func:`netcosim.plants.casadi_tools.compile_functions` when a C compiler is available;
 * otherwise, or where a QR pivot falls below :data:`PIVOT_RTOL`, the SVD least squares
-  of :func:`plants.kinematic.pinv_solve`, which raises
-  :class:`~plants.kinematic.SingularConfigurationError` at rank loss.
+  of :func:`netcosim.plants.kinematic.pinv_solve`, which raises
+  :class:`~netcosim.plants.kinematic.SingularConfigurationError` at rank loss.
 """
 
 from __future__ import annotations
@@ -24,11 +24,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import casadi as ca
+import netcosim.plants.casadi_tools as casadi_tools
 import numpy as np
-
-import plants.casadi_tools as casadi_tools
-from plants.casadi_tools import FunctionBuffers, compile_functions
-from plants.kinematic import conditioning
+from netcosim.plants.casadi_tools import FunctionBuffers, compile_functions
+from netcosim.plants.kinematic import conditioning
 
 from .dop853 import E3 as _E3
 from .dop853 import E5 as _E5
@@ -52,10 +51,10 @@ FLOW_ATOL_REL = 1e-12
 TAU_XTOL = 1e-10
 #: A QR pivot of ``A_q`` below this fraction of the largest one anywhere in a step of the
 #: CasADi flow sends the whole flow back to the SVD right-hand side (rank rule of
-#: :func:`plants.kinematic.rank_rtol`), which raises
-#: :class:`~plants.kinematic.SingularConfigurationError` if needed.  Whether the CasADi
-#: flow is compiled: :data:`plants.casadi_tools.COMPILE` (read when a system's flow is
-#: first prepared; libraries cached in :func:`plants.casadi_tools.cache_dir`).
+#: :func:`netcosim.plants.kinematic.rank_rtol`), which raises
+#: :class:`~netcosim.plants.kinematic.SingularConfigurationError` if needed.  Whether the CasADi
+#: flow is compiled: :data:`netcosim.plants.casadi_tools.COMPILE` (read when a system's flow is
+#: first prepared; libraries cached in :func:`netcosim.plants.casadi_tools.cache_dir`).
 PIVOT_RTOL = 1e-7
 
 
@@ -65,7 +64,7 @@ class _FallBack(Exception):
 
 class _SVDFlow:
     """DOP853 stages of the flow with the SVD right-hand side ``-A^+_{q_r + x} c``
-    (:func:`plants.kinematic.pinv_solve`): works for any kinematic system and raises
+    (:func:`netcosim.plants.kinematic.pinv_solve`): works for any kinematic system and raises
     :class:`SingularConfigurationError` where ``A_q`` loses rank."""
 
     def __init__(self, system, q_ref, c):
@@ -310,10 +309,10 @@ def solve_auxiliary_flow(system: Any, q_ref: Any, e_h: Any, *, kbar: Any = None,
     Proposition 3.4.6).
 
     Right-hand side: for systems with a CasADi Jacobian ``A_fun`` (every
-    :class:`plants.flycrane.MultiRobotSystem`) ``A^+ c`` comes from a QR factorisation in
-    one compiled function per step (see :data:`plants.casadi_tools.COMPILE`); otherwise, or where a QR
+    :class:`netcosim.plants.flycrane.MultiRobotSystem`) ``A^+ c`` comes from a QR factorisation in
+    one compiled function per step (see :data:`netcosim.plants.casadi_tools.COMPILE`); otherwise, or where a QR
     pivot falls below :data:`PIVOT_RTOL`, from the SVD least squares of
-    :func:`plants.kinematic.pinv_solve`, which raises :class:`SingularConfigurationError` at rank loss.
+    :func:`netcosim.plants.kinematic.pinv_solve`, which raises :class:`SingularConfigurationError` at rank loss.
     """
     check_system(system)
     m = system.m
@@ -366,7 +365,7 @@ def solve_auxiliary_flow(system: Any, q_ref: Any, e_h: Any, *, kbar: Any = None,
 
 
 def _regular_along(system, q_ref, ys) -> bool:
-    """Whether ``A_q`` passes the rank rule (:func:`~plants.kinematic.rank_rtol`) at every ``q_ref + y``."""
+    """Whether ``A_q`` passes the rank rule (:func:`~netcosim.plants.kinematic.rank_rtol`) at every ``q_ref + y``."""
     tol = rank_rtol(system)
     for y in ys:
         if conditioning(np.linalg.svd(jacobian(system, q_ref + y), compute_uv=False), tol)[3]:

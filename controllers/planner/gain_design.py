@@ -225,7 +225,7 @@ def estimate_mu(system: Any, q_ref: Any, radius: float, n_samples: int = 200, *,
 
     For each of ``n_samples`` errors ``e_h`` drawn uniformly in the (weighted) ball, the
     auxiliary flow is integrated until the norm returns to ``||e_h||`` (event detection,
-    see :func:`~controllers.planner.flow.solve_auxiliary_flow`) and the ratio
+    see :func:`~netcosim.controllers.planner.flow.solve_auxiliary_flow`) and the ratio
     ``||e'(tau) - (I - tau K_bar) e_h|| / (tau^2 ||e_h||)`` is maximised over ``n_tau``
     points of ``(0, tau_s]`` (geometric near 0, uniform beyond).  With
     ``include_boundary`` half of the samples are pushed to the sphere ``||e|| = radius``

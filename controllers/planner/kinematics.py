@@ -1,5 +1,5 @@
 """Kinematic helpers of the planners: the kinematic model (re-exported from
-:mod:`plants.kinematic`, the one model shared with the plants), argument checks and the
+:mod:`netcosim.plants.kinematic`, the one model shared with the plants), argument checks and the
 integration of ``q_dot = A_q^+ u`` over a period.
 
 Units: q in rad and m, robot velocities u in m/s, times and periods in s, gains in 1/s.
@@ -10,11 +10,7 @@ from __future__ import annotations
 from typing import Any, Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
-
-from netcosim import validate
-from netcosim.errors import ConfigurationError
-from plants.kinematic import (
+from netcosim.plants.kinematic import (
     SINGULAR_RTOL,
     KinematicSystem,
     SingularConfigurationError,
@@ -26,14 +22,18 @@ from plants.kinematic import (
     project,
     rank_rtol,
 )
+from scipy.integrate import solve_ivp
+
+from netcosim import validate
+from netcosim.errors import ConfigurationError
 
 __all__ = ["KinematicSystem", "SingularConfigurationError", "RANK_RTOL", "check_system", "check_period",
            "check_gain_matrix", "diag_gain", "as_vector", "jacobian", "pinv_solve", "configuration_rate",
            "project", "integrate_kinematics", "rank_rtol"]
 
 #: Relative singular-value threshold below which ``A_q`` counts as rank deficient: the
-#: project's one rule, :data:`plants.kinematic.SINGULAR_RTOL` (1e-8).  A system's own
-#: ``singular_tol`` takes precedence (:func:`plants.kinematic.rank_rtol`).
+#: project's one rule, :data:`netcosim.plants.kinematic.SINGULAR_RTOL` (1e-8).  A system's own
+#: ``singular_tol`` takes precedence (:func:`netcosim.plants.kinematic.rank_rtol`).
 RANK_RTOL = SINGULAR_RTOL
 
 

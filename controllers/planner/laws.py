@@ -124,7 +124,7 @@ def simulate_sampled(system: Any, q0: Any, q_ref: Any, T: float, gain: Any, *, k
     ``q_dot = A_q^+ u_h`` is integrated over one period (``plant(q, u, T)``; default
     :func:`integrate_kinematics` with DOP853, rtol 1e-12, atol 1e-13).  Stops after
     ``n_samples`` periods or once ``||e_h|| < tol``.  ``guarantee``: a
-    :class:`~controllers.planner.gain_design.GainDesign`; an offline gain outside its stability
+    :class:`~netcosim.controllers.planner.gain_design.GainDesign`; an offline gain outside its stability
     interval ``0 < k T < tau_s_bar`` then raises ``ValueError`` before anything runs.
 
     Returns a ``pandas.DataFrame`` with one row per sample: ``h``, ``t`` (s), ``k``

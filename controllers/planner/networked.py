@@ -3,11 +3,11 @@ nodes (the load and four robots) talking over one lossy IEEE 802.11b network.
 
 :class:`FlyCraneNetworkConfig` describes one run (every value documented on the class);
 :func:`build` wires it inside a :class:`netcosim.Simulation` with
-:func:`controllers.planner.tasks.deploy`; :func:`run` runs it and returns a
+:func:`netcosim.controllers.planner.tasks.deploy`; :func:`run` runs it and returns a
 :class:`FlyCraneRun` (named fields, ``.to_pandas()``, ``.plot()``).
 
 The system is the 4-robot non-square one of Fig. 4.3a / A.1
-(:func:`plants.flycrane.configurations.four_robot_nonsquare`: N = 4, m = 10, n = 12),
+(:func:`netcosim.plants.flycrane.configurations.four_robot_nonsquare`: N = 4, m = 10, n = 12),
 ``q0`` = (80 deg x 4, 0 x 6), ``q^r`` = (60 deg x 4, 0 x 6), T = 1.5 s, ``K_bar = I_10``.
 
 Strategies (appendix A):
@@ -196,7 +196,7 @@ def setting(config: FlyCraneNetworkConfig):
 
 @functools.lru_cache(maxsize=1)
 def _system():
-    from plants.flycrane.configurations import four_robot_nonsquare
+    from netcosim.plants.flycrane.configurations import four_robot_nonsquare
     return four_robot_nonsquare()
 
 
@@ -224,7 +224,7 @@ class GridRecorder(SolveIVP):
     """The plant integrator *base* (a :class:`~netcosim.plant.SolveIVP`), also
     reporting q (the first *m* states, rad and m) and the held u (m/s) every ``dt`` s
     from the solver's dense output (the steps are those of the plain integrator).
-    Pass it as ``integrator=`` to :func:`~controllers.planner.tasks.deploy`, call
+    Pass it as ``integrator=`` to :func:`~netcosim.controllers.planner.tasks.deploy`, call
     :meth:`start` with the built plant, read :meth:`arrays` after the run."""
 
     def __init__(self, base: SolveIVP, dt: float, m: int):
@@ -263,7 +263,7 @@ def build(sim: Simulation, config: FlyCraneNetworkConfig, *, network: Any = None
 
     ``network``: the network (default: a :class:`~netcosim.network.WLAN80211b` named
     ``"wlan"`` with ``config``'s data rate, loss and retry limit).  ``exec_pivot``,
-    ``exec_robot``: execution times (s) as :class:`~controllers.planner.tasks.DeploymentConfig`
+    ``exec_robot``: execution times (s) as :class:`~netcosim.controllers.planner.tasks.DeploymentConfig`
     takes them (a constant, a frozen distribution or ``fn(rng) -> s``) in place of
     ``config``'s constants (the HIL replay gives each job its measured response time).
     Returns ``(deployment, recorder)``; the recorder holds q and u every ``sample_dt`` s.
@@ -318,7 +318,7 @@ class FlyCraneRun:
     ``config``; ``t`` (K,) s on the ``sample_dt`` grid; ``q`` (K, 10) rad and m;
     ``u`` (K, 12) desired robot velocities applied to the plant (m/s); ``q_ref`` (10,);
     ``norm_e`` (K,) ``||q - q^r||_2`` (unweighted, as Fig. 4.11 plots);
-    ``samples``: one row per period (:class:`~controllers.planner.deployment.PlannerResponse`
+    ``samples``: one row per period (:class:`~netcosim.controllers.planner.deployment.PlannerResponse`
     as a DataFrame: h, t, k, q0.., u0..) as the tasks computed them; ``gains``: DataFrame
     ``t``, ``node``, ``k`` (1/s) of every command computed; ``schedule``, ``jobs``:
     the kernels' schedule and job tables; ``network_schedule``, ``frames``: the WLAN's;

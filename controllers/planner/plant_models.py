@@ -1,8 +1,8 @@
-"""The plants a planner deployment (:func:`controllers.planner.tasks.deploy`) can drive.
+"""The plants a planner deployment (:func:`netcosim.controllers.planner.tasks.deploy`) can drive.
 
-A *plant model* tells :func:`~controllers.planner.tasks.deploy` how to build the
+A *plant model* tells :func:`~netcosim.controllers.planner.tasks.deploy` how to build the
 continuous plant under the planner tasks; it is the ``plant`` field of
-:class:`~controllers.planner.tasks.DeploymentConfig`.  Every model gives
+:class:`~netcosim.controllers.planner.tasks.DeploymentConfig`.  Every model gives
 
 * ``build(system, name)`` -- the :class:`~netcosim.plant.ContinuousSystem` whose
   first ``m`` outputs are the configuration ``q`` (rad, m) and whose ``n`` inputs are
@@ -13,12 +13,12 @@ continuous plant under the planner tasks; it is the ``plant`` field of
 Two models:
 
 * :class:`KinematicModel` (the default): ``q_dot = A_q^+ u`` (4.6), state q, DOP853
-  rtol 1e-12, atol 1e-13 (as :func:`controllers.planner.kinematics.integrate_kinematics`);
+  rtol 1e-12, atol 1e-13 (as :func:`netcosim.controllers.planner.kinematics.integrate_kinematics`);
 * :class:`VelocityTrackingModel`: the Lagrangian model (4.10) of appendix B.1.2 under the
   velocity-tracking force ``F = -alpha (p_dot - u) + F_g(q)`` (4.11) that Fig. 4.10
-  uses (:class:`plants.flycrane.input_modes.VelocityTrackingPlant`), state
+  uses (:class:`netcosim.plants.flycrane.input_modes.VelocityTrackingPlant`), state
   ``(q, q_dot)`` starting at rest, LSODA rtol 1e-8, atol 1e-10 (the integrator of
-  ``experiments.ch4_fig4_10.simulate_dynamic``).
+  ``netcosim.experiments.ch4_fig4_10.simulate_dynamic``).
 """
 
 from __future__ import annotations
@@ -27,19 +27,19 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
+from netcosim.plants.kinematic import KinematicPlant
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError
 from netcosim.plant import SolveIVP
-from plants.flycrane.input_modes import VelocityTrackingPlant
-from plants.kinematic import KinematicPlant
 
 __all__ = ["KinematicVelocityPlant", "KinematicModel", "VelocityTrackingModel", "PLANT_MODELS",
            "plant_model", "check_model", "plant_integrator"]
 
 
 class KinematicVelocityPlant(KinematicPlant):
-    """The one kinematic plant ``q_dot = A_q^+ u`` (:class:`plants.kinematic.KinematicPlant`)
+    """The one kinematic plant ``q_dot = A_q^+ u`` (:class:`netcosim.plants.kinematic.KinematicPlant`)
     as the deployments build it: states and outputs ``q0..q{m-1}`` (rad, m), inputs
     ``u0..u{n-1}`` (m/s), no singular-set event (the pseudo-inverse still raises by the
     rank rule wherever the integrator evaluates it)."""
@@ -49,7 +49,7 @@ class KinematicVelocityPlant(KinematicPlant):
 
 
 def plant_integrator() -> SolveIVP:
-    """The plant integrator matching :func:`controllers.planner.kinematics.integrate_kinematics`
+    """The plant integrator matching :func:`netcosim.controllers.planner.kinematics.integrate_kinematics`
     (DOP853, rtol 1e-12, atol 1e-13)."""
     return SolveIVP(method="DOP853", rtol=1e-12, atol=1e-13)
 
@@ -83,10 +83,10 @@ class VelocityTrackingModel:
     stops the integrator where a cable goes slack; the tension is an output, ``t_min``,
     either way); ``rtol``, ``atol``: LSODA tolerances (the state is (q, q_dot) in rad, m,
     rad/s, m/s); ``compiled``: evaluate the closed-loop dynamics with the CasADi function
-    compiled to C (:func:`plants.casadi_tools.compile_functions`, cached on disk; the
+    compiled to C (:func:`netcosim.plants.casadi_tools.compile_functions`, cached on disk; the
     same expression graph, about 4x faster than CasADi's virtual machine; without a C
     compiler it falls back to the uncompiled function with one warning).  The system must be a
-    :class:`plants.flycrane.kinematics.MultiRobotSystem`.
+    :class:`netcosim.plants.flycrane.kinematics.MultiRobotSystem`.
     """
 
     alpha: float = 30.0
@@ -105,7 +105,7 @@ class VelocityTrackingModel:
                               type_error=ConfigurationError)
 
     def build(self, system: Any, name: str):
-        """A :class:`plants.flycrane.input_modes.VelocityTrackingPlant` named *name*
+        """A :class:`netcosim.plants.flycrane.input_modes.VelocityTrackingPlant` named *name*
         (outputs ``q.*`` first, inputs ``u.*`` in robot order)."""
         cls = _CompiledVelocityTracking if self.compiled and self.gravity_compensation else VelocityTrackingPlant
         plant = cls(system, self.alpha, gravity_compensation=self.gravity_compensation, name=name)
@@ -127,7 +127,7 @@ _COMPILED: dict = {}
 
 def _compiled_velocity_tracking(dynamics):
     """The velocity-tracking function of *dynamics* compiled to C (one per dynamics object)."""
-    from plants.casadi_tools import BufferedFunction, compile_functions
+    from netcosim.plants.casadi_tools import BufferedFunction, compile_functions
     hit = _COMPILED.get(id(dynamics))
     if hit is None or hit[0] is not dynamics:
         fun = dynamics.velocity_tracking_fun
@@ -137,7 +137,7 @@ def _compiled_velocity_tracking(dynamics):
 
 
 class _CompiledVelocityTracking(VelocityTrackingPlant):
-    """:class:`~plants.flycrane.input_modes.VelocityTrackingPlant` with gravity
+    """:class:`~netcosim.plants.flycrane.input_modes.VelocityTrackingPlant` with gravity
     compensation, its closed-loop dynamics evaluated by compiled code."""
 
     def __init__(self, system, alpha, **kw):

@@ -6,8 +6,8 @@ an unscented Kalman filter (UKF) fuses the motion-capture (MoCap) measurements w
 IMU; the controller reads the UKF's estimate.  Here:
 
 * plant: the Lagrangian model (4.10) under the velocity-tracking force (4.11),
-  ``F = -alpha (A_q q_dot - u) + F_g(q)`` (:class:`plants.flycrane.input_modes.VelocityTrackingPlant`,
-  compiled as in :class:`controllers.planner.plant_models.VelocityTrackingModel`), integrated
+  ``F = -alpha (A_q q_dot - u) + F_g(q)`` (:class:`netcosim.plants.flycrane.input_modes.VelocityTrackingPlant`,
+  compiled as in :class:`netcosim.controllers.planner.plant_models.VelocityTrackingModel`), integrated
   with LSODA between MoCap instants;
 * the law (5.13)/(5.14)/(5.15) is evaluated at the MoCap rate and held in between (the
   robots receive a velocity every ``1/mocap_rate`` s; the feedback part changes only every T);
@@ -22,7 +22,7 @@ IMU; the controller reads the UKF's estimate.  Here:
 
 :class:`RealisticEnvironment` holds these settings; :meth:`RealisticEnvironment.track`
 runs a Table 5.1 strategy and returns the same ``(samples, dense)`` tables as
-:func:`controllers.planner.sikm.simulate_tracking`; :meth:`RealisticEnvironment.interval_samples`
+:func:`netcosim.controllers.planner.sikm.simulate_tracking`; :meth:`RealisticEnvironment.interval_samples`
 gives the one-period samples of the QP (5.27) on the dynamic model.
 """
 
@@ -122,7 +122,7 @@ class RealisticEnvironment:
         stability set of ``params`` when given) or the online ``tau_o(e_h)/T`` (5.12) on
         ``q_hat``.  ``seed`` seeds the MoCap noise.
 
-        Returns ``(samples, dense)`` like :func:`controllers.planner.sikm.simulate_tracking`:
+        Returns ``(samples, dense)`` like :func:`netcosim.controllers.planner.sikm.simulate_tracking`:
         ``samples``: ``h, t, k, err, err_est`` and ``q*`` (true q at hT); ``dense``:
         ``t, err, err_est``, ``q*``, ``qr*``, ``qhat*`` on ``n_dense`` points per period.
         ``err`` is the true ``||q - q_r||``, ``err_est`` that of the estimate.
@@ -185,7 +185,7 @@ class RealisticEnvironment:
                          errors: str = "truth"):
         """One-period samples ``(k, T, ||e_h||, ||e_{h+1}||)`` of the QP (5.27) on the dynamic plant.
 
-        As :func:`controllers.planner.sikm.collect_interval_samples`, but the platform starts
+        As :func:`netcosim.controllers.planner.sikm.collect_interval_samples`, but the platform starts
         at ``q_r(t0) + e0`` moving with the reference (``q_dot(t0) = q_r_dot(t0)``) and the
         law is applied to a MoCap sample of ``q(t0)`` (noise ``noise_std``, seeded by
         ``seed``) through the MoCap-rate hold and the velocity-tracking robots.

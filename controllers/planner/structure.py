@@ -70,7 +70,7 @@ class StarStructure:
         s = getattr(system, "structure", None)
         if isinstance(s, StarStructure):
             return s
-        if hasattr(system, "block_indices"):  # plants.flycrane.MultiRobotSystem
+        if hasattr(system, "block_indices"):  # netcosim.plants.flycrane.MultiRobotSystem
             rows, cols, pivot = system.block_indices()
             return cls(rows, cols, pivot)
         check_system(system)

@@ -2,7 +2,7 @@
 
 :func:`deploy` builds, from a validated :class:`DeploymentConfig`, inside a
 :class:`netcosim.Simulation`, a pivot node, one node per robot, a network between them
-and the plant ``config.plant`` (:mod:`controllers.planner.plant_models`: the kinematic
+and the plant ``config.plant`` (:mod:`netcosim.controllers.planner.plant_models`: the kinematic
 ``q_dot = A_q^+ u`` by default, or the dynamic model with velocity tracking)
 (:func:`deploy_planner`: the same with the configuration as keyword arguments).  Small
 task factories (``add_planner_task``, ``add_pose_task``, ``add_command_task``,
@@ -29,14 +29,14 @@ Execution times (``exec_pivot``, ``exec_robot``: seconds, a ``scipy.stats`` froz
 distribution or ``fn(rng) -> s``) are consumed with ``ctx.execute`` after the inputs are
 read; commands and messages leave at the end of that segment.
 
-Results: :class:`~controllers.planner.deployment.Deployment` holds typed records of every
+Results: :class:`~netcosim.controllers.planner.deployment.Deployment` holds typed records of every
 computation and gives the sample sequence as a
-:class:`~controllers.planner.deployment.PlannerResponse` (``.to_pandas()``, ``.plot()``).
+:class:`~netcosim.controllers.planner.deployment.PlannerResponse` (``.to_pandas()``, ``.plot()``).
 
 The numerical law is the same code as the pure-math simulations
-(:mod:`controllers.planner.laws`, :mod:`controllers.planner.sikm`), so over an ideal
+(:mod:`netcosim.controllers.planner.laws`, :mod:`netcosim.controllers.planner.sikm`), so over an ideal
 zero-delay network with zero execution times the sample sequences coincide with
-:func:`controllers.planner.laws.simulate_sampled`.
+:func:`netcosim.controllers.planner.laws.simulate_sampled`.
 """
 
 from __future__ import annotations
@@ -79,7 +79,7 @@ class PlannerLaw:
     ``gain``: :class:`OfflineGain` or :class:`OnlineGain`; ``kbar``: diagonal of
     ``K_bar`` (ch. 4); ``norm``: norm of the online gain's minimisation; ``q_ref``: a
     constant reference (point stabilization, ch. 3/4) or ``trajectory``: a
-    :class:`~controllers.planner.sikm.Trajectory` (ch. 5) with ``feedforward`` in
+    :class:`~netcosim.controllers.planner.sikm.Trajectory` (ch. 5) with ``feedforward`` in
     {"none", "reference", "sample"} refreshed every ``ff_period`` s at the robots.
     """
 
@@ -128,10 +128,10 @@ class DeploymentConfig:
     ``"hold"`` the last command or ``"zero"`` it once it is older than
     ``watchdog_timeout`` (s, default T), checked every ``watchdog_period`` (s);
     ``plant_name``, ``log_interval`` (s): passed to ``sim.plant``; ``guarantee``: a
-    :class:`~controllers.planner.gain_design.GainDesign` (point stabilization) or
-    :class:`~controllers.planner.sikm.SIKMParams` (tracking): an offline gain outside
+    :class:`~netcosim.controllers.planner.gain_design.GainDesign` (point stabilization) or
+    :class:`~netcosim.controllers.planner.sikm.SIKMParams` (tracking): an offline gain outside
     the corresponding stability set raises ``ValueError``; ``plant``: the plant model
-    (:mod:`controllers.planner.plant_models`: :class:`KinematicModel` ``q_dot = A_q^+ u``,
+    (:mod:`netcosim.controllers.planner.plant_models`: :class:`KinematicModel` ``q_dot = A_q^+ u``,
     the default, or :class:`VelocityTrackingModel` ``(alpha)``, the dynamic model (4.10)
     under the velocity-tracking force (4.11)); ``messaging``: ``"unicast"`` (one message
     per robot with its part) or ``"broadcast"`` (one message to every robot: the whole

@@ -311,5 +311,5 @@ def add_parser(sub) -> None:
                    help="then run SCENARIO all-simulated and print the largest deviation of the plant signals")
     h.add_argument("--replay", metavar="MODULE:FUNCTION",
                    help="with --compare: FUNCTION(until, requests) runs the all-simulated scenario replaying the "
-                        "measured response times (e.g. experiments.hil_servo:run_replay)")
+                        "measured response times (e.g. netcosim.experiments.hil_servo:run_replay)")
     h.set_defaults(fn=_hil)

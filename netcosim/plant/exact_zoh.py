@@ -43,7 +43,7 @@ class ExactZOH:
 
     A plant is accepted when its system exposes ``A`` (nx × nx) and ``B`` (nx × nu)
     and its ``f`` is ``A x + B u`` (checked once, at two points, when the plant is
-    created): :class:`plants.dc_servo.DCServo` and the converted python-control
+    created): :class:`netcosim.plants.dc_servo.DCServo` and the converted python-control
     ``StateSpace`` / ``TransferFunction`` plants (:class:`netcosim.plant.pycontrol.LinearPlant`).
     Outputs still come from the system's ``h`` (``C x + D u`` for those).  A system
     without ``A``/``B`` raises :class:`~netcosim.errors.ConfigurationTypeError`

@@ -1,6 +1,6 @@
 """Ready-made systems of the class: the thesis Fly-crane and its relatives.
 
-Every function returns a :class:`~plants.flycrane.kinematics.MultiRobotSystem` with a
+Every function returns a :class:`~netcosim.plants.flycrane.kinematics.MultiRobotSystem` with a
 checked, non-singular ``q_nominal``.  Values the thesis gives are quoted with their
 section; the others are chosen here and justified next to them (see also
 ``docs/models.md``).

@@ -3,7 +3,7 @@
 * :class:`KinematicPlant` — velocity input ``ṗ = u`` for square systems (3.4) and its
   projection ``ṗ = Π_q u`` for non-square ones (4.5), i.e. ``q̇ = A_q^† u`` (4.6).
   State q, input u (n, m/s).  The project's one kinematic plant, defined for any
-  kinematic system in :mod:`plants.kinematic` and re-exported here.
+  kinematic system in :mod:`netcosim.plants.kinematic` and re-exported here.
 * :class:`VelocityTrackingPlant` — the dynamics (4.10) driven by the force
   ``F = -α (ṗ - u) + F_g(q)`` of (4.11) with gravity compensation, input u.  State
   (q, q̇).  As α grows, q̇ → A_q^† u (§4.3).

@@ -1,7 +1,7 @@
 """Kinematics of star-shaped multi-robot systems (thesis (3.1)-(3.3), (4.4)-(4.6), B.1.1).
 
 A :class:`MultiRobotSystem` is a pivot (a rigid platform with pose ``q_V``) and N
-agents, each attached by a :mod:`~plants.flycrane.attachments` element.  Layout:
+agents, each attached by a :mod:`~netcosim.plants.flycrane.attachments` element.  Layout:
 
 * ``q = [q_1, …, q_N, q_V]`` (length m): each agent's own coordinates, then the pivot
   pose.  Spatial pivot: ``q_V = (x_V, y_V, z_V, φ_V, θ_V, ψ_V)`` [m, rad] with

@@ -39,7 +39,7 @@ def netcosim(*argv):
 
 
 def main_job(*argv):
-    from experiments.main import cli
+    from netcosim.experiments.main import cli
     _command(cli, argv)
 
 
@@ -79,7 +79,7 @@ def plot_network_api(**kw):
 
 
 def job(**kw):
-    from experiments.main import main
+    from netcosim.experiments.main import main
     main(experiments=[("fake.never_run", "never run")], **kw)
 
 
@@ -90,7 +90,7 @@ CASES = [
     Case(id="cli-run-unknown-experiment", call=lambda: netcosim("run", "no_such_experiment"),
          exc=CommandFailed, names="'no_such_experiment'"),
     Case(id="cli-run-empty-name", call=lambda: netcosim("run", ""), exc=CommandFailed, names="''"),
-    Case(id="cli-run-unknown-function", call=lambda: netcosim("run", "experiments.servo:nope"),
+    Case(id="cli-run-unknown-function", call=lambda: netcosim("run", "netcosim.experiments.servo:nope"),
          exc=CommandFailed, names="'nope'"),
     Case(id="cli-run-no-function-after-colon", call=lambda: netcosim("run", "servo:"),
          exc=CommandFailed, names="'servo:'"),
@@ -142,7 +142,7 @@ CASES = [
          call=lambda: plot_file("-o", "/no/such/dir/s.png"), exc=CommandFailed, names="'/no/such/dir/s.png'"),
     Case(id="cli-plot-unknown-image-format", call=lambda: plot_file("-o", "schedule.bmpx"), exc=CommandFailed,
          names="'bmpx'"),
-    # python -m experiments.main
+    # python -m netcosim.experiments.main
     Case(id="cli-main-job-timeout-zero", call=lambda: main_job("--timeout", "0"), exc=CommandFailed,
          names="got 0.0"),
     Case(id="cli-main-job-timeout-nan", call=lambda: main_job("--timeout", "nan"), exc=CommandFailed, names="nan"),

@@ -13,8 +13,8 @@ def _cpu():
 
 
 def _landing():
-    import controllers.landing
-    return controllers.landing
+    import netcosim.controllers.landing
+    return netcosim.controllers.landing
 
 
 def _recorded_run_out():

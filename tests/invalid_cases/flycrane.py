@@ -11,7 +11,7 @@ NAN = float("nan")
 
 
 def _sys():
-    from plants.flycrane.configurations import thesis_flycrane
+    from netcosim.plants.flycrane.configurations import thesis_flycrane
     return thesis_flycrane(1.5)
 
 
@@ -29,7 +29,7 @@ def _pinv_near():
 
 
 def _rate_near():
-    from controllers.planner import configuration_rate
+    from netcosim.controllers.planner import configuration_rate
     s, q = _near_singular()
     return configuration_rate(s, q, [1.0] * 9)
 
@@ -40,14 +40,14 @@ def _check_near():
 
 
 def _plant_start_near():
-    from plants.flycrane.input_modes import KinematicPlant
+    from netcosim.plants.flycrane.input_modes import KinematicPlant
     s, q = _near_singular()
     return KinematicPlant(s).initial_state(q)
 
 
 def _system(**kw):
-    from plants.flycrane import MultiRobotSystem, TwoCable
-    from plants.flycrane.configurations import regular_polygon
+    from netcosim.plants.flycrane import MultiRobotSystem, TwoCable
+    from netcosim.plants.flycrane.configurations import regular_polygon
     V = regular_polygon(3, 1.0)
     return MultiRobotSystem([TwoCable(V[i], V[(i + 1) % 3], 1.5) for i in range(3)], **kw)
 
@@ -71,52 +71,52 @@ def _jac_short():
 
 
 def _velocity_tracking(alpha):
-    from plants.flycrane.input_modes import VelocityTrackingPlant
+    from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
     return VelocityTrackingPlant(_sys(), alpha)
 
 
 def _kin_noise(std):
     import numpy as np
-
-    from plants.flycrane.input_modes import KinematicPlant
+    from netcosim.plants.flycrane.input_modes import KinematicPlant
     return KinematicPlant(_sys(), noise_std=std, rng=np.random.default_rng(0))
 
 
 def _mass(**kw):
-    from plants.flycrane import MassProperties
+    from netcosim.plants.flycrane import MassProperties
     base = dict(platform_mass=0.3, platform_inertia=[[1, 0, 0], [0, 1, 0], [0, 0, 2]], robot_masses=(1.0,) * 3)
     base.update(kw)
     return MassProperties(**base)
 
 
 def _planner_velocity(K):
-    from controllers.planner import planner_velocity
+    from netcosim.controllers.planner import planner_velocity
     s = _sys()
     return planner_velocity(s, s.q_nominal, s.q_nominal, K)
 
 
 def _simulate(T):
-    from controllers.planner import OfflineGain, simulate_sampled
+    from netcosim.controllers.planner import OfflineGain, simulate_sampled
     s = _sys()
     return simulate_sampled(s, s.q_nominal, s.q_nominal, T, OfflineGain(1.0), n_samples=1)
 
 
 def _offline(k):
-    from controllers.planner import OfflineGain
+    from netcosim.controllers.planner import OfflineGain
     return OfflineGain(k)
 
 
 def _law(**kw):
-    from controllers.planner import OfflineGain
-    from controllers.planner.tasks import PlannerLaw
+    from netcosim.controllers.planner import OfflineGain
+    from netcosim.controllers.planner.tasks import PlannerLaw
     base = dict(gain=OfflineGain(1.0), q_ref=[0.0] * 9)
     base.update(kw)
     return PlannerLaw(**base)
 
 
 def _deploy(**kw):
-    from controllers.planner import OfflineGain
-    from controllers.planner.tasks import PlannerLaw, deploy_planner
+    from netcosim.controllers.planner import OfflineGain
+    from netcosim.controllers.planner.tasks import PlannerLaw, deploy_planner
+
     from netcosim import Simulation
     s = _sys()
     base = dict(architecture="centralized")
@@ -126,22 +126,22 @@ def _deploy(**kw):
 
 
 def _polygon(k, edge):
-    from plants.flycrane.configurations import regular_polygon
+    from netcosim.plants.flycrane.configurations import regular_polygon
     return regular_polygon(k, edge)
 
 
 def _thesis(**kw):
-    from plants.flycrane.configurations import thesis_flycrane
+    from netcosim.plants.flycrane.configurations import thesis_flycrane
     return thesis_flycrane(**kw)
 
 
 def _square(a, b):
-    from plants.flycrane.configurations import square_family
+    from netcosim.plants.flycrane.configurations import square_family
     return square_family(a, b)
 
 
 def _mu(mu):
-    from controllers.planner.gain_design import design
+    from netcosim.controllers.planner.gain_design import design
     return design(mu)
 
 

@@ -11,21 +11,22 @@ NAN = math.nan
 
 
 def _uav():
-    import plants.tethered_uav as m
+    import netcosim.plants.tethered_uav as m
     return m
 
 
 def _pid(**kw):
-    from controllers.pid import PID
+    from netcosim.controllers.pid import PID
     return PID(h=0.01, **kw)
 
 
 def _loop(names=False, **kw):
     """The networked servo's loop (experiments/networked_servo.py) with one argument replaced."""
-    from controllers.networked_loop import networked_loop
+    from netcosim.controllers.networked_loop import networked_loop
+    from netcosim.plants.dc_servo import DCServo
+
     from netcosim import Simulation
     from netcosim.network import IdealLink
-    from plants.dc_servo import DCServo
     sim = Simulation()
     servo = sim.plant(DCServo(), x0=[0.0, 0.0], name="servo")
     net = IdealLink(sim, "link", data_rate=1e6)
