@@ -36,7 +36,7 @@ A call out of this order (``end`` twice, ``deliver`` after a collision, ``finish
 failed attempt, a new attempt while one is on the medium) raises :class:`MacOrderError`
 naming the network, the station, the frame and the state, before any counter or row
 is touched.  Every MAC, wired or radio, goes through these steps: there is no other way
-to count an attempt or to let a frame go.
+to count an attempt or to let the frame in service go.
 
 :class:`FrameLifecycle` is a part of :class:`~netcosim.network.base.Network` (a mixin);
 it also holds the single frame-loss draw :meth:`FrameLifecycle.frame_lost` and the
