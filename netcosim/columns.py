@@ -29,6 +29,16 @@ encoded instead of about 150 as a tuple of Python objects.  Reading decodes the 
 back to the very same values (same types, same bits), so the DataFrames built from them
 are identical.
 
+With a ``memory`` budget, the encoded chunks beyond it move to an anonymous temporary
+file (:meth:`ColumnStore._spill`): each run of consecutive chunks whose columns share
+codecs and buffer types is written as one chunk of all their rows, column by column,
+the arrays' own buffers gathered by ``os.writev`` behind a small pickled header (rows
+and codecs of each merged chunk); nothing else is pickled.  Reading one back makes one
+array (or ``bytes``) per column.  The private format lives as long as the file.  Cost
+measured on 10 periodic tasks over 100 s (1.17 million rows, five spills of 21 MB in
+all): about 18 ms, a third of it the kernel copying the bytes, and 0.9 % more CPU for
+the whole run than without a budget (``farm-bench -n 9``, paired, CPU median 1.009).
+
 Why not pandas or pyarrow builders: the hot path appends one row at a time, where a
 list append is the cheapest operation Python has; both libraries build columns from
 whole batches, which is what the chunks are, but would be imported by every simulation
@@ -162,9 +172,10 @@ class ColumnStore:
 
         A segment is written column by column: each run of consecutive chunks whose
         columns have the same codecs and buffer types becomes one chunk of all their
-        rows, each column's buffers joined and written raw, after a small header (the
-        rows and codecs of each such chunk).  No object graph is pickled: a write costs
-        about a copy of its bytes."""
+        rows, each column's buffers written one after the other as they are (one
+        ``os.writev`` call for up to 1024 of them), after a small header (the rows and
+        codecs of each such chunk).  No object graph is pickled: a write costs about one
+        copy of its bytes, into the operating system's page cache."""
         if self._file is None:
             # unbuffered: the buffers are written as they are, straight from the arrays
             self._file = tempfile.TemporaryFile(prefix="netcosim-trace-", buffering=0)  # deleted when closed

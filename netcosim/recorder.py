@@ -30,8 +30,8 @@ PART_NAME = "part-{:06d}.parquet"
 #: Default memory budget of a ``keep``-mode table: bytes of encoded rows held in memory
 #: before the older ones move to a temporary file (``configure(..., memory=...)``).
 #: 4 MiB: a one-hour 802.11b soak runs in 75 MB and reads back in 452 MB (16 MiB: 172
-#: and 522 MB); a run whose tables pass 4 MiB pays for the writes (3.4 % CPU on 10
-#: periodic tasks over 100 s; docs/architecture.md, "Default bound").
+#: and 522 MB); a run whose tables pass 4 MiB pays for the writes (0.9 % CPU on 10
+#: periodic tasks over 100 s against no limit; docs/architecture.md, "Default bound").
 DEFAULT_MEMORY = 4 * 2 ** 20
 
 
