@@ -22,8 +22,9 @@ from __future__ import annotations
 import statistics
 import time
 
-import netcosim.plants.casadi_tools as casadi_tools
 import numpy as np
+
+import netcosim.plants.casadi_tools as casadi_tools
 from netcosim.controllers.planner import OnlineGain, WeightedNorm, online_gain, simulate_sampled
 from netcosim.plants.flycrane.configurations import four_robot_nonsquare, thesis_flycrane
 

@@ -61,13 +61,12 @@ CONFIGS = {
 
 def build(config: str, seed: int = 0):
     """The networked servo over lossy 802.11b with trace configuration *config*."""
+    from netcosim import RK4, Simulation
     from netcosim.controllers.networked_loop import networked_loop
     from netcosim.controllers.pid import PID
     from netcosim.experiments.servo import square_wave
-    from netcosim.plants.dc_servo import DCServo
-
-    from netcosim import RK4, Simulation
     from netcosim.network import Bernoulli, WLAN80211b
+    from netcosim.plants.dc_servo import DCServo
 
     sim = Simulation(seed=seed)
     if CONFIGS[config] is not None:

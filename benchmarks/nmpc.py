@@ -21,6 +21,7 @@ import time
 
 import numpy as np
 import pandas as pd
+
 from netcosim.controllers.landing import initial_state, landing_nmpc
 
 STEPS = 100

@@ -24,11 +24,11 @@ import math
 import time
 
 import numpy as np
+
+from netcosim.plant import RK4
 from netcosim.plants.flycrane import configurations as C
 from netcosim.plants.flycrane.input_modes import ForcePlant, VelocityTrackingPlant
 from netcosim.plants.tethered_uav import TetheredUAV, TetheredUAVParams
-
-from netcosim.plant import RK4
 
 
 def _rot(phi, theta, psi):

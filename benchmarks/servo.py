@@ -15,10 +15,9 @@ from __future__ import annotations
 import statistics
 import time
 
+from netcosim import RK4, ExactZOH, Simulation
 from netcosim.controllers.pid import PID
 from netcosim.plants.dc_servo import DCServo
-
-from netcosim import RK4, ExactZOH, Simulation
 
 UNTIL = 1.0  # simulated seconds per run
 

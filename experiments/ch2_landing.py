@@ -31,8 +31,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from netcosim.controllers.landing import SIM_PARAMS, LandingConfig, LandingTiming, landing_metrics, run_landing, sigmoid
 
+from netcosim.controllers.landing import SIM_PARAMS, LandingConfig, LandingTiming, landing_metrics, run_landing, sigmoid
 from netcosim.cputime import RecordedCPUTime  # noqa: E402
 from netcosim.plot import plot_schedule  # noqa: E402
 

@@ -33,16 +33,16 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+
+from netcosim import Simulation, validate
 from netcosim.controllers.planner import OfflineGain, OnlineGain
 from netcosim.controllers.planner.gain_design import design, estimate_mu
 from netcosim.controllers.planner.networked import GridRecorder
 from netcosim.controllers.planner.plant_models import VelocityTrackingModel
 from netcosim.controllers.planner.sikm import Trajectory
 from netcosim.controllers.planner.tasks import DeploymentConfig, PlannerLaw, deploy
-from netcosim.plants.flycrane.configurations import experimental_flycrane
-
-from netcosim import Simulation, validate
 from netcosim.errors import ConfigurationError
+from netcosim.plants.flycrane.configurations import experimental_flycrane
 
 T = 1.5
 #: Seconds between waypoint switches (the thesis assigns the final one at 30 s).

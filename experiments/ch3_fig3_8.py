@@ -23,6 +23,7 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+
 from netcosim.controllers.planner import OfflineGain, OnlineGain, simulate_sampled
 from netcosim.controllers.planner.gain_design import design, estimate_mu, g_square, rho, tau_o_bar, tau_s_bar
 from netcosim.plants.flycrane.configurations import thesis_flycrane

@@ -34,11 +34,12 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from scipy.integrate import solve_ivp
+
 from netcosim.controllers.planner import OfflineGain, OnlineGain, WeightedNorm, sampled_velocity
 from netcosim.controllers.planner.gain_design import design_nonsquare, estimate_mu
 from netcosim.experiments.ch4_fig4_8_9 import KBAR, WEIGHTS, T, setting
 from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
-from scipy.integrate import solve_ivp
 
 ALPHAS = (0.3, 3.0, 30.0)
 

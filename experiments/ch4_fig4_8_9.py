@@ -37,6 +37,7 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+
 from netcosim.controllers.planner import OfflineGain, OnlineGain, WeightedNorm, simulate_sampled
 from netcosim.controllers.planner.gain_design import design_nonsquare, estimate_mu, g_nonsquare
 from netcosim.controllers.planner.networked import D_READINGS, d_weights

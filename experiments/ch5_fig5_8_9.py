@@ -44,6 +44,7 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+
 from netcosim.controllers.planner.sikm import (
     TABLE_5_1,
     SIKMParams,

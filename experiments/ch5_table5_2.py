@@ -29,6 +29,7 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+
 from netcosim.controllers.planner.sikm import (
     SIKMParams,
     in_stability_set,

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+
 from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, FlyCraneRun, run
 
 #: Loss probabilities of Fig. 4.11.

@@ -45,8 +45,8 @@ from typing import Any, Sequence
 
 import numpy as np
 import pandas as pd
-from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, FlyCraneRun, build
 
+from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, FlyCraneRun, build
 from netcosim.timebase import TICKS_PER_SECOND, to_ticks
 from netcosim.transport.harness import RemoteRun, remote_command, run_with_remotes
 from netcosim.transport.remote import RemoteNode
@@ -83,6 +83,7 @@ def law_spec(dep: Any, system: Any) -> dict:
     ``q_ref``, the star structure and the system's Jacobian as its SX instruction list;
     checked: the tape gives the system's ``A_q`` bit for bit at ``q_ref``."""
     import casadi as ca
+
     from netcosim.controllers.planner.kinematics import diag_gain
     from netcosim.controllers.planner.laws import OfflineGain
     law, st = dep.law, dep.structure
@@ -256,9 +257,8 @@ def run_hil(config: FlyCraneNetworkConfig, *, law_path: Any = None, spawn: bool 
     processes (started here; ``spawn=False`` prints their commands and waits up to
     ``connect_timeout`` s).  ``law_path``: where to write the robots' law file (default: a
     temporary file, removed after the run); ``prefetch``: :class:`PlantPrefetch`."""
-    from netcosim.controllers.planner.networked import setting
-
     from netcosim import Simulation
+    from netcosim.controllers.planner.networked import setting
     tmp = None
     if law_path is None:
         tmp = Path(tempfile.mkdtemp(prefix="hil_flycrane_"))

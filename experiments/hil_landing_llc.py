@@ -31,11 +31,11 @@ from typing import Any, Sequence
 
 import numpy as np
 import pandas as pd
+
 from netcosim.controllers.landing import LandingScenario
 from netcosim.controllers.landing.result import plant_signals
 from netcosim.controllers.landing.topology import build_landing, simulate_landing
 from netcosim.plants.tethered_uav_params import TetheredUAVParams
-
 from netcosim.timebase import RESOLUTION, to_ticks
 from netcosim.transport.harness import RemoteRun, remote_command, run_with_remote
 from netcosim.transport.remote import RemotePlantIO

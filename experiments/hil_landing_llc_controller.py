@@ -28,7 +28,6 @@ import sys
 
 from netcosim.controllers.landing.feedback_linearization import DEFAULT_FL_GAINS, FeedbackLinearization, PIDGains
 from netcosim.plants.tethered_uav_params import TetheredUAVParams
-
 from netcosim.transport.client import add_arguments, connect, finish
 
 #: values in a sample: the measured state (4), the reference positions, velocities, accelerations (2 each)

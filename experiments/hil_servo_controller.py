@@ -23,7 +23,6 @@ import math
 import sys
 
 from netcosim.controllers.pid import PID
-
 from netcosim.transport.client import add_arguments, connect, finish
 
 PERIOD = 0.010      # the sensor's sampling period (s): the PID's h

@@ -37,14 +37,14 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from netcosim.controllers.networked_loop import networked_loop
-from netcosim.controllers.pid import PID
-from netcosim.experiments.servo import square_wave  # absolute: the file also loads as "path.py:scenario"
-from netcosim.plants.dc_servo import DCServo
 
 from netcosim import RK4, Simulation, metrics, validate
+from netcosim.controllers.networked_loop import networked_loop
+from netcosim.controllers.pid import PID
 from netcosim.errors import ConfigurationError
+from netcosim.experiments.servo import square_wave  # absolute: the file also loads as "path.py:scenario"
 from netcosim.network import WLAN80211b
+from netcosim.plants.dc_servo import DCServo
 
 PERIOD = 0.010          # sampling period (s)
 CONTROL_EXEC = 0.0005   # PID execution time (s)

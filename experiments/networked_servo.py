@@ -26,13 +26,13 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from netcosim.controllers.networked_loop import networked_loop
-from netcosim.controllers.pid import PID
-from netcosim.plants.dc_servo import DCServo
 
 from netcosim import RK4, Simulation
+from netcosim.controllers.networked_loop import networked_loop
+from netcosim.controllers.pid import PID
 from netcosim.network import CAN, CSMACD
 from netcosim.network.plot import plot_network_schedule
+from netcosim.plants.dc_servo import DCServo
 from netcosim.plot import plot_schedule
 
 from .servo import square_wave

@@ -12,10 +12,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from netcosim.controllers.pid import PID
-from netcosim.plants.dc_servo import DCServo
 
 from netcosim import RK4, Simulation
+from netcosim.controllers.pid import PID
+from netcosim.plants.dc_servo import DCServo
 from netcosim.plot import plot_schedule, plot_signals
 
 

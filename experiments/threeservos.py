@@ -12,9 +12,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-from netcosim.plants.dc_servo import DCServo
 
 from netcosim import RK4, Simulation
+from netcosim.plants.dc_servo import DCServo
 from netcosim.plot import plot_schedule
 
 from .servo import add_pid_loop

@@ -179,10 +179,9 @@ def test_a_run_encodes_as_it_goes_and_at_its_end():
 
 def plant_logging_sim(**configure):
     """The README servo with ExactZOH for 0.3 s; the plant logs 4 signals per read and write."""
+    from netcosim import ExactZOH
     from netcosim.controllers.pid import PID
     from netcosim.plants.dc_servo import DCServo
-
-    from netcosim import ExactZOH
     sim = Simulation(seed=1)
     if configure:
         sim.trace.configure("signals", **configure)

@@ -15,10 +15,11 @@ import subprocess
 import warnings
 from pathlib import Path
 
-import netcosim.controllers.planner.flow as aux_flow
-import netcosim.plants.casadi_tools as ct
 import numpy as np
 import pytest
+
+import netcosim.controllers.planner.flow as aux_flow
+import netcosim.plants.casadi_tools as ct
 from netcosim.plants.flycrane.configurations import formation_2d
 
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")

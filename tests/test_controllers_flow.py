@@ -14,10 +14,14 @@ from __future__ import annotations
 import math
 import shutil
 
-import netcosim.controllers.planner.flow as aux_flow
-import netcosim.plants.casadi_tools as ct
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import minimize_scalar
+from test_controllers_systems import CRANE4_QREF, PlanarCrane
+
+import netcosim.controllers.planner.flow as aux_flow
+import netcosim.plants.casadi_tools as ct
 from netcosim.controllers.planner import (
     SingularConfigurationError,
     WeightedNorm,
@@ -28,9 +32,6 @@ from netcosim.controllers.planner import (
     solve_auxiliary_flow,
 )
 from netcosim.controllers.planner.dop853 import root_increasing
-from scipy.integrate import solve_ivp
-from scipy.optimize import minimize_scalar
-from test_controllers_systems import CRANE4_QREF, PlanarCrane
 
 
 def reference_flow(system, q_ref, e_h, *, kbar=None, norm=None, tau_max=None, n_grid=64):

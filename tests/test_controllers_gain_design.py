@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from netcosim.controllers.planner import WeightedNorm, solve_auxiliary_flow
 from netcosim.controllers.planner.gain_design import (
     design,

@@ -6,6 +6,10 @@ import math
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
+from scipy.linalg import expm
+from test_controllers_systems import CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane
+
 from netcosim.controllers.planner import (
     OfflineGain,
     OnlineGain,
@@ -22,9 +26,6 @@ from netcosim.controllers.planner import (
     solve_auxiliary_flow,
 )
 from netcosim.controllers.planner.gain_design import design, design_nonsquare, estimate_mu
-from scipy.integrate import solve_ivp
-from scipy.linalg import expm
-from test_controllers_systems import CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane
 
 SYSTEMS = [(Formation2D(), FORMATION_QREF), (PlanarCrane(3), CRANE3_QREF), (PlanarCrane(4), CRANE4_QREF)]
 

@@ -8,6 +8,9 @@ import pathlib
 
 import numpy as np
 import pytest
+from test_controllers_systems import CRANE3_QREF, PlanarCrane
+
+from netcosim import Simulation
 from netcosim.controllers.planner import OfflineGain, OnlineGain, configuration_rate, simulate_sampled
 from netcosim.controllers.planner import dop853_coefficients as vendored
 from netcosim.controllers.planner.deployment import CommandRecord, PlannerRecord, PlannerResponse, PoseRecord
@@ -15,9 +18,6 @@ from netcosim.controllers.planner.tasks import DeploymentConfig, KinematicVeloci
 from netcosim.plants import kinematic
 from netcosim.plants.flycrane.configurations import thesis_flycrane
 from netcosim.plants.flycrane.input_modes import KinematicPlant
-from test_controllers_systems import CRANE3_QREF, PlanarCrane
-
-from netcosim import Simulation
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 E3 = np.array([0.1, -0.08, 0.05, 0.04, -0.03, 0.06])

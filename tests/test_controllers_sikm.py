@@ -6,6 +6,9 @@ import math
 
 import numpy as np
 import pytest
+from scipy.optimize import minimize
+from test_controllers_systems import FORMATION_QREF, Formation2D
+
 from netcosim.controllers.planner.gain_design import design, estimate_mu
 from netcosim.controllers.planner.sikm import (
     SIKMParams,
@@ -27,8 +30,6 @@ from netcosim.controllers.planner.sikm import (
     tau_s,
     z,
 )
-from scipy.optimize import minimize
-from test_controllers_systems import FORMATION_QREF, Formation2D
 
 THESIS = SIKMParams(0.02, 0.13, 0.1, 0.2)
 PARAMS = [THESIS, SIKMParams(0.7, 0.05, 0.1, 0.05), SIKMParams(1.5, 0.05, 0.1, 0.05),

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from netcosim.controllers.planner.sikm import SIKMParams, simulate_tracking
 from netcosim.controllers.planner.sikm_environment import RealisticEnvironment
+from netcosim.errors import ConfigurationError
 from netcosim.experiments.ch5_fig5_8_9 import E0, reference
 from netcosim.plants.flycrane.configurations import thesis_flycrane
-
-from netcosim.errors import ConfigurationError
 
 Q = [f"q{i}" for i in range(9)]
 QHAT = [f"qhat{i}" for i in range(9)]

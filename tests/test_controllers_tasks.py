@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from netcosim.controllers.planner import OfflineGain, OnlineGain, simulate_sampled
-from netcosim.controllers.planner.sikm import Trajectory
-from netcosim.controllers.planner.tasks import PlannerLaw, deploy_planner
 from test_controllers_systems import CRANE3_QREF, CRANE4_QREF, FORMATION_QREF, Formation2D, PlanarCrane
 
 from netcosim import Simulation
+from netcosim.controllers.planner import OfflineGain, OnlineGain, simulate_sampled
+from netcosim.controllers.planner.sikm import Trajectory
+from netcosim.controllers.planner.tasks import PlannerLaw, deploy_planner
 
 E3 = np.array([0.1, -0.08, 0.05, 0.04, -0.03, 0.06])
 E4 = np.array([0.05, -0.04, 0.03, 0.02, 0.02, -0.01, 0.015])

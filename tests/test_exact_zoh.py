@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from netcosim.controllers.pid import PID
-from netcosim.plants.dc_servo import DCServo
 from scipy.signal import cont2discrete
 
 import netcosim.plant.exact_zoh
 from netcosim import RK4, ContinuousSystem, ExactZOH, HybridEvent, Simulation
+from netcosim.controllers.pid import PID
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
+from netcosim.plants.dc_servo import DCServo
 
 UNTIL = 1.0  # s: ~167 PID samples
 

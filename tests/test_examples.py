@@ -4,10 +4,10 @@ import time
 
 import numpy as np
 import pytest
-from netcosim.experiments import main as main_job
-from netcosim.experiments import threeservos
 
 from netcosim import Simulation
+from netcosim.experiments import main as main_job
+from netcosim.experiments import threeservos
 from netcosim.plot import plot_schedule
 
 

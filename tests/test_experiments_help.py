@@ -9,8 +9,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-import netcosim.experiments
 import pytest
+
+import netcosim.experiments
 
 REPO = Path(__file__).resolve().parents[1]
 MODULES = sorted(f"netcosim.experiments.{m.name}" for m in pkgutil.iter_modules(netcosim.experiments.__path__)

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+
 from netcosim.controllers.landing import (
     C2Interpolator,
     FeedbackLinearization,

@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 
 import pytest
-from netcosim.experiments import fidelity
 
 from netcosim.errors import ConfigurationError
+from netcosim.experiments import fidelity
 
 COLUMNS = ["figure", "source", "experiment", "thesis", "reproduced", "status"]
 

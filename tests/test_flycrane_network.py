@@ -7,13 +7,13 @@ import math
 
 import numpy as np
 import pytest
+
+from netcosim import Simulation
 from netcosim.controllers.planner import OfflineGain, OnlineGain, WeightedNorm
 from netcosim.controllers.planner.tasks import DeploymentConfig, PlannerLaw, VelocityTrackingModel, deploy
 from netcosim.experiments.ch4_fig4_8_9 import KBAR, WEIGHTS, T, setting
 from netcosim.experiments.ch4_fig4_10 import simulate_dynamic
 from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
-
-from netcosim import Simulation
 
 
 @pytest.mark.parametrize("architecture, gain", [("centralized", OnlineGain()), ("sparse", OfflineGain(0.2163))])
@@ -40,9 +40,9 @@ def test_ideal_network_dynamic_plant_equals_fig4_10_simulation(architecture, gai
 
 # ---------------------------------------------------------------- the networked scenario
 
-from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, build, d_weights, offline_gain, run  # noqa: E402
 from scipy.stats import binom  # noqa: E402
 
+from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, build, d_weights, offline_gain, run  # noqa: E402
 from netcosim.errors import ConfigurationError  # noqa: E402
 from netcosim.network import WLAN80211b  # noqa: E402
 from netcosim.network.loss import LinkLoss, LossModel  # noqa: E402

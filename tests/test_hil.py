@@ -256,9 +256,8 @@ print(rp.received, rp.published)
 
 
 def _servo_sim():
-    from netcosim.plants.dc_servo import DCServo
-
     from netcosim import RK4, Simulation
+    from netcosim.plants.dc_servo import DCServo
     sim = Simulation()
     plant = sim.plant(DCServo(), x0=[0.0, 0.0], name="servo", integrator=RK4(dt=1e-4), log_interval=1e-3)
     return sim, plant

@@ -39,9 +39,8 @@ def _h():
 
 
 def _deployment(until=3.0):
-    from netcosim.controllers.planner.networked import build, setting
-
     from netcosim import Simulation
+    from netcosim.controllers.planner.networked import build, setting
     config = _h().flycrane_config(until)
     sim = Simulation(config.seed)
     dep, recorder = build(sim, config)
@@ -61,7 +60,6 @@ def test_the_process_computes_the_simulated_robot_law_bit_for_bit(tmp_path):
     from netcosim.controllers.planner.kinematics import diag_gain
     from netcosim.controllers.planner.laws import robot_velocity
     from netcosim.experiments.hil_flycrane_node import SparseLaw, pivot_reply, robot_command
-
     from netcosim.transport import wire
     config, sim, dep, _, system = _deployment(3.0)
     law = SparseLaw.load(_h().write_law(tmp_path / "law.json", dep, system))   # through the JSON file
@@ -102,9 +100,8 @@ def test_jacobian_tape_refuses_unknown_operations():
 def test_the_replay_with_nominal_times_is_the_simulated_run():
     # networked.build with the execution times given (as the replay gives them) is run(config)
     # for config's constants; ReplayTimes tells the nodes apart by their tasks' execution-time streams
-    from netcosim.controllers.planner.networked import build, run
-
     from netcosim import Simulation
+    from netcosim.controllers.planner.networked import build, run
     h = _h()
     config = h.flycrane_config(4.5)
     nominal = run(config)

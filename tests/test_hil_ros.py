@@ -20,7 +20,6 @@ REMOTE = Path(__file__).resolve().parent / "hil_ros_remote.py"
 def test_servo_over_cdr_with_an_independent_ros_style_client():
     pytest.importorskip("pycdr2", reason="pycdr2 (Cyclone DDS's IDL/CDR package) is not installed")
     from netcosim.experiments import hil_servo as hs
-
     from netcosim.transport import cdr
     run = hs.run_hil(1.0, program=[sys.executable, str(REMOTE)], encoding="cdr", deadline=0.1)
     c = run.remote.counters()
@@ -48,9 +47,8 @@ def test_an_encoding_nobody_speaks_is_refused():
         codec("json")
     with pytest.raises(ValueError, match="encoding must be one of"):
         RemoteProcess("x", run="r1", connect=[], encoding="json")
-    from netcosim.experiments import networked_servo
-
     from netcosim import Simulation
+    from netcosim.experiments import networked_servo
     sim, _ = networked_servo.build("csma_cd", 0.0)
     from netcosim.transport.remote import RemoteNode
     with pytest.raises(ConfigurationError, match="encoding must be one of"):

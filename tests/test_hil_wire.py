@@ -414,9 +414,8 @@ def _plant_io(extra, reply_after=0.0003, factor=1.0, answer=None, **options):
     """A DC servo sampled every 10 ms by RemotePlantIO over a fake session, claimed by a
     fake process that answers every sample *reply_after* s (wall clock) later with
     u = 2 * (last value), or as *answer* says (:class:`FakeProcess`)."""
-    from netcosim.plants.dc_servo import DCServo
-
     from netcosim import RK4
+    from netcosim.plants.dc_servo import DCServo
     from netcosim.transport.remote import RemotePlantIO
     sim = Simulation()
     plant = sim.plant(DCServo(), x0=[0.5, 0.0], name="servo", integrator=RK4(dt=1e-3), log_interval=None)
@@ -562,7 +561,6 @@ def test_remote_options_are_checked():
 
 def test_remote_node_without_reply_values_says_so_at_construction(caplog):
     from netcosim.experiments import networked_servo
-
     from netcosim.transport.remote import RemoteNode
     for kw, warned in (({}, True), ({"reply_values": 2}, False)):
         caplog.clear()
@@ -574,9 +572,8 @@ def test_remote_node_without_reply_values_says_so_at_construction(caplog):
 
 
 def test_remote_node_replies_go_only_where_destinations_allow():
-    from netcosim.experiments import networked_servo
-
     from netcosim.errors import ConfigurationError
+    from netcosim.experiments import networked_servo
     from netcosim.transport.remote import RemoteNode
 
     def node(**kw):

@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import SteppingClock
+
 from netcosim.controllers.landing import (
     LandingConfig,
     LandingTiming,
@@ -16,7 +17,6 @@ from netcosim.controllers.landing import (
     run_landing,
     sigmoid,
 )
-
 from netcosim.cputime import NonReproducibleWarning, RecordedCPUTime
 
 DEG = math.pi / 180

@@ -7,6 +7,7 @@ import matplotlib
 import numpy as np
 import pandas as pd
 import pytest
+
 from netcosim.controllers.landing import (
     DEFAULT_FL_GAINS,
     SIM_PARAMS,

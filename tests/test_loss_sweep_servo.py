@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from netcosim.experiments import loss_sweep_servo as exp
 from scipy.stats import binomtest
 
 from netcosim.errors import ConfigurationError
+from netcosim.experiments import loss_sweep_servo as exp
 
 
 def ci99(k: int, n: int):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 
 import pytest
+
 from netcosim.experiments import main as main_job
 
 FAKES = {

@@ -1,6 +1,7 @@
 """The networked servo experiment runs, writes its plots, and shows what it claims."""
 
 import pytest
+
 from netcosim.experiments import networked_servo
 
 

@@ -8,6 +8,7 @@ Lagrange's equations for a point mass m on a massless rod of length l give
 import casadi as ca
 import numpy as np
 import pytest
+
 from netcosim.controllers.nmpc import OCP, RTINMPC
 
 M, m, L, G = 1.0, 0.1, 0.5, 9.81

@@ -4,11 +4,11 @@ import math
 
 import numpy as np
 import pytest
-from netcosim.experiments import servo as servo_example
-from netcosim.plants.dc_servo import DCServo
 from scipy.linalg import expm
 
 from netcosim import RK4, ContinuousSystem, HybridEvent, Simulation, SolveIVP
+from netcosim.experiments import servo as servo_example
+from netcosim.plants.dc_servo import DCServo
 
 H, TAU = 0.006, 0.002
 

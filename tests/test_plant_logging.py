@@ -10,10 +10,9 @@ import warnings
 
 import numpy as np
 import pytest
-from netcosim.experiments.servo import add_pid_loop
-from netcosim.plants.dc_servo import DCServo
 
 from netcosim import RK4, Simulation, metrics
+from netcosim.experiments.servo import add_pid_loop
 from netcosim.plant import (
     DEFAULT_LOG_INTERVAL,
     ContinuousSystem,
@@ -22,6 +21,7 @@ from netcosim.plant import (
     SolveIVP,
     default_log_interval,
 )
+from netcosim.plants.dc_servo import DCServo
 from netcosim.trace import UnknownSignalError
 
 G = DEFAULT_LOG_INTERVAL

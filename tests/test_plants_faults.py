@@ -276,9 +276,8 @@ def test_solve_ivp_rtol_outside_what_scipy_uses_is_refused(rtol):
 
 
 def test_plant_name_shape_of_x0_and_of_a_written_value_are_checked():
-    from netcosim.plants.dc_servo import DCServo
-
     from netcosim.errors import ConfigurationError
+    from netcosim.plants.dc_servo import DCServo
     sim = Simulation()
     with pytest.raises(ConfigurationError, match="component name"):
         sim.plant(DCServo(), [0.0, 0.0], name="")

@@ -4,12 +4,12 @@ import math
 
 import numpy as np
 import pytest
+
+from netcosim.plant import RK4, SolveIVP
 from netcosim.plants.flycrane import SingularConfigurationError
 from netcosim.plants.flycrane import configurations as C
 from netcosim.plants.flycrane.input_modes import ForcePlant, KinematicPlant, VelocityTrackingPlant
 from netcosim.plants.flycrane.rotations import body_rate_matrix, euler_zyx
-
-from netcosim.plant import RK4, SolveIVP
 from netcosim.sim import Simulation
 
 RNG = np.random.default_rng(11)

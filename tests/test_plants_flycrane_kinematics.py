@@ -5,6 +5,7 @@ import math
 import casadi as ca
 import numpy as np
 import pytest
+
 from netcosim.plants.flycrane import (
     ConfigurationDomainError,
     GeometryError,

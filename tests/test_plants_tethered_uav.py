@@ -5,6 +5,9 @@ import math
 import casadi as ca
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
+
+from netcosim.plant import RK4, SolveIVP
 from netcosim.plants.tethered_uav import (
     TetheredUAV,
     TetheredUAVParams,
@@ -17,9 +20,6 @@ from netcosim.plants.tethered_uav import (
     wind,
     wind_disturbance,
 )
-from scipy.integrate import solve_ivp
-
-from netcosim.plant import RK4, SolveIVP
 from netcosim.sim import Simulation
 
 P = TetheredUAVParams()

@@ -22,11 +22,11 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from netcosim.plants.dc_servo import DCServo
 
 import netcosim.network as N
 from netcosim import RK4, ExactZOH, Simulation, SolveIVP
 from netcosim.errors import NetcosimError
+from netcosim.plants.dc_servo import DCServo
 from netcosim.timebase import MAX_SECONDS
 
 pytestmark = pytest.mark.timeout(120)

@@ -12,9 +12,9 @@ import math
 
 import numpy as np
 import pytest
-from netcosim.controllers.pid import PID
 
 from netcosim import RK4, ContinuousSystem, Simulation
+from netcosim.controllers.pid import PID
 from netcosim.errors import ConfigurationError, IntegrationError
 from netcosim.plant.rk4 import _RK4Stepper
 

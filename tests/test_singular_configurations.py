@@ -14,16 +14,16 @@ from __future__ import annotations
 import math
 import re
 
-import netcosim.controllers.planner as lp
 import numpy as np
 import pytest
+
+import netcosim.controllers.planner as lp
+from netcosim import Simulation
+from netcosim.plant import RK4, SolveIVP
 from netcosim.plants.flycrane import kinematics as kin
 from netcosim.plants.flycrane.configurations import thesis_flycrane
 from netcosim.plants.flycrane.input_modes import KinematicPlant
 from netcosim.plants.kinematic import SingularConfigurationError
-
-from netcosim import Simulation
-from netcosim.plant import RK4, SolveIVP
 
 T_STAR = 2.0 - math.sqrt(3.0)
 

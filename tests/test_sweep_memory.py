@@ -11,6 +11,7 @@ import gc
 import weakref
 
 import pytest
+
 from netcosim.experiments.networked_servo import build
 
 

@@ -260,8 +260,9 @@ def test_window_on_a_bare_trace_measures_back_from_the_latest_row():
 
 
 def test_rti_history_is_bounded_and_the_last_step_is_still_read():
-    from netcosim.controllers.nmpc import RTINMPC
     from test_nmpc import cartpole_ocp
+
+    from netcosim.controllers.nmpc import RTINMPC
     ocp = cartpole_ocp(N=10)
     ctrl = RTINMPC(ocp, x_guess=[0, 0.2, 0, 0])
     unbounded = RTINMPC(ocp, x_guess=[0, 0.2, 0, 0], history_length=None)

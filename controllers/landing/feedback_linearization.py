@@ -32,10 +32,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from netcosim.plants.tethered_uav_params import TetheredUAVParams
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError
+from netcosim.plants.tethered_uav_params import TetheredUAVParams
 
 __all__ = ["FeedbackLinearization", "PIDGains", "SingularityError", "DEFAULT_FL_GAINS"]
 

@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
-from netcosim.plants.tethered_uav import TetheredUAVParams, casadi_model, hover_thrust
 
 from netcosim import validate
+from netcosim.plants.tethered_uav import TetheredUAVParams, casadi_model, hover_thrust
 from netcosim.validate import numeric_fields
 
 from ..nmpc import OCP, RTINMPC

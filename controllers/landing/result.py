@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from netcosim.plants.tethered_uav import wind_disturbance
 
 from netcosim import Simulation
+from netcosim.plants.tethered_uav import wind_disturbance
 
 __all__ = ["LandingRun", "landing_metrics", "plant_signals", "REFERENCE_COLUMNS"]
 

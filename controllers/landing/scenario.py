@@ -14,10 +14,10 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
-from netcosim.plants.tethered_uav import TetheredUAVParams
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError
+from netcosim.plants.tethered_uav import TetheredUAVParams
 
 from .feedback_linearization import DEFAULT_FL_GAINS, PIDGains
 from .ocp import LandingConfig, initial_state

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+
 from netcosim.plants.tethered_uav import ddphi_ddtheta
 
 from .feedback_linearization import FeedbackLinearization

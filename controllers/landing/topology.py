@@ -15,9 +15,9 @@ from __future__ import annotations
 import math
 
 import pandas as pd
-from netcosim.plants.tethered_uav import TetheredUAV, TetheredUAVParams, wind_disturbance
 
 from netcosim import RK4, Simulation
+from netcosim.plants.tethered_uav import TetheredUAV, TetheredUAVParams, wind_disturbance
 
 from .feedback_linearization import PIDGains
 from .ocp import LandingConfig

@@ -24,8 +24,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import casadi as ca
-import netcosim.plants.casadi_tools as casadi_tools
 import numpy as np
+
+import netcosim.plants.casadi_tools as casadi_tools
 from netcosim.plants.casadi_tools import FunctionBuffers, compile_functions
 from netcosim.plants.kinematic import conditioning
 

@@ -10,6 +10,10 @@ from __future__ import annotations
 from typing import Any, Callable
 
 import numpy as np
+from scipy.integrate import solve_ivp
+
+from netcosim import validate
+from netcosim.errors import ConfigurationError
 from netcosim.plants.kinematic import (
     SINGULAR_RTOL,
     KinematicSystem,
@@ -22,10 +26,6 @@ from netcosim.plants.kinematic import (
     project,
     rank_rtol,
 )
-from scipy.integrate import solve_ivp
-
-from netcosim import validate
-from netcosim.errors import ConfigurationError
 
 __all__ = ["KinematicSystem", "SingularConfigurationError", "RANK_RTOL", "check_system", "check_period",
            "check_gain_matrix", "diag_gain", "as_vector", "jacobian", "pinv_solve", "configuration_rate",

@@ -27,12 +27,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
-from netcosim.plants.kinematic import KinematicPlant
 
 from netcosim import validate
 from netcosim.errors import ConfigurationError
 from netcosim.plant import SolveIVP
+from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
+from netcosim.plants.kinematic import KinematicPlant
 
 __all__ = ["KinematicVelocityPlant", "KinematicModel", "VelocityTrackingModel", "PLANT_MODELS",
            "plant_model", "check_model", "plant_integrator"]

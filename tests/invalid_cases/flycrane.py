@@ -77,6 +77,7 @@ def _velocity_tracking(alpha):
 
 def _kin_noise(std):
     import numpy as np
+
     from netcosim.plants.flycrane.input_modes import KinematicPlant
     return KinematicPlant(_sys(), noise_std=std, rng=np.random.default_rng(0))
 
@@ -114,10 +115,9 @@ def _law(**kw):
 
 
 def _deploy(**kw):
+    from netcosim import Simulation
     from netcosim.controllers.planner import OfflineGain
     from netcosim.controllers.planner.tasks import PlannerLaw, deploy_planner
-
-    from netcosim import Simulation
     s = _sys()
     base = dict(architecture="centralized")
     base.update(kw)

@@ -22,11 +22,10 @@ def _pid(**kw):
 
 def _loop(names=False, **kw):
     """The networked servo's loop (experiments/networked_servo.py) with one argument replaced."""
-    from netcosim.controllers.networked_loop import networked_loop
-    from netcosim.plants.dc_servo import DCServo
-
     from netcosim import Simulation
+    from netcosim.controllers.networked_loop import networked_loop
     from netcosim.network import IdealLink
+    from netcosim.plants.dc_servo import DCServo
     sim = Simulation()
     servo = sim.plant(DCServo(), x0=[0.0, 0.0], name="servo")
     net = IdealLink(sim, "link", data_rate=1e6)

@@ -7,11 +7,11 @@ import math
 
 import numpy as np
 import pytest
-from netcosim.plants.dc_servo import DCServo
 
 from invalid_cases import Case
 from netcosim import RK4, ContinuousSystem, HybridEvent, Simulation, SolveIVP
 from netcosim.errors import ConfigurationError, ConfigurationTypeError, IntegrationError
+from netcosim.plants.dc_servo import DCServo
 
 
 def _servo(**kw):

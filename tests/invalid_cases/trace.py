@@ -50,8 +50,9 @@ def _conf_all_tmp(*args, **kw):
 
 
 def _rti(history_length):
-    from netcosim.controllers.nmpc import RTINMPC
     from test_nmpc import cartpole_ocp
+
+    from netcosim.controllers.nmpc import RTINMPC
     RTINMPC(cartpole_ocp(N=5), history_length=history_length)
 
 
