@@ -4,6 +4,13 @@ Periods 6, 5 and 4 ms, 2 ms of execution each: utilisation 2/6 + 2/5 + 2/4 = 1.2
 Under deadline monotonic the 6 ms loop has the lowest priority and starves; under EDF
 every loop keeps running (all jobs are late, control degrades gracefully).
 
+TrueTime's server modes put the 4 ms loop (task 3) in a server under EDF: mode 5 a
+constant-bandwidth server with Qs = 1 ms, Ts = 4 ms (``edf_cbs``: 25 % of the CPU), mode 6
+a total-bandwidth server with Us = 0.25 and the task's WCET 2 ms (``edf_tbs``).  The
+server isolates the other two loops: with 2/6 + 2/5 + 0.25 = 0.98 <= 1 they meet every
+deadline and control well, while loop 3, which needs 50 % and gets 25 %, is the one that
+degrades (its jobs queue up: the queue bound drops the excess, counted).
+
 Run: ``python -m netcosim.experiments.threeservos`` (PNG + Parquet under results/threeservos/).
 """
 
@@ -21,28 +28,45 @@ from .servo import add_pid_loop
 
 PERIODS = (0.006, 0.005, 0.004)
 EXECUTION = 0.002
+#: TrueTime's mode 5: task 3 in a CBS (budget, period in s); mode 6: in a TBS (utilisation)
+CBS_BUDGET, CBS_PERIOD = 0.001, 0.004
+TBS_UTILIZATION = 0.25
+#: the runs of :func:`main`: name -> (scheduling policy, server of task 3)
+MODES = {"deadline_monotonic": ("deadline_monotonic", None), "edf": ("edf", None),
+         "edf_cbs": ("edf", "cbs"), "edf_tbs": ("edf", "tbs")}
 
 
-def build(policy="deadline_monotonic", seed=0, **task_options):
+def build(policy="deadline_monotonic", seed=0, server=None, **task_options):
+    """The three loops on one node scheduled by *policy*; *server* (``"cbs"``, ``"tbs"`` or
+    None) serves the 4 ms loop (task 3) as TrueTime's modes 5 and 6 (EDF only)."""
     sim = Simulation(seed=seed)
     cpu = sim.node("cpu", scheduler=policy)
+    served = {}
+    if server == "cbs":
+        served = {"server": cpu.cbs(budget=CBS_BUDGET, period=CBS_PERIOD, name="cbs")}
+    elif server == "tbs":
+        served = {"server": cpu.tbs(utilization=TBS_UTILIZATION, name="tbs"), "wcet": EXECUTION}
+    elif server is not None:
+        raise ValueError(f"server must be 'cbs', 'tbs' or None, got {server!r}")
     for i, h in enumerate(PERIODS, start=1):
         servo = sim.plant(DCServo(), x0=[0.0, 0.0], name=f"servo{i}", integrator=RK4(dt=1e-4))
-        add_pid_loop(cpu, servo, period=h, execution=EXECUTION, priority=i, name=f"pid{i}", **task_options)
+        options = {**task_options, **served} if i == 3 else task_options
+        add_pid_loop(cpu, servo, period=h, execution=EXECUTION, priority=i, name=f"pid{i}", **options)
     return sim
 
 
 def main(outdir="results/threeservos", until=1.0, quick=False):
-    """Simulate *until* seconds (0.3 s if *quick*) under deadline monotonic and EDF; write
-    traces (Parquet) and plots (PNG) to *outdir*.  Returns ``{policy: Simulation}``.
+    """Simulate *until* seconds (0.3 s if *quick*) in every mode of :data:`MODES` (deadline
+    monotonic, EDF, EDF with task 3 in a CBS, in a TBS); write traces (Parquet) and plots
+    (PNG) to *outdir*.  Returns ``{mode: Simulation}``.
     """
     if quick:
         until = min(until, 0.3)
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     sims = {}
-    for policy in ("deadline_monotonic", "edf"):
-        sim = build(policy)
+    for policy, (scheduler, server) in MODES.items():
+        sim = build(scheduler, server=server)
         try:
             sim.run(until=until)
         finally:

@@ -9,6 +9,7 @@ from netcosim import Simulation
 from netcosim.experiments import main as main_job
 from netcosim.experiments import threeservos
 from netcosim.plot import plot_schedule
+from netcosim.testing import running_intervals
 
 
 def run(policy, until=1.0):
@@ -98,3 +99,24 @@ def test_every_main_job_entry_is_a_runnable_experiment():
         mod = importlib.import_module(f"experiments.{name}")
         assert "outdir" in inspect.signature(mod.main).parameters, name
         assert what
+
+
+@pytest.mark.parametrize("server", ["cbs", "tbs"])
+def test_a_server_on_the_4ms_loop_isolates_the_other_two(server):
+    """TrueTime's modes 5 (CBS, Qs = 1 ms, Ts = 4 ms) and 6 (TBS, Us = 0.25): loops 1 and 2
+    (73 % of the CPU) meet every deadline; loop 3 gets 25 % of the 50 % it needs."""
+    sim = threeservos.build("edf", server=server)
+    sim.run(until=1.0)
+    jobs = sim.trace.jobs()
+    done = jobs[jobs["finish"].notna()].groupby("task", observed=True).size()
+    assert done["pid1"] == 167 and done["pid2"] == 200          # every job of 1 s (ceil(1/h))
+    assert not jobs[jobs["task"].isin(["pid1", "pid2"])]["deadline_miss"].any()
+    # loop 3 gets its 25 % and the CPU the others leave idle, 1 - 2/6 - 2/5 = 26.7 %:
+    # one 2 ms job per 7.5 ms, 133 in 1 s at most
+    assert 120 <= done["pid3"] <= 133
+    run3 = sum(e - b for b, e in running_intervals(
+        sim.trace.schedule(), node="cpu", until=1.0)["pid3"])
+    assert 0.25 - 0.002 <= run3 <= 1 - 2 / 6 - 2 / 5 + 1e-9
+    for i in (1, 2):                                            # and both control well
+        y = sim.trace.signal(f"cpu.pid{i}", "y").to_numpy()
+        assert np.abs(y).max() < 1.5

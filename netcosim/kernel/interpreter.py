@@ -51,7 +51,7 @@ class Interpreter(Overruns):
                 env = self._env
                 heappush(env.queue, (now + job.remaining, NORMAL, next(env.ids), t))
                 job.seg_timer = t
-            if task.wcet_ticks is not None:
+            if task.watched:
                 self._arm_budget(job)
         else:
             self._step(job)
@@ -113,7 +113,7 @@ class Interpreter(Overruns):
                             t.callbacks = self._segment_cbs  # t.rearm(now + cmd, ...), inlined
                             heappush(env.queue, (now + cmd, NORMAL, next(env.ids), t))
                             job.seg_timer = t
-                        if job.task.wcet_ticks is not None and job.budget_timer is None:
+                        if job.task.watched and job.budget_timer is None:
                             self._arm_budget(job)
                         break
                     continue        # ctx.execute(0): nothing to run (execute never returns < 0)
@@ -158,9 +158,8 @@ class Interpreter(Overruns):
         if job.deadline_timer is not None:
             job.deadline_timer.cancel()
             job.deadline_timer = None
-        if job.budget_timer is not None:
-            job.budget_timer.cancel()
-            job.budget_timer = None
+        if task.watched:
+            self._stop_budget(job)
         if job.held:
             names = [m.name for m in job.held]
             for m in list(job.held):

@@ -20,9 +20,10 @@ from ..recorder import Sink
 from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .dispatcher import Dispatcher
 from .io import AnalogIn, AnalogOut
-from .policies import make_policy, own_choose
+from .policies import EDF, make_policy, own_choose
 from .ready import ReadyQueue
 from .releases import Releases
+from .servers import CBS, TBS, ServedEDF, Server
 from .tables import STATE_CODES, jobs_table, schedule_table
 from .task import DEFAULT_MAX_PENDING, Job, Task
 from .timers import KernelTimer, Trigger
@@ -60,6 +61,8 @@ class Node(Dispatcher):
                 f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} is "
                 f"{context_switch / speed!r} s, below the time resolution {RESOLUTION} s")
         self.tasks: dict[str, Task] = {}
+        #: the node's bandwidth servers by name (:meth:`cbs`, :meth:`tbs`)
+        self.servers: dict[str, Any] = {}
         self.ready = ReadyQueue()
         self.running: Job | None = None
         self._loaded: Job | None = None
@@ -89,7 +92,10 @@ class Node(Dispatcher):
         jobs.providers.append(self._unfinished_rows)
 
     # ------------------------------------------------------------------ tasks
-    def _add_task(self, body, kind, name, **kw) -> Task:
+    def _add_task(self, body, kind, name, server=None, **kw) -> Task:
+        if server is not None and (not isinstance(server, Server) or server.node is not self):
+            raise ConfigurationTypeError(f"node {self.name!r}: server must be a server of this node "
+                                         f"(node.cbs(...) or node.tbs(...)), got {server!r}")
         task = Task(self, body, name=name, kind=kind, **kw)
         if task.name in self.tasks:
             raise ConfigurationError(f"node {self.name!r} already has a task called {task.name!r}")
@@ -99,6 +105,8 @@ class Node(Dispatcher):
             self.policy.validate(task)
         if kind != "handler" and self.policy.static:
             task.static_key = self.policy.key(Job(task, -1, 0))
+        if server is not None:
+            server.attach(task)
         self.tasks[task.name] = task
         self._trace(task, "idle")
         return task
@@ -107,16 +115,18 @@ class Node(Dispatcher):
                  deadline: float | None = None, wcet: float | None = None, name: str | None = None,
                  preemptible: bool = True, on_busy: str = "queue", on_deadline_miss=None,
                  on_budget_overrun=None, max_pending: int | None = DEFAULT_MAX_PENDING,
-                 on_queue_full: str = "drop"):
+                 on_queue_full: str = "drop", server=None):
         """Add a periodic task released at ``offset + k*period`` (s).  Usable as a decorator.
 
         ``priority``: small = high (fixed-priority policy; ignored by RM/DM/EDF).
         ``deadline``: relative deadline (default: the period).  ``max_pending`` (jobs,
         None: unbounded) and ``on_queue_full`` (``"drop"`` or ``"error"``): the bound on
-        queued jobs (:class:`~netcosim.kernel.task.Task`).
+        queued jobs (:class:`~netcosim.kernel.task.Task`).  ``server``: a server of this
+        node (:meth:`cbs`, :meth:`tbs`) that serves the task.
         """
         def make(fn):
-            task = self._add_task(fn, "periodic", name, priority=priority, period=period, offset=offset,
+            task = self._add_task(fn, "periodic", name, server=server, priority=priority, period=period,
+                                  offset=offset,
                                   deadline=deadline, wcet=wcet, preemptible=preemptible, on_busy=on_busy,
                                   on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun,
                                   max_pending=max_pending, on_queue_full=on_queue_full)
@@ -127,14 +137,15 @@ class Node(Dispatcher):
     def aperiodic(self, body: Callable | None = None, *, priority=None, deadline: float | None = None,
                   wcet: float | None = None, name: str | None = None, preemptible: bool = True,
                   on_busy: str = "queue", on_deadline_miss=None, on_budget_overrun=None,
-                  max_pending: int | None = DEFAULT_MAX_PENDING, on_queue_full: str = "drop"):
+                  max_pending: int | None = DEFAULT_MAX_PENDING, on_queue_full: str = "drop", server=None):
         """Add a task whose jobs are released by ``task.release()``, triggers, timers or messages.
 
         ``deadline``: relative deadline (s) of each job; ``wcet``: execution budget (s);
-        ``max_pending``, ``on_queue_full``: the bound on queued jobs, as for :meth:`periodic`.
+        ``max_pending``, ``on_queue_full``: the bound on queued jobs, as for :meth:`periodic`;
+        ``server``: a server of this node that serves the task, as for :meth:`periodic`.
         """
         def make(fn):
-            return self._add_task(fn, "aperiodic", name, priority=priority, deadline=deadline, wcet=wcet,
+            return self._add_task(fn, "aperiodic", name, server=server, priority=priority, deadline=deadline, wcet=wcet,
                                   preemptible=preemptible, on_busy=on_busy, on_deadline_miss=on_deadline_miss,
                                   on_budget_overrun=on_budget_overrun, max_pending=max_pending,
                                   on_queue_full=on_queue_full)
@@ -149,6 +160,48 @@ class Node(Dispatcher):
         def make(fn):
             return self._add_task(fn, "handler", name, priority=priority, deadline=deadline)
         return make if body is None else make(body)
+
+    # ---------------------------------------------------------------- servers
+    def cbs(self, budget: float, period: float, *, hard: bool = False, name: str | None = None) -> CBS:
+        """A constant-bandwidth server (TrueTime's ``ttCreateCBS``): *budget* s of CPU per
+        *period* s, soft (``hard=False``: the deadline is postponed when the budget runs out)
+        or hard (the server's tasks wait for the next period).  Needs an EDF node; attach
+        tasks with ``server=`` or :meth:`CBS.attach <netcosim.kernel.servers.CBS.attach>`
+        (:mod:`netcosim.kernel.servers` states the rules)."""
+        return self._add_server(CBS, name, budget=budget, period=period, hard=hard)
+
+    def tbs(self, utilization: float, *, name: str | None = None) -> TBS:
+        """A total-bandwidth server of *utilization* Us (0 < Us <= 1): a job reaching it at r
+        gets the deadline ``max(d_last, r) + wcet / Us``.  Needs an EDF node; its tasks need
+        a ``wcet``."""
+        return self._add_server(TBS, name, utilization=utilization)
+
+    def _add_server(self, cls, name, **kw):
+        if name is None:
+            name = f"{cls.__name__.lower()}{len(self.servers)}"
+        validate.name(name, "server name")
+        if name in self.servers:
+            raise ConfigurationError(f"node {self.name!r} already has a server called {name!r}")
+        if not isinstance(self.policy, EDF):
+            raise ConfigurationError(f"node {self.name!r}: servers run under EDF (as TrueTime's); this node "
+                                     f"schedules with {self.policy.name!r}: create it with scheduler='edf'")
+        server = cls(self, name, **kw)
+        if not isinstance(self.policy, ServedEDF):
+            self._set_policy(ServedEDF([]))
+        self.servers[name] = server
+        policy: Any = self.policy
+        policy.servers.append(server)
+        return server
+
+    def _set_policy(self, policy) -> None:
+        """Schedule with *policy* from now on (its own ``choose``, if any, takes over dispatching)."""
+        self.policy = policy
+        self._choose = own_choose(policy)
+        if self._choose is not None:
+            self._dispatch = self._dispatch_chosen  # type: ignore[method-assign]
+        else:
+            self.__dict__.pop("_dispatch", None)
+        self._dispatch_callbacks[:] = [self._dispatch]
 
     def timer(self, target: Task, *, at: float | None = None, period: float | None = None) -> "KernelTimer":
         """Release *target* at absolute time ``at`` (s), then every ``period`` s if given."""

@@ -209,7 +209,7 @@ class Task:
                  "deadline_ticks", "wcet_ticks", "preemptible", "on_busy", "on_deadline_miss",
                  "on_budget_overrun", "active", "pending", "jobs_released", "skipped", "misses", "finished",
                  "max_pending", "on_queue_full", "dropped",
-                 "state", "static_key", "ctx",
+                 "state", "static_key", "ctx", "server", "watched",
                  "__dict__", "__weakref__")
 
     def __init__(self, node, body: Callable, *, name: str | None, kind: str, priority=None,
@@ -257,6 +257,10 @@ class Task:
         self.finished = 0
         self.state = "idle"
         self.static_key: Any = None  # set by the node when the policy key depends on the task only
+        #: the bandwidth server serving the task (:mod:`~netcosim.kernel.servers`), or None
+        self.server: Any = None
+        # the kernel tells someone when a job gets and leaves the CPU: a budget timer, a server
+        self.watched = self.wcet_ticks is not None
         self.ctx = TaskContext(self)
 
     # Release ---------------------------------------------------------------
