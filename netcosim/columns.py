@@ -47,14 +47,13 @@ whole batches, which is what the chunks are, but would be imported by every simu
 
 from __future__ import annotations
 
-import os
-import pickle
-import tempfile
 from array import array
 from operator import itemgetter
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from .readback import categorical_from_codes
+from .spillfile import TAGGED as _TAGGED
+from .spillfile import SpillFile
 
 __all__ = ["ColumnStore", "CHUNK_ROWS"]
 
@@ -68,8 +67,6 @@ _NONE = type(None)
 _TAGS = {float: 0, int: 1, bool: 2, _NONE: 3}
 _UNTAG = (float, int, bool, lambda v: None)
 _EXACT = 2 ** 53  # integers a double holds exactly
-#: codecs of a type tag per row and the values
-_TAGGED = ("mixed", "fnone", "inone")
 #: codecs a column of numbers and None may mix and still be read as one float column
 _NUMERIC = frozenset({"d", "q", "fnone", "inone", "none"})
 
@@ -168,60 +165,23 @@ class ColumnStore:
         A chunk of plain values (numbers, None, coded strings) is spilled; one holding
         arbitrary objects (``obj`` columns, ``rows`` chunks) stays in memory, so that
         every value read back is the very object appended.  The category tables stay in
-        memory: a code read back from the file names the same object.
-
-        A segment is written column by column: each run of consecutive chunks whose
-        columns have the same codecs and buffer types becomes one chunk of all their
-        rows, each column's buffers written one after the other as they are (one
-        ``os.writev`` call for up to 1024 of them), after a small header (the rows and
-        codecs of each such chunk).  No object graph is pickled: a write costs about one
-        copy of its bytes, into the operating system's page cache."""
+        memory: a code read back from the file names the same object.  Runs of chunks of
+        the same codecs and buffer types go to the file as one segment
+        (:class:`~netcosim.spillfile.SpillFile`: raw column buffers, nothing pickled but
+        a small header)."""
         if self._file is None:
-            # unbuffered: the buffers are written as they are, straight from the arrays
-            self._file = tempfile.TemporaryFile(prefix="netcosim-trace-", buffering=0)  # deleted when closed
-        f = self._file
+            self._file = SpillFile()
         first, second = itemgetter(0), itemgetter(1)
         out: list = []
         #: the run of spillable chunks gathered: [rows, (codecs, buffer types), [(n, columns), ...]]
         groups: list[list] = []
 
         def write_run():
-            if not groups:
-                return
-            merged: list[tuple[int, tuple, list]] = []   # (rows, layout, [(n, columns), ...])
-            for _, (codecs, types), chunks in groups:
-                # the typecode of codes (2 or 4 bytes) and of mixed values (d or q) may differ
-                # between chunks of the same codecs and types: split where it changes
-                varying = [c for c, codec in enumerate(codecs)
-                           if codec == "mixed" or (codec == "str" and types[c] is array)]
-                for part in _runs(chunks, varying):
-                    layout = tuple([(codec, _buffer_type(codec, v)) for codec, v in part[0][1]])
-                    merged.append((sum(n for n, _ in part), layout, part))
-            shared: dict = {}         # one tuple per distinct layout: the header pickles it once
-            header = pickle.dumps([(n, shared.setdefault(layout, layout)) for n, layout, _ in merged],
-                                  protocol=pickle.HIGHEST_PROTOCOL)
-            offset = f.seek(0, 2)
-            _write_all(f, header)
-            for _, layout, part in merged:
-                ns = [n for n, _ in part]
-                colslist = [cols for _, cols in part]
-                for c, (codec, typecode) in enumerate(layout):
-                    if codec == "none":
-                        continue
-                    v = list(map(second, map(itemgetter(c), colslist)))   # the column's buffers
-                    if codec in _TAGGED:
-                        _write(f, list(map(first, v)), ns, 1)
-                        v = list(map(second, v))
-                    _write(f, v, ns, array(typecode).itemsize if typecode else 1)
-            n = sum(m[0] for m in merged)
-            sig: list[set[str]] = [set() for _ in range(self.ncols)]  # codec names per column
-            for layout in shared:
-                for c, (codec, _) in enumerate(layout):
-                    sig[c].add(codec)
-            out.append((n, ("spill", (offset, f.tell() - offset, tuple(frozenset(x) for x in sig),
-                                      len(header)))))
-            self._spilled += n
-            groups.clear()
+            if groups:
+                n, ref = self._file.write(groups, self.ncols)
+                out.append((n, ("spill", ref)))
+                self._spilled += n
+                groups.clear()
         for entry in self._chunks[:-1]:
             n, (kind, data) = entry
             if kind == "cols":
@@ -245,30 +205,9 @@ class ColumnStore:
         self.spills += 1
 
     def _load(self, ref) -> list[tuple[int, Any]]:
-        """The chunks of the spilled segment *ref* (each a run of the chunks spilled, as
-        one chunk of all their rows)."""
-        offset, _, _, header = ref
-        f = self._file
-        f.seek(offset)
-        chunks: list[tuple[int, Any]] = []
-        for n, layout in pickle.loads(_read(f, header)):
-            cols: list = []
-            for codec, typecode in layout:
-                if codec == "none":
-                    cols.append((codec, None))
-                elif codec in _TAGGED:
-                    tags = _read(f, n)
-                    vals = array(typecode)
-                    vals.frombytes(_read(f, n * vals.itemsize))
-                    cols.append((codec, (tags, vals)))
-                elif typecode:
-                    a = array(typecode)
-                    a.frombytes(_read(f, n * a.itemsize))
-                    cols.append((codec, a))
-                else:
-                    cols.append((codec, _read(f, n)))
-            chunks.append((n, ("cols", cols)))
-        return chunks
+        """The chunks of the spilled segment *ref* (:meth:`SpillFile.read
+        <netcosim.spillfile.SpillFile.read>`)."""
+        return self._file.read(ref)
 
     def _chunks_in_order(self) -> Iterator[tuple[int, Any]]:
         """Every encoded chunk, oldest first, spilled segments loaded one at a time (a
@@ -615,74 +554,6 @@ def _small_int(n: int):
     """The smallest unsigned numpy integer type holding codes ``0 .. n - 1``."""
     import numpy as np
     return np.uint8 if n <= 0x100 else np.uint16 if n <= 0x10000 else np.uint32
-
-
-def _buffer_type(codec: str, v) -> str:
-    """The type of an encoded column's buffer: an array's typecode, ``""`` for bytes
-    (or no buffer, codec ``none``); of the values for a tagged codec."""
-    if codec in _TAGGED:
-        return v[1].typecode
-    return v.typecode if type(v) is array else ""
-
-
-def _runs(chunks: list, varying: list[int]) -> Iterator[list]:
-    """*chunks* (``(n, columns)``) in runs whose columns *varying* have the same buffer types."""
-    if not varying:
-        yield chunks
-        return
-    run: list = []
-    last = None
-    for entry in chunks:
-        cols = entry[1]
-        key = tuple([_buffer_type(*cols[c]) for c in varying])
-        if run and key != last:
-            yield run
-            run = []
-        run.append(entry)
-        last = key
-    if run:
-        yield run
-
-
-#: the most buffers one ``os.writev`` call takes
-try:
-    _IOV_MAX = max(1, min(os.sysconf("SC_IOV_MAX"), 1024))
-except (AttributeError, ValueError, OSError):
-    _IOV_MAX = 16
-
-
-def _write(f, buffers: list, rows: list[int], itemsize: int) -> None:
-    """Write *buffers* (bytes or arrays, of ``rows[i] * itemsize`` bytes each), one after the
-    other, to the unbuffered file *f* at its position: gathered by ``os.writev`` where there
-    is one, without copying them into one buffer first."""
-    if not hasattr(os, "writev"):
-        _write_all(f, b"".join(buffers))
-        return
-    fd = f.fileno()
-    for i in range(0, len(buffers), _IOV_MAX):
-        batch = buffers[i:i + _IOV_MAX]
-        size = sum(rows[i:i + _IOV_MAX]) * itemsize
-        done = os.writev(fd, batch)
-        if done < size:   # a short write: the rest of the batch, in one piece
-            _write_all(f, memoryview(b"".join(batch))[done:])
-
-
-def _write_all(f, data) -> None:
-    """Write all of *data* to the unbuffered file *f* (whose writes may be short)."""
-    view = memoryview(data).cast("B")
-    while view:
-        view = view[f.write(view):]
-
-
-def _read(f, n: int) -> bytes:
-    """*n* bytes from the unbuffered file *f*."""
-    data = f.read(n)
-    while len(data) < n:
-        more = f.read(n - len(data))
-        if not more:
-            raise EOFError(f"the trace's temporary file ends {n - len(data)} bytes early")
-        data += more
-    return data
 
 
 def _piece(chunk, a: int, b: int):
