@@ -218,3 +218,13 @@ def test_the_trace_does_not_know_the_kernel():
     g = _graph()
     assert not {d for d in g["netcosim.trace"] if d.startswith(("netcosim.kernel", "netcosim.network"))}
     assert "netcosim.trace" not in _graph(typing=False)["netcosim.kernel.tables"]
+
+
+#: the largest a module may grow before it is split along its concepts (lines)
+MAX_MODULE_LINES = 600
+
+
+def test_no_module_is_a_big_room():
+    big = {str(p.relative_to(ROOT)): n for pkg in (PKG, ROOT / "plants", ROOT / "controllers")
+           for p in pkg.rglob("*.py") if (n := len(p.read_text().splitlines())) > MAX_MODULE_LINES}
+    assert big == {}
