@@ -210,13 +210,8 @@ def test_bad_pipeline_input_raises_naming_the_value():
 
 
 def test_plot_network_schedule_writes_a_png(tmp_path):
-    sim = Simulation()
-    net = IdealLink(sim, "link", data_rate=1e6, loss=0.5)
-    a = net.attach("a")
-    net.attach("b")
-    for k in range(10):
-        sim.call_at(k * 1e-3, lambda: a.send("b", None, 300))
-    sim.run(0.02)
+    from conftest import lossy_link
+    sim = lossy_link()
     path = tmp_path / "net.png"
     ax = plot_network_schedule(sim.trace.frame("network_schedule"), frames=sim.trace.frame("frames"),
                                t_range=(0.0, 0.011), path=path)
