@@ -153,3 +153,18 @@ def lossy_link():
         sim.call_at(k * 1e-3, lambda: a.send("b", None, 300))
     sim.run(0.02)
     return sim
+
+
+def assert_every_request_accounted(c: dict, samples: int, *, extra_drops=(), process=None) -> None:
+    """The counters *c* of a HIL remote (``RemoteNode.counters()``) account for every one of
+    *samples* requests whatever the machine's load: each is published, or is an overrun
+    (its predecessor still unanswered: counted, not published); each published one is
+    answered in time (``received``), too late (dropped ``late``, counted) or after the end;
+    nothing unserved, no drop but ``late`` and *extra_drops*.  *process*: the remote
+    process's own counters (``HilRun.process``), which must match."""
+    assert c["published"] + c["overruns"] == samples and c["published"] > 0, c
+    assert c["unserved"] == 0, c
+    assert set(c["dropped"]) <= {"late", *extra_drops}, c
+    assert c["received"] + c["after_end"] + c["dropped"].get("late", 0) == c["published"], c
+    if process is not None:
+        assert process["received"] == process["published"] == c["published"], process

@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import wait_until
+from conftest import assert_every_request_accounted, wait_until
 
 from netcosim.transport.session import key, new_run_id, open_session, zenoh_available
 
@@ -280,6 +280,6 @@ def test_hil_run_with_user_password_keeps_an_unauthenticated_sniffer_out(usrpwd)
         for s in sniffers:
             s.close()
     c = run.remote.counters()
-    assert c["published"] == 100 and c["received"] + c["after_end"] == 100 and not c["dropped"]
+    assert_every_request_accounted(c, 100, process=run.process)
     assert run.process["status"] == "ended"
     assert seen == []
