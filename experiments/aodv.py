@@ -160,7 +160,8 @@ def run_one(hello_interval: float = 1.0, seed: int = 0, until: float = UNTIL):
     routes = [r for r in d["route"] if r]
     ev = state["events"]
     found = [t for t, n, what, _ in ev if n == SOURCE and what == "route_found"]
-    row = {"hello_interval": hello_interval, "seed": seed, "sent": len(d), "delivered": int(d["delivered"].notna().sum()),
+    row = {"hello_interval": hello_interval, "seed": seed, "sent": len(d),
+           "delivered": int(d["delivered"].notna().sum()),
            "lost": int(d["delivered"].isna().sum()), "late": int((d["delay"] > SEND_PERIOD).sum()),
            "first_route": routes[0] if routes else "", "last_route": routes[-1] if routes else "",
            "break_noticed": next((t for t, n, what, _ in ev if n == SOURCE and what == "route_invalidated"), math.nan),
