@@ -60,9 +60,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from netcosim.controllers.aodv import AODVParams, AODVRouter
 
 from netcosim import Simulation
+from netcosim.controllers.aodv import AODVParams, AODVRouter
 from netcosim.network import TrueTimePathLoss, WLAN80211b
 
 X = (-15.0, -10.0, -5.0, 0.0, 5.0, 5.0, 15.0)   # m, nodes 1..7

@@ -65,10 +65,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from netcosim.plants.first_order import FirstOrder
 
 from netcosim import RK4, Simulation
 from netcosim.network import CAN
+from netcosim.plants.first_order import FirstOrder
 
 DATA_RATE = 125e3            # bit/s, every bus
 MIN_FRAME_BITS = 29          # TrueTime's minimum frame size

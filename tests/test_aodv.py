@@ -6,10 +6,10 @@ from __future__ import annotations
 import math
 
 import pytest
-from netcosim.controllers.aodv import AODVParams
-from netcosim.experiments import aodv
 
+from netcosim.controllers.aodv import AODVParams
 from netcosim.errors import ConfigurationError
+from netcosim.experiments import aodv
 
 
 def test_links_from_the_geometry_and_truetime_path_loss():

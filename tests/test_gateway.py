@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from netcosim.experiments import gateway
-from netcosim.plants.first_order import FirstOrder
 
 from netcosim.errors import ConfigurationError
+from netcosim.experiments import gateway
+from netcosim.plants.first_order import FirstOrder
 from netcosim.timebase import TICKS_PER_SECOND
 
 
