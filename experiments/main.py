@@ -33,6 +33,8 @@ EXPERIMENTS = [
     ("servo", "TrueTime servo example: PID with 2 ms computational delay"),
     ("threeservos", "TrueTime three-servo overload: deadline monotonic vs EDF"),
     ("networked_servo", "TrueTime networked servo on CSMA/CD and CAN with an interfering node"),
+    ("gateway", "TrueTime gateway example: a loop over three CAN buses, end-to-end delay with and without disturbance"),
+    ("aodv", "TrueTime AODV example: ad hoc routing over 802.11b, route break and repair, hello intervals"),
     ("loss_sweep_servo", "Networked servo over 802.11b: loss sweep, broadcast vs unicast, frame vs message loss"),
     ("ch2_landing", "Ch. 2: tethered-UAV landing, NMPC alone vs two-layer controller, calm and wind"),
     ("ch3_fig3_8", "Fig. 3.8: offline vs online gain, Fly-crane, small and large ball"),
