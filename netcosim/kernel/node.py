@@ -11,6 +11,7 @@ releases belong to :mod:`~netcosim.kernel.releases` (``node._releases``).
 
 from __future__ import annotations
 
+from types import MethodType
 from typing import Any, Callable
 
 from .. import validate
@@ -20,6 +21,7 @@ from ..recorder import Sink
 from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .dispatcher import Dispatcher
 from .io import AnalogIn, AnalogOut
+from .localclock import LocalClock
 from .policies import EDF, make_policy, own_choose
 from .ready import ReadyQueue
 from .releases import Releases
@@ -40,7 +42,8 @@ class Node(Dispatcher):
     """A CPU with a scheduler.  Create with :meth:`Simulation.node`."""
 
     def __init__(self, sim, name: str, scheduler: Any = "fixed_priority", *, context_switch: float = 0.0,
-                 speed: float = 1.0):
+                 speed: float = 1.0, clock: LocalClock | None = None, clock_offset: float | None = None,
+                 clock_drift: float | None = None):
         self.sim = sim
         self.name = name
         self.policy = make_policy(scheduler)
@@ -90,6 +93,31 @@ class Node(Dispatcher):
         jobs = jobs_table(sim.trace)
         self._jobrec: Sink = jobs.rows
         jobs.providers.append(self._unfinished_rows)
+        self._local: Any = None
+        self.clock: LocalClock = self._make_clock(clock, clock_offset, clock_drift)
+
+    def _make_clock(self, clock, offset, drift) -> LocalClock:
+        """The node's clock: with one, periods, timers, sleeps and ``ctx.now`` are local
+        (:mod:`~netcosim.kernel.localtime`); without, an ideal clock to read (the kernel's
+        own code path, untouched)."""
+        if clock is None and offset is None and drift is None:
+            ideal = LocalClock()
+            ideal._attach(self._env, self.name, None)
+            return ideal
+        if clock is not None:
+            if offset is not None or drift is not None:
+                raise ConfigurationError(f"node {self.name!r}: pass either clock=LocalClock(...) or "
+                                         f"clock_offset=/clock_drift=, not both")
+            if not isinstance(clock, LocalClock):
+                raise ConfigurationTypeError(f"node {self.name!r}: clock must be a LocalClock(offset=..., "
+                                             f"drift=...), got {clock!r}")
+        else:
+            clock = LocalClock(offset=0.0 if offset is None else offset, drift=0.0 if drift is None else drift)
+        from .localtime import LocalReleases, LocalTime, release_local
+        self._local = LocalTime(self, clock)
+        self._releases = LocalReleases(self._local)  # type: ignore[assignment]
+        self._release = MethodType(release_local, self)  # type: ignore[method-assign]
+        return clock
 
     # ------------------------------------------------------------------ tasks
     def _add_task(self, body, kind, name, server=None, **kw) -> Task:
@@ -107,6 +135,9 @@ class Node(Dispatcher):
             task.static_key = self.policy.key(Job(task, -1, 0))
         if server is not None:
             server.attach(task)
+        if self._local is not None:
+            from .localtime import LocalTaskContext
+            task.ctx = LocalTaskContext(task)
         self.tasks[task.name] = task
         self._trace(task, "idle")
         return task
@@ -204,8 +235,12 @@ class Node(Dispatcher):
         self._dispatch_callbacks[:] = [self._dispatch]
 
     def timer(self, target: Task, *, at: float | None = None, period: float | None = None) -> "KernelTimer":
-        """Release *target* at absolute time ``at`` (s), then every ``period`` s if given."""
+        """Release *target* at absolute time ``at`` (s), then every ``period`` s if given
+        (local time on a node with a clock)."""
         _check_target(target, "timer")
+        if self._local is not None:
+            from .localtime import LocalKernelTimer
+            return LocalKernelTimer(self, target, at, period)  # type: ignore[return-value]
         return KernelTimer(self, target, at, period)
 
     def trigger(self, target: Task, *, min_interval: float = 0.0) -> "Trigger":
