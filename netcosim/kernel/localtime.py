@@ -22,6 +22,7 @@ instants a forward step skipped fires once, at once, and counts the skipped ones
 
 from __future__ import annotations
 
+from array import array
 from fractions import Fraction
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -60,6 +61,9 @@ class LocalTime:
         self.node = node
         self.clock = clock
         self.alarms: dict[Alarm, None] = {}     # the armed ones (an ordered set)
+        #: each task's absolute deadlines (ticks) by job index, as converted at release (the
+        #: jobs table's deadline column; 8 bytes a job)
+        self.deadlines: dict[Task, array] = {}
         self._seq = 0
         clock._attach(node._env, node.name, self._changed)
 
@@ -243,8 +247,13 @@ def release_local(node: Any, task: Task, t: int) -> Job | None:
     task.jobs_released = n = task.jobs_released + 1
     job = Job(task, n - 1, t)
     if job.abs_deadline is not None:
-        clock = node._local.clock
-        job.abs_deadline = clock.due(clock.local_ticks(t) + task.deadline_ticks, t)
+        local = node._local
+        clock = local.clock
+        job.abs_deadline = d = clock.due(clock.local_ticks(t) + task.deadline_ticks, t)
+        known = local.deadlines.get(task)
+        if known is None:
+            local.deadlines[task] = known = array("q")
+        known.append(d)
         if task.on_deadline_miss is not None:
             job.deadline_timer = OverrunTimer(job, job.abs_deadline - node._env.now, DEADLINE)
     if task.active is not None:
