@@ -36,7 +36,7 @@ from typing import Any, Callable
 
 from .. import validate
 from ..errors import ConfigurationError, ConfigurationTypeError
-from ..timebase import TICKS_PER_SECOND, to_ticks
+from ..timebase import MAX_TICKS, TICKS_PER_SECOND, to_ticks
 
 __all__ = ["LocalClock"]
 
@@ -50,6 +50,17 @@ def _check_drift(drift: Any, what: str) -> Fraction:
         raise ConfigurationError(f"{what}={drift!r} must be finite and > -1 (the clock's rate is 1 + drift, "
                                  f"which must stay positive; 50e-6 = 50 ppm)")
     return Fraction(d)
+
+
+def _delta_ticks(delta: Any, what: str) -> int:
+    """A correction of the clock (s, any sign) in ticks, rounded to the nearest tick: an
+    estimate below 1 ps is a correction of 0, not an error (unlike a period)."""
+    if isinstance(delta, bool) or not validate.is_real(delta):
+        raise ConfigurationTypeError(f"{what} must be a real number of seconds, got {delta!r}")
+    d = float(delta)
+    if not math.isfinite(d) or abs(d) * TICKS_PER_SECOND > MAX_TICKS:
+        raise ConfigurationError(f"{what}={delta!r} s must be finite and within netcosim's time range")
+    return round(d * TICKS_PER_SECOND)
 
 
 class LocalClock:
@@ -198,8 +209,8 @@ class LocalClock:
         return self._step(g, L - self.local_ticks(g))
 
     def step(self, delta: float) -> float:
-        """Step the clock now by *delta* (s, + forward), exactly; return *delta* (s)."""
-        d = to_ticks(delta, "LocalClock.step delta", allow_negative=True)
+        """Step the clock now by *delta* (s, + forward; rounded to the tick); return the step (s)."""
+        d = _delta_ticks(delta, "LocalClock.step delta")
         return self._step(self._changing("step()"), Fraction(d))
 
     def _step(self, g: int, step: Fraction) -> float:
@@ -220,9 +231,10 @@ class LocalClock:
         never jumps; *delta* > -*over* keeps it running forwards.  *over* is counted at
         the clock's base rate and rounded to the tick once (the slew lasts
         ``round(over / (1 + drift))`` ticks of simulation time); the gain is exactly
-        *delta*.  A new adjust replaces the one in progress.
+        *delta* rounded to the tick (an estimate below 1 ps is a gain of 0).  A new
+        adjust replaces the one in progress; ``adjust(0, over=...)`` cancels it.
         """
-        d = to_ticks(delta, "LocalClock.adjust delta", allow_negative=True)
+        d = _delta_ticks(delta, "LocalClock.adjust delta")
         over_ticks = to_ticks(over, "LocalClock.adjust over")
         if over_ticks <= 0:
             raise ConfigurationError(f"LocalClock.adjust over={over!r} s must be positive")
