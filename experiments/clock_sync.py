@@ -205,16 +205,19 @@ def main(outdir: str = "results/clock_sync", quick: bool = False) -> pd.DataFram
         b = bound(spec["drift"], SERVER["drift"], 1.0) * 1e6
         axes[0].axhline(b, color="grey", lw=0.6)
         axes[0].axhline(-b, color="grey", lw=0.6)
-    axes[0].set_title("802.11b, T_sync = 1 s: residual (client − server)\n"
-                      "grey: ±|Δdrift|·T_sync; the rest is the MAC's random backoff", fontsize=9)
+    axes[0].set_title("T_sync = 1 s: residual (client − server), 802.11b and an ideal link\n"
+                      "grey: ±|Δdrift|·T_sync; 802.11b: the reply backs off (bias) at random (jitter)", fontsize=9)
     axes[0].set_xlabel("simulation time [s]")
     axes[0].set_ylabel("residual [µs]  (grey: ±|Δdrift|·T_sync)")
-    axes[0].legend(fontsize=7)
     for T in periods:
         print(f"  ideal link, step, T_sync = {T} s", flush=True)
         residual, syncs = run(until, network="ideal", sync_period=T, sample=min(1e-3, T / 50))
         rows.append(summary(residual, syncs, sync_period=T, asymmetry=0.0, correction="step").assign(
             network="ideal"))
+        if T == 1.0:
+            for name, g in settled(residual, syncs, 1.0, "step", skip=0).groupby("client"):
+                axes[0].plot(g["time"], g["residual"] * 1e6, ":", lw=1.2, label=f"{name}, step, ideal link")
+    axes[0].legend(fontsize=6, ncol=2)
     for a in asymmetries:
         print(f"  ideal link, step, asymmetry {a * 1e3} ms", flush=True)
         residual, syncs = run(until, network="ideal", asymmetry=a)
