@@ -10,6 +10,7 @@ the correction (its end): |Δdrift|·RTT/2, 9 ns here, allowed as the margin.
 """
 
 import pytest
+
 from netcosim.experiments import clock_sync as cs
 
 
