@@ -93,17 +93,31 @@ class Node(Dispatcher):
         jobs = jobs_table(sim.trace)
         self._jobrec: Sink = jobs.rows
         jobs.providers.append(self._unfinished_rows)
-        self._local: Any = None
-        self.clock: LocalClock = self._make_clock(clock, clock_offset, clock_drift)
+        if clock is not None or clock_offset is not None or clock_drift is not None:
+            self._use_clock(clock, clock_offset, clock_drift)
 
-    def _make_clock(self, clock, offset, drift) -> LocalClock:
-        """The node's clock: with one, periods, timers, sleeps and ``ctx.now`` are local
-        (:mod:`~netcosim.kernel.localtime`); without, an ideal clock to read (the kernel's
-        own code path, untouched)."""
-        if clock is None and offset is None and drift is None:
-            ideal = LocalClock()
-            ideal._attach(self._env, self.name, None)
-            return ideal
+    #: the kernel on the node's local clock (:mod:`~netcosim.kernel.localtime`), None
+    #: without one.  A class attribute, set on the instance only for a node with a clock:
+    #: a node's attributes are near CPython 3.11's limit of 30 per shared-key instance
+    #: dict, beyond which every attribute read in the kernel's per-job path gets slower
+    #: (two more attributes on every node cost 7 % per job).
+    _local: Any = None
+
+    @property
+    def clock(self) -> LocalClock:
+        """The node's clock (:class:`~netcosim.kernel.localclock.LocalClock`): its own when
+        created with one; else an ideal clock (local = simulation time) to read, not set."""
+        local = self._local
+        if local is not None:
+            return local.clock
+        ideal = LocalClock()
+        ideal._attach(self._env, self.name, None)
+        return ideal
+
+    def _use_clock(self, clock, offset, drift) -> None:
+        """Run the node on a local clock: periods, timers, sleeps and ``ctx.now`` are local
+        (:mod:`~netcosim.kernel.localtime`).  A node without one keeps the kernel's own code
+        path, untouched."""
         if clock is not None:
             if offset is not None or drift is not None:
                 raise ConfigurationError(f"node {self.name!r}: pass either clock=LocalClock(...) or "
@@ -117,7 +131,6 @@ class Node(Dispatcher):
         self._local = LocalTime(self, clock)
         self._releases = LocalReleases(self._local)  # type: ignore[assignment]
         self._release = MethodType(release_local, self)  # type: ignore[method-assign]
-        return clock
 
     # ------------------------------------------------------------------ tasks
     def _add_task(self, body, kind, name, server=None, **kw) -> Task:
