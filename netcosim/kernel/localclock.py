@@ -122,9 +122,9 @@ class LocalClock:
             raise ConfigurationError(f"node {self._owner!r} runs on simulation time (it was created without a "
                                      f"clock): {what} needs sim.node({self._owner!r}, clock=LocalClock(...)) "
                                      f"(or clock_offset=/clock_drift=)")
-        return self._now()
+        return self._tick_now()
 
-    def _now(self) -> int:
+    def _tick_now(self) -> int:
         if self._engine is None:
             raise ConfigurationError("this LocalClock serves no node yet: pass it to sim.node(..., clock=...) "
                                      "before setting or reading it")
@@ -158,7 +158,7 @@ class LocalClock:
     # ------------------------------------------------------------ reading (seconds)
     def local(self, t: float | None = None) -> float:
         """The clock's reading (local s) at simulation time *t* (s; now when None)."""
-        g = self._now() if t is None else to_ticks(t, "LocalClock.local t")
+        g = self._tick_now() if t is None else to_ticks(t, "LocalClock.local t")
         return float(self.local_ticks(g) / TICKS_PER_SECOND)
 
     def now(self) -> float:
