@@ -79,7 +79,7 @@ class LocalClock:
     clocks", gives the rules.
     """
 
-    __slots__ = ("drift", "offset", "_rate", "_g0", "_l0", "_rates", "_slew_end", "_slew_delta", "_engine",
+    __slots__ = ("drift", "offset", "_rate", "_g0", "_l0", "_rates", "_ints", "_slew_end", "_engine",
                  "_listeners", "_owner", "_fixed", "steps", "slews")
 
     def __init__(self, offset: float = 0.0, drift: float = 0.0):
@@ -92,8 +92,11 @@ class LocalClock:
         self._g0: list[int] = [0]
         self._l0: list[Fraction] = [Fraction(offset_ticks)]
         self._rates: list[Fraction] = [self._rate]
+        # the same segments as integers, for the kernel's per-release arithmetic (no
+        # Fraction objects): (l0 numerator, l0 denominator, rate numerator, rate denominator)
+        self._ints: list[tuple[int, int, int, int]] = [(offset_ticks, 1, self._rate.numerator,
+                                                        self._rate.denominator)]
         self._slew_end: int | None = None     # global tick at which the slew in progress ends
-        self._slew_delta = Fraction(0)        # local ticks it gains from _g0[-2] to _slew_end
         self._engine: Any = None              # the simulation's engine, once attached to a node
         self._listeners: list[Callable[[Fraction], None]] = []
         self._owner: str | None = None
@@ -132,26 +135,41 @@ class LocalClock:
 
     # ------------------------------------------------------------ the mapping (ticks)
     def _segment(self, g: int) -> int:
-        return max(bisect_right(self._g0, g) - 1, 0)
+        g0s = self._g0
+        if g >= g0s[-1]:
+            return len(g0s) - 1
+        return max(bisect_right(g0s, g) - 1, 0)
 
     def local_ticks(self, g: int) -> Fraction:
         """Exact local reading (local ticks, a Fraction) at global tick *g*."""
         i = self._segment(g)
         return self._l0[i] + (g - self._g0[i]) * self._rates[i]
 
+    def local_nd(self, g: int) -> tuple[int, int]:
+        """:meth:`local_ticks` at global tick *g* as ``(numerator, denominator)`` (not reduced)."""
+        i = self._segment(g)
+        ln, ld, rp, rq = self._ints[i]
+        return ln * rq + (g - self._g0[i]) * rp * ld, ld * rq
+
     def due(self, local: Fraction | int, after: int) -> int:
         """The first global tick >= *after* at which the clock reads >= *local* (local
         ticks): the one rounding to the tick (a ceiling)."""
-        g0s, l0s, rates = self._g0, self._l0, self._rates
+        return self.due_nd(local.numerator, local.denominator, after)
+
+    def due_nd(self, num: int, den: int, after: int) -> int:
+        """:meth:`due` of the local time ``num / den`` (local ticks; *den* > 0), in integers."""
+        g0s, ints = self._g0, self._ints
         i = self._segment(after)
-        n = len(g0s)
+        last = len(g0s) - 1
         while True:
-            start = max(g0s[i], after)
-            here = l0s[i] + (start - g0s[i]) * rates[i]
-            if here >= local:
-                return start
-            g = g0s[i] + math.ceil((local - l0s[i]) / rates[i])
-            if i + 1 == n or g < g0s[i + 1]:
+            ln, ld, rp, rq = ints[i]
+            g0 = g0s[i]
+            # the first tick g with ln/ld + (g - g0)*rp/rq >= num/den: g0 + ceil of the rest
+            g = g0 - ((ln * den - num * ld) * rq // (den * ld * rp))
+            start = g0 if g0 > after else after
+            if g < start:
+                g = start       # the clock already reads num/den at the start
+            if i == last or g < g0s[i + 1]:
                 return g
             i += 1
 
@@ -183,12 +201,13 @@ class LocalClock:
         i = bisect_right(self._g0, g)     # segments starting after g go; one starting at g too
         if i and self._g0[i - 1] == g:
             i -= 1
-        del self._g0[i:], self._l0[i:], self._rates[i:]
+        del self._g0[i:], self._l0[i:], self._rates[i:], self._ints[i:]
 
     def _append(self, g: int, local: Fraction, rate: Fraction) -> None:
         self._g0.append(g)
         self._l0.append(local)
         self._rates.append(rate)
+        self._ints.append((local.numerator, local.denominator, rate.numerator, rate.denominator))
 
     def _remaining_slew(self, g: int) -> Fraction:
         """Local ticks the slew in progress has still to gain at *g* (0 without one)."""

@@ -40,18 +40,28 @@ __all__ = ["Alarm", "LocalTime", "LocalReleases", "LocalKernelTimer", "LocalSlee
 
 
 class Alarm:
-    """A wait on a node's local clock: ``fire()`` is called when the clock reads ``due``
-    (local ticks); ``relative``: a step shifts ``due`` with it (a relative sleep)."""
+    """A wait on a node's local clock: ``fire()`` is called when the clock reads
+    ``num / den`` local ticks (integers: no Fraction on the per-release path);
+    ``relative``: a step shifts the due time with it (a relative sleep); ``remapped``:
+    the clock changed since it was armed; ``k``: a periodic alarm's index."""
 
-    __slots__ = ("due", "fire", "relative", "timer", "at", "seq")
+    __slots__ = ("num", "den", "fire", "relative", "timer", "at", "seq", "remapped", "k")
 
     def __init__(self, due: Fraction | int, fire: Callable[[], None], relative: bool = False):
-        self.due = due
+        self.num: int = due.numerator
+        self.den: int = due.denominator
         self.fire = fire
         self.relative = relative
         self.timer: Any = None      # the global timer while armed
         self.at = 0                 # its global tick
         self.seq = 0                # arm order (ties at one instant)
+        self.remapped = False
+        self.k = 0
+
+    @property
+    def due(self) -> Fraction:
+        """The due time (local ticks)."""
+        return Fraction(self.num, self.den)
 
 
 class LocalTime:
@@ -74,7 +84,7 @@ class LocalTime:
     def arm(self, alarm: Alarm) -> None:
         """Arm *alarm* at the first global tick at which the clock reads its due time."""
         now = self.node._env.now
-        alarm.at = at = self.clock.due(alarm.due, now)
+        alarm.at = at = self.clock.due_nd(alarm.num, alarm.den, now)
         self._seq += 1
         alarm.seq = self._seq
         alarm.timer = self.node.sim._call_at_ticks(at, self._fire, arg=alarm)
@@ -97,11 +107,26 @@ class LocalTime:
         pending = sorted(self.alarms, key=lambda a: (a.at, a.seq))
         for alarm in pending:
             alarm.timer.cancel()
-            if alarm.relative:
-                alarm.due += step
+            alarm.remapped = True
+            if alarm.relative and step:
+                due = alarm.due + step
+                alarm.num, alarm.den = due.numerator, due.denominator
         self.alarms.clear()
         for alarm in pending:
             self.arm(alarm)
+
+    def skipped(self, alarm: Alarm, first_num: int, first_den: int, period: int) -> int:
+        """Instants of the grid ``first + j·period`` (local ticks) a step skipped between
+        *alarm*'s index ``k`` and now (0 unless the clock changed since it was armed);
+        advances ``alarm.k`` to the last index due now."""
+        if not alarm.remapped:
+            return 0
+        alarm.remapped = False
+        ln, ld = self.clock.local_nd(self.node._env.now)
+        n = (ln * first_den - first_num * ld) // (ld * first_den * period)     # the last index due (>= k)
+        missed = max(n - alarm.k, 0)
+        alarm.k += missed
+        return missed
 
 
 class LocalReleases:
@@ -117,21 +142,24 @@ class LocalReleases:
     def arm(self, task: Task) -> None:
         """Release *task* every ``period`` local seconds from ``offset`` after now (local)."""
         local = self.local
-        first = local.local_now() + task.offset_ticks
-        alarm = Alarm(first, lambda: self._fire(task, alarm, first))
+        num, den = local.clock.local_nd(local.node._env.now)
+        num += task.offset_ticks * den
+        alarm = Alarm(Fraction(num, den), lambda: self._fire(task, alarm, num, den))
+        num, den = alarm.num, alarm.den          # reduced
         self.alarms[task] = alarm
         local.arm(alarm)
 
-    def _fire(self, task: Task, alarm: Alarm, first: Fraction) -> None:
+    def _fire(self, task: Task, alarm: Alarm, first_num: int, first_den: int) -> None:
         # release k is due at first + k*period; a forward step may have skipped some:
-        # release once, count the skipped ones, re-arm for the next one not yet due
+        # release once, count the skipped ones, re-arm for the next one
         local = self.local
         period = task.period_ticks
-        k = (alarm.due - first) // period
-        n = (local.local_now() - first) // period       # the last index due now (>= k)
-        if n > k:
-            task.missed_releases += int(n - k)
-        alarm.due = first + (n + 1) * period
+        missed = local.skipped(alarm, first_num, first_den, period)
+        if missed:
+            task.missed_releases += missed
+        alarm.k = k = alarm.k + 1
+        alarm.num = first_num + k * period * first_den
+        alarm.den = first_den
         local.arm(alarm)
         node = local.node
         node._release(task, node._env.now)
@@ -164,7 +192,6 @@ class LocalKernelTimer:
                                      f"(it reads {float(here / TICKS_PER_SECOND)!r} s)")
         self._period = None if period is None else validate.duration(period, f"{name}: period", positive=True,
                                                                      kind="positive")
-        self._k = 0
         #: periodic instants skipped by a forward step of the clock
         self.overruns = 0
         self._alarm: Alarm | None = Alarm(self._start, self._fire)
@@ -174,11 +201,11 @@ class LocalKernelTimer:
         alarm = self._alarm
         assert alarm is not None
         if self._period is not None:
-            n = (self._local.local_now() - self._start) // self._period
-            if n > self._k:
-                self.overruns += int(n - self._k)
-            self._k = int(n) + 1
-            alarm.due = self._start + self._k * self._period
+            start = self._start
+            self.overruns += self._local.skipped(alarm, start.numerator, start.denominator, self._period)
+            alarm.k = k = alarm.k + 1
+            alarm.num = start.numerator + k * self._period * start.denominator
+            alarm.den = start.denominator
             self._local.arm(alarm)
         else:
             self._alarm = None
@@ -227,7 +254,8 @@ class LocalTaskContext(TaskContext):
     @property
     def now(self) -> float:
         """The node's local time (s)."""
-        return float(self.node._local.local_now() / TICKS_PER_SECOND)
+        num, den = self.node._local.clock.local_nd(self.sim.env.now)
+        return num / (den * TICKS_PER_SECOND)
 
     def sleep(self, seconds: float) -> LocalSleep:  # type: ignore[override]
         """Block for *seconds* of the node's clock (a step of the clock does not change it)."""
@@ -249,7 +277,8 @@ def release_local(node: Any, task: Task, t: int) -> Job | None:
     if job.abs_deadline is not None:
         local = node._local
         clock = local.clock
-        job.abs_deadline = d = clock.due(clock.local_ticks(t) + task.deadline_ticks, t)
+        num, den = clock.local_nd(t)
+        job.abs_deadline = d = clock.due_nd(num + task.deadline_ticks * den, den, t)
         known = local.deadlines.get(task)
         if known is None:
             local.deadlines[task] = known = array("q")
