@@ -295,3 +295,37 @@ def test_bad_clock_changes_are_refused_naming_the_value():
     with pytest.raises(ConfigurationError, match=r"serves no node yet"):
         LocalClock().set(1.0)
     assert c.steps == 0 and c.slews == 0      # nothing refused changed the clock
+
+
+def test_slew_by_rate_correction_is_adjust_of_rate_times_duration():
+    sim = Simulation()
+    n = sim.node("a", clock=LocalClock(drift=0.25))
+    sim.call_at(0.0, lambda: n.clock.slew(0.25, duration=0.1))      # rate 1.25 x 1.25 for 80 ms
+    sim.run(0.2)
+    # 0.1 s at the base rate 1.25 = 80 ms of simulation time, gaining 0.25 x 0.1 s: local
+    # 0.1 + 0.025 at 80 ms, then 1.25 per second again
+    assert n.clock.local(0.08) == 0.125 and n.clock.local(0.2) == 0.275
+    assert n.clock.global_time(0.125) == 0.08 and n.clock.rate == 1.25
+
+
+def test_a_step_during_a_slew_abandons_it_and_global_time_sees_the_step():
+    sim = Simulation()
+    n = sim.node("a", clock=LocalClock())
+    sim.call_at(0.0, lambda: n.clock.adjust(0.01, over=0.1))        # rate 1.1 for 100 ms
+    sim.call_at(0.05, lambda: n.clock.set(1.0))                      # local 55 ms -> 1 s
+    sim.run(0.1)
+    assert n.clock.local(0.05) == 1.0 and n.clock.local(0.1) == 1.05  # rate 1 after the step
+    # before the step the clock read up to 55 ms; local 0.5 s was never read: the step's instant
+    assert n.clock.global_time(0.011) == 0.01 and n.clock.global_time(0.5) == 0.05
+    assert n.clock.steps == 1 and n.clock.slews == 1
+
+
+def test_deadline_miss_handler_fires_at_the_local_deadline():
+    sim = Simulation()
+    n = sim.node("a", clock_drift=-0.5)
+    killed = []
+    t = n.aperiodic(lambda ctx: (yield ctx.execute(0.02)), priority=1, deadline=0.004, name="late",
+                    on_deadline_miss=lambda job: killed.append(job.node.sim.now))
+    sim.call_at(0.001, t.release)
+    sim.run(0.1)
+    assert killed == [0.009] and t.misses == 1                        # 1 ms + 4 local ms at rate 0.5

@@ -246,9 +246,9 @@ class LocalClock:
         """Slew the clock: gain *delta* (s, + forward) over the next *over* s, then run at
         ``1 + drift`` again; return what the slew replaced had still to gain (s).
 
-        NTP's ``adjtime``: the rate is ``1 + drift + delta/over`` meanwhile, so the clock
-        never jumps; *delta* > -*over* keeps it running forwards.  *over* is counted at
-        the clock's base rate and rounded to the tick once (the slew lasts
+        NTP's ``adjtime``: the rate is ``(1 + drift)·(1 + delta/over)`` meanwhile, so the
+        clock never jumps; *delta* > -*over* keeps it running forwards.  *over* is counted
+        on the clock at its base rate and rounded to the tick once (the slew lasts
         ``round(over / (1 + drift))`` ticks of simulation time); the gain is exactly
         *delta* rounded to the tick (an estimate below 1 ps is a gain of 0).  A new
         adjust replaces the one in progress; ``adjust(0, over=...)`` cancels it.
@@ -275,7 +275,7 @@ class LocalClock:
         return float(left / TICKS_PER_SECOND)
 
     def slew(self, rate_correction: float, *, duration: float) -> float:
-        """Run the clock at ``(1 + drift)`` plus *rate_correction* (dimensionless, 100e-6 =
+        """Run the clock at ``(1 + drift)·(1 + rate_correction)`` (dimensionless, 100e-6 =
         100 ppm faster) for *duration* s of its base rate: ``adjust(rate_correction *
         duration, over=duration)``."""
         rc = _check_drift(rate_correction, "LocalClock.slew rate_correction")
