@@ -17,6 +17,9 @@ Kernel: scheduling policies
 Kernel: synchronisation
     :class:`Mailbox`, :class:`Semaphore`, :class:`Monitor`, :class:`ConditionVariable`
 
+Kernel: a node's local clock
+    :class:`LocalClock` (offset, drift, steps and slews; ``sim.node(..., clock=...)``)
+
 Networks
     :class:`IdealLink`, :class:`FDMA`, :class:`CSMACD`, :class:`CAN`, :class:`RoundRobin`,
     :class:`TDMA`, :class:`SwitchedEthernet`, :class:`WLAN80211b`, :class:`IEEE802154`,
@@ -57,6 +60,8 @@ _API = {
     "EDF": "kernel",
     # kernel: synchronisation
     "Mailbox": "kernel", "Semaphore": "kernel", "Monitor": "kernel", "ConditionVariable": "kernel",
+    # kernel: a node's local clock
+    "LocalClock": "kernel",
     # networks
     "IdealLink": "network", "FDMA": "network", "CSMACD": "network", "CAN": "network", "RoundRobin": "network",
     "TDMA": "network", "SwitchedEthernet": "network", "WLAN80211b": "network", "IEEE802154": "network",
@@ -91,6 +96,7 @@ if TYPE_CHECKING:
         ConditionVariable,
         DeadlineMonotonic,
         FixedPriority,
+        LocalClock,
         Mailbox,
         Monitor,
         RateMonotonic,

@@ -176,17 +176,23 @@ class Simulation:
         self._names[name] = obj
 
     def node(self, name: str, scheduler: Any = "fixed_priority", *, context_switch: float = 0.0,
-             speed: float = 1.0) -> "Node":
+             speed: float = 1.0, clock: Any = None, clock_offset: float | None = None,
+             clock_drift: float | None = None) -> "Node":
         """Add a real-time kernel (one CPU) called *name*.
 
         ``scheduler`` is a policy instance or one of ``"fixed_priority"``,
         ``"rate_monotonic"``, ``"deadline_monotonic"``, ``"edf"``.  ``context_switch``
         is the CPU time (s, at speed 1) of one context switch; ``speed`` scales every
-        execution time (2.0 = twice as fast).
+        execution time (2.0 = twice as fast).  ``clock``: a
+        :class:`~netcosim.kernel.localclock.LocalClock` (or ``clock_offset`` s and
+        ``clock_drift``, dimensionless, 50e-6 = 50 ppm: TrueTime's kernel block parameters);
+        periods, offsets, timers, sleeps and ``ctx.now`` are then in the node's local time
+        (``docs/kernel.md``, "Local clocks").  Without one the node runs on simulation time.
         """
         from .kernel.node import Node
         self._check_new_name(name)
-        node = Node(self, name, scheduler, context_switch=context_switch, speed=speed)
+        node = Node(self, name, scheduler, context_switch=context_switch, speed=speed, clock=clock,
+                    clock_offset=clock_offset, clock_drift=clock_drift)
         self._register(name, node)
         self.nodes[name] = node
         return node

@@ -1,6 +1,7 @@
 """Real-time kernel: nodes, tasks, scheduling policies, synchronisation, analog I/O."""
 
 from .io import AnalogIn, AnalogOut
+from .localclock import LocalClock
 from .node import Node
 from .policies import EDF, DeadlineMonotonic, FixedPriority, RateMonotonic, SchedulingPolicy
 from .sync import ConditionVariable, Mailbox, Monitor, Semaphore
@@ -8,5 +9,5 @@ from .task import Job, Task, TaskContext
 from .timers import KernelTimer, Trigger
 
 __all__ = ["AnalogIn", "AnalogOut", "ConditionVariable", "DeadlineMonotonic", "EDF", "FixedPriority", "Job",
-           "KernelTimer", "Mailbox", "Monitor", "Node", "RateMonotonic", "SchedulingPolicy", "Semaphore",
+           "KernelTimer", "LocalClock", "Mailbox", "Monitor", "Node", "RateMonotonic", "SchedulingPolicy", "Semaphore",
            "Task", "TaskContext", "Trigger"]

@@ -11,6 +11,7 @@ releases belong to :mod:`~netcosim.kernel.releases` (``node._releases``).
 
 from __future__ import annotations
 
+from types import MethodType
 from typing import Any, Callable
 
 from .. import validate
@@ -20,6 +21,7 @@ from ..recorder import Sink
 from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
 from .dispatcher import Dispatcher
 from .io import AnalogIn, AnalogOut
+from .localclock import LocalClock
 from .policies import EDF, make_policy, own_choose
 from .ready import ReadyQueue
 from .releases import Releases
@@ -40,7 +42,8 @@ class Node(Dispatcher):
     """A CPU with a scheduler.  Create with :meth:`Simulation.node`."""
 
     def __init__(self, sim, name: str, scheduler: Any = "fixed_priority", *, context_switch: float = 0.0,
-                 speed: float = 1.0):
+                 speed: float = 1.0, clock: LocalClock | None = None, clock_offset: float | None = None,
+                 clock_drift: float | None = None):
         self.sim = sim
         self.name = name
         self.policy = make_policy(scheduler)
@@ -90,6 +93,44 @@ class Node(Dispatcher):
         jobs = jobs_table(sim.trace)
         self._jobrec: Sink = jobs.rows
         jobs.providers.append(self._unfinished_rows)
+        if clock is not None or clock_offset is not None or clock_drift is not None:
+            self._use_clock(clock, clock_offset, clock_drift)
+
+    #: the kernel on the node's local clock (:mod:`~netcosim.kernel.localtime`), None
+    #: without one.  A class attribute, set on the instance only for a node with a clock:
+    #: a node's attributes are near CPython 3.11's limit of 30 per shared-key instance
+    #: dict, beyond which every attribute read in the kernel's per-job path gets slower
+    #: (two more attributes on every node cost 7 % per job).
+    _local: Any = None
+
+    @property
+    def clock(self) -> LocalClock:
+        """The node's clock (:class:`~netcosim.kernel.localclock.LocalClock`): its own when
+        created with one; else an ideal clock (local = simulation time) to read, not set."""
+        local = self._local
+        if local is not None:
+            return local.clock
+        ideal = LocalClock()
+        ideal._attach(self._env, self.name, None)
+        return ideal
+
+    def _use_clock(self, clock, offset, drift) -> None:
+        """Run the node on a local clock: periods, timers, sleeps and ``ctx.now`` are local
+        (:mod:`~netcosim.kernel.localtime`).  A node without one keeps the kernel's own code
+        path, untouched."""
+        if clock is not None:
+            if offset is not None or drift is not None:
+                raise ConfigurationError(f"node {self.name!r}: pass either clock=LocalClock(...) or "
+                                         f"clock_offset=/clock_drift=, not both")
+            if not isinstance(clock, LocalClock):
+                raise ConfigurationTypeError(f"node {self.name!r}: clock must be a LocalClock(offset=..., "
+                                             f"drift=...), got {clock!r}")
+        else:
+            clock = LocalClock(offset=0.0 if offset is None else offset, drift=0.0 if drift is None else drift)
+        from .localtime import LocalReleases, LocalTime, release_local
+        self._local = LocalTime(self, clock)
+        self._releases = LocalReleases(self._local)  # type: ignore[assignment]
+        self._release = MethodType(release_local, self)  # type: ignore[method-assign]
 
     # ------------------------------------------------------------------ tasks
     def _add_task(self, body, kind, name, server=None, **kw) -> Task:
@@ -107,6 +148,9 @@ class Node(Dispatcher):
             task.static_key = self.policy.key(Job(task, -1, 0))
         if server is not None:
             server.attach(task)
+        if self._local is not None:
+            from .localtime import LocalTaskContext
+            task.ctx = LocalTaskContext(task)
         self.tasks[task.name] = task
         self._trace(task, "idle")
         return task
@@ -204,8 +248,12 @@ class Node(Dispatcher):
         self._dispatch_callbacks[:] = [self._dispatch]
 
     def timer(self, target: Task, *, at: float | None = None, period: float | None = None) -> "KernelTimer":
-        """Release *target* at absolute time ``at`` (s), then every ``period`` s if given."""
+        """Release *target* at absolute time ``at`` (s), then every ``period`` s if given
+        (local time on a node with a clock)."""
         _check_target(target, "timer")
+        if self._local is not None:
+            from .localtime import LocalKernelTimer
+            return LocalKernelTimer(self, target, at, period)  # type: ignore[return-value]
         return KernelTimer(self, target, at, period)
 
     def trigger(self, target: Task, *, min_interval: float = 0.0) -> "Trigger":

@@ -99,6 +99,23 @@ def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
     })
 
 
+def _local_deadlines(deadline: pd.Series, job: pd.Series, codes, unique: list) -> pd.Series:
+    """*deadline* (ticks) with the rows of tasks on a local clock replaced by the absolute
+    deadline their job got at its release (``netcosim.kernel.localtime``: relative to the
+    release in local time, converted when released)."""
+    import numpy as np
+    for code, task in enumerate(unique):
+        local = getattr(task.node, "_local", None)
+        if local is None or task.deadline_ticks is None:
+            continue
+        rows = codes == code
+        if rows.any():
+            known = np.asarray(local.deadlines[task], dtype=float)
+            deadline = deadline.copy()
+            deadline[rows] = known[job[rows].to_numpy(dtype=np.int64)]
+    return deadline
+
+
 def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
     """Stored job rows (:data:`JOB_RAW`) as reported (:data:`JOB_COLUMNS`, times in s)."""
     import numpy as np
@@ -114,6 +131,7 @@ def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
         deadline = (release.astype("int64") + relative.astype("int64")).astype(float)   # exact in ticks
     else:
         deadline = release.astype(float) + relative.astype(float)
+    deadline = _local_deadlines(deadline, df["job"], codes, unique)
     df = pd.DataFrame({
         "node": node, "task": name,
         "job": df["job"],

@@ -208,6 +208,7 @@ class Task:
     __slots__ = ("node", "name", "kind", "cls", "body", "priority", "period_ticks", "offset_ticks",
                  "deadline_ticks", "wcet_ticks", "preemptible", "on_busy", "on_deadline_miss",
                  "on_budget_overrun", "active", "pending", "jobs_released", "skipped", "misses", "finished",
+                 "missed_releases",
                  "max_pending", "on_queue_full", "dropped",
                  "state", "static_key", "ctx", "server", "watched",
                  "__dict__", "__weakref__")
@@ -255,6 +256,8 @@ class Task:
         self.dropped = 0
         self.misses = 0
         self.finished = 0
+        #: periodic releases a forward step of the node's local clock skipped (docs/kernel.md, "Local clocks")
+        self.missed_releases = 0
         self.state = "idle"
         self.static_key: Any = None  # set by the node when the policy key depends on the task only
         #: the bandwidth server serving the task (:mod:`~netcosim.kernel.servers`), or None
@@ -308,8 +311,14 @@ class TaskContext:
 
     @property
     def now(self) -> float:
-        """Current simulated time (s)."""
+        """Current time (s): the simulation's, or the node's local clock when it has one."""
         return self.sim.env.now / TICKS_PER_SECOND
+
+    @property
+    def clock(self):
+        """The node's clock (:class:`~netcosim.kernel.localclock.LocalClock`): ``ctx.clock.set(t)``
+        steps it, ``ctx.clock.adjust(delta, over=...)`` slews it (nodes created with a clock)."""
+        return self.node.clock
 
     @property
     def rng(self):
