@@ -20,6 +20,10 @@ def main() -> None:
     os.dup2(2, 1)                         # the scenario's prints must not corrupt the protocol
     sys_path, ref, params, seed = pickle.loads(sys.stdin.buffer.read())
     sys.path[:] = sys_path
+    # the result check (run.split_result) reads pandas: imported before the timed run starts,
+    # so that the timeout counts the scenario, not start-up (seconds on a loaded machine)
+    import pandas  # noqa: F401
+
     from netcosim.sweep.executors import load
     from netcosim.sweep.run import Outcome, run_one
     try:
