@@ -236,6 +236,10 @@ class MulticoreNode(Node):
         """The migrations of finished job *index* of *task* (0 under partitioned scheduling)."""
         return self._job_migrations.get((task, index), 0)
 
+    def _add_server(self, cls, name, **kw):
+        raise ConfigurationError(f"node {self.name!r}: bandwidth servers run on one-core nodes only "
+                                 f"(this node has {len(self.cores)} cores)")
+
     # ----------------------------------------- kernel calls, routed to the core
     def _release(self, task: Task, t: int) -> Job | None:
         core = self._pinned.get(task)
