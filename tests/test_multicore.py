@@ -320,3 +320,36 @@ def test_bad_core_is_named():
     edf = sim.node("e", "edf", cores=2)
     with pytest.raises(ConfigurationError, match="one-core"):
         edf.cbs(1 * MS, 4 * MS)
+
+
+def test_a_mailbox_links_tasks_on_two_cores():
+    """A producer on core 0 posts at 1 ms; the consumer blocked on core 1 resumes then and
+    runs 0.5 ms: its job ends at 1.5 ms while core 0 is still busy until 3 ms."""
+    from netcosim import Mailbox
+    box = Mailbox("box")
+    sim = Simulation()
+    node = sim.node("cpu", cores=2)
+
+    def producer(ctx):
+        yield ctx.execute(1 * MS)
+        yield box.post("x")
+        yield ctx.execute(2 * MS)
+
+    def consumer(ctx):
+        item = yield box.fetch()
+        assert item == "x"
+        yield ctx.execute(0.5 * MS)
+    node.periodic(producer, period=10 * MS, priority=1, name="producer", core=0)
+    node.periodic(consumer, period=10 * MS, priority=1, name="consumer", core=1)
+    sim.run(0.005)
+    jobs = sim.trace.frame("jobs").set_index("task")
+    assert jobs.loc["consumer", ["start", "finish", "core"]].tolist() == [0.0, 0.0015, 1]
+    assert jobs.loc["producer", ["finish", "core"]].tolist() == [0.003, 0]
+
+
+def test_plot_schedule_shades_each_core(tmp_path):
+    from netcosim.plot import plot_schedule
+    _, _, sched = _migration_case(0.0, 0.5 * MS)
+    ax = plot_schedule(sched, path=tmp_path / "cores.png")
+    assert (tmp_path / "cores.png").stat().st_size > 0
+    assert sorted(t.get_text() for t in ax.get_legend().get_texts()) == ["core 0", "core 1"]
