@@ -353,3 +353,18 @@ def test_plot_schedule_shades_each_core(tmp_path):
     ax = plot_schedule(sched, path=tmp_path / "cores.png")
     assert (tmp_path / "cores.png").stat().st_size > 0
     assert sorted(t.get_text() for t in ax.get_legend().get_texts()) == ["core 0", "core 1"]
+
+
+def test_a_job_killed_in_its_context_switch_holds_the_core_until_the_switch_ends():
+    """Context switch 1 ms: 'late' (deadline 0.5 ms) is killed inside its switch on core 0;
+    core 0 stays busy until 1 ms, then y switches in (1..2 ms) and runs 2..4 ms."""
+    sim = Simulation()
+    node = sim.node("cpu", "edf", cores=2, scheduling="global", context_switch=1 * MS)
+    node.periodic(_busy(2 * MS), period=20 * MS, deadline=0.5 * MS, name="late", on_deadline_miss="kill")
+    node.periodic(_busy(2 * MS), period=20 * MS, deadline=19 * MS, name="x")
+    node.periodic(_busy(2 * MS), period=20 * MS, deadline=19 * MS, name="y")
+    sim.run(0.006)
+    jobs = sim.trace.frame("jobs").set_index("task")
+    assert jobs.loc["late", ["finish", "killed", "core"]].tolist() == [0.0005, True, 0]
+    assert jobs.loc["x", ["start", "finish", "core"]].tolist() == [0.001, 0.003, 1]
+    assert jobs.loc["y", ["start", "finish", "core"]].tolist() == [0.002, 0.004, 0]

@@ -309,10 +309,10 @@ class MulticoreNode(Node):
         while ready.live:
             best = ready.first()
             target: Any = self._last_core.get(best)
-            if target is None or target.running is not None:
+            if target is None or target.running is not None or target._in_cs:
                 target = None
                 for c in cores:
-                    if c.running is None:
+                    if c.running is None and not c._in_cs:  # a job killed in a switch leaves it busy
                         target = c
                         break
             if target is None:
