@@ -29,7 +29,7 @@ def _env(**extra):
 
 
 def test_the_experiment_list_is_complete():
-    assert len(MODULES) == 20 and "netcosim.experiments.hil_servo" in MODULES
+    assert len(MODULES) == 21 and "netcosim.experiments.hil_servo" in MODULES
     assert "netcosim.experiments.flycrane_network" in MODULES
     assert "netcosim.experiments.fidelity" in MODULES and "netcosim.experiments.hil_landing_llc" in MODULES
     assert "netcosim.experiments.main" in MODULES and "netcosim.experiments.servo" in MODULES

@@ -368,3 +368,18 @@ def test_a_job_killed_in_its_context_switch_holds_the_core_until_the_switch_ends
     assert jobs.loc["late", ["finish", "killed", "core"]].tolist() == [0.0005, True, 0]
     assert jobs.loc["x", ["start", "finish", "core"]].tolist() == [0.001, 0.003, 1]
     assert jobs.loc["y", ["start", "finish", "core"]].tolist() == [0.002, 0.004, 0]
+
+
+def test_the_dhall_experiment(tmp_path):
+    from netcosim.experiments import multicore_dhall
+    sims = multicore_dhall.main(tmp_path, cores=2, quick=True)
+    ends = {}
+    for mode, sim in sims.items():
+        jobs = sim.trace.jobs()
+        ends[mode] = (jobs.loc[(jobs["task"] == "heavy") & (jobs["job"] == 0), "finish"].item(),
+                      int(jobs["deadline_miss"].sum()))
+        assert (tmp_path / f"{mode}_schedule.png").stat().st_size > 0
+    assert ends == {"global_edf": (0.0102, 1), "global_rm": (0.0104, 2), "partitioned_edf": (0.01, 0),
+                    "global_fp_heavy_first": (0.01, 0)}
+    with pytest.raises(ConfigurationError, match="1"):
+        multicore_dhall.main(tmp_path, cores=1)
