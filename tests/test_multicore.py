@@ -383,3 +383,47 @@ def test_the_dhall_experiment(tmp_path):
                     "global_fp_heavy_first": (0.01, 0)}
     with pytest.raises(ConfigurationError, match="1"):
         multicore_dhall.main(tmp_path, cores=1)
+
+
+def test_priority_inheritance_crosses_cores():
+    """'low' (core 1) holds a monitor; 'mid' (core 1) preempts it at 0.5 ms; 'high' (core 0)
+    blocks on the monitor at 1 ms: low inherits high's priority, preempts mid on core 1,
+    leaves the monitor at 2.5 ms, and high runs 2.5..3 ms (without inheritance: 5..5.5)."""
+    from netcosim import Monitor
+    results = {}
+    for inheritance in (True, False):
+        m = Monitor("m", inheritance=inheritance)
+        sim = Simulation()
+        node = sim.node("cpu", cores=2)
+
+        def low(ctx):
+            yield m.enter()
+            yield ctx.execute(2 * MS)
+            m.exit()
+
+        def high(ctx):
+            yield m.enter()
+            yield ctx.execute(0.5 * MS)
+            m.exit()
+        node.periodic(low, period=20 * MS, priority=3, name="low", core=1)
+        node.periodic(_busy(3 * MS), period=20 * MS, offset=0.5 * MS, priority=2, name="mid", core=1)
+        node.periodic(high, period=20 * MS, offset=1 * MS, priority=1, name="high", core=0)
+        sim.run(0.01)
+        jobs = sim.trace.frame("jobs").set_index("task")
+        results[inheritance] = {t: jobs.loc[t, "finish"] for t in ("low", "mid", "high")}
+    assert results[True] == {"low": 0.0025, "mid": 0.005, "high": 0.003}
+    assert results[False] == {"low": 0.005, "mid": 0.0035, "high": 0.0055}
+
+
+def test_a_handler_on_a_global_node_preempts_the_worst_task():
+    sim = Simulation()
+    node = sim.node("cpu", cores=2, scheduling="global")
+    node.periodic(_busy(3 * MS), period=20 * MS, priority=1, name="a")
+    node.periodic(_busy(3 * MS), period=20 * MS, priority=2, name="b")
+    irq = node.handler(_busy(0.5 * MS), name="irq")
+    node.timer(irq, at=1 * MS)
+    sim.run(0.01)
+    jobs = sim.trace.frame("jobs").set_index("task")
+    assert jobs.loc["a", ["finish", "core"]].tolist() == [0.003, 0]
+    assert jobs.loc["irq", ["start", "finish", "core"]].tolist() == [0.001, 0.0015, 1]
+    assert jobs.loc["b", ["finish", "core", "migrations"]].tolist() == [0.0035, 1, 0]
