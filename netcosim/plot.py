@@ -219,10 +219,31 @@ def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None,
         raise ValueError("empty schedule: nothing to plot (did the simulation run?)")
     labels = (df["node"].astype(str) + "." + df["task"].astype(str)) if node is None else df["task"].astype(str)
     df = df.assign(label=labels.to_numpy())
-    ax, _, _ = plot_staircases(df, "label", TASK_STATES, order=tasks, t_range=t_range, ax=ax, what="task")
+    ax, row_of, (t0, t1) = plot_staircases(df, "label", TASK_STATES, order=tasks, t_range=t_range, ax=ax,
+                                           what="task")
+    if "core" in df.columns:
+        _shade_cores(ax, df, row_of, t1)
     ax.set_title(title or "schedule (high = running, medium = ready, low = idle)")
     save(ax, path)
     return ax
+
+
+def _shade_cores(ax, df: pd.DataFrame, row_of: dict, t_end: float) -> None:
+    """Shade each running interval of a schedule with a ``core`` column in its core's
+    colour (a multicore node's trace), with a legend entry per core."""
+    seen: set[int] = set()
+    for lab, sel in df.groupby("label", sort=False, observed=True):
+        if lab not in row_of:
+            continue
+        times = sel["time"].to_numpy(dtype=float)
+        ends = np.append(times[1:], t_end)
+        for t, end, st, core in zip(times, ends, sel["state"].astype(str), sel["core"]):
+            if st == "running" and core >= 0 and end > t:
+                ax.broken_barh([(t, end - t)], (row_of[lab], 0.5), facecolors=f"C{int(core) % 10}", alpha=0.3,
+                               label=None if int(core) in seen else f"core {int(core)}")
+                seen.add(int(core))
+    if seen:
+        ax.legend(loc="upper right", fontsize="small")
 
 
 def plot_signals(signals: pd.DataFrame, columns: Sequence[tuple[str, str]], *, path=None, ax=None,

@@ -176,23 +176,39 @@ class Simulation:
         self._names[name] = obj
 
     def node(self, name: str, scheduler: Any = "fixed_priority", *, context_switch: float = 0.0,
-             speed: float = 1.0, clock: Any = None, clock_offset: float | None = None,
+             speed: float = 1.0, cores: int = 1, scheduling: str = "partitioned",
+             migration: float = 0.0, clock: Any = None, clock_offset: float | None = None,
              clock_drift: float | None = None) -> "Node":
-        """Add a real-time kernel (one CPU) called *name*.
+        """Add a real-time kernel called *name* (one CPU unless ``cores`` > 1).
 
         ``scheduler`` is a policy instance or one of ``"fixed_priority"``,
         ``"rate_monotonic"``, ``"deadline_monotonic"``, ``"edf"``.  ``context_switch``
         is the CPU time (s, at speed 1) of one context switch; ``speed`` scales every
-        execution time (2.0 = twice as fast).  ``clock``: a
+        execution time (2.0 = twice as fast).  ``cores`` (1..64): the number of CPUs;
+        ``scheduling``: ``"partitioned"`` (each task pinned with ``core=k``, TrueTime's
+        affinity) or ``"global"`` (one ready queue, jobs migrate); ``migration``: the cost
+        (s, at speed 1) of resuming a job on another core under global scheduling
+        (:mod:`netcosim.kernel.multicore`).  ``clock``: a
         :class:`~netcosim.kernel.localclock.LocalClock` (or ``clock_offset`` s and
         ``clock_drift``, dimensionless, 50e-6 = 50 ppm: TrueTime's kernel block parameters);
         periods, offsets, timers, sleeps and ``ctx.now`` are then in the node's local time
         (``docs/kernel.md``, "Local clocks").  Without one the node runs on simulation time.
         """
+        from .kernel.multicore import MAX_CORES, SCHEDULING, MulticoreNode
         from .kernel.node import Node
+        n = validate.integer(cores, f"node {name!r}: cores", lo=1, hi=MAX_CORES)
+        validate.choice(scheduling, f"node {name!r}: scheduling", SCHEDULING)
         self._check_new_name(name)
-        node = Node(self, name, scheduler, context_switch=context_switch, speed=speed, clock=clock,
-                    clock_offset=clock_offset, clock_drift=clock_drift)
+        clocked = {"clock": clock, "clock_offset": clock_offset, "clock_drift": clock_drift}
+        if n == 1 and scheduling == "partitioned":
+            if migration != 0:
+                validate.non_negative(migration, f"node {name!r}: migration")
+                raise ConfigurationError(f"node {name!r}: migration={migration!r} s needs scheduling='global' "
+                                         f"and several cores")
+            node = Node(self, name, scheduler, context_switch=context_switch, speed=speed, **clocked)
+        else:
+            node = MulticoreNode(self, name, scheduler, cores=n, scheduling=scheduling, migration=migration,
+                                 context_switch=context_switch, speed=speed, **clocked)
         self._register(name, node)
         self.nodes[name] = node
         return node

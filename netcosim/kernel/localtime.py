@@ -296,5 +296,7 @@ def release_local(node: Any, task: Task, t: int) -> Job | None:
             return None
         task.pending.append(job)
         return job
-    node._activate(job)
+    # on a partitioned multicore node the task's core activates it (its ready queue)
+    pinned = getattr(node, "_pinned", None)
+    (node if not pinned else pinned.get(task, node))._activate(job)
     return job

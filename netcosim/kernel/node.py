@@ -41,6 +41,9 @@ def _check_target(target: Any, what: str) -> None:
 class Node(Dispatcher):
     """A CPU with a scheduler.  Create with :meth:`Simulation.node`."""
 
+    #: False: one CPU (a :class:`~netcosim.kernel.multicore.MulticoreNode` has several)
+    multicore = False
+
     def __init__(self, sim, name: str, scheduler: Any = "fixed_priority", *, context_switch: float = 0.0,
                  speed: float = 1.0, clock: LocalClock | None = None, clock_offset: float | None = None,
                  clock_drift: float | None = None):
@@ -133,7 +136,10 @@ class Node(Dispatcher):
         self._release = MethodType(release_local, self)  # type: ignore[method-assign]
 
     # ------------------------------------------------------------------ tasks
-    def _add_task(self, body, kind, name, server=None, **kw) -> Task:
+    def _add_task(self, body, kind, name, server=None, core=None, **kw) -> Task:
+        if core is not None and core != 0:
+            raise ConfigurationError(f"node {self.name!r} has one core (core 0); got core={core!r}: create it "
+                                     f"with sim.node(..., cores=N) for more")
         if server is not None and (not isinstance(server, Server) or server.node is not self):
             raise ConfigurationTypeError(f"node {self.name!r}: server must be a server of this node "
                                          f"(node.cbs(...) or node.tbs(...)), got {server!r}")
@@ -159,17 +165,19 @@ class Node(Dispatcher):
                  deadline: float | None = None, wcet: float | None = None, name: str | None = None,
                  preemptible: bool = True, on_busy: str = "queue", on_deadline_miss=None,
                  on_budget_overrun=None, max_pending: int | None = DEFAULT_MAX_PENDING,
-                 on_queue_full: str = "drop", server=None):
+                 on_queue_full: str = "drop", server=None, core: int | None = None):
         """Add a periodic task released at ``offset + k*period`` (s).  Usable as a decorator.
 
         ``priority``: small = high (fixed-priority policy; ignored by RM/DM/EDF).
         ``deadline``: relative deadline (default: the period).  ``max_pending`` (jobs,
         None: unbounded) and ``on_queue_full`` (``"drop"`` or ``"error"``): the bound on
         queued jobs (:class:`~netcosim.kernel.task.Task`).  ``server``: a server of this
-        node (:meth:`cbs`, :meth:`tbs`) that serves the task.
+        node (:meth:`cbs`, :meth:`tbs`) that serves the task.  ``core``: the core the task is
+        pinned to on a partitioned multicore node (default 0; :mod:`~netcosim.kernel.multicore`).
         """
         def make(fn):
-            task = self._add_task(fn, "periodic", name, server=server, priority=priority, period=period,
+            task = self._add_task(fn, "periodic", name, server=server, core=core, priority=priority,
+                                  period=period,
                                   offset=offset,
                                   deadline=deadline, wcet=wcet, preemptible=preemptible, on_busy=on_busy,
                                   on_deadline_miss=on_deadline_miss, on_budget_overrun=on_budget_overrun,
@@ -181,28 +189,31 @@ class Node(Dispatcher):
     def aperiodic(self, body: Callable | None = None, *, priority=None, deadline: float | None = None,
                   wcet: float | None = None, name: str | None = None, preemptible: bool = True,
                   on_busy: str = "queue", on_deadline_miss=None, on_budget_overrun=None,
-                  max_pending: int | None = DEFAULT_MAX_PENDING, on_queue_full: str = "drop", server=None):
+                  max_pending: int | None = DEFAULT_MAX_PENDING, on_queue_full: str = "drop", server=None,
+                  core: int | None = None):
         """Add a task whose jobs are released by ``task.release()``, triggers, timers or messages.
 
         ``deadline``: relative deadline (s) of each job; ``wcet``: execution budget (s);
         ``max_pending``, ``on_queue_full``: the bound on queued jobs, as for :meth:`periodic`;
-        ``server``: a server of this node that serves the task, as for :meth:`periodic`.
+        ``server``: a server of this node that serves the task, and ``core``, as for :meth:`periodic`.
         """
         def make(fn):
-            return self._add_task(fn, "aperiodic", name, server=server, priority=priority, deadline=deadline, wcet=wcet,
+            return self._add_task(fn, "aperiodic", name, server=server, core=core, priority=priority,
+                                  deadline=deadline, wcet=wcet,
                                   preemptible=preemptible, on_busy=on_busy, on_deadline_miss=on_deadline_miss,
                                   on_budget_overrun=on_budget_overrun, max_pending=max_pending,
                                   on_queue_full=on_queue_full)
         return make if body is None else make(body)
 
     def handler(self, body: Callable | None = None, *, priority: float = 0, name: str | None = None,
-                deadline: float | None = None):
+                deadline: float | None = None, core: int | None = None):
         """Add an interrupt handler: it beats every task; handlers are ordered by priority.
 
-        ``deadline``: relative deadline (s) of each activation.
+        ``deadline``: relative deadline (s) of each activation.  ``core``: the core it runs
+        on, on a partitioned multicore node (default 0).
         """
         def make(fn):
-            return self._add_task(fn, "handler", name, priority=priority, deadline=deadline)
+            return self._add_task(fn, "handler", name, core=core, priority=priority, deadline=deadline)
         return make if body is None else make(body)
 
     # ---------------------------------------------------------------- servers

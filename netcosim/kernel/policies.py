@@ -6,10 +6,10 @@ policy; among handlers the handler priority decides.  Equal keys are served FIFO
 release order, and a newly ready job never preempts a running job with an equal key.
 Under EDF, equal absolute deadlines are therefore served in release order.
 
-A policy that must see the ready jobs to decide -- a server under EDF, global scheduling
-on several cores -- overrides :meth:`SchedulingPolicy.choose`; the key-based rule stays
-the default and costs nothing extra (the dispatcher inlines it and calls ``choose`` only
-when a policy class has its own).
+A policy that must see the ready jobs to decide -- a server under EDF -- overrides
+:meth:`SchedulingPolicy.choose`; the key-based rule stays the default and costs nothing
+extra (the dispatcher inlines it and calls ``choose`` only when a policy class has its
+own).  Multicore nodes (:mod:`~netcosim.kernel.multicore`) schedule by the key alone.
 """
 
 from __future__ import annotations

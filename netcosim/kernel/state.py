@@ -43,7 +43,8 @@ class KernelState:
     _dispatch_event: Rearmable
     _dispatch_callbacks: list[Callable]
     _choose: Callable[[ReadyQueue, Any], Job | None] | None  # the policy's `choose`, if it has its own
-    # the CPU: one per node today (a multicore node will hold these per core)
+    # the CPU: the node's own on a one-core node; a multicore node's cores hold these per
+    # core (kernel.multicore.Core, itself a Dispatcher), the node's stay unused
     running: Job | None
     _loaded: Job | None         # the job whose context is on the CPU
     _in_cs: bool                # a context switch is under way

@@ -29,9 +29,15 @@ __all__ = ["JOB_COLUMNS", "JOB_RAW", "SCHEDULE_RAW", "STATE_CODES", "TASK_STATES
 #: Code of each task state in the schedule table's stored rows (its position in TASK_STATES).
 STATE_CODES = {state: code for code, state in enumerate(TASK_STATES)}
 
+#: Stored code of ``running`` on core *k* of a multicore node: ``RUNNING_ON_CORE + k``
+#: (a one-core node stores ``STATE_CODES["running"]``: core 0).
+RUNNING_ON_CORE = 16
+
 #: Columns of the schedule table as stored by the kernel: time in integer ticks, the
 #: kernel's task object (its node and name are read when the table is), the state's code
-#: (:data:`STATE_CODES`).  Reported as ``time`` (s), ``node``, ``task``, ``state``.
+#: (:data:`STATE_CODES`, or :data:`RUNNING_ON_CORE` + core).  Reported as ``time`` (s),
+#: ``node``, ``task``, ``state``, and ``core`` when the table holds rows of a multicore
+#: node's tasks.
 SCHEDULE_RAW = ("time", "task", "state")
 
 #: Columns of the jobs table as reported (times in seconds; NaN where not applicable).
@@ -75,6 +81,12 @@ def _task_names(tasks: pd.Series) -> tuple[pd.Series, pd.Series]:
             pd.Series(categorical_from_codes(codes, [t.name for t in unique]), index=tasks.index))
 
 
+def _multicore(unique: list) -> bool:
+    """True when one of the kernel task objects *unique* is on a multicore node: the
+    reported tables then get their ``core`` (and jobs ``migrations``) columns."""
+    return any(t.node.multicore for t in unique)
+
+
 def _seconds(ticks: pd.Series):
     """Integer ticks as float seconds, ``float(ticks) / TICKS_PER_SECOND`` (NaN where unset)."""
     import numpy as np
@@ -91,12 +103,23 @@ def _schedule_frame(df: pd.DataFrame) -> pd.DataFrame:
     import pandas as pd
     node, task = _task_names(df["task"])
     states = df["state"].to_numpy()
-    return pd.DataFrame({
+    if states.dtype == object:
+        states = states.astype(np.intp, copy=False)
+    core = None
+    if _multicore(_per_task(df["task"])[1]):   # the core of each running row, -1 for other states
+        running = STATE_CODES["running"]
+        states = states.astype(np.intp)
+        on_core = states >= RUNNING_ON_CORE
+        core = np.where(on_core, states - RUNNING_ON_CORE, np.where(states == running, 0, -1))
+        states = np.where(on_core, running, states)
+    frame = pd.DataFrame({
         "time": _seconds(df["time"]),
         "node": node, "task": task,
-        "state": categorical_from_codes(states.astype(np.intp, copy=False) if states.dtype == object else states,
-                                        list(TASK_STATES)),
+        "state": categorical_from_codes(states, list(TASK_STATES)),
     })
+    if core is not None:
+        frame["core"] = core.astype(np.int64)
+    return frame
 
 
 def _local_deadlines(deadline: pd.Series, job: pd.Series, codes, unique: list) -> pd.Series:
@@ -147,7 +170,23 @@ def _jobs_frame(df: pd.DataFrame) -> pd.DataFrame:
     for c in ("deadline_miss", "budget_overrun", "killed"):
         df[c] = df[c].astype(bool)
     df["job"] = df["job"].astype(int)
+    if _multicore(unique):
+        jobs = df["job"].to_numpy()
+        df["core"] = np.array([_job_core(unique[c], j) for c, j in zip(codes, jobs)], dtype=np.int64)
+        df["migrations"] = np.array([_job_migrations(unique[c], j) for c, j in zip(codes, jobs)], dtype=np.int64)
+        return df[list(JOB_COLUMNS) + ["core", "migrations"]]
     return df[list(JOB_COLUMNS)]
+
+
+def _job_core(task, job: int) -> int:
+    """The core job *job* of *task* finished on (0 on a one-core node; a multicore node's
+    ``job_core``)."""
+    return task.node.job_core(task, job) if task.node.multicore else 0
+
+
+def _job_migrations(task, job: int) -> int:
+    """The migrations of job *job* of *task* (0 on a one-core node)."""
+    return task.node.job_migrations(task, job) if task.node.multicore else 0
 
 
 def schedule_table(trace: Trace) -> Recorder:
