@@ -31,10 +31,12 @@ from netcosim.errors import ConfigurationError, ConfigurationTypeError
 EXPERIMENTS = [
     ("flycrane_network", "§4.6.1, Fig. 4.11, App. A: networked Fly-crane over lossy 802.11b, offline vs online"),
     ("servo", "TrueTime servo example: PID with 2 ms computational delay"),
-    ("threeservos", "TrueTime three-servo overload: deadline monotonic vs EDF"),
+    ("threeservos", "TrueTime three-servo overload: deadline monotonic vs EDF, task 3 in a CBS or a TBS"),
     ("networked_servo", "TrueTime networked servo on CSMA/CD and CAN with an interfering node"),
     ("gateway", "TrueTime gateway example: a loop over three CAN buses, end-to-end delay with and without disturbance"),
     ("aodv", "TrueTime AODV example: ad hoc routing over 802.11b, route break and repair, hello intervals"),
+    ("clock_sync", "Local clocks: two-way time transfer over a network, residual offset vs drift, period, asymmetry"),
+    ("multicore_dhall", "Multicore: Dhall's effect, global vs partitioned EDF and RM on M cores"),
     ("loss_sweep_servo", "Networked servo over 802.11b: loss sweep, broadcast vs unicast, frame vs message loss"),
     ("ch2_landing", "Ch. 2: tethered-UAV landing, NMPC alone vs two-layer controller, calm and wind"),
     ("ch3_fig3_8", "Fig. 3.8: offline vs online gain, Fly-crane, small and large ball"),
