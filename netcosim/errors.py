@@ -65,3 +65,8 @@ class OverloadWarning(UserWarning):
     """The first counted drop of a bounded queue (a task's pending jobs): the run goes on,
     the drops are counted (``task.dropped``)."""
 
+
+
+class BatteryEmptyWarning(UserWarning):
+    """A node's battery ran empty: the node stopped (its jobs and radios; see ``docs/kernel.md``,
+    "Energy and batteries").  Warned once per battery."""

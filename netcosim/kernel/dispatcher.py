@@ -140,8 +140,7 @@ class Dispatcher(Interpreter):
         ready.live -= 1
         self.running = best  # _switch_in, inlined (best is not the non-preemptible job)
         if self._cs_ticks and self._loaded is not best:
-            self._in_cs = True
-            Timer(self._env, self._cs_ticks, self._cs_done, best)
+            self._start_cs(best)
             return
         if best.remaining > 0:
             self._run(best)
@@ -201,8 +200,7 @@ class Dispatcher(Interpreter):
             self._np_job = None
         self.running = job
         if self._cs_ticks and self._loaded is not job:
-            self._in_cs = True
-            Timer(self._env, self._cs_ticks, self._cs_done, job)
+            self._start_cs(job)
             return
         self._run(job)
 

@@ -56,6 +56,18 @@ class Interpreter(Overruns):
         else:
             self._step(job)
 
+    def _start_cs(self, job: Job) -> None:
+        """Switch *job* in: ``_cs_ticks`` of non-preemptible kernel work, then ``_cs_done``
+        (the timer is kept, so that a speed change can move it and a power-off cancel it)."""
+        self._in_cs = True
+        env = self._env
+        self._cs_end = env.now + self._cs_ticks
+        self._cs_timer = t = Timer(env, self._cs_ticks, self._cs_done, job)
+        meter = self._cpu_meter
+        if meter is not None:       # the CPU is busy from now until the switch ends
+            t.callbacks.append(meter.update)
+            meter.update()
+
     def _segment_done(self, ev: Timer) -> None:
         job = ev.arg
         now = self._env.now

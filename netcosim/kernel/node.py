@@ -16,6 +16,7 @@ from typing import Any, Callable
 
 from .. import validate
 from ..clock import Rearmable, Timer
+from ..energy import Battery, check_cpu_model
 from ..errors import ConfigurationError, ConfigurationTypeError, NotConnectedError
 from ..recorder import Sink
 from ..timebase import MAX_SECONDS, MAX_TICKS, RESOLUTION, TICKS_PER_SECOND, to_ticks
@@ -23,6 +24,7 @@ from .dispatcher import Dispatcher
 from .io import AnalogIn, AnalogOut
 from .localclock import LocalClock
 from .policies import EDF, make_policy, own_choose
+from .power import CpuMeter, change_speed, power_off
 from .ready import ReadyQueue
 from .releases import Releases
 from .servers import CBS, TBS, ServedEDF, Server
@@ -51,21 +53,21 @@ class Node(Dispatcher):
         self.name = name
         self.policy = make_policy(scheduler)
         self._choose = own_choose(self.policy)  # None: the dispatcher's inlined key rule
-        self.speed = validate.positive(speed, f"node {name!r}: speed")
-        if RESOLUTION / self.speed > MAX_SECONDS:
-            raise ConfigurationError(f"node {name!r}: speed={speed!r} is so slow that 1 ps of CPU time would "
-                                     f"last beyond netcosim's time range, {MAX_SECONDS:.6g} s")
-        self._tick_scale = TICKS_PER_SECOND / self.speed
         cs = to_ticks(context_switch, f"node {name!r} context_switch")
         self.context_switch = context_switch
-        if cs / self.speed > MAX_TICKS:
-            raise ConfigurationError(f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} "
-                                     f"lasts beyond netcosim's time range, {MAX_SECONDS:.6g} s")
-        self._cs_ticks: int = int(round(cs / self.speed))
-        if cs and not self._cs_ticks:
-            raise ConfigurationError(
-                f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} is "
-                f"{context_switch / speed!r} s, below the time resolution {RESOLUTION} s")
+        self._cs_work = cs          # the context switch's work: ticks at speed 1
+        self._tick_scale, self._cs_ticks = self._scaled(speed)
+        self._speed = float(speed)
+        self._cs_timer: Timer | None = None     # the context switch under way, ending at _cs_end
+        self._cs_end: int = 0
+        self._work_carry: dict = {}             # rounding carry of rescaled segments (kernel.power)
+        self._meters: list = []                 # power meters drawing from the battery (netcosim.energy)
+        self._battery: Any = None
+        self._cpu_meter: Any = None
+        #: False once the node's battery ran empty (the node then does nothing)
+        self.powered = True
+        #: releases dropped because the node was off (empty battery)
+        self.releases_lost = 0
         self.tasks: dict[str, Task] = {}
         #: the node's bandwidth servers by name (:meth:`cbs`, :meth:`tbs`)
         self.servers: dict[str, Any] = {}
@@ -134,6 +136,97 @@ class Node(Dispatcher):
         self._local = LocalTime(self, clock)
         self._releases = LocalReleases(self._local)  # type: ignore[assignment]
         self._release = MethodType(release_local, self)  # type: ignore[method-assign]
+
+    # ------------------------------------------------------------------ speed and energy
+    def _scaled(self, speed: Any) -> tuple[float, int]:
+        """``(ticks per second of CPU work, context-switch ticks)`` at *speed*, checked."""
+        name = self.name
+        validate.positive(speed, f"node {name!r}: speed")
+        if RESOLUTION / speed > MAX_SECONDS:
+            raise ConfigurationError(f"node {name!r}: speed={speed!r} is so slow that 1 ps of CPU time would "
+                                     f"last beyond netcosim's time range, {MAX_SECONDS:.6g} s")
+        cs = self._cs_work
+        context_switch = self.context_switch
+        if cs / speed > MAX_TICKS:
+            raise ConfigurationError(f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} "
+                                     f"lasts beyond netcosim's time range, {MAX_SECONDS:.6g} s")
+        cs_ticks = int(round(cs / speed))
+        if cs and not cs_ticks:
+            raise ConfigurationError(
+                f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} is "
+                f"{context_switch / speed!r} s, below the time resolution {RESOLUTION} s")
+        return TICKS_PER_SECOND / speed, cs_ticks
+
+    @property
+    def speed(self) -> float:
+        """CPU speed (1: nominal): execution and context switches progress at ``speed`` times
+        simulated time.  Settable at run time (``node.speed = s``, :meth:`set_speed`)."""
+        return self._speed
+
+    @speed.setter
+    def speed(self, speed: float) -> None:
+        self.set_speed(speed)
+
+    def set_speed(self, speed: float) -> None:
+        """Change the CPU speed now (DVS), e.g. from task code: ``ctx.node.set_speed(0.5)``.
+
+        *speed* must be a positive finite number.  The remaining work of the running
+        segment, of preempted segments and of a context switch under way is rescaled at
+        this instant (work = ticks * speed, kept exactly across changes: see
+        :mod:`netcosim.kernel.power`); later ``execute`` requests and context switches use
+        the new speed.  The CPU's power meter, if any, changes now too.
+        """
+        old = self._speed
+        scale, cs_ticks = self._scaled(speed)
+        speed = float(speed)
+        if speed == old:
+            return
+        self._tick_scale, self._cs_ticks = scale, cs_ticks
+        self._speed = speed
+        change_speed(self, old, speed)
+        if self._cpu_meter is not None:
+            self._cpu_meter.update()
+
+    def set_power_model(self, model: Any) -> None:
+        """Meter the CPU's power with *model* (``model.power(busy, speed) -> W``:
+        :class:`~netcosim.energy.ConstantPower`, TrueTime's, or :class:`~netcosim.energy.DvsPower`)
+        from now on; the energy shows in :attr:`energy` and the ``energy`` table."""
+        model = check_cpu_model(model, f"node {self.name!r}")
+        if self._cpu_meter is not None:
+            self._cpu_meter.model = model
+            self._cpu_meter.update()
+            return
+        self._cpu_meter = CpuMeter(self, model)
+
+    def set_battery(self, battery: Any) -> Any:
+        """Supply this node (its CPU and its radios) from *battery* (a :class:`~netcosim.energy.Battery`);
+        returns it.  When it runs empty the node stops (``docs/kernel.md``, "Energy and batteries")."""
+        if not isinstance(battery, Battery):
+            raise ConfigurationTypeError(f"node {self.name!r}: set_battery needs a netcosim.energy.Battery, "
+                                         f"got {battery!r}")
+        if self._battery is not None:
+            raise ConfigurationError(f"node {self.name!r} already has a battery")
+        self._battery = battery
+        battery._attach(self)
+        return battery
+
+    @property
+    def battery(self) -> Any:
+        """The node's :class:`~netcosim.energy.Battery` (None: an unlimited supply)."""
+        return self._battery
+
+    @property
+    def energy(self) -> float:
+        """Energy (J) used so far by the node's metered consumers (CPU and radios)."""
+        return sum(m.energy for m in self._meters)
+
+    def _release_lost(self, task: Task, t: int) -> None:
+        """``_release`` of a node whose battery is empty: nothing runs; counted."""
+        self.releases_lost += 1
+        return None
+
+    def _power_off(self) -> None:
+        power_off(self)
 
     # ------------------------------------------------------------------ tasks
     def _add_task(self, body, kind, name, server=None, core=None, **kw) -> Task:

@@ -1,0 +1,150 @@
+"""A node's speed changes, CPU power meter and power-off (the kernel's side of ``netcosim.energy``).
+
+**Speed changes (DVS).**  Work is measured in ticks at speed 1: a segment of ``w`` work
+ticks lasts ``w / speed`` ticks of simulated time.  When the speed changes from ``s0`` to
+``s1`` at ``now``, every job with CPU work left in its current segment -- the running one
+(its segment timer is moved) and the preempted ones -- has its remaining time ``r`` (ticks
+at ``s0``) replaced by ``round(W / s1)`` with ``W = r * s0 + carry`` the exact remaining
+work (rational arithmetic, :class:`fractions.Fraction` of the float speeds); the rounding
+error ``carry = W - round(W / s1) * s1`` stays with the job's segment and enters the next
+change, so no work is lost or invented however often the speed changes: the segment's end
+is rounded to the nearest tick once, as ``execute`` rounds it at a fixed speed (±½ tick).
+A context switch under way is rescaled the same way.  Execution times (``exec_done``, the
+jobs table's ``execution`` column) are CPU time in simulated seconds: at half speed they
+double.  Budgets (``wcet``) count the same simulated CPU time.
+
+**CPU meter.**  The CPU is *busy* while a job's segment or a context switch runs (a task
+is ``running`` in the schedule table, or a switch is under way) and idle otherwise; the
+meter watches the node's schedule rows and its context switches and sets the power of the
+model (``model.power(busy, speed)``) at every change, including speed changes.
+
+**Power-off.**  When the node's battery runs empty, every job is killed (a row with
+``killed``, finish = that instant), the periodic releases stop, later releases of any kind
+(timers, triggers, messages, ``task.release()``) are dropped and counted in
+``node.releases_lost``, and the node's radio stations go deaf and mute
+(:meth:`~netcosim.network.wireless.RadioNetwork._power_off`).
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import TYPE_CHECKING, Any
+
+from ..clock import Timer
+from ..energy import PowerMeter
+from .tables import STATE_CODES
+
+if TYPE_CHECKING:
+    from .task import Job
+
+_RUNNING = STATE_CODES["running"]
+
+
+class CpuMeter(PowerMeter):
+    """The power meter of a node's CPU (source ``"cpu"``); ``model.power(busy, speed)`` W."""
+
+    __slots__ = ("model", "busy_task", "sink")
+
+    def __init__(self, node: Any, model: Any):
+        self.model = model
+        r = node.running
+        self.busy_task = r.task if r is not None and r.seg_timer is not None else None
+        self.sink = node._sched
+        super().__init__(node, "cpu", model.power(self.busy_task is not None or node._in_cs, node._speed))
+        node._sched = self       # the node appends its schedule rows here: see append
+
+    def _power_now(self) -> float:
+        node = self.owner
+        return self.model.power(self.busy_task is not None or node._in_cs, node._speed)
+
+    def append(self, row: tuple) -> None:
+        """A schedule row of the node: pass it on, then update the power if the CPU's state changed."""
+        self.sink.append(row)
+        _, task, code = row
+        if code == _RUNNING:
+            self.busy_task = task
+        elif task is self.busy_task:
+            self.busy_task = None
+        self.update()
+
+    def update(self, _event: Any = None) -> None:
+        p = self._power_now()
+        if p != self.power:
+            self.set(p)
+
+
+def _rescale(carry: dict, job: Any, s0: float, s1: float) -> int:
+    """The remaining ticks of *job*'s segment (``job.remaining``, at speed *s0*) at speed *s1*.
+
+    *carry* maps a job to ``(exec_done + remaining, rounding error in work ticks)``: the
+    sum is constant within a segment (preemption moves ticks from one to the other) and
+    grows with every new segment, so a stale carry is never applied."""
+    ticks = job.remaining
+    key = job.exec_done + ticks
+    prev = carry.get(job)
+    c = prev[1] if prev is not None and prev[0] == key else Fraction(0)
+    work = ticks * Fraction(s0) + c
+    f1 = Fraction(s1)
+    new = round(work / f1)
+    carry[job] = (job.exec_done + new, work - new * f1)    # the key once job.remaining = new
+    return new
+
+
+def change_speed(node: Any, s0: float, s1: float) -> None:
+    """Rescale the remaining work of *node*'s jobs and context switch from *s0* to *s1* (now)."""
+    env = node._env
+    now = env.now
+    carry: dict = node._work_carry
+    live = set()
+    for task in node.tasks.values():
+        job: Job | None = task.active
+        if job is None or job.remaining <= 0:
+            continue
+        live.add(job)
+        if job.seg_timer is not None:       # running: close the part done, move the timer
+            job.seg_timer.cancel()
+            elapsed = now - job.seg_start
+            job.exec_done += elapsed
+            job.remaining -= elapsed
+            new = _rescale(carry, job, s0, s1)
+            job.remaining = new
+            job.seg_start = now
+            job.seg_timer = Timer(env, new, node._segment_cb, job)
+        else:
+            job.remaining = _rescale(carry, job, s0, s1)
+    for job in [j for j in carry if j not in live]:
+        del carry[job]
+    t = node._cs_timer
+    if node._in_cs and t is not None:
+        left = node._cs_end - now
+        new = round(left * Fraction(s0) / Fraction(s1))
+        cbs = t.callbacks
+        t.callbacks = []
+        node._cs_timer = nt = Timer(env, new, node._cs_done, t.arg)
+        nt.callbacks = cbs
+        node._cs_end = now + new
+
+
+def power_off(node: Any) -> None:
+    """Stop *node* for good (its battery is empty): see the module docstring."""
+    node.powered = False
+    node._release = node._release_lost      # type: ignore[method-assign]
+    for task in list(node.tasks.values()):
+        node._releases.stop(task)
+    t = node._cs_timer
+    if node._in_cs and t is not None:
+        t.cancel()
+        node._in_cs = False
+        node._cs_timer = None
+    for task in list(node.tasks.values()):
+        for job in list(task.pending):
+            node._kill(job)
+        if task.active is not None:
+            node._kill(task.active)
+        for job in list(task.pending):   # queued behind the killed one
+            node._kill(job)
+    node.running = None
+    for iface in node.interfaces.values():
+        off = getattr(iface.network, "_power_off", None)
+        if off is not None:
+            off(iface)
