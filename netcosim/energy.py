@@ -163,6 +163,21 @@ def _energy_frame(df):
     return df
 
 
+class BareOwner:
+    """The owner of a meter without a kernel node (a bare radio station driven from Python):
+    its ``name`` and ``sim``, no battery."""
+
+    def __init__(self, sim: Any, name: str):
+        self.sim = sim
+        self.name = name
+        self._meters: list[PowerMeter] = []
+        self._battery = None
+
+    @property
+    def energy(self) -> float:
+        return sum(m.energy for m in self._meters)
+
+
 class PowerMeter:
     """One consumer's power (W), constant between changes, and its energy (J) so far.
 

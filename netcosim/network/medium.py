@@ -165,6 +165,10 @@ class WirelessMedium:
                 out.append(ptx * g(distance(ps, self._position(r, t_s))))
         return out
 
+    def forget(self, src) -> None:
+        """*src*'s transmit power or thresholds changed: recompute its received powers at its next frame."""
+        self._rows.pop(src.index, None)
+
     # ------------------------------------------------------------------ segments
     def _close(self, r, now) -> None:
         """Account the bits of r's locked frame received since ``r.seg_t`` at the current SINR."""
@@ -222,6 +226,7 @@ class WirelessMedium:
         self.active.append(tx)
         cap = self.capture_ratio * _TOL
         mac = self.mac
+        off = src.off       # a sender out of energy reaches nobody: its frames fail for that reason
         for r in mac._stations:
             if r is src:
                 continue
@@ -251,7 +256,7 @@ class WirelessMedium:
                             r.rx_ok = False
                             r.rx_reason = "collision"
             else:
-                tx.fail[r.index] = "below_threshold"
+                tx.fail[r.index] = off or r.off or "below_threshold"
                 if L is not None and r.rx_ok:
                     pl = L.powers[r.index]
                     if pl < cap * (r.power - pl):

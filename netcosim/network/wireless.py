@@ -43,6 +43,7 @@ from .frame import BROADCAST
 from .interface import Interface
 from .lifecycle import CARRIER_MEDIUM
 from .medium import Transmission, WirelessMedium
+from ..energy import BareOwner, PowerMeter, check_radio_model
 from .radio import LogDistance, PathLoss, as_position, db_to_ratio, dbm_to_watt, watt_to_dbm
 
 #: The largest power (dBm, either sign) and gain (dB) a radio parameter may have: far beyond
@@ -77,7 +78,7 @@ class RadioStation:
 
     __slots__ = ("iface", "name", "index", "pos", "tx_power_dbm", "tx_w", "sens_w", "cs_w", "power", "n_active",
                  "audible", "rx", "rx_ok", "rx_reason", "seg_t", "logp", "tx", "phy_rng", "awaiting", "ack_timer",
-                 "ack_wait", "responding", "last_seq", "rng", "bo_drawn")
+                 "ack_wait", "responding", "last_seq", "rng", "bo_drawn", "off", "meter", "rstate")
 
     def __init__(self, net: "RadioNetwork", iface: Interface, pos, tx_power_dbm: float, sens_w: float,
                  cs_w: float):
@@ -106,6 +107,22 @@ class RadioStation:
         self.last_seq: dict = {}
         self.rng = net.sim.rng(f"{net.name}/{iface.name}/backoff")
         self.bo_drawn = math.nan
+        #: why the station neither sends nor receives (``"battery_empty"``), None while it works
+        self.off: str | None = None
+        self.meter: Any = None      # its PowerMeter when the network meters radio energy
+        self.rstate = "listen"      # its metered state: "tx", "rx" or "listen"
+
+    def set_tx_power(self, dbm: float) -> None:
+        """Transmit with *dbm* (finite, within +-300 dBm) from the next frame (data or ACK) on;
+        a frame already on the air keeps its power."""
+        net = self.iface.network
+        txp = _dbm(dbm, f"network {net.name!r} node {self.name!r}: tx_power_dbm")
+        net._require_per_station("set_tx_power")
+        if self.off is not None:
+            return
+        self.tx_power_dbm = txp
+        self.tx_w = dbm_to_watt(txp)
+        net.medium.forget(self)
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.iface.network.name}/{self.name}>"
@@ -197,6 +214,8 @@ class RadioNetwork(Network):
         r = self.station_class(self, iface, pos, txp, sens, cs)
         self.medium.init_listener(r)
         self._stations.append(r)
+        if getattr(self, "_energy_model", None) is not None:
+            self._meter(r)
         return r
 
     def station(self, node) -> RadioStation:
@@ -211,6 +230,83 @@ class RadioNetwork(Network):
         """Power (dBm) at *dst* of a transmission by *src* starting now."""
         s, d = self.station(src), self.station(dst)
         return watt_to_dbm(self.medium.powers_from(s)[d.index])
+
+    def set_tx_power(self, node, dbm: float) -> None:
+        """Transmit power (dBm) of *node* (name, kernel node or interface) from its next frame on
+        (:meth:`RadioStation.set_tx_power`); e.g. from task code, transmit-power control."""
+        self.station(node).set_tx_power(dbm)
+
+    def tx_power(self, node) -> float:
+        """Current transmit power (dBm) of *node*."""
+        return self.station(node).tx_power_dbm
+
+    # ------------------------------------------------------------------ energy
+    def _require_per_station(self, what: str) -> None:
+        """Run-time changes of radio parameters need the per-station medium (802.11b's shared
+        idle-slot clock assumes fixed powers)."""
+        if getattr(self, "_fast", False):
+            raise ConfigurationError(f"network {self.name!r}: {what} changes radio powers during the run, which "
+                                     f"the shared idle-slot clock cannot follow; build the network with "
+                                     f"shared_clock=False")
+
+    def set_energy_model(self, model: Any) -> None:
+        """Meter the energy of every station's radio with *model* (``model.power(state, tx_w)``:
+        :class:`~netcosim.energy.RadioPower`, or ``RadioPower.truetime()``), from now on and for
+        stations attached later; the energy is drawn from each node's battery and shows in
+        ``node.energy`` and the ``energy`` table (source: this network's name)."""
+        model = check_radio_model(model, f"network {self.name!r}")
+        self._require_per_station("set_energy_model")
+        first = getattr(self, "_energy_model", None) is None
+        self._energy_model = model
+        if first:
+            start, end = self._air_start, self._air_end
+
+            def air_start(tx: Transmission) -> None:
+                start(tx)
+                self._meter_states(None)
+
+            def air_end(tx: Transmission) -> None:
+                end(tx)
+                self._meter_states(tx.src)      # still ``tx`` until _tx_end clears it
+
+            self._air_start, self._air_end = air_start, air_end
+        for r in self._stations:
+            self._meter(r)
+
+    def _meter(self, r: RadioStation) -> None:
+        model = self._energy_model
+        if r.meter is None:
+            r.rstate = "tx" if r.tx is not None else "rx" if r.rx is not None else "listen"
+            owner = r.iface.node if r.iface.node is not None else BareOwner(self.sim, r.name)
+            r.meter = PowerMeter(owner, self.name, model.power(r.rstate, r.tx_w))
+        else:
+            r.meter.set(model.power(r.rstate, r.tx_w))
+
+    def _meter_states(self, ending: RadioStation | None) -> None:
+        """Set the power of every station whose radio state changed (at an air start or end)."""
+        model = self._energy_model
+        for r in self._stations:
+            m = r.meter
+            if m is None:
+                continue
+            st = ("tx" if r.tx is not None and r is not ending else "rx" if r.rx is not None else "listen")
+            if st != r.rstate:
+                r.rstate = st
+                p = model.power(st, r.tx_w)
+                if p != m.power:
+                    m.set(p)
+
+    def _power_off(self, iface: Interface) -> None:
+        """*iface*'s node ran out of energy: its radio goes deaf (frames to it are lost, reason
+        ``battery_empty``) and mute (what it still sends radiates 0 W and reaches nobody)."""
+        self._require_per_station("a battery running empty")
+        r = iface.mac
+        r.off = "battery_empty"
+        r.tx_w = 0.0
+        r.sens_w = r.cs_w = math.inf
+        self.medium.forget(r)
+        if r.meter is not None:
+            r.meter.stop()
 
     # ------------------------------------------------------------------ transmissions and ACKs
     def _start_tx(self, r: RadioStation, tx: Transmission) -> None:
