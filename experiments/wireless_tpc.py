@@ -89,7 +89,7 @@ def build(tpc: bool = True, *, realistic_radio: bool = False, seed: int = 0):
         node.set_battery(Battery(BATTERY))
         nodes[name] = node
     net.set_energy_model(RadioPower() if realistic_radio else RadioPower.truetime())
-    sensor, controller = nodes["sensor"], nodes["controller"]
+    sensor = nodes["sensor"]
     pd_law = PD()
     y_port, u_port = servo.output(0), servo.input(0)
     replied = {"sensor": True, "controller": True}

@@ -52,6 +52,7 @@ class ConstantPower:
         self.watts = validate.non_negative(watts, "ConstantPower: watts (W)")
 
     def power(self, busy: bool, speed: float) -> float:
+        """``watts`` (W), whatever *busy* and *speed*."""
         return self.watts
 
     def __repr__(self) -> str:
@@ -78,6 +79,7 @@ class DvsPower:
         self.exponent = validate.non_negative(exponent, "DvsPower: exponent")
 
     def power(self, busy: bool, speed: float) -> float:
+        """Power (W) of the CPU busy (True) or idle at *speed* (see the class docstring)."""
         if busy:
             return self.static + self.dynamic * speed ** self.exponent
         return self.static
@@ -120,6 +122,7 @@ class RadioPower:
         return cls(tx_elec=0.0, efficiency=1.0, rx=0.0, listen=0.0)
 
     def power(self, state: str, tx_w: float) -> float:
+        """Power (W) in *state* (``"tx"``, ``"rx"``, ``"listen"``), radiating *tx_w* W when ``"tx"``."""
         if state == "tx":
             return self.tx_elec + tx_w / self.efficiency
         if state == "rx":
@@ -175,6 +178,7 @@ class BareOwner:
 
     @property
     def energy(self) -> float:
+        """Energy (J) its meters used so far."""
         return sum(m.energy for m in self._meters)
 
 
@@ -294,6 +298,7 @@ class Battery:
 
     @property
     def empty(self) -> bool:
+        """True once the battery ran empty."""
         return self.empty_at is not None
 
     def _level_at(self, now: int) -> float:

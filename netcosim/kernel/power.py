@@ -68,6 +68,7 @@ class CpuMeter(PowerMeter):
         self.update()
 
     def update(self, _event: Any = None) -> None:
+        """Set the power for the CPU's state now (busy or idle, speed); also a timer callback."""
         p = self._power_now()
         if p != self.power:
             self.set(p)
@@ -128,7 +129,7 @@ def change_speed(node: Any, s0: float, s1: float) -> None:
 def power_off(node: Any) -> None:
     """Stop *node* for good (its battery is empty): see the module docstring."""
     node.powered = False
-    node._release = node._release_lost      # type: ignore[method-assign]
+    node._release = node._release_lost
     for task in list(node.tasks.values()):
         node._releases.stop(task)
     t = node._cs_timer

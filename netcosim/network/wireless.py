@@ -37,13 +37,13 @@ from typing import Any
 
 from .. import validate
 from ..clock import Timer
+from ..energy import BareOwner, PowerMeter, check_radio_model
 from ..errors import ConfigurationError, ConfigurationTypeError
 from .base import Network
 from .frame import BROADCAST
 from .interface import Interface
 from .lifecycle import CARRIER_MEDIUM
 from .medium import Transmission, WirelessMedium
-from ..energy import BareOwner, PowerMeter, check_radio_model
 from .radio import LogDistance, PathLoss, as_position, db_to_ratio, dbm_to_watt, watt_to_dbm
 
 #: The largest power (dBm, either sign) and gain (dB) a radio parameter may have: far beyond
