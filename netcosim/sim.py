@@ -184,7 +184,8 @@ class Simulation:
         ``scheduler`` is a policy instance or one of ``"fixed_priority"``,
         ``"rate_monotonic"``, ``"deadline_monotonic"``, ``"edf"``.  ``context_switch``
         is the CPU time (s, at speed 1) of one context switch; ``speed`` scales every
-        execution time (2.0 = twice as fast).  ``cores`` (1..64): the number of CPUs;
+        execution time (2.0 = twice as fast; changeable during the run on a one-core node:
+        ``node.set_speed``).  ``cores`` (1..64): the number of CPUs;
         ``scheduling``: ``"partitioned"`` (each task pinned with ``core=k``, TrueTime's
         affinity) or ``"global"`` (one ready queue, jobs migrate); ``migration``: the cost
         (s, at speed 1) of resuming a job on another core under global scheduling

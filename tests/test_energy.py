@@ -307,3 +307,35 @@ def test_radio_tables_unchanged_without_energy():
         sim.run(0.1)
         out.append(sim.trace.frame("frames"))
     pd.testing.assert_frame_equal(out[0], out[1])
+
+
+def test_power_off_kills_running_and_preempted_jobs_and_runs_no_other_code():
+    # busy 1 W, idle 0: 2 mJ last 2 ms of CPU; low runs 0-1 ms, high preempts it at 1 ms and is
+    # running when the battery empties at 2 ms, mid (released at 1.5 ms) waits; killing high must
+    # not start mid: no task code runs after the instant, no job row follows
+    ran = []
+    sim = Simulation()
+    cpu = sim.node("cpu")
+    cpu.set_power_model(DvsPower(0.0, 1.0))
+    cpu.set_battery(Battery(0.002))
+
+    def body(name, c):
+        def b(ctx):
+            ran.append(name)
+            yield ctx.execute(c)
+            ran.append(name + " done")
+        return b
+    cpu.periodic(body("high", 2 * MS), period=10 * MS, offset=1 * MS, priority=1, name="high")
+    cpu.periodic(body("mid", 2 * MS), period=10 * MS, offset=1.5 * MS, priority=1.5, name="mid")
+    cpu.periodic(body("low", 5 * MS), period=10 * MS, priority=2, name="low")
+    cpu.aperiodic(body("late", 1 * MS), priority=0, name="late")
+    sim.call_at(5 * MS, cpu.tasks["late"].release)
+    with pytest.warns(BatteryEmptyWarning):
+        sim.run(0.05)
+    jobs = _jobs(sim).set_index("task")
+    assert ran == ["low", "high"]
+    assert sorted(jobs.index) == ["high", "low", "mid"]
+    assert jobs["killed"].all() and jobs["finish"].tolist() == pytest.approx([2 * MS] * 3, abs=1e-15)
+    assert jobs["start"].isna().tolist() == [False, True, False]    # mid never started
+    assert cpu.releases_lost == 1 and not cpu.powered
+    assert cpu.energy == pytest.approx(0.002, rel=1e-12)

@@ -206,6 +206,10 @@ class Node(Dispatcher):
                                          f"got {battery!r}")
         if self._battery is not None:
             raise ConfigurationError(f"node {self.name!r} already has a battery")
+        for iface in self.interfaces.values():       # e.g. 802.11b's shared idle-slot clock refuses
+            check = getattr(iface.network, "_require_per_station", None)
+            if check is not None:
+                check(f"a battery on node {self.name!r}")
         self._battery = battery
         battery._attach(self)
         return battery

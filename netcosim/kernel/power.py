@@ -137,13 +137,16 @@ def power_off(node: Any) -> None:
         t.cancel()
         node._in_cs = False
         node._cs_timer = None
-    for task in list(node.tasks.values()):
-        for job in list(task.pending):
-            node._kill(job)
-        if task.active is not None:
-            node._kill(task.active)
-        for job in list(task.pending):   # queued behind the killed one
-            node._kill(job)
+    sim = node.sim
+    sim._stepping += 1      # a kill must not dispatch (and run the code of) another job meanwhile
+    try:
+        for task in list(node.tasks.values()):
+            for job in list(task.pending):
+                node._kill(job)
+            if task.active is not None:
+                node._kill(task.active)
+    finally:
+        sim._stepping -= 1
     node.running = None
     for iface in node.interfaces.values():
         off = getattr(iface.network, "_power_off", None)
