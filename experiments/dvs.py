@@ -35,12 +35,12 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from netcosim.controllers.pid import PID
-from netcosim.plants.dc_servo import DCServo
 
 from netcosim import ExactZOH, Simulation
+from netcosim.controllers.pid import PID
 from netcosim.energy import DvsPower
 from netcosim.metrics import iae
+from netcosim.plants.dc_servo import DCServo
 
 from .servo import square_wave
 

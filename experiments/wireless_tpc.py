@@ -37,7 +37,6 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from netcosim.plants.dc_servo import DCServo
 
 from netcosim import ExactZOH, Simulation
 from netcosim.energy import Battery, ConstantPower, RadioPower
@@ -45,6 +44,7 @@ from netcosim.errors import BatteryEmptyWarning
 from netcosim.metrics import iae
 from netcosim.network import IEEE802154
 from netcosim.network.radio import TrueTimePathLoss
+from netcosim.plants.dc_servo import DCServo
 
 H = 0.010               # sampling period (s)
 TPC_PERIOD = 0.025      # transmit-power control period (s)

@@ -2,6 +2,7 @@
 no deadline, a lower one does; cycle-conserving DVS saves more than static DVS."""
 
 import pytest
+
 from netcosim.experiments import dvs
 
 

@@ -4,6 +4,7 @@ controller's battery runs empty after about 4.9 s (0.3 J at 10 mW + about 51 mW 
 import math
 
 import pytest
+
 from netcosim.experiments import wireless_tpc
 
 
