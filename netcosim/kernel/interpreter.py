@@ -61,9 +61,10 @@ class Interpreter(Overruns):
         (the timer is kept, so that a speed change can move it and a power-off cancel it)."""
         self._in_cs = True
         env = self._env
-        self._cs_end = env.now + self._cs_ticks
-        self._cs_timer = t = Timer(env, self._cs_ticks, self._cs_done, job)
-        meter = self._cpu_meter
+        pw = self._pw
+        pw.cs_end = env.now + self._cs_ticks
+        pw.cs_timer = t = Timer(env, self._cs_ticks, self._cs_done, job)
+        meter = pw.cpu_meter
         if meter is not None:       # the CPU is busy from now until the switch ends
             t.callbacks.append(meter.update)
             meter.update()

@@ -24,7 +24,7 @@ from .dispatcher import Dispatcher
 from .io import AnalogIn, AnalogOut
 from .localclock import LocalClock
 from .policies import EDF, make_policy, own_choose
-from .power import CpuMeter, change_speed, power_off
+from .power import CpuMeter, NodePower, change_speed, power_off
 from .ready import ReadyQueue
 from .releases import Releases
 from .servers import CBS, TBS, ServedEDF, Server
@@ -55,19 +55,11 @@ class Node(Dispatcher):
         self._choose = own_choose(self.policy)  # None: the dispatcher's inlined key rule
         cs = to_ticks(context_switch, f"node {name!r} context_switch")
         self.context_switch = context_switch
-        self._cs_work = cs          # the context switch's work: ticks at speed 1
+        # speed and energy state, one attribute (see kernel.power.NodePower); the context
+        # switch's work in ticks at speed 1
+        self._pw = NodePower(1.0, cs)
         self._tick_scale, self._cs_ticks = self._scaled(speed)
-        self._speed = float(speed)
-        self._cs_timer: Timer | None = None     # the context switch under way, ending at _cs_end
-        self._cs_end: int = 0
-        self._work_carry: dict = {}             # rounding carry of rescaled segments (kernel.power)
-        self._meters: list = []                 # power meters drawing from the battery (netcosim.energy)
-        self._battery: Any = None
-        self._cpu_meter: Any = None
-        #: False once the node's battery ran empty (the node then does nothing)
-        self.powered = True
-        #: releases dropped because the node was off (empty battery)
-        self.releases_lost = 0
+        self._pw.speed = float(speed)
         self.tasks: dict[str, Task] = {}
         #: the node's bandwidth servers by name (:meth:`cbs`, :meth:`tbs`)
         self.servers: dict[str, Any] = {}
@@ -145,7 +137,7 @@ class Node(Dispatcher):
         if RESOLUTION / speed > MAX_SECONDS:
             raise ConfigurationError(f"node {name!r}: speed={speed!r} is so slow that 1 ps of CPU time would "
                                      f"last beyond netcosim's time range, {MAX_SECONDS:.6g} s")
-        cs = self._cs_work
+        cs = self._pw.cs_work
         context_switch = self.context_switch
         if cs / speed > MAX_TICKS:
             raise ConfigurationError(f"node {name!r}: context_switch={context_switch!r} s at speed {speed!r} "
@@ -161,7 +153,7 @@ class Node(Dispatcher):
     def speed(self) -> float:
         """CPU speed (1: nominal): execution and context switches progress at ``speed`` times
         simulated time.  Settable at run time (``node.speed = s``, :meth:`set_speed`)."""
-        return self._speed
+        return self._pw.speed
 
     @speed.setter
     def speed(self, speed: float) -> None:
@@ -176,27 +168,29 @@ class Node(Dispatcher):
         :mod:`netcosim.kernel.power`); later ``execute`` requests and context switches use
         the new speed.  The CPU's power meter, if any, changes now too.
         """
-        old = self._speed
+        pw = self._pw
+        old = pw.speed
         scale, cs_ticks = self._scaled(speed)
         speed = float(speed)
         if speed == old:
             return
         self._tick_scale, self._cs_ticks = scale, cs_ticks
-        self._speed = speed
+        pw.speed = speed
         change_speed(self, old, speed)
-        if self._cpu_meter is not None:
-            self._cpu_meter.update()
+        if pw.cpu_meter is not None:
+            pw.cpu_meter.update()
 
     def set_power_model(self, model: Any) -> None:
         """Meter the CPU's power with *model* (``model.power(busy, speed) -> W``:
         :class:`~netcosim.energy.ConstantPower`, TrueTime's, or :class:`~netcosim.energy.DvsPower`)
         from now on; the energy shows in :attr:`energy` and the ``energy`` table."""
         model = check_cpu_model(model, f"node {self.name!r}")
-        if self._cpu_meter is not None:
-            self._cpu_meter.model = model
-            self._cpu_meter.update()
+        pw = self._pw
+        if pw.cpu_meter is not None:
+            pw.cpu_meter.model = model
+            pw.cpu_meter.update()
             return
-        self._cpu_meter = CpuMeter(self, model)
+        pw.cpu_meter = CpuMeter(self, model)
 
     def set_battery(self, battery: Any) -> Any:
         """Supply this node (its CPU and its radios) from *battery* (a :class:`~netcosim.energy.Battery`);
@@ -204,29 +198,47 @@ class Node(Dispatcher):
         if not isinstance(battery, Battery):
             raise ConfigurationTypeError(f"node {self.name!r}: set_battery needs a netcosim.energy.Battery, "
                                          f"got {battery!r}")
-        if self._battery is not None:
+        if self._pw.battery is not None:
             raise ConfigurationError(f"node {self.name!r} already has a battery")
         for iface in self.interfaces.values():       # e.g. 802.11b's shared idle-slot clock refuses
             check = getattr(iface.network, "_require_per_station", None)
             if check is not None:
                 check(f"a battery on node {self.name!r}")
-        self._battery = battery
+        self._pw.battery = battery
         battery._attach(self)
         return battery
 
     @property
     def battery(self) -> Any:
         """The node's :class:`~netcosim.energy.Battery` (None: an unlimited supply)."""
-        return self._battery
+        return self._pw.battery
+
+    @property
+    def _battery(self) -> Any:      # what a power meter draws from (netcosim.energy.PowerMeter)
+        return self._pw.battery
+
+    @property
+    def _meters(self) -> list:      # the node's power meters (netcosim.energy.PowerMeter)
+        return self._pw.meters
 
     @property
     def energy(self) -> float:
         """Energy (J) used so far by the node's metered consumers (CPU and radios)."""
-        return sum(m.energy for m in self._meters)
+        return sum(m.energy for m in self._pw.meters)
+
+    @property
+    def powered(self) -> bool:
+        """False once the node's battery ran empty (the node then does nothing)."""
+        return self._pw.powered
+
+    @property
+    def releases_lost(self) -> int:
+        """Releases dropped because the node was off (its battery empty)."""
+        return self._pw.releases_lost
 
     def _release_lost(self, task: Task, t: int) -> None:
         """``_release`` of a node whose battery is empty: nothing runs; counted."""
-        self.releases_lost += 1
+        self._pw.releases_lost += 1
         return None
 
     def _power_off(self) -> None:

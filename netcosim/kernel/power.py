@@ -40,6 +40,33 @@ if TYPE_CHECKING:
 _RUNNING = STATE_CODES["running"]
 
 
+class NodePower:
+    """A node's speed and energy state, one attribute of the node (``node._pw``).
+
+    Kept in one object so that the node's own attributes stay under CPython's limit of 30
+    for key-sharing instance dictionaries: beyond it every attribute read on the per-job
+    path gets slower (measured: 7 % per job with these fields on the node itself).
+    ``speed``; ``cs_work`` (context-switch work, ticks at speed 1); ``cs_timer``, ``cs_end``
+    (the switch under way and its end tick); ``carry`` (rounding carry of rescaled
+    segments); ``meters``, ``battery``, ``cpu_meter``; ``powered``, ``releases_lost``.
+    """
+
+    __slots__ = ("speed", "cs_work", "cs_timer", "cs_end", "carry", "meters", "battery", "cpu_meter", "powered",
+                 "releases_lost")
+
+    def __init__(self, speed: float, cs_work: int):
+        self.speed = speed
+        self.cs_work = cs_work
+        self.cs_timer: Timer | None = None
+        self.cs_end = 0
+        self.carry: dict = {}
+        self.meters: list = []
+        self.battery: Any = None
+        self.cpu_meter: Any = None
+        self.powered = True
+        self.releases_lost = 0
+
+
 class CpuMeter(PowerMeter):
     """The power meter of a node's CPU (source ``"cpu"``); ``model.power(busy, speed)`` W."""
 
@@ -50,12 +77,12 @@ class CpuMeter(PowerMeter):
         r = node.running
         self.busy_task = r.task if r is not None and r.seg_timer is not None else None
         self.sink = node._sched
-        super().__init__(node, "cpu", model.power(self.busy_task is not None or node._in_cs, node._speed))
+        super().__init__(node, "cpu", model.power(self.busy_task is not None or node._in_cs, node._pw.speed))
         node._sched = self       # the node appends its schedule rows here: see append
 
     def _power_now(self) -> float:
         node = self.owner
-        return self.model.power(self.busy_task is not None or node._in_cs, node._speed)
+        return self.model.power(self.busy_task is not None or node._in_cs, node._pw.speed)
 
     def append(self, row: tuple) -> None:
         """A schedule row of the node: pass it on, then update the power if the CPU's state changed."""
@@ -95,7 +122,8 @@ def change_speed(node: Any, s0: float, s1: float) -> None:
     """Rescale the remaining work of *node*'s jobs and context switch from *s0* to *s1* (now)."""
     env = node._env
     now = env.now
-    carry: dict = node._work_carry
+    pw = node._pw
+    carry: dict = pw.carry
     live = set()
     for task in node.tasks.values():
         job: Job | None = task.active
@@ -115,28 +143,29 @@ def change_speed(node: Any, s0: float, s1: float) -> None:
             job.remaining = _rescale(carry, job, s0, s1)
     for job in [j for j in carry if j not in live]:
         del carry[job]
-    t = node._cs_timer
+    t = pw.cs_timer
     if node._in_cs and t is not None:
-        left = node._cs_end - now
+        left = pw.cs_end - now
         new = round(left * Fraction(s0) / Fraction(s1))
         cbs = t.callbacks
         t.callbacks = []
-        node._cs_timer = nt = Timer(env, new, node._cs_done, t.arg)
+        pw.cs_timer = nt = Timer(env, new, node._cs_done, t.arg)
         nt.callbacks = cbs
-        node._cs_end = now + new
+        pw.cs_end = now + new
 
 
 def power_off(node: Any) -> None:
     """Stop *node* for good (its battery is empty): see the module docstring."""
-    node.powered = False
+    pw = node._pw
+    pw.powered = False
     node._release = node._release_lost
     for task in list(node.tasks.values()):
         node._releases.stop(task)
-    t = node._cs_timer
+    t = pw.cs_timer
     if node._in_cs and t is not None:
         t.cancel()
         node._in_cs = False
-        node._cs_timer = None
+        pw.cs_timer = None
     sim = node.sim
     sim._stepping += 1      # a kill must not dispatch (and run the code of) another job meanwhile
     try:

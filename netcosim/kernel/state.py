@@ -50,9 +50,7 @@ class KernelState:
     _in_cs: bool                # a context switch is under way
     _np_job: Job | None         # non-preemptible job interrupted by a handler
     _cs_ticks: int
-    _cs_timer: Timer | None     # the context switch under way (its end: _cs_end, ticks)
-    _cs_end: int
-    _cpu_meter: Any             # the CPU's power meter (kernel.power.CpuMeter), None unless metered
+    _pw: Any                    # speed and energy (kernel.power.NodePower): the switch under way, the meter
     _cs_done: Callable[[Any], None]
     _spare_timer: Timer | None  # a fired segment timer, re-armed for the next segment
     _segment_cb: Callable[[Any], None]
