@@ -43,6 +43,7 @@ from ..errors import ConfigurationError
 from ..timebase import MAX_TICKS, RESOLUTION, to_ticks
 from .dispatcher import Dispatcher
 from .node import Node
+from .power import NodePower
 from .ready import ReadyQueue
 from .tables import RUNNING_ON_CORE, STATE_CODES
 from .task import Job, Task
@@ -89,6 +90,7 @@ class Core(Dispatcher):
         self.tasks = node.tasks
         self._env = node._env
         self._cs_ticks = node._cs_ticks
+        self._pw = NodePower(node._pw.speed, node._pw.cs_work)  # this core's context switch (kernel.power)
         self._releases = node._releases
         self._sched = _CoreRows(node._sched, index)  # type: ignore[assignment]
         self._jobrec = node._jobrec

@@ -159,6 +159,11 @@ class Node(Dispatcher):
     def speed(self, speed: float) -> None:
         self.set_speed(speed)
 
+    def _one_core(self, what: str) -> None:
+        if self.multicore:
+            raise ConfigurationError(f"node {self.name!r}: {what} is modelled on one-core nodes only, not on a "
+                                     f"multicore node")
+
     def set_speed(self, speed: float) -> None:
         """Change the CPU speed now (DVS), e.g. from task code: ``ctx.node.set_speed(0.5)``.
 
@@ -168,6 +173,7 @@ class Node(Dispatcher):
         :mod:`netcosim.kernel.power`); later ``execute`` requests and context switches use
         the new speed.  The CPU's power meter, if any, changes now too.
         """
+        self._one_core("a speed change")
         pw = self._pw
         old = pw.speed
         scale, cs_ticks = self._scaled(speed)
@@ -184,6 +190,7 @@ class Node(Dispatcher):
         """Meter the CPU's power with *model* (``model.power(busy, speed) -> W``:
         :class:`~netcosim.energy.ConstantPower`, TrueTime's, or :class:`~netcosim.energy.DvsPower`)
         from now on; the energy shows in :attr:`energy` and the ``energy`` table."""
+        self._one_core("a CPU power model")
         model = check_cpu_model(model, f"node {self.name!r}")
         pw = self._pw
         if pw.cpu_meter is not None:
@@ -198,6 +205,7 @@ class Node(Dispatcher):
         if not isinstance(battery, Battery):
             raise ConfigurationTypeError(f"node {self.name!r}: set_battery needs a netcosim.energy.Battery, "
                                          f"got {battery!r}")
+        self._one_core("a battery")
         if self._pw.battery is not None:
             raise ConfigurationError(f"node {self.name!r} already has a battery")
         for iface in self.interfaces.values():       # e.g. 802.11b's shared idle-slot clock refuses
