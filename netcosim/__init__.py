@@ -20,6 +20,11 @@ Kernel: synchronisation
 Kernel: a node's local clock
     :class:`LocalClock` (offset, drift, steps and slews; ``sim.node(..., clock=...)``)
 
+Energy
+    :class:`ConstantPower`, :class:`DvsPower` (CPU power models: ``node.set_power_model``),
+    :class:`RadioPower` (``network.set_energy_model``), :class:`Battery` (``node.set_battery``),
+    :class:`BatteryEmptyWarning`
+
 Networks
     :class:`IdealLink`, :class:`FDMA`, :class:`CSMACD`, :class:`CAN`, :class:`RoundRobin`,
     :class:`TDMA`, :class:`SwitchedEthernet`, :class:`WLAN80211b`, :class:`IEEE802154`,
@@ -62,6 +67,9 @@ _API = {
     "Mailbox": "kernel", "Semaphore": "kernel", "Monitor": "kernel", "ConditionVariable": "kernel",
     # kernel: a node's local clock
     "LocalClock": "kernel",
+    # energy
+    "ConstantPower": "energy", "DvsPower": "energy", "RadioPower": "energy", "Battery": "energy",
+    "BatteryEmptyWarning": "errors",
     # networks
     "IdealLink": "network", "FDMA": "network", "CSMACD": "network", "CAN": "network", "RoundRobin": "network",
     "TDMA": "network", "SwitchedEthernet": "network", "WLAN80211b": "network", "IEEE802154": "network",
@@ -82,7 +90,9 @@ _API = {
 
 if TYPE_CHECKING:
     from .cputime import CPUTimeModel, FixedCPUTime, NonReproducibleWarning, RecordedCPUTime, WallClockCPUTime
+    from .energy import Battery, ConstantPower, DvsPower, RadioPower
     from .errors import (
+        BatteryEmptyWarning,
         ConfigurationError,
         ConfigurationTypeError,
         IntegrationError,
