@@ -15,6 +15,11 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	@echo "== installing netcosim and its dependencies into $(VENV) (about a minute and a half the first time)"
 	$(BIN)/python -m pip install --progress-bar on --upgrade pip
 	$(BIN)/python -m pip install --progress-bar on -e '.[dev]'
+	@# SimSo 0.8.5, the tests' reference for global multicore schedules, needs SimPy 2, whose
+	@# distribution name is SimPy 4's: it goes into a folder of its own, which only the
+	@# comparison's subprocess puts on its path (benchmarks/simso_global.py)
+	$(BIN)/python -m pip install --quiet --no-deps --upgrade --target $(VENV)/simso simso==0.8.5 SimPy==2.3.1
+	rm -rf $(VENV)/simso/simpy-*.dist-info
 	touch $(STAMP)
 
 # The main job: the networked Fly-crane of the thesis (§4.6.1, Fig. 4.11) over lossy 802.11b,

@@ -24,6 +24,9 @@ import random
 from pathlib import Path
 
 REFERENCE = Path(__file__).with_name("simso_global_reference.json")
+REPO = Path(__file__).resolve().parents[1]
+#: where ``make`` installs SimSo 0.8.5 and SimPy 2 (apart from SimPy 4: same distribution name)
+SIMSO_PATH = REPO / ".venv" / "simso"
 RUN_WITH_ALL = False        # a tool, not a timing benchmark (and SimSo is optional)
 PERIODS_MS = (2, 4, 5, 8, 10, 20)
 HORIZON_MS = 80             # two hyperperiods
@@ -148,6 +151,21 @@ def reference_cases(seed: int = 2025) -> list[dict]:
                 cases.append({"policy": policy, "cores": m, "tasks": tasks, "intervals": runs})
                 kept += 1
     return cases
+
+
+def simso_intervals_apart(tasks: list[dict], m: int, policy: str) -> list[list[list[int]]] | None:
+    """:func:`simso_intervals` in a subprocess with :data:`SIMSO_PATH` on its path (SimSo's
+    SimPy 2 never meets netcosim's SimPy 4).  FileNotFoundError if SimSo is not there."""
+    import subprocess
+    import sys
+    if not (SIMSO_PATH / "simso").is_dir():
+        raise FileNotFoundError(f"SimSo is not installed in {SIMSO_PATH} (make installs it)")
+    code = ("import json, sys; from benchmarks import simso_global as s; a = json.loads(sys.argv[1]); "
+            "print(json.dumps(s.simso_intervals(a['tasks'], a['m'], a['policy'])))")
+    out = subprocess.run([sys.executable, "-c", code, json.dumps({"tasks": tasks, "m": m, "policy": policy})],
+                         env={"PYTHONPATH": f"{SIMSO_PATH}:{REPO}", "PATH": "/usr/bin:/bin"}, cwd=REPO,
+                         capture_output=True, text=True, timeout=300, check=True)
+    return json.loads(out.stdout.splitlines()[-1])
 
 
 def main() -> None:

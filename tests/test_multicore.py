@@ -130,14 +130,16 @@ def test_global_edf_and_fp_equal_simso_085():
 
 
 def test_global_matches_simso_live():
-    """The same comparison with SimSo itself, when it is installed (a test-only reference)."""
-    pytest.importorskip("simso")
+    """The same comparison with SimSo itself (a test-only reference that ``make`` installs
+    apart, in .venv/simso: it needs SimPy 2), on task sets the stored ones do not hold."""
+    if not (simso_global.SIMSO_PATH / "simso").is_dir():
+        pytest.skip(f"SimSo is not installed in {simso_global.SIMSO_PATH} (make installs it)")
     rng = random.Random(99)
     checked = 0
     while checked < 4:
         policy = ("edf", "fp")[checked % 2]
         tasks = simso_global.random_task_set(rng, 3, policy == "edf")
-        want = simso_global.simso_intervals(tasks, 3, policy)
+        want = simso_global.simso_intervals_apart(tasks, 3, policy)
         if want is None:
             continue
         assert simso_global.netcosim_intervals(tasks, 3, policy) == want
