@@ -6,7 +6,9 @@ Units: power in W, energy in J, time in s at the API (integer ticks of 1 ps insi
 integrates it exactly (the power is constant between two state changes):
 
 * a CPU model has ``power(busy: bool, speed: float) -> W`` (:class:`ConstantPower`,
-  TrueTime's; :class:`DvsPower`, power growing with speed and load);
+  TrueTime's; :class:`DvsPower`, power growing with speed and load), and may say
+  ``per_core``: whether a multicore node draws it once per core (True, the default for a
+  model without the attribute) or once for the whole kernel (False);
 * a radio model has ``power(state: str, tx_w: float) -> W`` with *state* ``"tx"``
   (transmitting, *tx_w* the radiated power in W), ``"rx"`` (locked onto a frame) or
   ``"listen"`` (idle listening) (:class:`RadioPower`).
@@ -46,7 +48,11 @@ class ConstantPower:
     """TrueTime's kernel power: *watts* whatever the CPU does and whatever its speed.
 
     ``P = watts`` (W, finite, >= 0).  The simplest model: energy grows linearly with time.
+    On a multicore node it is the whole kernel's power, drawn once (TrueTime's reading).
     """
+
+    #: the power of a whole kernel, not of each core (kernel.power.CoresMeter)
+    per_core = False
 
     def __init__(self, watts: float):
         self.watts = validate.non_negative(watts, "ConstantPower: watts (W)")
@@ -71,7 +77,14 @@ class DvsPower:
     default ``exponent = 3``.  A job of work ``c`` (s at speed 1) then costs
     ``dynamic * c * speed**2`` J of dynamic energy: halving the speed quarters it, while the
     static power is paid over the doubled time.
+
+    On a multicore node it is each core's power: the node draws
+    ``N * static + n_busy * dynamic * speed**exponent`` with ``n_busy`` of its ``N`` cores
+    busy (each core of a chip leaks and switches on its own).
     """
+
+    #: one core's power: a multicore node sums it over its cores (kernel.power.CoresMeter)
+    per_core = True
 
     def __init__(self, static: float = 0.0, dynamic: float = 1.0, exponent: float = 3.0):
         self.static = validate.non_negative(static, "DvsPower: static (W)")
@@ -141,6 +154,10 @@ def check_cpu_model(model: Any, what: str) -> Any:
                                      f"(e.g. ConstantPower(0.01), DvsPower(...)), got {model!r}")
     for busy in (False, True):
         validate.non_negative(model.power(busy, 1.0), f"{what}: {model!r}.power({busy}, 1.0) (W)")
+    per_core = getattr(model, "per_core", True)
+    if not isinstance(per_core, bool):
+        raise ConfigurationTypeError(f"{what}: {model!r}.per_core must be True (power of one core) or False "
+                                     f"(of the whole kernel), got {per_core!r}")
     return model
 
 

@@ -341,14 +341,9 @@ def test_power_off_kills_running_and_preempted_jobs_and_runs_no_other_code():
     assert cpu.energy == pytest.approx(0.002, rel=1e-12)
 
 
-def test_multicore_nodes_refuse_speed_changes_and_energy_but_keep_context_switches():
+def test_multicore_core_keeps_its_context_switch_timer():
     sim = Simulation()
     cpu = sim.node("cpu", cores=2, context_switch=0.1 * MS)
-    for what, call in (("speed change", lambda: cpu.set_speed(0.5)),
-                       ("power model", lambda: cpu.set_power_model(ConstantPower(0.01))),
-                       ("battery", lambda: cpu.set_battery(Battery(1.0)))):
-        with pytest.raises(ConfigurationError, match=f"{what}.*one-core nodes only"):
-            call()
     cpu.periodic(lambda ctx: (yield ctx.execute(1 * MS)), period=10 * MS, priority=1, name="a", core=1)
     sim.run(0.005)
     j = _jobs(sim).iloc[0]

@@ -56,14 +56,16 @@ class Interpreter(Overruns):
         else:
             self._step(job)
 
-    def _start_cs(self, job: Job) -> None:
-        """Switch *job* in: ``_cs_ticks`` of non-preemptible kernel work, then ``_cs_done``
-        (the timer is kept, so that a speed change can move it and a power-off cancel it)."""
+    def _start_cs(self, job: Job, ticks: int = 0) -> None:
+        """Switch *job* in: ``_cs_ticks`` (or *ticks*: a multicore node's switch plus
+        migration) of non-preemptible kernel work, then ``_cs_done`` (the timer is kept,
+        so that a speed change can move it and a power-off cancel it)."""
         self._in_cs = True
         env = self._env
         pw = self._pw
-        pw.cs_end = env.now + self._cs_ticks
-        pw.cs_timer = t = Timer(env, self._cs_ticks, self._cs_done, job)
+        ticks = ticks or self._cs_ticks
+        pw.cs_end = env.now + ticks
+        pw.cs_timer = t = Timer(env, ticks, self._cs_done, job)
         meter = pw.cpu_meter
         if meter is not None:       # the CPU is busy from now until the switch ends
             t.callbacks.append(meter.update)

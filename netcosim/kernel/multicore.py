@@ -38,7 +38,7 @@ from __future__ import annotations
 from typing import Any
 
 from .. import validate
-from ..clock import Rearmable, Timer
+from ..clock import Rearmable
 from ..errors import ConfigurationError
 from ..timebase import MAX_TICKS, RESOLUTION, to_ticks
 from .dispatcher import Dispatcher
@@ -148,8 +148,7 @@ class GlobalCore(Core):
                 last._loaded = None
         self.running = job
         if overhead:
-            self._in_cs = True
-            Timer(self._env, overhead, self._cs_done, job)
+            self._start_cs(job, overhead)
             return
         self._run(job)
 
@@ -178,14 +177,10 @@ class MulticoreNode(Node):
         if scheduling == "partitioned" and mig:
             raise ConfigurationError(f"node {name!r}: migration={migration!r} s, but partitioned tasks never "
                                      f"migrate; use scheduling='global' or leave migration at 0")
-        if mig / self.speed > MAX_TICKS:
-            raise ConfigurationError(f"node {name!r}: migration={migration!r} s lasts beyond netcosim's time range")
         #: the migration cost (s, at speed 1)
         self.migration = migration
-        self._mig_ticks = int(round(mig / self.speed))
-        if mig and not self._mig_ticks:
-            raise ConfigurationError(f"node {name!r}: migration={migration!r} s at speed {speed!r} is below "
-                                     f"the time resolution {RESOLUTION} s")
+        self._mig_work = mig
+        self._mig_ticks = self._migration_ticks(speed)
         cls = GlobalCore if scheduling == "global" else Core
         #: the node's cores, ``cores[k].index == k``
         self.cores: list[Any] = [cls(self, k) for k in range(cores)]
@@ -196,6 +191,28 @@ class MulticoreNode(Node):
         self._migrations: dict[Job, int] = {}   # global: migrations of each unfinished job
         self._job_cores: dict[tuple[Task, int], int] = {}       # global: the core each job finished on
         self._job_migrations: dict[tuple[Task, int], int] = {}  # global: migrations of each finished job
+
+    def _migration_ticks(self, speed: float) -> int:
+        """The migration's ticks at *speed* (checked like the context switch's)."""
+        mig = self._mig_work
+        if mig / speed > MAX_TICKS:
+            raise ConfigurationError(f"node {self.name!r}: migration={self.migration!r} s at speed {speed!r} "
+                                     f"lasts beyond netcosim's time range")
+        ticks = int(round(mig / speed))
+        if mig and not ticks:
+            raise ConfigurationError(f"node {self.name!r}: migration={self.migration!r} s at speed {speed!r} is "
+                                     f"below the time resolution {RESOLUTION} s")
+        return ticks
+
+    def set_speed(self, speed: float) -> None:
+        """Change the speed of every core now (TrueTime: one speed per kernel); see
+        :meth:`Node.set_speed <netcosim.kernel.node.Node.set_speed>`.  Running and
+        preempted segments, switches and migrations under way are rescaled exactly as on
+        one core; later migrations last ``migration / speed``."""
+        self._scaled(speed)     # checks speed (and the context switch) before the migration uses it
+        mig = self._migration_ticks(float(speed))
+        super().set_speed(speed)
+        self._mig_ticks = mig
 
     @property
     def n_cores(self) -> int:

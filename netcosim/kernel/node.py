@@ -24,7 +24,7 @@ from .dispatcher import Dispatcher
 from .io import AnalogIn, AnalogOut
 from .localclock import LocalClock
 from .policies import EDF, make_policy, own_choose
-from .power import CpuMeter, NodePower, change_speed, power_off
+from .power import CoresMeter, CpuMeter, NodePower, change_speed, power_off
 from .ready import ReadyQueue
 from .releases import Releases
 from .servers import CBS, TBS, ServedEDF, Server
@@ -159,11 +159,6 @@ class Node(Dispatcher):
     def speed(self, speed: float) -> None:
         self.set_speed(speed)
 
-    def _one_core(self, what: str) -> None:
-        if self.multicore:
-            raise ConfigurationError(f"node {self.name!r}: {what} is modelled on one-core nodes only, not on a "
-                                     f"multicore node")
-
     def set_speed(self, speed: float) -> None:
         """Change the CPU speed now (DVS), e.g. from task code: ``ctx.node.set_speed(0.5)``.
 
@@ -171,9 +166,9 @@ class Node(Dispatcher):
         segment, of preempted segments and of a context switch under way is rescaled at
         this instant (work = ticks * speed, kept exactly across changes: see
         :mod:`netcosim.kernel.power`); later ``execute`` requests and context switches use
-        the new speed.  The CPU's power meter, if any, changes now too.
+        the new speed.  The CPU's power meter, if any, changes now too.  On a multicore
+        node every core changes (one speed per node, as TrueTime's one per kernel).
         """
-        self._one_core("a speed change")
         pw = self._pw
         old = pw.speed
         scale, cs_ticks = self._scaled(speed)
@@ -189,15 +184,17 @@ class Node(Dispatcher):
     def set_power_model(self, model: Any) -> None:
         """Meter the CPU's power with *model* (``model.power(busy, speed) -> W``:
         :class:`~netcosim.energy.ConstantPower`, TrueTime's, or :class:`~netcosim.energy.DvsPower`)
-        from now on; the energy shows in :attr:`energy` and the ``energy`` table."""
-        self._one_core("a CPU power model")
+        from now on; the energy shows in :attr:`energy` and the ``energy`` table.  On a
+        multicore node the power is summed over the cores when ``model.per_core`` is true
+        (``DvsPower``; a model without the attribute), drawn once otherwise (``ConstantPower``):
+        see :class:`~netcosim.kernel.power.CoresMeter`."""
         model = check_cpu_model(model, f"node {self.name!r}")
         pw = self._pw
         if pw.cpu_meter is not None:
             pw.cpu_meter.model = model
             pw.cpu_meter.update()
             return
-        pw.cpu_meter = CpuMeter(self, model)
+        pw.cpu_meter = CoresMeter(self, model) if self.multicore else CpuMeter(self, model)
 
     def set_battery(self, battery: Any) -> Any:
         """Supply this node (its CPU and its radios) from *battery* (a :class:`~netcosim.energy.Battery`);
@@ -205,7 +202,6 @@ class Node(Dispatcher):
         if not isinstance(battery, Battery):
             raise ConfigurationTypeError(f"node {self.name!r}: set_battery needs a netcosim.energy.Battery, "
                                          f"got {battery!r}")
-        self._one_core("a battery")
         if self._pw.battery is not None:
             raise ConfigurationError(f"node {self.name!r} already has a battery")
         for iface in self.interfaces.values():       # e.g. 802.11b's shared idle-slot clock refuses

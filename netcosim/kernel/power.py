@@ -27,6 +27,7 @@ model (``model.power(busy, speed)``) at every change, including speed changes.
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
@@ -101,6 +102,50 @@ class CpuMeter(PowerMeter):
             self.set(p)
 
 
+class CoresMeter(PowerMeter):
+    """The power meter of a multicore node's CPU (source ``"cpu"``): the sum over its cores.
+
+    Core *k* is busy while a job's segment runs on it (its job's task is ``running``) or
+    while it switches a context in (migration included).  A model with ``per_core`` true
+    (:class:`~netcosim.energy.DvsPower`, and any model without the attribute) is one
+    core's: the node draws ``sum_k model.power(busy_k, speed)`` W, static power once per
+    core; a model with ``per_core`` false (:class:`~netcosim.energy.ConstantPower`,
+    TrueTime's kernel power) is the whole kernel's: ``model.power(any core busy, speed)``.
+    Every schedule row of the node and of its cores, and every context switch's start and
+    end, sets the power anew (the rows pass through :meth:`append`)."""
+
+    __slots__ = ("model", "sink", "cores")
+
+    def __init__(self, node: Any, model: Any):
+        self.model = model
+        self.cores = tuple(node.cores)
+        self.sink = node._sched
+        super().__init__(node, "cpu", self._power_of(node))
+        node._sched = self
+        for core in self.cores:
+            core._sched._append = self.append   # the core's rows (kernel.multicore._CoreRows)
+            core._pw.cpu_meter = self           # its context switches (Interpreter._start_cs)
+
+    def _power_of(self, node: Any) -> float:
+        model = self.model
+        speed = node._pw.speed
+        busy = [c._in_cs or (c.running is not None and c.running.task.state == "running") for c in self.cores]
+        if getattr(model, "per_core", True):
+            return math.fsum(model.power(b, speed) for b in busy)
+        return model.power(any(busy), speed)
+
+    def append(self, row: tuple) -> None:
+        """A schedule row of the node or of a core: pass it on, then update the power."""
+        self.sink.append(row)
+        self.update()
+
+    def update(self, _event: Any = None) -> None:
+        """Set the power for the cores' state now; also a timer callback."""
+        p = self._power_of(self.owner)
+        if p != self.power:
+            self.set(p)
+
+
 def _rescale(carry: dict, job: Any, s0: float, s1: float) -> int:
     """The remaining ticks of *job*'s segment (``job.remaining``, at speed *s0*) at speed *s1*.
 
@@ -118,12 +163,22 @@ def _rescale(carry: dict, job: Any, s0: float, s1: float) -> int:
     return new
 
 
+def _cpus(node: Any) -> tuple:
+    """The kernels that run *node*'s jobs: its cores (a multicore node), else the node itself."""
+    return tuple(node.cores) if node.multicore else (node,)
+
+
 def change_speed(node: Any, s0: float, s1: float) -> None:
-    """Rescale the remaining work of *node*'s jobs and context switch from *s0* to *s1* (now)."""
+    """Rescale the remaining work of *node*'s jobs and context switches from *s0* to *s1* (now).
+
+    On a multicore node every core changes: each job once (the running ones on the core
+    that runs them), each core's switch under way, each core's switch length."""
     env = node._env
     now = env.now
     pw = node._pw
     carry: dict = pw.carry
+    cpus = _cpus(node)
+    on = {c.running: c for c in cpus if c.running is not None}     # the kernel of each running job
     live = set()
     for task in node.tasks.values():
         job: Job | None = task.active
@@ -138,20 +193,25 @@ def change_speed(node: Any, s0: float, s1: float) -> None:
             new = _rescale(carry, job, s0, s1)
             job.remaining = new
             job.seg_start = now
-            job.seg_timer = Timer(env, new, node._segment_cb, job)
+            job.seg_timer = Timer(env, new, on[job]._segment_cb, job)
         else:
             job.remaining = _rescale(carry, job, s0, s1)
     for job in [j for j in carry if j not in live]:
         del carry[job]
-    t = pw.cs_timer
-    if node._in_cs and t is not None:
-        left = pw.cs_end - now
-        new = round(left * Fraction(s0) / Fraction(s1))
-        cbs = t.callbacks
-        t.callbacks = []
-        pw.cs_timer = nt = Timer(env, new, node._cs_done, t.arg)
-        nt.callbacks = cbs
-        pw.cs_end = now + new
+    for cpu in cpus:
+        cpw = cpu._pw
+        if cpu is not node:
+            cpu._cs_ticks = node._cs_ticks
+            cpw.speed = s1
+        t = cpw.cs_timer
+        if cpu._in_cs and t is not None:
+            left = cpw.cs_end - now
+            new = round(left * Fraction(s0) / Fraction(s1))
+            cbs = t.callbacks
+            t.callbacks = []
+            cpw.cs_timer = nt = Timer(env, new, cpu._cs_done, t.arg)
+            nt.callbacks = cbs
+            cpw.cs_end = now + new
 
 
 def power_off(node: Any) -> None:
@@ -161,11 +221,13 @@ def power_off(node: Any) -> None:
     node._release = node._release_lost
     for task in list(node.tasks.values()):
         node._releases.stop(task)
-    t = pw.cs_timer
-    if node._in_cs and t is not None:
-        t.cancel()
-        node._in_cs = False
-        pw.cs_timer = None
+    cpus = _cpus(node)
+    for cpu in cpus:
+        t = cpu._pw.cs_timer
+        if cpu._in_cs and t is not None:
+            t.cancel()
+            cpu._in_cs = False
+            cpu._pw.cs_timer = None
     sim = node.sim
     sim._stepping += 1      # a kill must not dispatch (and run the code of) another job meanwhile
     try:
@@ -176,7 +238,8 @@ def power_off(node: Any) -> None:
                 node._kill(task.active)
     finally:
         sim._stepping -= 1
-    node.running = None
+    for cpu in cpus:
+        cpu.running = None
     for iface in node.interfaces.values():
         off = getattr(iface.network, "_power_off", None)
         if off is not None:
