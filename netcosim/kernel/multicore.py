@@ -90,7 +90,8 @@ class Core(Dispatcher):
         self.tasks = node.tasks
         self._env = node._env
         self._cs_ticks = node._cs_ticks
-        self._pw = NodePower(node._pw.speed, node._pw.cs_work)  # this core's context switch (kernel.power)
+        # this core's context switch and speed (kernel.power; the node's meter, if any, is its cpu_meter)
+        self._pw = NodePower(node._pw.speed, node._pw.cs_work)
         self._releases = node._releases
         self._sched = _CoreRows(node._sched, index)  # type: ignore[assignment]
         self._jobrec = node._jobrec

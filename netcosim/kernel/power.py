@@ -11,18 +11,22 @@ change, so no work is lost or invented however often the speed changes: the segm
 is rounded to the nearest tick once, as ``execute`` rounds it at a fixed speed (±½ tick).
 A context switch under way is rescaled the same way.  Execution times (``exec_done``, the
 jobs table's ``execution`` column) are CPU time in simulated seconds: at half speed they
-double.  Budgets (``wcet``) count the same simulated CPU time.
+double.  Budgets (``wcet``) count the same simulated CPU time.  A multicore node has one
+speed: a change rescales each of its jobs once and the switch (and migration) under way on
+each core, with this same code.
 
 **CPU meter.**  The CPU is *busy* while a job's segment or a context switch runs (a task
 is ``running`` in the schedule table, or a switch is under way) and idle otherwise; the
 meter watches the node's schedule rows and its context switches and sets the power of the
-model (``model.power(busy, speed)``) at every change, including speed changes.
+model (``model.power(busy, speed)``) at every change, including speed changes.  A
+multicore node's meter (:class:`CoresMeter`) sums the power over its cores.
 
 **Power-off.**  When the node's battery runs empty, every job is killed (a row with
 ``killed``, finish = that instant), the periodic releases stop, later releases of any kind
 (timers, triggers, messages, ``task.release()``) are dropped and counted in
 ``node.releases_lost``, and the node's radio stations go deaf and mute
-(:meth:`~netcosim.network.wireless.RadioNetwork._power_off`).
+(:meth:`~netcosim.network.wireless.RadioNetwork._power_off`).  On a multicore node every
+core stops: the switches under way are cancelled and the jobs on every core killed.
 """
 
 from __future__ import annotations
