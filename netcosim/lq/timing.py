@@ -35,7 +35,7 @@ from X = 0 until stationary; then the cost per unit time is (renewal reward)::
 with Phi, R, Q, J_noise the exact interval matrices of :mod:`netcosim.lq.integrals`.
 **Convergence test**: stop when the largest change of an X_s (Frobenius norm) is at most
 ``tol`` times the largest X_s.  **Divergence**: if X is no longer finite, exceeds
-``1e250``, or has not converged after ``max_iterations``, the loop is not mean-square
+``1e100``, or has not converged after ``max_iterations``, the loop is not mean-square
 stable (or too close to it): the cost is ``inf``, ``stable`` is False and the note says
 which happened and the spectral radius estimated from the last iterations' changes.
 The mean of z is taken as zero (the stationary mean of a stable model without
@@ -63,7 +63,7 @@ __all__ = ["TimingModel"]
 #: a delay distribution must sum to 1 within this
 PMF_TOLERANCE = 1e-9
 #: X beyond this: diverged
-DIVERGED = 1e250
+DIVERGED = 1e100
 
 
 @dataclass(frozen=True)
@@ -205,8 +205,9 @@ class TimingModel:
             for (s, t, p, _), M in zip(trans, mats):
                 EX = upd[s][0] @ X[s] @ upd[s][0].T
                 Xn[t] += p * (M.Phi @ EX @ M.Phi.T)
-            change = max(float(np.linalg.norm(a - b)) for a, b in zip(Xn, X))
-            size = max(float(np.linalg.norm(a)) for a in Xn)
+            with np.errstate(over="ignore", invalid="ignore"):
+                change = max(float(np.linalg.norm(a - b)) for a, b in zip(Xn, X))
+                size = max(float(np.linalg.norm(a)) for a in Xn)
             changes.append(change)
             X = Xn
             if not math.isfinite(size) or size > DIVERGED:
