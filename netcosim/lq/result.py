@@ -71,6 +71,7 @@ class StationaryCost:
 
     @property
     def cost_per_period(self) -> float:
+        """``cost_rate * period``: the expected cost of one period (inf if unstable)."""
         return self.cost_rate * self.period if math.isfinite(self.cost_rate) else math.inf
 
     def to_pandas(self) -> Any:

@@ -91,10 +91,12 @@ class ContinuousSystem:
 
     @property
     def inputs(self) -> int:
+        """Its number of inputs (r)."""
         return self.B.shape[1]
 
     @property
     def outputs(self) -> int:
+        """Its number of outputs (p)."""
         return self.C.shape[0]
 
     def __repr__(self) -> str:
@@ -146,10 +148,12 @@ class DiscreteSystem:
 
     @property
     def inputs(self) -> int:
+        """Its number of inputs (r)."""
         return self.D.shape[1]
 
     @property
     def outputs(self) -> int:
+        """Its number of (held) outputs (p)."""
         return self.D.shape[0]
 
     def __repr__(self) -> str:
@@ -174,6 +178,7 @@ class TotalDynamics:
 
     @property
     def size(self) -> int:
+        """The length of the total state z."""
         return self.A.shape[0]
 
 
@@ -211,6 +216,7 @@ class Interconnection:
 
     @property
     def systems(self) -> dict[Hashable, ContinuousSystem | DiscreteSystem]:
+        """The systems by key, in the order added (the order of the total state)."""
         return dict(self._systems)
 
     def dynamics(self) -> TotalDynamics:
