@@ -233,8 +233,8 @@ class TimingModel:
             raise ConfigurationError("TimingModel: time never passes in this timing model (every delay is 0)")
         first = states[0][0]
         cycle = time / float(sum(pi[s] for s in range(S) if states[s][0] == first))
-        return StationaryCost(float(J / time), float(cycle), True, rho, covariance={states[s]: X[s] / pi[s] if pi[s] > 0 else X[s]
-                                                                      for s in range(S)}, iterations=it)
+        conditional = {states[s]: X[s] / pi[s] if pi[s] > 0 else X[s] for s in range(S)}
+        return StationaryCost(float(J / time), float(cycle), True, rho, covariance=conditional, iterations=it)
 
 
 def _keys(value: Any) -> tuple[Hashable, ...]:
