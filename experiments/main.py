@@ -39,6 +39,7 @@ EXPERIMENTS = [
     ("multicore_dhall", "Multicore: Dhall's effect, global vs partitioned EDF and RM on M cores"),
     ("wireless_tpc", "TrueTime wireless example: 802.15.4 servo loop on batteries, transmit-power control"),
     ("dvs", "DVS of three PID loops under EDF: CPU energy against control cost over speeds"),
+    ("jitterbug_servo", "Jitterbug's DC servo, exact LQ analysis: expected cost vs delay and vs period"),
     ("loss_sweep_servo", "Networked servo over 802.11b: loss sweep, broadcast vs unicast, frame vs message loss"),
     ("ch2_landing", "Ch. 2: tethered-UAV landing, NMPC alone vs two-layer controller, calm and wind"),
     ("ch3_fig3_8", "Fig. 3.8: offline vs online gain, Fly-crane, small and large ball"),

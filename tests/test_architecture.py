@@ -244,3 +244,25 @@ def test_a_node_keeps_its_attributes_within_the_shared_key_table():
     # 29 today: new per-node state goes on an object the node already holds (its power,
     # its releases, its clock), not on the node itself
     assert len(vars(node)) < SHARED_KEYS_MAX, sorted(vars(node))
+
+
+#: what the linear-quadratic analysis may import from netcosim: it sits under the simulation
+LQ_ALLOWED = {"netcosim.errors", "netcosim.validate", "netcosim.timebase"}
+
+
+def test_the_lq_layer_sits_low():
+    # netcosim.lq imports numpy/scipy, the errors and the validation only (validate imports
+    # timebase): no kernel, network, plant, trace, clock or SimPy, so a kernel coupling is
+    # an adapter above it
+    g = _graph()
+    lq_modules = {m for m in g if m.startswith("netcosim.lq")}
+    assert "netcosim.lq.propagation" in lq_modules
+    outside = {d for m in lq_modules for d in g[m] if not d.startswith("netcosim.lq")}
+    assert outside <= LQ_ALLOWED, outside
+    third_party = {d.split(".")[0] for m in lq_modules
+                   for d in _imports(PKG / Path(*m.split(".")[1:]).with_suffix(".py")
+                                     if (PKG / Path(*m.split(".")[1:]).with_suffix(".py")).exists()
+                                     else PKG / Path(*m.split(".")[1:]) / "__init__.py")}
+    assert third_party <= {"numpy", "scipy", "pandas", "matplotlib", "netcosim", "__future__", "typing",
+                           "dataclasses", "math", "collections"}, third_party
+    assert "simpy" not in third_party

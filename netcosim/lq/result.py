@@ -1,0 +1,84 @@
+"""What the linear-quadratic analysis returns: named fields, a table, a plot.
+
+:class:`CostTrace` -- the expected cost accumulated along a sequence of events (the
+history of a :class:`~netcosim.lq.propagation.Propagator`), plotted as cost against time.
+:class:`StationaryCost` -- the stationary cost per unit time of a periodic schedule or of a
+Jitterbug timing model.  pandas and matplotlib are imported only by ``to_pandas`` and
+``plot``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["CostTrace", "StationaryCost"]
+
+
+@dataclass(frozen=True)
+class CostTrace:
+    """The expected cost J (accumulated since the start) and its rate dJ/dt at each
+    recorded instant ``time`` (s), with the event that was recorded there (``"start"``,
+    ``"advance"``, ``"update <key>"``, ``"impulse"``, ``"jump"``)."""
+
+    time: np.ndarray
+    cost: np.ndarray
+    cost_rate: np.ndarray
+    event: tuple[str, ...]
+
+    def to_pandas(self) -> Any:
+        """A DataFrame with columns ``time``, ``cost``, ``cost_rate``, ``event``."""
+        import pandas as pd
+        return pd.DataFrame({"time": self.time, "cost": self.cost, "cost_rate": self.cost_rate,
+                             "event": list(self.event)})
+
+    def plot(self, ax: Any = None, **kw: Any) -> Any:
+        """Expected cost against time on *ax* (a new figure if None); returns the axes."""
+        if ax is None:
+            import matplotlib.pyplot as plt
+            _, ax = plt.subplots()
+        ax.plot(self.time, self.cost, **kw)
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("expected cost J")
+        return ax
+
+
+@dataclass(frozen=True)
+class StationaryCost:
+    """The stationary expected cost of a repeating schedule or a timing model.
+
+    ``cost_rate``: J per second in stationarity (``inf`` when the loop is not mean-square
+    stable: ``stable`` is then False and ``note`` says why).  ``period``: the schedule's
+    period (s), or the mean time between two entries of node 1 of a timing model (its
+    period if periodic).  ``cost_per_period``:
+    ``cost_rate * period``.  ``spectral_radius``: of the lifted map over one period (the
+    periodic analysis; 1 or more means unstable), or of the mean-square operator estimated
+    by the iteration (timing models).  ``covariance``: the stationary covariance of the total state at the
+    start of the period (periodic analysis), or per timing state (timing models: a dict).
+    ``iterations``: iterations the timing model took (0 for the periodic analysis).
+    """
+
+    cost_rate: float
+    period: float
+    stable: bool
+    spectral_radius: float
+    covariance: Any = field(repr=False, default=None)
+    iterations: int = 0
+    note: str = ""
+
+    @property
+    def cost_per_period(self) -> float:
+        """``cost_rate * period``: the expected cost of one period (inf if unstable)."""
+        return self.cost_rate * self.period if math.isfinite(self.cost_rate) else math.inf
+
+    def to_pandas(self) -> Any:
+        """One row: ``cost_rate``, ``cost_per_period``, ``period``, ``stable``, ``spectral_radius``,
+        ``iterations``, ``note``."""
+        import pandas as pd
+        return pd.DataFrame([{"cost_rate": self.cost_rate, "cost_per_period": self.cost_per_period,
+                              "period": self.period, "stable": self.stable,
+                              "spectral_radius": self.spectral_radius, "iterations": self.iterations,
+                              "note": self.note}])
