@@ -25,7 +25,7 @@ delay, and the longer delays, up to about 2 ms here, even lower the IAE by about
 below U (speed 0.2) jobs miss their deadlines and the cost grows.  Cycle-conserving DVS
 saves a little more than static DVS (the jobs use 70 % of their WCET on average).
 
-Run: ``python -m netcosim.experiments.dvs`` (PNG + CSV under results/dvs/).
+Run: ``python -m netcosim.experiments.dvs`` (PNG + Parquet under results/dvs/).
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ def run_one(speed: float | None, until: float) -> dict:
 
 
 def main(outdir="results/dvs", until=1.0, quick=False):
-    """Fixed speeds and cycle-conserving DVS for *until* s (0.3 s if *quick*); writes a CSV and a
+    """Fixed speeds and cycle-conserving DVS for *until* s (0.3 s if *quick*); writes a Parquet table and a
     figure to *outdir*; returns the results table (energy saved against speed 1 in ``saved_%``)."""
     if quick:
         until = min(until, 0.3)
@@ -115,7 +115,7 @@ def main(outdir="results/dvs", until=1.0, quick=False):
     rows = [run_one(s, until) for s in speeds] + [run_one(None, until)]
     table = pd.DataFrame(rows)
     table["saved_%"] = 100.0 * (1.0 - table["energy_J"] / table["energy_J"].iloc[0])
-    table.to_csv(out / "dvs.csv", index=False)
+    table.to_parquet(out / "dvs.parquet", index=False)
 
     fixed = table[table["mode"] == "fixed"]
     cc = table[table["mode"] != "fixed"].iloc[0]

@@ -40,7 +40,7 @@ example uses back-off exponents 1 to 3 (instead of 3 to 5) to keep the back-off 
 dominating at 800 kbit/s, and no MAC header (``mac_overhead_bits=0``: TrueTime's 272 bits
 are the whole frame).
 
-Run: ``python -m netcosim.experiments.wireless_tpc`` (PNG + CSV under results/wireless_tpc/).
+Run: ``python -m netcosim.experiments.wireless_tpc`` (PNG + Parquet under results/wireless_tpc/).
 """
 
 from __future__ import annotations
@@ -179,7 +179,7 @@ def run_one(tpc: bool, until: float, realistic_radio: bool = False) -> tuple[Sim
 
 
 def main(outdir="results/wireless_tpc", until=10.0, quick=False, realistic_radio=False):
-    """Both runs (with and without TPC) for *until* s (5 s if *quick*); writes a figure and a CSV.
+    """Both runs (with and without TPC) for *until* s (5 s if *quick*); writes a figure and Parquet tables.
     Returns the table of results (one row per run)."""
     if quick:
         until = min(until, 5.0)
@@ -190,7 +190,9 @@ def main(outdir="results/wireless_tpc", until=10.0, quick=False, realistic_radio
         sims[tpc], row = run_one(tpc, until, realistic_radio)
         rows.append(row)
     table = pd.DataFrame(rows)
-    table.to_csv(out / "wireless_tpc.csv", index=False)
+    table.to_parquet(out / "wireless_tpc.parquet", index=False)
+    for tpc in (False, True):       # battery levels and power over time, per node
+        sims[tpc].trace.frame("energy").to_parquet(out / f"energy_{'tpc' if tpc else 'no_tpc'}.parquet", index=False)
 
     fig, ax = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     t = np.linspace(0, until, 2000)
