@@ -11,6 +11,7 @@ Modules, from the problem to the scenario:
 :mod:`~netcosim.controllers.landing.tasks`                      shared loop state and the task factories
 :mod:`~netcosim.controllers.landing.topology`                   wiring per topology, :func:`run_landing`
 :mod:`~netcosim.controllers.landing.result`                     :class:`LandingRun`, metrics, plot
+:mod:`~netcosim.controllers.landing.variants`                   named variants of the 2LC (:data:`SCHEMES`)
 =====================================================  =============================================
 
 Every public name is re-exported here, so ``from netcosim.controllers.landing import
@@ -24,7 +25,7 @@ from typing import TYPE_CHECKING
 from netcosim.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from .feedback_linearization import FeedbackLinearization, PIDGains, SingularityError
+    from .feedback_linearization import DEFAULT_FL_POLE, SLOW_FL_GAINS, FeedbackLinearization, PIDGains, SingularityError
     from .interpolation import C2Interpolator, quintic_coefficients
     from .ocp import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
     from .result import LandingRun, landing_metrics
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
     from .tasks import LandingLoop
     from .timing import LandingTiming
     from .topology import run_landing, simulate_landing
+    from .variants import SCHEME_LABELS, SCHEMES
 
 # Names are imported on first use (PEP 562): importing a light module such as
 # netcosim.controllers.landing.feedback_linearization (the low-level controller, which runs in a
@@ -40,6 +42,8 @@ _LAZY = {
     "FeedbackLinearization": "feedback_linearization",
     "PIDGains": "feedback_linearization",
     "SingularityError": "feedback_linearization",
+    "DEFAULT_FL_POLE": "feedback_linearization",
+    "SLOW_FL_GAINS": "feedback_linearization",
     "C2Interpolator": "interpolation",
     "quintic_coefficients": "interpolation",
     "LandingConfig": "ocp",
@@ -56,6 +60,8 @@ _LAZY = {
     "LandingTiming": "timing",
     "run_landing": "topology",
     "simulate_landing": "topology",
+    "SCHEMES": "variants",
+    "SCHEME_LABELS": "variants",
 }
 
 __all__ = [
@@ -65,7 +71,9 @@ __all__ = [
     "FeedbackLinearization", "PIDGains", "SingularityError", "C2Interpolator", "quintic_coefficients",
     # the landing as netcosim tasks
     "LandingTiming", "LandingScenario", "LandingLoop", "LandingRun", "run_landing", "simulate_landing",
-    "landing_metrics", "SIM_PARAMS", "DEFAULT_FL_GAINS",
+    "landing_metrics", "SIM_PARAMS", "DEFAULT_FL_GAINS", "DEFAULT_FL_POLE", "SLOW_FL_GAINS",
+    # named variants of the 2LC beside the thesis's scheme
+    "SCHEMES", "SCHEME_LABELS",
 ]
 
 

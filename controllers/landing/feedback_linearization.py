@@ -37,7 +37,8 @@ from netcosim import validate
 from netcosim.errors import ConfigurationError
 from netcosim.plants.tethered_uav_params import TetheredUAVParams
 
-__all__ = ["FeedbackLinearization", "PIDGains", "SingularityError", "DEFAULT_FL_GAINS"]
+__all__ = ["FeedbackLinearization", "PIDGains", "SingularityError", "DEFAULT_FL_GAINS", "DEFAULT_FL_POLE",
+           "SLOW_FL_GAINS"]
 
 
 class SingularityError(ArithmeticError):
@@ -65,12 +66,30 @@ class PIDGains:
         return cls(kp=3.0 * omega ** 2, kd=3.0 * omega, ki=omega ** 3)
 
 
+#: Triple pole [rad/s] of the low-level loops of the landing, the thesis's design.  The
+#: thesis gives no numbers ("the gains are tuned manually", §2.6; "aggressive PID
+#: action", §2.6.2), so the pole is chosen from the two rates of its architecture:
+#: faster than the NMPC update, ``1/ω < Ts = 10 ms`` (ω > 100 rad/s: the tracking
+#: error a plan leaves decays within one NMPC period, so the next plan, started from
+#: the measured state, does not start from it), and slow enough for the 500 Hz
+#: emulation, ``ω T ≤ 0.3`` (ω ≤ 150 rad/s; at 200 rad/s one discrete pole is already at
+#: z = 0.08 instead of e^(-ωT) = 0.67).  120 rad/s lies inside [100, 150] (ω T = 0.24,
+#: discrete closed-loop poles at z = 0.55, 0.78, 0.86).  Measured (docs/nmpc.md,
+#: "Low-level gains"): the thesis's scheme with the recorded NMPC solve times keeps
+#: d_PG ≥ 0 and f_L ≤ f_L,max from 100 to 200 rad/s, fails at 60 and 80 rad/s.
+DEFAULT_FL_POLE = 120.0
+
 #: Gains of the low-level PID loops of the landing (the 2LC's default, also the remote
 #: low-level process's, ``experiments/hil_landing_llc_controller.py``): triple pole at
-#: -60 rad/s (K_P = 10800 s⁻², K_D = 180 s⁻¹, K_I = 216000 s⁻³), ~10 times slower than
-#: the 500 Hz sampling (ω T = 0.12) and fast enough to keep the tracking error below
-#: 0.01° during the landing (the "aggressive PID action" of §2.6.2).
-DEFAULT_FL_GAINS = PIDGains.triple_pole(60.0)
+#: -:data:`DEFAULT_FL_POLE` = -120 rad/s (K_P = 43200 s⁻², K_D = 360 s⁻¹,
+#: K_I = 1728000 s⁻³).
+DEFAULT_FL_GAINS = PIDGains.triple_pole(DEFAULT_FL_POLE)
+
+#: Named variant (a departure, not the thesis's design): the project's former gains,
+#: triple pole at -60 rad/s (K_P = 10800 s⁻², K_D = 180 s⁻¹, K_I = 216000 s⁻³).  1/ω =
+#: 17 ms is longer than the 10 ms NMPC period: with the NMPC started from the measured
+#: state, 1 ms of NMPC delay already puts the propellers into the slope (docs/nmpc.md).
+SLOW_FL_GAINS = PIDGains.triple_pole(60.0)
 
 
 def _check_sampling(dt, cos_min, on_singular) -> None:

@@ -50,8 +50,11 @@ class LandingScenario:
     ``LandingTiming()`` (ideal, zero CPU times), ``fl_gains`` →
     :data:`DEFAULT_FL_GAINS`, ``x0`` → hover at φ = ϑ = 0 (as an array
     ``[φ, φ̇, ϑ, ϑ̇]``), ``nmpc_kw`` → ``{}``.  ``nmpc_init`` defaults to
-    ``"measured"``, the thesis's scheme (§2.4: x₀ = x̂₀, the measured state);
-    ``"reference"`` is the reference-start variant for delayed plans.  ``ff_lead=None`` stays ``None``:
+    ``"measured"`` and ``actuator_state`` to ``"measured"``: the thesis's scheme (§2.4:
+    x₀ = x̂₀, the whole measured state, the applied thrust and torque included);
+    ``nmpc_init="reference"`` is the reference-start variant for delayed plans and
+    ``actuator_state="plan"`` the variant whose NMPC takes (f_R, τ_R) from its shifted
+    previous plan (both departures, docs/nmpc.md).  ``ff_lead=None`` stays ``None``:
     :attr:`feedforward_lead` derives half the low-level period from it.  Vary one
     field with :func:`dataclasses.replace`.
     """
@@ -70,7 +73,7 @@ class LandingScenario:
     log_interval: float = 1e-3
     seed: int = 0
     nmpc_kw: dict | None = None
-    actuator_state: str = "plan"
+    actuator_state: str = "measured"
     ff_lead: float | None = None
     topology: str = "single"
     network: Callable | None = None

@@ -114,7 +114,7 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
                 timing: LandingTiming | None = None, fl_gains: PIDGains | None = None,
                 x0=None, nmpc_period: float = 0.01, fl_period: float = 0.002,
                 integrator_dt: float = 1e-4, log_interval: float = 1e-3, seed: int = 0,
-                nmpc_kw: dict | None = None, actuator_state: str = "plan",
+                nmpc_kw: dict | None = None, actuator_state: str = "measured",
                 ff_lead: float | None = None, topology: str = "single", network=None,
                 ref_knots: int = 3, nmpc_init: str = "measured",
                 reset_tol: tuple[float, float] = (math.radians(2.0), math.radians(20.0))) -> LandingRun:
@@ -127,11 +127,14 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
     the low-level controller use the same physical parameters (the model mismatch is
     the landers and the wind, which the controllers do not model).  ``x0``: initial
     ``[φ, φ̇, ϑ, ϑ̇]`` (default hover at φ = ϑ = 0).  ``actuator_state`` (2LC only): the
-    ``(f_R, τ_R)`` entries of the NMPC's initial state are the values its previous plan
-    predicted for now (``"plan"``, default: they are reference quantities of the
-    trajectory generator) or the thrust and torque the low-level controller applies
-    (``"measured"``).  ``fl_gains``: PID gains of both low-level loops (default
-    :data:`DEFAULT_FL_GAINS`).  ``ff_lead``: the low-level job evaluates the
+    ``(f_R, τ_R)`` entries of the NMPC's initial state are the thrust and torque the
+    low-level controller applies (``"measured"``, default: the thesis's x₀ = x̂₀) or the
+    values its previous plan predicted for now (``"plan"``, a variant and a departure:
+    they are then reference quantities of the trajectory generator; docs/nmpc.md).  In
+    the two-node topology the sensor sends ``[φ, φ̇, ϑ, ϑ̇]`` only, so the NMPC there
+    always takes them from the plan.  ``fl_gains``: PID gains of both low-level loops
+    (default :data:`DEFAULT_FL_GAINS`, triple pole at -120 rad/s; the project's former
+    -60 rad/s gains are :data:`SLOW_FL_GAINS`, a named variant).  ``ff_lead``: the low-level job evaluates the
     acceleration feed-forward ``ff_lead`` seconds after its sampling instant (default
     half the low-level period: the input is held over the period, so the mid-period
     acceleration is the one it should produce on average).  ``ref_knots``: number of
