@@ -4,20 +4,24 @@ Runs, on the simulation model with landers (1 cm, see
 :data:`netcosim.controllers.landing.SIM_PARAMS`) and optionally the wind of §2.6.1:
 
 * ``ideal``: NMPC alone and the two-layer controller (2LC) as the thesis built it
-  (the NMPC re-initialized from the measured state at every sample), without and
-  with wind, with zero computation times (the thesis's Simulink setting) -- Fig.
-  2.8–2.13; plus the reference-start variant of the 2LC (``nmpc_init="reference"``)
-  for comparison;
-* ``delay``: both 2LC schemes and NMPC alone with a fixed NMPC computation delay of
-  0, 1, 2 and 5 ms (calm and wind), to show where the reference start pays off;
+  (the NMPC started from the whole measured state at every sample, low-level poles at
+  -120 rad/s), without and with wind, with zero computation times (the thesis's
+  Simulink setting) -- Fig. 2.8–2.13; plus two named variants for comparison
+  (:data:`netcosim.controllers.landing.SCHEMES`): the reference start
+  (``2lcref``) and the project's former default (``2lcformer``: (f_R, τ_R) from the
+  plan, poles at -60 rad/s);
+* ``delay``: the 2LC variants and NMPC alone with a fixed NMPC computation delay of
+  0, 0.1, 0.5, 1 and 2 ms (calm and wind);
 * ``scheduled``: the same controllers as netcosim tasks on one node whose NMPC job
   costs the RTI computation's solve times recorded once by a calibration run and
   replayed job by job (``experiments/data/ch2_nmpc_cpu_times.csv``; 100 µs per
-  low-level job, 20 µs context switches): NMPC alone, the 2LC in both schemes, and
-  (full run) the reference-start 2LC on two nodes over a 1 Mbit/s link.  The replay
-  makes every run give the same numbers on any host; :func:`calibrate` re-records
-  the table on this host (wall-clock solve times, not reproducible) for whoever
-  wants their own machine's.
+  low-level job, 20 µs context switches): NMPC alone, the 2LC in the thesis's scheme,
+  the reference start and the former default, and (full run) the reference-start 2LC
+  on two nodes over a 1 Mbit/s link; then the thesis's scheme and the former default
+  with the recording replayed from several offsets (``solve_time_band.parquet``).  The
+  replay makes every run give the same numbers on any host; :func:`calibrate`
+  re-records the table on this host (wall-clock solve times, not reproducible) for
+  whoever wants their own machine's.
 
 Writes PNG figures and Parquet tables to *outdir* and returns the metrics table.
 Also draws Fig. 2.5 (the sigmoid (2.11)).  Run ``python -m netcosim.experiments.ch2_landing``.
@@ -32,24 +36,36 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from netcosim.controllers.landing import SIM_PARAMS, LandingConfig, LandingTiming, landing_metrics, run_landing, sigmoid
-from netcosim.cputime import RecordedCPUTime  # noqa: E402
+from netcosim.controllers.landing import (
+    SCHEME_LABELS,
+    SCHEMES,
+    SIM_PARAMS,
+    LandingConfig,
+    LandingTiming,
+    landing_metrics,
+    run_landing,
+    sigmoid,
+)
+from netcosim.experiments._ch2_sweeps import (  # noqa: F401
+    CALIBRATION,
+    CONTEXT_SWITCH,
+    DELAYS,
+    FL_EXEC,
+    THESIS_RECORDING,
+    cable_stress_sweep,
+    delay_sweep,
+    gain_sweep,
+    recorded_timing,
+    solve_time_band,
+    wind_deviation,
+)
 from netcosim.plot import plot_schedule  # noqa: E402
 
 DEG = 180.0 / math.pi
 COLORS = {"nmpc": "tab:blue", "2lc": "tab:red"}
 LABELS = {"nmpc": "NMPC", "2lc": "2LC"}
-#: Solve times of the RTI phases ("feedback", "prepare") recorded by :func:`calibrate`,
-#: one block per scheduled run (column ``run``), replayed by the scheduled runs.
-CALIBRATION = Path(__file__).resolve().parent / "data" / "ch2_nmpc_cpu_times.csv"
-#: Low-level job CPU time and context switch of the scheduled runs (s).
-FL_EXEC, CONTEXT_SWITCH = 1e-4, 2e-5
-#: The two ways the 2LC starts its NMPC (``nmpc_init``): the thesis's scheme, which the
-#: figures reproduce, and the reference-start variant.
-SCHEMES = {"measured": "2LC, NMPC from the measurement (thesis)",
-           "reference": "2LC, NMPC from the reference (variant)"}
-#: Fixed NMPC computation delays of the delay sweep (s): the feedback phase costs all of it.
-DELAYS = (0.0, 0.001, 0.002, 0.005)
+#: The former default of the project, a named variant: the plan start with -60 rad/s poles.
+FORMER = "2LC former default (plan, -60 rad/s)"
 
 
 def _scheduled_runs(timing_for, duration: float, quick: bool) -> dict:
@@ -61,21 +77,15 @@ def _scheduled_runs(timing_for, duration: float, quick: bool) -> dict:
         "2LC (NMPC from reference)": lambda t: run_landing("2lc", duration=duration, timing=t,
                                                            nmpc_init="reference"),
     }
+    timings = {name: timing_for(name) for name in runs}
+    # the former default replays the thesis scheme's recording (same NMPC, same start)
+    runs[FORMER] = lambda t: run_landing("2lc", duration=duration, timing=t, **SCHEMES["former_default"])
+    timings[FORMER] = timing_for(THESIS_RECORDING)
     if not quick:
+        timings["2LC on two nodes (1 Mbit/s link)"] = timing_for("2LC on two nodes (1 Mbit/s link)")
         runs["2LC on two nodes (1 Mbit/s link)"] = lambda t: run_landing("2lc", duration=duration, timing=t,
                                                                          topology="two_nodes", nmpc_init="reference")
-    return {name: fn(timing_for(name)) for name, fn in runs.items()}
-
-
-def recorded_timing(name: str, path: Path = CALIBRATION) -> LandingTiming:
-    """The timing of scheduled run *name*: its recorded solve times, replayed."""
-    table = pd.read_csv(path)
-    rows = table[table["run"] == name]
-    if rows.empty:
-        raise KeyError(f"no recorded CPU times for run {name!r} in {str(path)!r}; "
-                       f"have {sorted(table['run'].unique())}")
-    return LandingTiming(nmpc_exec=RecordedCPUTime(rows, beyond="error"), fl_exec=FL_EXEC,
-                         context_switch=CONTEXT_SWITCH)
+    return {name: fn(timings[name]) for name, fn in runs.items()}
 
 
 def calibrate(path: str | Path = CALIBRATION, duration: float = 1.5) -> pd.DataFrame:
@@ -93,6 +103,7 @@ def calibrate(path: str | Path = CALIBRATION, duration: float = 1.5) -> pd.DataF
         measured = LandingTiming(nmpc_exec="measured", cpu_factor=1.0, fl_exec=FL_EXEC,
                                  context_switch=CONTEXT_SWITCH)
         runs = _scheduled_runs(lambda name: measured, duration, quick=False)
+    runs.pop(FORMER)  # replays the thesis scheme's recording
     table = pd.concat([r.cpu_times.assign(run=name) for name, r in runs.items()], ignore_index=True)
     table = table[["run", "phase", "index", "wall", "cpu"]]
     Path(path).parent.mkdir(parents=True, exist_ok=True)
@@ -187,73 +198,13 @@ def _figure_scheduled(runs, path):
     plt.close(fig)
 
 
-def delay_sweep(delays=DELAYS, duration: float = 1.5, schemes=("measured", "reference", "nmpc"),
-                ideal: dict | None = None) -> pd.DataFrame:
-    """Both 2LC schemes and NMPC alone, calm and with wind, with a fixed NMPC
-    computation delay [s] (all of it in the feedback phase, so the plan reaches the
-    plant *delay* seconds after its sample).
-
-    One row per (``delay`` [s], ``scheme`` -- ``"measured"``, ``"reference"`` or
-    ``"nmpc"`` --, ``wind``) with :func:`landing_metrics`, plus ``wind_deviation``
-    [deg] (RMS over the run of the wind run minus the calm run, same delay and scheme)
-    on the wind rows.  *ideal* maps ``(scheme, wind)`` to a zero-delay run of the same
-    *duration* to reuse for delay 0 (the same run: zero CPU time is zero CPU time);
-    its schemes are always reported at delay 0.
-    """
-    rows = []
-    for delay in delays:
-        timing = LandingTiming(nmpc_exec=float(delay), feedback_share=1.0)
-        reuse = ideal if delay == 0 and ideal is not None else {}
-        for scheme in ("measured", "reference", "nmpc"):
-            if scheme not in schemes and (scheme, False) not in reuse:
-                continue
-            pair = {}
-            for wind in (False, True):
-                if (scheme, wind) in reuse:
-                    pair[wind] = reuse[(scheme, wind)]
-                elif scheme == "nmpc":
-                    pair[wind] = run_landing("nmpc", wind=wind, duration=duration, timing=timing)
-                else:
-                    pair[wind] = run_landing("2lc", wind=wind, duration=duration, timing=timing, nmpc_init=scheme)
-                rows.append(dict(landing_metrics(pair[wind]), delay=float(delay), scheme=scheme, wind=wind))
-            rows[-1]["wind_deviation"] = _wind_deviation(pair[False], pair[True])
-    return pd.DataFrame(rows)
-
-
-def cable_stress_sweep(masses=(0.5, 0.7, 1.0, 1.3), lengths=(0.5, 1.0, 2.0),
-                       duration: float = 1.5) -> pd.DataFrame:
-    """Peak cable stress f_L of the 2LC (thesis scheme, zero delay) for vehicle masses
-    ``m_B`` [kg] and cable lengths ``l`` [m] the thesis leaves open (every other
-    parameter from :data:`SIM_PARAMS`).
-
-    One row per (``m_B``, ``l``): ``f_L_max_calm``, ``f_L_max_wind`` [N], ``d_PG_min``
-    [m] (calm), ``t_settle`` [s] (calm) and ``dphi_max`` [deg/s] (calm, peak |φ̇|).
-    """
-    import dataclasses
-    rows = []
-    for m_B in masses:
-        for length in lengths:
-            p = dataclasses.replace(SIM_PARAMS, m_B=float(m_B), l=float(length))
-            calm, windy = (run_landing("2lc", wind=w, duration=duration, params=p) for w in (False, True))
-            mc = landing_metrics(calm)
-            rows.append(dict(m_B=float(m_B), l=float(length), f_L_max_calm=mc["f_L_max"],
-                             f_L_max_wind=landing_metrics(windy)["f_L_max"], d_PG_min=mc["d_PG_min"],
-                             t_settle=mc["t_settle"], dphi_max=float(DEG * calm.signals["dphi"].abs().max())))
-    return pd.DataFrame(rows)
-
-
-def _wind_deviation(calm, windy) -> float:
-    """RMS over the run of (run with wind - run without) in φ and ϑ [deg]."""
-    a, b = calm.signals, windy.signals
-    return float(DEG * np.sqrt(np.mean((a["phi"] - b["phi"]) ** 2 + (a["theta"] - b["theta"]) ** 2)))
-
-
 def _figure_delay(sweep: pd.DataFrame, path) -> None:
     """d_PG min (calm and wind) and the wind-induced deviation against the NMPC delay."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
-    styles = {"measured": ("tab:red", SCHEMES["measured"]), "reference": ("tab:green", SCHEMES["reference"]),
-              "nmpc": ("tab:blue", "NMPC alone")}
-    for scheme, (color, label) in styles.items():
+    colors = {"thesis": "tab:red", "plan": "tab:orange", "former_default": "tab:purple", "reference": "tab:green",
+              "nmpc": "tab:blue", "slow_gains": "tab:brown"}
+    for scheme in sweep["scheme"].unique():
+        color, label = colors[scheme], SCHEME_LABELS[scheme]
         for wind, ls in ((False, "-"), (True, "--")):
             d = sweep[(sweep["scheme"] == scheme) & (sweep["wind"] == wind)]
             axes[0].plot(d["delay"] * 1e3, d["d_PG_min"] * 1e3, ls, marker="o", color=color,
@@ -269,7 +220,7 @@ def _figure_delay(sweep: pd.DataFrame, path) -> None:
         ax.set_xlabel("NMPC computation delay [ms]")
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=7, framealpha=0.6)
-    fig.suptitle("Both 2LC schemes against the NMPC computation delay (fixed budget, one node)")
+    fig.suptitle("The 2LC variants against the NMPC computation delay (fixed budget, one node)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -301,11 +252,12 @@ def _tidy(name, run):
 
 
 def _ideal_runs(duration: float) -> dict:
-    """NMPC alone, the 2LC (thesis scheme) and the reference-start 2LC (``2lcref``),
-    without and with wind, zero computation times."""
+    """NMPC alone, the 2LC (thesis scheme), the reference-start 2LC (``2lcref``) and
+    the former default (``2lcformer``), without and with wind, zero computation times."""
     runs = {}
     for wind in (False, True):
-        for c, kw in (("nmpc", {}), ("2lc", dict(nmpc_init="measured")), ("2lcref", dict(nmpc_init="reference"))):
+        for c, kw in (("nmpc", {}), ("2lc", SCHEMES["thesis"]), ("2lcref", SCHEMES["reference"]),
+                      ("2lcformer", SCHEMES["former_default"])):
             name = f"ideal_{c}_{'wind' if wind else 'calm'}"
             print(f"  ch2_landing: {name} ({duration} s simulated)", flush=True)
             runs[name] = run_landing("nmpc" if c == "nmpc" else "2lc", wind=wind, duration=duration, **kw)
@@ -330,15 +282,16 @@ def _metrics(runs: dict) -> pd.DataFrame:
     """:func:`landing_metrics` of every run, plus the wind and response-time comparisons."""
     metrics = pd.DataFrame([dict(landing_metrics(run), run=name) for name, run in runs.items()]).set_index("run")
     # wind-induced deviation: RMS over the run of (run with wind - run without), degrees
-    for c in ("nmpc", "2lc", "2lcref"):
-        metrics.loc[f"ideal_{c}_wind", "wind_deviation"] = _wind_deviation(runs[f"ideal_{c}_calm"],
-                                                                           runs[f"ideal_{c}_wind"])
-    for c in ("2lc", "2lcref"):
+    for c in ("nmpc", "2lc", "2lcref", "2lcformer"):
+        metrics.loc[f"ideal_{c}_wind", "wind_deviation"] = wind_deviation(runs[f"ideal_{c}_calm"],
+                                                                          runs[f"ideal_{c}_wind"])
+    for c in ("2lc", "2lcref", "2lcformer"):
         w = f"ideal_{c}_wind"
         metrics.loc[w, "rms_ratio_2lc_over_nmpc"] = metrics.loc[w, "rms"] / metrics.loc["ideal_nmpc_wind", "rms"]
         metrics.loc[w, "wind_deviation_ratio"] = (metrics.loc[w, "wind_deviation"]
                                                   / metrics.loc["ideal_nmpc_wind", "wind_deviation"])
-    for sched in ("scheduled_2LC (NMPC from measurement)", "scheduled_2LC (NMPC from reference)"):
+    for sched in ("scheduled_2LC (NMPC from measurement)", "scheduled_2LC (NMPC from reference)",
+                  "scheduled_" + FORMER):
         jobs = runs[sched].jobs
         nm = jobs[jobs["task"] == "nmpc"]
         metrics.loc[sched, "nmpc_response_median"] = float(nm["response_time"].median())
@@ -350,7 +303,8 @@ def _metrics(runs: dict) -> pd.DataFrame:
 WALL_CLOCK_COLUMNS = ("t_feedback", "t_prepare")
 
 
-def _write_tables(out: Path, runs: dict, scheduled: dict, metrics: pd.DataFrame, sweep: pd.DataFrame) -> None:
+def _write_tables(out: Path, runs: dict, scheduled: dict, metrics: pd.DataFrame, sweep: pd.DataFrame,
+                  band: pd.DataFrame) -> None:
     pd.concat([_tidy(n, r) for n, r in runs.items()], ignore_index=True).to_parquet(out / "signals.parquet")
     # the solver's wall-clock times depend on the host: kept apart, so that nmpc_steps.parquet
     # holds only what a run with the same seed reproduces bit for bit
@@ -363,22 +317,25 @@ def _write_tables(out: Path, runs: dict, scheduled: dict, metrics: pd.DataFrame,
               ignore_index=True).to_parquet(out / "cpu_times.parquet")
     metrics.reset_index().to_parquet(out / "metrics.parquet")
     sweep.to_parquet(out / "delay_sweep.parquet")
+    band.to_parquet(out / "solve_time_band.parquet")
 
 
-def _print_summary(metrics: pd.DataFrame, sweep: pd.DataFrame) -> None:
+def _print_summary(metrics: pd.DataFrame, sweep: pd.DataFrame, band: pd.DataFrame) -> None:
     cols = ["t_settle", "phi_final", "theta_final", "rms", "f_R_max", "f_L_min", "f_L_max", "d_PG_min",
             "n_fallback"]
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(metrics[cols].round(4).to_string())
-        for c in ("2lc", "2lcref"):
+        for c in ("2lc", "2lcref", "2lcformer"):
             w = metrics.loc[f"ideal_{c}_wind"]
             print(f"wind, {c}: RMS (deg) NMPC {metrics.loc['ideal_nmpc_wind', 'rms']:.4f}, 2LC {w['rms']:.4f}, "
                   f"ratio {w['rms_ratio_2lc_over_nmpc']:.4f}; wind-induced deviation NMPC "
                   f"{metrics.loc['ideal_nmpc_wind', 'wind_deviation']:.4f}, 2LC {w['wind_deviation']:.4f}, "
                   f"ratio {w['wind_deviation_ratio']:.3f}")
         print("\ndelay sweep (fixed NMPC computation delay):")
-        cols = ["delay", "scheme", "wind", "t_settle", "d_PG_min", "f_L_max", "wind_deviation"]
-        print(sweep[cols].round(4).to_string(index=False))
+        cols = ["delay", "scheme", "wind", "t_settle", "d_PG_min", "f_L_max", "wind_deviation", "wind_ratio"]
+        print(sweep[[c for c in cols if c in sweep]].round(4).to_string(index=False))
+        print("\nrecorded solve times replayed from several offsets (d_PG_min [m], f_L_max [N]):")
+        print(band.groupby("scheme")[["d_PG_min", "f_L_max", "t_settle"]].agg(["min", "max"]).round(4).to_string())
 
 
 def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFrame:
@@ -388,11 +345,14 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     duration = 1.0 if quick else 1.5
     runs = _ideal_runs(duration)
     print("  ch2_landing: delay sweep", flush=True)
-    names = (("measured", "2lc"), ("reference", "2lcref"), ("nmpc", "nmpc"))
+    names = (("thesis", "2lc"), ("reference", "2lcref"), ("former_default", "2lcformer"), ("nmpc", "nmpc"))
     ideal = {(scheme, wind): runs[f"ideal_{c}_{'wind' if wind else 'calm'}"]
              for scheme, c in names for wind in (False, True)}
-    sweep = delay_sweep((0.0, 0.005) if quick else DELAYS, duration,
-                        ("measured", "reference") if quick else ("measured", "reference", "nmpc"), ideal)
+    sweep = delay_sweep((0.0, 0.002) if quick else DELAYS, duration,
+                        ("thesis", "former_default", "nmpc") if quick else
+                        ("thesis", "plan", "slow_gains", "former_default", "reference", "nmpc"), ideal)
+    print("  ch2_landing: recorded solve times from several offsets", flush=True)
+    band = solve_time_band(offsets=(0, 75) if quick else tuple(range(0, 150, 15)), duration=duration)
     print("  ch2_landing: scheduled runs (recorded NMPC solve times)", flush=True)
     scheduled = _scheduled_runs(recorded_timing, duration, quick)
     print("  ch2_landing: figures and tables", flush=True)
@@ -404,25 +364,30 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     _figure_delay(sweep, out / "delay_sweep.png")
     _figure_sigmoid(out / "fig2_5_sigmoid.png")
     metrics = _metrics(runs)
-    _write_tables(out, runs, scheduled, metrics, sweep)
-    _print_summary(metrics, sweep)
+    _write_tables(out, runs, scheduled, metrics, sweep, band)
+    _print_summary(metrics, sweep, band)
     return metrics
 
 
 if __name__ == "__main__":
     from netcosim.experiments._cli import experiment_parser
     ap = experiment_parser(__doc__, "results/ch2",
-                           quick="1 s landings instead of 1.5 s; delays 0 and 5 ms (5 ms: 2LC schemes only); "
-                                 "no two-node run")
+                           quick="1 s landings instead of 1.5 s; delays 0 and 2 ms (thesis scheme, former "
+                                 "default, NMPC alone); 2 replay offsets; no two-node run")
     ap.add_argument("--calibrate", action="store_true",
                     help=f"re-record the NMPC solve times on this host into {CALIBRATION} (wall clock: "
                          "run on a quiet machine) instead of running the experiment")
     ap.add_argument("--cable-sweep", action="store_true",
                     help="print the 2LC's peak cable stress over vehicle mass and cable length "
                          "(docs/nmpc.md) instead of running the experiment")
+    ap.add_argument("--gain-sweep", action="store_true",
+                    help="print the thesis scheme's d_PG and f_L against the low-level pole (docs/nmpc.md, "
+                         "\"Low-level gains\") instead of running the experiment")
     a = ap.parse_args()
     if a.cable_sweep:
         print(cable_stress_sweep().round(4).to_string(index=False))
+    elif a.gain_sweep:
+        print(gain_sweep().round(5).to_string(index=False))
     elif a.calibrate:
         t = calibrate()
         print(t.groupby(["run", "phase"])["cpu"].describe()[["count", "50%", "max"]].to_string())

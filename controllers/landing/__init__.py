@@ -25,7 +25,13 @@ from typing import TYPE_CHECKING
 from netcosim.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from .feedback_linearization import DEFAULT_FL_POLE, SLOW_FL_GAINS, FeedbackLinearization, PIDGains, SingularityError
+    from .feedback_linearization import (
+        DEFAULT_FL_POLE,
+        SLOW_FL_GAINS,
+        FeedbackLinearization,
+        PIDGains,
+        SingularityError,
+    )
     from .interpolation import C2Interpolator, quintic_coefficients
     from .ocp import LandingConfig, initial_state, landing_nmpc, landing_ocp, sigmoid
     from .result import LandingRun, landing_metrics
