@@ -11,13 +11,18 @@ the preparation time with the linearization compiled to C (CasADi ``jit``).
 The thesis's C implementation (MATMPC + qpOASES) stays under 5 ms per step; the
 target here is max <= 5 ms and median <= 2 ms.  Python's garbage collector is
 disabled inside the timed loop (as in a real-time process).  Run
-``python -m benchmarks.nmpc``.
+``python -m benchmarks.nmpc``; ``--rti-only --outdir DIR`` times the RTI alone and
+writes its per-step times and the host to ``DIR/rti_times.parquet`` (the NMPC time row
+of docs/fidelity.md: ``python -m netcosim.experiments.fidelity --measure`` reads
+``results/nmpc_benchmark/``).
 """
 
 from __future__ import annotations
 
+import argparse
 import gc
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -63,6 +68,35 @@ def closed_loop(steps: int = STEPS, with_ipopt: bool = True, **kw) -> dict:
                 final_phi_deg=float(np.degrees(x[0])), final_theta_deg=float(np.degrees(x[2])))
 
 
+def host() -> str:
+    """This host, as the time row states it: CPU model, logical cores, 1-min load."""
+    import os
+    import platform
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{cpu}, {os.cpu_count()} logical cores, load {load:.1f}"
+
+
+def write_rti_times(outdir, steps: int = STEPS) -> pd.DataFrame:
+    """Time the RTI closed loop (no IPOPT) and write ``rti_times.parquet`` to *outdir*:
+    one row per step, ``feedback``, ``prepare``, ``total`` [s] and ``host``."""
+    res = closed_loop(steps, with_ipopt=False)
+    df = pd.DataFrame({k: res[k] for k in ("feedback", "prepare", "total")}).assign(host=host())
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    df.to_parquet(out / "rti_times.parquet")
+    print(pd.DataFrame({k: _stats(df[k]) for k in ("feedback", "prepare", "total")}).T.round(3).to_string())
+    print(f"host: {df['host'].iloc[0]} -> {out / 'rti_times.parquet'}")
+    return df
+
+
 def main() -> dict:
     res = closed_loop()
     rows = {"RTI feedback (QP)": _stats(res["feedback"]), "RTI preparation": _stats(res["prepare"]),
@@ -105,4 +139,11 @@ def main() -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.nmpc", description=__doc__.splitlines()[0])
+    ap.add_argument("--rti-only", action="store_true", help="time the RTI alone and write rti_times.parquet")
+    ap.add_argument("--outdir", default="results/nmpc_benchmark", help="where --rti-only writes")
+    a = ap.parse_args()
+    if a.rti_only:
+        write_rti_times(a.outdir)
+    else:
+        main()

@@ -18,8 +18,10 @@ Runs, on the simulation model with landers (1 cm, see
   low-level job, 20 µs context switches): NMPC alone, the 2LC in the thesis's scheme,
   the reference start and the former default, and (full run) the reference-start 2LC
   on two nodes over a 1 Mbit/s link; then the thesis's scheme and the former default
-  with the recording replayed from several offsets (``solve_time_band.parquet``).  The
-  replay makes every run give the same numbers on any host; :func:`calibrate`
+  with the recording replayed from several offsets (``solve_time_band.parquet``);
+  (full run) the peak cable stress over vehicle mass and cable length
+  (``cable_sweep.parquet``).  The replay makes every run give the same numbers on any
+  host; :func:`calibrate`
   re-records the table on this host (wall-clock solve times, not reproducible) for
   whoever wants their own machine's.
 
@@ -73,9 +75,9 @@ def _scheduled_runs(timing_for, duration: float, quick: bool) -> dict:
     runs = {
         "NMPC alone": lambda t: run_landing("nmpc", duration=duration, timing=t),
         "2LC (NMPC from measurement)": lambda t: run_landing("2lc", duration=duration, timing=t,
-                                                             nmpc_init="measured"),
+                                                             **SCHEMES["thesis"]),
         "2LC (NMPC from reference)": lambda t: run_landing("2lc", duration=duration, timing=t,
-                                                           nmpc_init="reference"),
+                                                           **SCHEMES["reference"]),
     }
     timings = {name: timing_for(name) for name in runs}
     # the former default replays the thesis scheme's recording (same NMPC, same start)
@@ -84,7 +86,7 @@ def _scheduled_runs(timing_for, duration: float, quick: bool) -> dict:
     if not quick:
         timings["2LC on two nodes (1 Mbit/s link)"] = timing_for("2LC on two nodes (1 Mbit/s link)")
         runs["2LC on two nodes (1 Mbit/s link)"] = lambda t: run_landing("2lc", duration=duration, timing=t,
-                                                                         topology="two_nodes", nmpc_init="reference")
+                                                                         topology="two_nodes", **SCHEMES["reference"])
     return {name: fn(timings[name]) for name, fn in runs.items()}
 
 
@@ -365,6 +367,9 @@ def main(outdir: str | Path = "results/ch2", quick: bool = False) -> pd.DataFram
     _figure_sigmoid(out / "fig2_5_sigmoid.png")
     metrics = _metrics(runs)
     _write_tables(out, runs, scheduled, metrics, sweep, band)
+    if not quick:
+        print("  ch2_landing: cable stress over m_B and l (calm, 3/1 N and 1/0.3 N wind)", flush=True)
+        cable_stress_sweep().to_parquet(out / "cable_sweep.parquet")
     _print_summary(metrics, sweep, band)
     return metrics
 

@@ -14,8 +14,9 @@ the variant; ``"thesis"`` is empty because the defaults are the thesis's scheme:
                       -60 rad/s (:data:`SLOW_FL_GAINS`).
 ``"former_default"``  departure: the project's former default, ``"plan"`` with the
                       -60 rad/s poles (the "fragile under delay" scheme of the audit).
-``"reference"``       departure: each plan starts from the low-level reference
-                      (``nmpc_init="reference"``), for delayed plans.
+``"reference"``       departure: each plan starts from the low-level reference and
+                      its previous plan's (f_R, τ_R) (``nmpc_init="reference"``,
+                      ``actuator_state="plan"``), for delayed plans.
 
 Their numbers against the NMPC delay are in docs/nmpc.md.
 """
@@ -32,7 +33,7 @@ SCHEMES: dict[str, dict] = {
     "plan": {"actuator_state": "plan"},
     "slow_gains": {"fl_gains": SLOW_FL_GAINS},
     "former_default": {"actuator_state": "plan", "fl_gains": SLOW_FL_GAINS},
-    "reference": {"nmpc_init": "reference"},
+    "reference": {"nmpc_init": "reference", "actuator_state": "plan"},
 }
 
 #: Variant name -> a label for tables and figures.
