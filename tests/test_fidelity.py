@@ -25,7 +25,10 @@ def test_stored_numbers_cover_every_claim():
     df = fidelity.rows(fidelity.load())
     assert list(df.columns) == COLUMNS and len(df) == len(fidelity.CLAIMS)
     assert "not run" not in set(df["status"])
-    assert "NOT REPRODUCED" not in set(df["status"])
+    # the one row the thesis's own scheme does not reproduce (docs/nmpc.md, "Wind rejection")
+    assert set(df.loc[df["status"] == "NOT REPRODUCED", "figure"]) <= {"Fig. 2.11"}
+    verdicts = ("reproduced", "simulated analogue: ", "justified departure: ", "NOT REPRODUCED")
+    assert all(st.startswith(verdicts) for st in df["status"])
     # every figure/table the experiments reproduce has a row
     figures = " ".join(df["figure"])
     for f in ("2.8", "2.9", "2.10", "2.11", "2.12", "2.13", "3.8", "3.10", "3.11", "3.12", "4.8", "4.9", "4.10",
@@ -50,7 +53,7 @@ def test_measure_reads_quick_outputs(tmp_path):
     assert list(df.columns) == COLUMNS
     by = df.groupby("experiment")["status"].agg(list)
     assert by["ch3_fig3_8"] == ["reproduced", "reproduced"]
-    assert by["ch5_table5_2"] == ["departs: docs/controllers.md, Table 5.2", "reproduced"]
+    assert by["ch5_table5_2"] == ["justified departure: docs/controllers.md, Table 5.2", "reproduced"]
     assert set(by["ch2_landing"]) == {"not run"}
     row = df[(df["figure"] == "Table 5.2")].iloc[0]
     assert row["reproduced"] == "k_o = 2.000, 1.333, 0.667 (Prop. 5.4.4)"
@@ -59,16 +62,17 @@ def test_measure_reads_quick_outputs(tmp_path):
 def test_status_follows_the_numbers():
     v = fidelity.load()
     base = fidelity.rows(v).set_index("figure")
-    assert base.loc["Fig. 2.11", "status"] == "reproduced"
-    worse = dict(v, **{"ch2_landing.wind.deviation_ratio": 1.2})     # 2LC no better under wind
-    assert fidelity.rows(worse).set_index("figure").loc["Fig. 2.11", "status"] == "NOT REPRODUCED"
+    assert base.loc["Fig. 2.11", "status"] == "NOT REPRODUCED"     # thesis's scheme: ratio 3.36
+    better = dict(v, **{"ch2_landing.wind.deviation_ratio": 0.5})    # 2LC better under wind
+    assert fidelity.rows(better).set_index("figure").loc["Fig. 2.11", "status"] == "reproduced"
     low = dict(v, **{"ch2_landing.2lc_calm.f_L_max": 5.0, "ch2_landing.nmpc_calm.f_L_max": 5.5})
     assert fidelity.rows(low).set_index("figure").loc["Fig. 2.10 (text)", "status"] == "reproduced"
-    assert base.loc["Fig. 2.10 (text)", "status"] == 'departs: docs/nmpc.md, "Cable stress"'
+    assert base.loc["Fig. 2.10 (text)", "status"].startswith("justified departure: m_B, l are not in the thesis")
+    assert base.loc["§2.6.2 (real time)", "status"].startswith("simulated analogue: ")
 
 
 def test_stored_numbers_round_trip(tmp_path):
-    v = {"a.x": 0.1 + 0.2, "a.inf": math.inf}
+    v = {"a.x": 0.1 + 0.2, "a.inf": math.inf, "b.host": "AMD EPYC, 2 logical cores, load 1.0"}
     fidelity.save(v, tmp_path / "v.json")
     assert fidelity.load(tmp_path / "v.json") == v
 
