@@ -117,5 +117,5 @@ def test_stored_numbers_are_the_full_runs(tmp_path):
     stored = fidelity.load()
     got = fidelity.measure(tmp_path, names)
     import pandas as pd
-    assert len(got) == 42
+    assert len(got) == 44
     assert pd.Series(got).equals(pd.Series({k: stored[k] for k in got}))     # NaN equal to NaN
