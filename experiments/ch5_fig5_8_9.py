@@ -175,7 +175,7 @@ def theta_table(sys_, quick: bool, env: RealisticEnvironment, seed: int = 0):
         print(f"  estimating theta = (mu, alpha, gamma1, gamma2) by the QP (5.27), {period:g} s reference",
               flush=True)
         df = theta_samples(sys_, reference(sys_, period), quick, env, seed, period)
-        cases = ((f"environment, true errors", "truth"), ("environment, MoCap errors", "mocap")) \
+        cases = (("environment, true errors", "truth"), ("environment, MoCap errors", "mocap")) \
             if period == REFERENCE_PERIOD else ((f"environment, true errors, {period:g} s reference", "truth"),)
         for source, errors in cases:
             sfx = "" if errors == "truth" else "_mocap"

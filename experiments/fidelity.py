@@ -344,7 +344,8 @@ CLAIMS: list[Claim] = [
           "θ̂ = ({theta_fast.mu:.3f}, {theta_fast.alpha:.3f}, {theta_fast.gamma1:.3f}, {theta_fast.gamma2:.3f}), "
           "γ̂₂ ∈ [{theta_fast.gamma2_lo:.3f}, {theta_fast.gamma2_hi:.3f}], τ_CR = {theta_fast.tau_CR:.2f} s "
           "∈ [{theta_fast.tau_CR_lo:.2f}, {theta_fast.tau_CR_hi:.2f}]",
-          lambda v: v["theta.mu_lo"] <= 0.02 <= v["theta.mu_hi"] and v["theta.gamma2_lo"] <= 0.2 <= v["theta.gamma2_hi"],
+          lambda v: v["theta.mu_lo"] <= 0.02 <= v["theta.mu_hi"]
+          and v["theta.gamma2_lo"] <= 0.2 <= v["theta.gamma2_hi"],
           "docs/controllers.md, Figs. 5.8/5.9 (different plant)",
           reason="95 % bootstrap intervals over resampled sample sets (500 resamples of the 432 one-period "
           "samples), lopsided about the fit, which is an envelope (a resample can only lose binding samples). "
