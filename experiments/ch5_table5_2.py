@@ -15,10 +15,21 @@ All quantities are the closed forms of Propositions 5.4.2-5.4.4 applied to the b
   ``rho_o(k)``, ``rho_o(tau)``.
 * Fig. 5.3: the stability region ``0 < T < tau_s(k)`` (an under-estimate of the
   contractive region ``T < T_c(k)``) and the region ``k T > 2`` where Prop. 5.3.4 rules
-  contraction out.
+  contraction out.  The curve ``T_c(k)`` itself cannot be drawn from closed forms:
+  Prop. 5.3.5 only proves it exists (for ``k > k_2 = delta v_max``, with delta a
+  Lipschitz-type constant of the Jacobian the thesis does not compute); the figure hatches
+  the band it must lie in, ``tau_s(k) <= T_c(k) <= 2/k``.
+* Figs. B.3-B.10 (``figB_3_10.png``, ``appendix_b.parquet``): the polynomials of the
+  proofs of Props. 5.4.2-5.4.4 drawn from their printed expressions, each with the root
+  the implemented closed form gives (``tau_s``, ``k_bar``, ``k_barbar``, ``tau_CR``),
+  where the curve is 0 (or z = 1) to rounding.  B.9's root as the thesis prints it,
+  ``(-(gamma1 + alpha mu) +- sqrt(...))/(...)``, does not solve its own polynomial
+  (whose linear coefficient is ``2 (gamma1 + 2 alpha mu)``); the root drawn is the
+  polynomial's, which is where the implemented ``rho_o(tau)`` reaches 1 (``tau_CR``).
 
 Run ``python -m netcosim.experiments.ch5_table5_2``.  Writes ``table5_2.parquet``,
-``curves.parquet`` and ``fig5_3.png``, ``fig5_4.png``, ``fig5_5.png``, ``fig5_7.png``.
+``curves.parquet``, ``appendix_b.parquet`` and ``fig5_3.png``, ``fig5_4.png``,
+``fig5_5.png``, ``fig5_7.png``, ``figB_3_10.png``.
 """
 
 from __future__ import annotations
@@ -34,6 +45,7 @@ from netcosim.controllers.planner.sikm import (
     SIKMParams,
     in_stability_set,
     k_bar,
+    k_barbar,
     k_o,
     optimal_offline_gain,
     rho_of_k,
@@ -116,7 +128,11 @@ def plot_all(outdir: str, tab: pd.DataFrame) -> None:
     _plot_region(ax, THESIS)
     K = np.linspace(1e-3, 6, 300)
     ax.fill_between(K, 2 / K, 10, color="#f4b6b6", alpha=0.7, label="k T > 2 (Prop. 5.3.4)")
-    ax.set_title("Fig. 5.3: stability set z < 1 (green) under-estimates T < T_c(k)")
+    lo = np.array([tau_s(k, THESIS) for k in K])
+    ax.fill_between(K, lo, np.minimum(2 / K, 10), where=K > THESIS.alpha, hatch="//", facecolor="none",
+                    edgecolor="gray", lw=0, label="T_c(k) lies here: above tau_s(k), below 2/k")
+    ax.set_title("Fig. 5.3: stability set z < 1 (green) under-estimates T < T_c(k)\n"
+                 "(T_c(k) of Prop. 5.3.5 has no closed form: only its bounds are drawn)", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(os.path.join(outdir, "fig5_3.png"), dpi=120)
@@ -165,6 +181,73 @@ def plot_all(outdir: str, tab: pd.DataFrame) -> None:
     plt.close(fig)
 
 
+# ---------------------------------------------------------------- appendix B.4
+#: Figs. B.3-B.10: figure -> (what it plots, x name).  Each curve is the thesis's printed
+#: expression; its marked root is the implemented closed form of :mod:`sikm` it defines.
+APPENDIX_B = {
+    "B.3": ("z^-(k, tau) = 1 + tau (alpha - k) + tau^2 Q(k), k tau < 1; root of z^- = 1: tau_s1(k)", "tau"),
+    "B.4": ("p_s2^-(k) = k^2 (1 - mu) - k (alpha + gamma1) - gamma2; root: k_bar", "k"),
+    "B.5": ("p_s^=(k) = k^2 (mu - 1) + k (alpha + gamma1) + gamma2; root: k_bar", "k"),
+    "B.6": ("z^+(k, tau) = -1 + tau (alpha + k) + tau^2 Q(k), k tau > 1; root of z^+ = 1: tau_s2(k)", "tau"),
+    "B.7": ("p_tau_s+(k) = k^2 (mu - 1) + k (alpha + gamma1) + gamma2; root: k_bar", "k"),
+    "B.8": ("p_v^-(k) = k^2 (1 - 2 mu) - k (alpha + 2 gamma1) - 2 gamma2; root: k_barbar", "k"),
+    "B.9": ("p_v^-(tau) = (4 gamma2 mu - gamma1^2) tau^2 + 2 (gamma1 + 2 alpha mu) tau - 1; "
+            "root: where rho_o(tau) = 1, i.e. tau_CR", "tau"),
+    "B.10": ("p^=(tau) = gamma2 tau^2 + (alpha + gamma1) tau + mu - 1; root: 1/k_bar = tau_CR", "tau"),
+}
+
+
+def appendix_b(p: SIKMParams = THESIS, k_low: float = 0.4, k_high: float = 2.0, n: int = 300) -> pd.DataFrame:
+    """The curves of Figs. B.3-B.10 for *p* (default the thesis's theta; B.9 with the
+    ``1/2 < mu < 1`` example, where its branch of rho_o(tau) applies), each with the
+    root the implemented closed form gives (``root``) and the curve's value there
+    (``at_root``: 0 for a polynomial, 1 for z).  B.3 at ``k = k_low`` (1/s, between alpha
+    and k_bar: tau_s = tau_s1), B.6 at ``k = k_high`` (above k_bar: tau_s = tau_s2).
+    Columns: ``figure, x_name, x, y, root, at_root``."""
+    a, g1, g2 = p.alpha, p.gamma1, p.gamma2
+    mu = p.mu
+    kb, kbb = k_bar(p), k_barbar(p)
+    pv = EXAMPLES["1/2<mu<1"]
+
+    def pv_tau(t, q=pv):
+        return (4 * q.gamma2 * q.mu - q.gamma1 ** 2) * t * t + 2 * (q.gamma1 + 2 * q.alpha * q.mu) * t - 1
+
+    curves_ = {
+        "B.3": (lambda t: 1 + t * (a - k_low) + t * t * p.Q(k_low), tau_s(k_low, p), (0.0, 1.0 / k_low)),
+        "B.4": (lambda k: k * k * (1 - mu) - k * (a + g1) - g2, kb, (0.0, 2 * kb)),
+        "B.5": (lambda k: k * k * (mu - 1) + k * (a + g1) + g2, kb, (0.0, 2 * kb)),
+        "B.6": (lambda t: -1 + t * (a + k_high) + t * t * p.Q(k_high), tau_s(k_high, p), (1.0 / k_high, 2.0 / k_high)),
+        "B.7": (lambda k: k * k * (mu - 1) + k * (a + g1) + g2, kb, (0.0, 2 * kb)),
+        "B.8": (lambda k: k * k * (1 - 2 * mu) - k * (a + 2 * g1) - 2 * g2, kbb, (0.0, 2 * kbb)),
+        "B.9": (pv_tau, tau_critical(pv), (0.0, 2 * tau_critical(pv))),
+        "B.10": (lambda t: g2 * t * t + (a + g1) * t + mu - 1, 1.0 / kb, (0.0, 2.0 / kb)),
+    }
+    out = []
+    for fig, (f, root, (x0, x1)) in curves_.items():
+        x = np.linspace(x0, x1, n)
+        out.append(pd.DataFrame(dict(figure=fig, x_name=APPENDIX_B[fig][1], x=x, y=f(x), root=root,
+                                     at_root=float(f(root)) if math.isfinite(root) else math.nan)))
+    return pd.concat(out, ignore_index=True)
+
+
+def plot_appendix_b(outdir: str, curves_: pd.DataFrame) -> None:
+    """Figs. B.3-B.10 (``figB_3_10.png``): each curve and its implemented root (dotted)."""
+    fig, axes = plt.subplots(2, 4, figsize=(16, 7))
+    for ax, (name, g) in zip(axes.ravel(), curves_.groupby("figure", sort=False)):
+        ax.plot(g.x, g.y)
+        ax.axhline(1.0 if name in ("B.3", "B.6") else 0.0, color="k", lw=0.6)
+        ax.axvline(g.root.iloc[0], color="r", ls=":", label=f"root {g.root.iloc[0]:.4g}")
+        text = APPENDIX_B[name][0]
+        ax.set_title(f"Fig. {name}: {text.split(' = ')[0]}; {text.split('; ')[-1]}", fontsize=8)
+        ax.set_xlabel(g.x_name.iloc[0])
+        ax.legend(fontsize=7)
+    fig.suptitle("Appendix B.4, drawn from the closed forms (theta of Sec. 5.5, B.3 at k = 0.4, B.6 at k = 2; "
+                 "B.9: mu = 0.7)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(outdir, "figB_3_10.png"), dpi=110)
+    plt.close(fig)
+
+
 def main(outdir: str = "results/ch5_table5_2", quick: bool = False) -> pd.DataFrame:
     """Compute Table 5.2 and the curves, save PNG and Parquet; return the table."""
     os.makedirs(outdir, exist_ok=True)
@@ -173,6 +256,9 @@ def main(outdir: str = "results/ch5_table5_2", quick: bool = False) -> pd.DataFr
     cur = pd.concat([curves(p, name) for name, p in {"thesis": THESIS, **EXAMPLES}.items()], ignore_index=True)
     cur.to_parquet(os.path.join(outdir, "curves.parquet"))
     plot_all(outdir, tab)
+    b = appendix_b()
+    b.to_parquet(os.path.join(outdir, "appendix_b.parquet"))
+    plot_appendix_b(outdir, b)
     return tab
 
 

@@ -11,12 +11,18 @@ when the last message is older than T (checked every 0.2 s).
 
 The sweep: packet loss probability 0..0.9 (step 0.1, which holds Fig. 4.11's 0, 0.3,
 0.7) x seeds x {offline, online}, into DIR/dataset (Parquet, one row per run, and the
-error time series); then the figures: fig4_11.png (one seed), fig4_11_band.png (median
-and 10-90 % band across seeds), figA_2.png, figA_3.png (20 % loss), figA_4.png,
-figA_5.png (schedules), figA_6.png (gains), cost_vs_loss.png and summary.parquet.
+error time series); 40 more seeds (another root seed) at 30 % and 70 % loss into
+DIR/dataset_fig4_11, so that each loss step of Fig. 4.11 (0 -> 30 %, 30 -> 70 %) gets a
+verdict from 20 + 40 runs (0 % loss is deterministic): the bootstrap interval of the
+difference of the median cost (loss_steps.parquet); then the figures: fig4_11.png (per
+strategy the per-time median of ||q - q^r|| and its 10-90 % band over the seeds, the
+verdicts in the titles), fig4_11_seed0.png (one seed, as the thesis's figure),
+figA_2.png, figA_3.png (20 % loss), figA_4.png, figA_5.png (schedules), figA_6.png
+(gains), cost_vs_loss.png and summary.parquet (the grid's runs).
 
 Run ``python -m netcosim.experiments.flycrane_network`` (``--quick``: 3 losses x 3 seeds,
-15 s).  ``--seeds N`` sets the number of seeds.
+15 s, no extra seeds).  ``--seeds N`` sets the number of seeds of the grid,
+``--verdict-seeds N`` the extra ones.
 """
 
 from __future__ import annotations
@@ -32,6 +38,12 @@ from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, FlyCra
 
 #: Loss probabilities of Fig. 4.11.
 FIG_LOSSES = (0.0, 0.3, 0.7)
+#: The loss steps of Fig. 4.11 whose cost increase :func:`loss_steps` judges.
+LOSS_STEPS = ((0.0, 0.3), (0.3, 0.7))
+#: Extra seeds per (strategy, loss) at these losses for the verdict of Fig. 4.11 (root seed
+#: :data:`VERDICT_ROOT_SEED`, so other seeds than the grid's); 0 loss is deterministic (no
+#: random draw without loss: the grid's runs are identical) and needs none.
+VERDICT_LOSSES, VERDICT_SEEDS, VERDICT_ROOT_SEED = (0.3, 0.7), 40, 1
 #: The finer grid of the sweep.
 GRID_LOSSES = tuple(round(0.1 * i, 1) for i in range(10))
 STRATEGIES = ("offline", "online")
@@ -117,11 +129,12 @@ scenario.validate = lambda params: config_of(params, 0)  # type: ignore[attr-def
 
 
 def run_grid(losses=GRID_LOSSES, seeds: int = 20, strategies=STRATEGIES, horizon: float = HORIZON,
-             out: str | None = None, progress: bool = True, workers: int = 1, **fixed):
+             out: str | None = None, progress: bool = True, workers: int = 1, root_seed: int = 0, **fixed):
     """The sweep loss x strategy x seeds on :func:`netcosim.sweep.run_sweep` (one
     process with ``workers=1``, else a pool of ``workers`` processes: the same tables
     either way, each run's seed derived from its case and seed index); ``fixed``: further
     :data:`PARAMS` held constant.  ``out``: the sweep's Parquet dataset (resumable).
+    ``root_seed``: the sweep's root seed (another root seed, other seeds for the same cases).
     Returns ``(runs, error)``: one row per run (parameters, ``seed_index``, ``seed``,
     :func:`metrics`, ``status``) and the long error table (parameters, ``seed_index``,
     ``seed``, ``t``, ``norm_e``)."""
@@ -129,7 +142,7 @@ def run_grid(losses=GRID_LOSSES, seeds: int = 20, strategies=STRATEGIES, horizon
     grid = {"loss": [float(x) for x in losses], "strategy": list(strategies), "horizon": [float(horizon)],
             **{k: [v] for k, v in fixed.items()}}
     res = run_sweep(scenario, grid, seeds, executor="serial" if workers <= 1 else "pool", workers=workers,
-                    out=out, quiet=not progress)
+                    out=out, quiet=not progress, root_seed=root_seed)
     return res.runs, res.table("error")
 
 
@@ -151,6 +164,41 @@ def summary(runs: pd.DataFrame) -> pd.DataFrame:
         "t_settle_median": qs("t_settle", 0.5), "t_settle_q10": qs("t_settle", 0.1),
         "t_settle_q90": qs("t_settle", 0.9), "msg_loss": g["msg_loss"].mean(),
         "run_errors": failed if failed is not None else 0}).reset_index()
+
+
+def loss_steps(runs: pd.DataFrame, steps=LOSS_STEPS, n_boot: int = 4000, level: float = 0.95,
+               seed: int = 0) -> pd.DataFrame:
+    """The verdict of Fig. 4.11 per loss step and strategy: does the cost ``iae`` grow from
+    loss ``a`` to loss ``b``?  The difference of the median iae (b minus a, rad s) with its
+    percentile bootstrap interval at *level* (*n_boot* resamples of each loss's runs, drawn
+    with replacement, numpy generator seeded by *seed*; medians interpolated).  ``verdict``:
+    ``"worse"`` when the interval lies above 0, ``"better"`` below 0, else
+    ``"unresolved"``.  Also the runs per loss, the median ``final_e`` (||e|| at the horizon)
+    at each loss and the fraction of runs at ``b`` cheaper than the median run at ``a``.
+    Runs with a non-finite cost (a failed plant) count as larger than any finite one."""
+    ok = runs[runs["status"] == "ok"] if "status" in runs else runs
+    rng = np.random.default_rng(seed)
+    lo_q, hi_q = (1 - level) / 2, 1 - (1 - level) / 2
+    rows = []
+    for st in STRATEGIES:
+        for a, b in steps:
+            ca = ok[(ok["strategy"] == st) & np.isclose(ok["loss"], a)]
+            cb = ok[(ok["strategy"] == st) & np.isclose(ok["loss"], b)]
+            if ca.empty or cb.empty:
+                continue
+            xa, xb = (np.nan_to_num(c["iae"].to_numpy(float), posinf=1e300) for c in (ca, cb))
+            ia = rng.integers(0, xa.size, (n_boot, xa.size))
+            ib = rng.integers(0, xb.size, (n_boot, xb.size))
+            d = np.median(xb[ib], axis=1) - np.median(xa[ia], axis=1)
+            lo, hi = float(np.quantile(d, lo_q)), float(np.quantile(d, hi_q))
+            rows.append(dict(strategy=st, loss_from=a, loss_to=b, runs_from=len(ca), runs_to=len(cb),
+                             iae_median_from=float(np.median(xa)), iae_median_to=float(np.median(xb)),
+                             diff=float(np.median(xb) - np.median(xa)), ci_lo=lo, ci_hi=hi, level=level,
+                             verdict="worse" if lo > 0 else ("better" if hi < 0 else "unresolved"),
+                             final_e_median_from=float(ca["final_e"].median()),
+                             final_e_median_to=float(cb["final_e"].median()),
+                             cheaper_fraction=float(np.mean(xb < np.median(xa)))))
+    return pd.DataFrame(rows)
 
 
 # ---------------------------------------------------------------- figures
@@ -178,14 +226,16 @@ def fig_4_11(results: dict, path=None):
     return ax
 
 
-def fig_4_11_band(error: pd.DataFrame, losses=FIG_LOSSES, path=None, q=(0.1, 0.9)):
-    """Fig. 4.11 across seeds: median of ``||q - q^r||`` and the ``q`` inter-quantile band
-    per (loss, strategy), from the long error table (``loss``, ``strategy``, ``seed``, ``t``,
-    ``norm_e``).  Returns the axes."""
+def fig_4_11_band(error: pd.DataFrame, losses=FIG_LOSSES, path=None, q=(0.1, 0.9), steps: pd.DataFrame | None = None):
+    """Fig. 4.11 across seeds, one panel per strategy: the per-time median of ``||q - q^r||``
+    and its ``q`` inter-quantile band over the seeds for each loss, from the long error
+    table (``loss``, ``strategy``, ``seed``, ``t``, ``norm_e``); with *steps*
+    (:func:`loss_steps`) each panel's title states the verdict of each loss step.
+    Returns the axes."""
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for loss in losses:
-        for st in STRATEGIES:
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
+    for ax, st in zip(axes, STRATEGIES):
+        for loss in losses:
             d = error[np.isclose(error["loss"], loss) & (error["strategy"] == st)]
             if d.empty:
                 continue
@@ -193,15 +243,22 @@ def fig_4_11_band(error: pd.DataFrame, losses=FIG_LOSSES, path=None, q=(0.1, 0.9
             med, lo, hi = g.median(), g.quantile(q[0]), g.quantile(q[1])
             n = d["seed"].nunique()
             _semilogy(ax, med.index, med.values, STYLE[st], color=COLORS.get(loss),
-                      label=f"{st}, loss {loss:.0%} (median of {n})")
+                      label=f"loss {loss:.0%}: median of {n} seeds")
             ax.fill_between(med.index, np.maximum(lo.values, 1e-16), np.maximum(hi.values, 1e-16),
-                            color=COLORS.get(loss), alpha=0.12 if st == "offline" else 0.22, lw=0)
-    ax.set_xlabel("t (s)")
-    ax.set_ylabel("||q - q^r||_2")
-    ax.set_title(f"Fig. 4.11 across seeds: median and {q[0]:.0%}-{q[1]:.0%} band")
-    ax.legend(fontsize=7)
+                            color=COLORS.get(loss), alpha=0.2, lw=0)
+        title = f"{st}: median and {q[0]:.0%}-{q[1]:.0%} band over seeds"
+        if steps is not None:
+            for r in steps[steps["strategy"] == st].itertuples():
+                title += (f"\n{r.loss_from:.0%}->{r.loss_to:.0%}: median iae {r.diff:+.2f} "
+                          f"[{r.ci_lo:+.2f}, {r.ci_hi:+.2f}] ({r.level:.0%} CI): {r.verdict}")
+        ax.set_title(title, fontsize=8)
+        ax.set_xlabel("t (s)")
+        ax.legend(fontsize=7)
+    axes[0].set_ylabel("||q - q^r||_2")
+    fig.suptitle("Fig. 4.11: error norm against time, 802.11b broadcast")
+    fig.tight_layout()
     _save(fig, path)
-    return ax
+    return axes
 
 
 def fig_a_2(results: dict, path=None):
@@ -316,12 +373,14 @@ DEFAULT_SIZE = (GRID_LOSSES, 20, HORIZON)
 QUICK_SIZE = (FIG_LOSSES, 3, 15.0)
 
 
-def figures(runs: pd.DataFrame, error: pd.DataFrame, outdir: str, horizon: float = HORIZON, seed: int = 0) -> None:
-    """Run the single-seed cases and write every figure into *outdir*."""
+def figures(runs: pd.DataFrame, error: pd.DataFrame, outdir: str, horizon: float = HORIZON, seed: int = 0,
+            steps: pd.DataFrame | None = None) -> None:
+    """Run the single-seed cases and write every figure into *outdir* (*error*: the runs'
+    error tables for Fig. 4.11's band; *steps*: its verdicts, :func:`loss_steps`)."""
     one = {(loss, st): run(FlyCraneNetworkConfig(strategy=st, loss=loss, seed=seed, horizon=horizon))
            for loss in FIG_LOSSES for st in STRATEGIES}
-    fig_4_11(one, os.path.join(outdir, "fig4_11.png"))
-    fig_4_11_band(error, path=os.path.join(outdir, "fig4_11_band.png"))
+    fig_4_11_band(error, path=os.path.join(outdir, "fig4_11.png"), steps=steps)
+    fig_4_11(one, os.path.join(outdir, "fig4_11_seed0.png"))
     at20 = {st: run(FlyCraneNetworkConfig(strategy=st, loss=0.2, seed=seed, horizon=horizon)) for st in STRATEGIES}
     fig_a_2(at20, os.path.join(outdir, "figA_2.png"))
     fig_a_3(at20, os.path.join(outdir, "figA_3.png"))
@@ -334,16 +393,28 @@ def figures(runs: pd.DataFrame, error: pd.DataFrame, outdir: str, horizon: float
 
 
 def main(outdir: str = "results/flycrane_network", quick: bool = False, seeds: int | None = None,
-         workers: int = 2) -> pd.DataFrame:
+         workers: int = 2, verdict_seeds: int | None = None) -> pd.DataFrame:
     """The sweep into ``outdir/dataset`` (Parquet), the figures and ``summary.parquet``;
-    returns the summary (cost per loss and strategy)."""
+    then :data:`VERDICT_SEEDS` (or *verdict_seeds*; none with *quick*) more seeds at
+    :data:`VERDICT_LOSSES` into ``outdir/dataset_fig4_11`` and the verdict of each loss step
+    of Fig. 4.11 over all runs at its losses into ``loss_steps.parquet``.  Returns the
+    summary (cost per loss and strategy, the grid's runs)."""
     losses, n_seeds, horizon = QUICK_SIZE if quick else DEFAULT_SIZE
     n_seeds = seeds or n_seeds
+    n_extra = (0 if quick else VERDICT_SEEDS) if verdict_seeds is None else verdict_seeds
     os.makedirs(outdir, exist_ok=True)
     runs, error = run_grid(losses, n_seeds, horizon=horizon, out=os.path.join(outdir, "dataset"), workers=workers)
     summ = summary(runs)
     summ.to_parquet(os.path.join(outdir, "summary.parquet"))
-    figures(runs, error, outdir, horizon)
+    fig_runs, fig_error = runs, error
+    if n_extra > 0:
+        more, more_error = run_grid(VERDICT_LOSSES, n_extra, horizon=horizon, workers=workers,
+                                    out=os.path.join(outdir, "dataset_fig4_11"), root_seed=VERDICT_ROOT_SEED)
+        fig_runs = pd.concat([runs, more], ignore_index=True)
+        fig_error = pd.concat([error, more_error], ignore_index=True)
+    steps = loss_steps(fig_runs)
+    steps.to_parquet(os.path.join(outdir, "loss_steps.parquet"))
+    figures(runs, fig_error, outdir, horizon, steps=steps)
     return summ
 
 
@@ -352,6 +423,9 @@ if __name__ == "__main__":
     ap = experiment_parser(__doc__, "results/flycrane_network")
     ap.add_argument("--seeds", type=int, default=None, help="seeds per (loss, strategy) (default 20; quick 3)")
     ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    ap.add_argument("--verdict-seeds", type=int, default=None, help="extra seeds per strategy at 30 %% and 70 %% "
+                    f"loss for the verdict of Fig. 4.11 (default {VERDICT_SEEDS}; quick 0)")
     a = ap.parse_args()
     with pd.option_context("display.width", 200, "display.max_columns", 20):
-        print(main(a.outdir, a.quick, a.seeds, a.workers))
+        print(main(a.outdir, a.quick, a.seeds, a.workers, a.verdict_seeds))
+        print(pd.read_parquet(os.path.join(a.outdir, "loss_steps.parquet")))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from netcosim import Simulation
@@ -227,7 +228,7 @@ def test_figures_and_summary(tmp_path):
     cfg = FlyCraneNetworkConfig(loss=0.2, horizon=6.0, plant="kinematic")
     at20 = {st: run(cfg.replace(strategy=st)) for st in fn.STRATEGIES}
     fn.fig_4_11({(0.2, st): r for st, r in at20.items()}, tmp_path / "a.png")
-    fn.fig_4_11_band(error, path=tmp_path / "b.png")
+    fn.fig_4_11_band(error, path=tmp_path / "b.png", steps=fn.loss_steps(runs, steps=((0.0, 0.7),), n_boot=50))
     fn.fig_a_2(at20, tmp_path / "c.png")
     fn.fig_a_3(at20, tmp_path / "d.png")
     fn.fig_schedules(at20["online"], t_range=(2.9, 4.9), path=tmp_path / "e.png")
@@ -255,6 +256,10 @@ def test_cost_grows_with_loss_statistically():
             assert mannwhitneyu(cost[st, b], cost[st, a], alternative="greater").pvalue < 0.01, (st, a, b)
     below = np.mean(cost["offline", 0.3] < cost["offline", 0.0][0])
     assert 0.1 < below < 0.5
+    # the experiment's verdict (bootstrap interval of the median difference) agrees: both steps
+    # resolved as "worse" for both strategies with these 40 seeds
+    steps = fn.loss_steps(runs)
+    assert len(steps) == 4 and (steps["verdict"] == "worse").all(), steps
 
 
 def test_sweep_tables_identical_on_one_process_and_on_a_pool():
@@ -269,10 +274,34 @@ def test_main_quick_writes_the_dataset_and_every_figure(tmp_path):
     summ = fn.main(str(tmp_path), quick=True, workers=2)
     assert len(summ) == 6 and (summ["runs"] == 3).all() and (summ["run_errors"] == 0).all()
     names = {p.name for p in tmp_path.glob("*.png")}
-    assert names == {"fig4_11.png", "fig4_11_band.png", "figA_2.png", "figA_3.png", "figA_4.png", "figA_5.png",
+    assert names == {"fig4_11.png", "fig4_11_seed0.png", "figA_2.png", "figA_3.png", "figA_4.png", "figA_5.png",
                      "figA_6.png", "cost_vs_loss.png"}
+    steps = pd.read_parquet(tmp_path / "loss_steps.parquet")
+    assert len(steps) == 4 and (steps[["runs_from", "runs_to"]] == 3).all().all()     # quick: no extra seeds
+    assert not (tmp_path / "dataset_fig4_11").exists()
     from netcosim.sweep import load_sweep
     assert len(load_sweep(str(tmp_path / "dataset")).runs) == 18
+
+
+def test_loss_steps_verdicts_from_known_costs():
+    """The verdict of a loss step from the bootstrap interval of the median difference:
+    costs 1, 2, 3 at 0 % and 11, 12, 13 at 30 % -> +10, interval [+8, +12] (the extreme
+    resamples), "worse"; 30 % -> 70 % with the same costs -> 0 inside its interval,
+    "unresolved"; a failed run (iae inf) counts above every finite cost; the offline
+    strategy's lower costs at 70 % -> "better"."""
+    rows = []
+    for st, costs in (("online", {0.0: [1, 2, 3], 0.3: [11, 12, 13], 0.7: [11, 13, math.inf]}),
+                      ("offline", {0.0: [5, 5, 5], 0.3: [5, 6, 7], 0.7: [1, 1, 2]})):
+        for loss, c in costs.items():
+            rows += [dict(strategy=st, loss=loss, iae=x, final_e=1e-3 * x if math.isfinite(x) else 1.0, status="ok")
+                     for x in c]
+    steps = fn.loss_steps(pd.DataFrame(rows), n_boot=2000, seed=1).set_index(["strategy", "loss_from"])
+    on0, on3 = steps.loc[("online", 0.0)], steps.loc[("online", 0.3)]
+    assert on0["diff"] == 10.0 and on0.ci_lo == pytest.approx(8.0) and on0.ci_hi == pytest.approx(12.0)
+    assert on0.verdict == "worse" and on0.runs_from == on0.runs_to == 3 and on0.cheaper_fraction == 0.0
+    assert on3["diff"] == 1.0 and on3.ci_lo <= 0.0 <= on3.ci_hi and on3.verdict == "unresolved"
+    assert steps.loc[("offline", 0.3)].verdict == "better" and steps.loc[("offline", 0.3)]["diff"] == -5.0
+    assert steps.loc[("offline", 0.0)].final_e_median_to == pytest.approx(6e-3)
 
 
 def test_a_run_whose_plant_fails_is_returned_diverged_with_the_error():

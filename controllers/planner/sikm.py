@@ -40,7 +40,7 @@ from .norms import WeightedNorm
 __all__ = [
     "SIKMParams", "z", "k_bar", "k_barbar", "tau_s", "tau_o", "rho_of_k", "k_o", "rho_of_tau",
     "tau_critical", "in_stability_set", "optimal_offline_gain", "check_offline_gain",
-    "estimate_parameters", "Trajectory", "sikm_velocity", "Strategy", "TABLE_5_1",
+    "estimate_parameters", "bootstrap_parameters", "Trajectory", "sikm_velocity", "Strategy", "TABLE_5_1",
     "simulate_tracking", "checked_tracking_run", "collect_interval_samples",
 ]
 
@@ -267,6 +267,30 @@ def estimate_parameters(k: Any, T: Any, e_h: Any, e_next: Any, *, solver: str = 
     if viol > feas_tol * max(1.0, float(np.max(np.abs(en)))):
         raise RuntimeError(f"QP (5.27) solution violates a constraint by {viol:.3g}")
     return SIKMParams(*theta)
+
+
+def bootstrap_parameters(k: Any, T: Any, e_h: Any, e_next: Any, *, n_boot: int = 500, seed: int = 0,
+                         solver: str = "daqp"):
+    """The QP (5.27) fitted on ``n_boot`` bootstrap resamples of the samples (drawn with
+    replacement, as many as given; numpy generator seeded by ``seed``).
+
+    Returns a DataFrame, one row per resample: ``mu, alpha, gamma1, gamma2`` and
+    ``tau_CR`` (s, :func:`tau_critical`).  Its quantiles give the percentile confidence
+    interval of theta_hat and tau_CR over sample sets (e.g. 2.5 % and 97.5 % for 95 %).
+    """
+    import pandas as pd
+
+    n_boot = int(n_boot)
+    if n_boot < 1:
+        raise ValueError(f"n_boot must be a positive number of resamples, got {n_boot!r}")
+    k, T, eh, en = (np.asarray(x, dtype=float).reshape(-1) for x in (k, T, e_h, e_next))
+    rng = np.random.default_rng(seed)
+    rows = []
+    for _ in range(n_boot):
+        i = rng.integers(0, k.size, k.size)
+        p = estimate_parameters(k[i], T[i], eh[i], en[i], solver=solver)
+        rows.append((p.mu, p.alpha, p.gamma1, p.gamma2, tau_critical(p)))
+    return pd.DataFrame(rows, columns=["mu", "alpha", "gamma1", "gamma2", "tau_CR"])
 
 
 # ---------------------------------------------------------------------------
