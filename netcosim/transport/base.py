@@ -553,7 +553,10 @@ class BaseRemote:
     def events(self):
         """The ``hil`` trace rows of this remote (``time`` in s; ``event``: alive, lost,
         refused, left, ended, dropped (detail: the reason), expired, overrun, unserved,
-        aborted; ``count``: events aggregated in the row)."""
+        aborted; ``count``: events aggregated in the row).  Counts not yet in a row -- a
+        reply dropped after the run's last row, e.g. a duplicate that arrived while the
+        run was draining -- are written first, so the rows add up to :meth:`counters`."""
+        self.flush()
         df = self.sim.trace.frame("hil")
         return df[df["node"] == self.name].reset_index(drop=True)
 
