@@ -265,3 +265,12 @@ def test_stationary_loss_cost_inside_a_monte_carlo_over_losses_and_noise():
     mean, half = ecl.ci99(mc[:, 0])
     assert half < 0.35 * exact         # measured: 26 % of J (J = 76.07)
     assert abs(mean - exact) <= half, (exact, mean, half)
+
+
+def test_the_example_writes_its_figure_and_table(tmp_path):
+    table = ecl.main(str(tmp_path), quick=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["expected_cost_loss.parquet", "expected_cost_loss.png"]
+    assert table["loss"].tolist() == [0.0, 0.05, 0.1]
+    assert table["expected_cost_rate"].tolist() == pytest.approx([73.4930723, 74.0211932,
+                                                                  76.0663007], rel=1e-7)
+    assert (table["mc_ci99"] > 0).all() and (table["runs"] == 12).all()
