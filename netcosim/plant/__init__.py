@@ -43,9 +43,9 @@ One module per concept:
 from ..errors import IntegrationError, NotConnectedError
 from .events import EVENT_REARM
 from .exact_zoh import SHARED_TRANSITIONS_SIZE, ExactZOH
-from .noisy_zoh import NoisyZOH
 from .instance import DEFAULT_LOG_INTERVAL, PlantInstance, default_log_interval
 from .integrator import Integrator, Stepper
+from .noisy_zoh import NoisyZOH
 from .ports import InputPort, OutputPort, UnknownPortError
 from .pycontrol import LinearPlant, NonlinearPlant, from_control, is_control_system
 from .rk4 import RK4
@@ -53,7 +53,8 @@ from .solve_ivp import IMPLICIT_METHODS, RTOL_MIN, SOLVE_IVP_METHODS, SolveIVP
 from .system import MAX_DIMENSION, ContinuousSystem, HybridEvent
 
 __all__ = ["EVENT_REARM", "DEFAULT_LOG_INTERVAL", "default_log_interval", "HybridEvent", "ContinuousSystem",
-           "MAX_DIMENSION", "RK4", "SolveIVP", "ExactZOH", "NoisyZOH", "SOLVE_IVP_METHODS", "IMPLICIT_METHODS", "RTOL_MIN",
+           "MAX_DIMENSION", "RK4", "SolveIVP", "ExactZOH", "NoisyZOH",
+           "SOLVE_IVP_METHODS", "IMPLICIT_METHODS", "RTOL_MIN",
            "SHARED_TRANSITIONS_SIZE", "Integrator", "Stepper", "OutputPort", "InputPort", "UnknownPortError",
            "PlantInstance", "NotConnectedError", "IntegrationError",
            "from_control", "is_control_system", "LinearPlant", "NonlinearPlant"]
