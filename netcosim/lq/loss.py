@@ -35,7 +35,7 @@ from .result import StationaryCost
 from .systems import Interconnection
 from .timing import TimingModel
 
-__all__ = ["Stage", "loss_cost", "loss_cost_curve"]
+__all__ = ["Stage", "loss_model", "loss_cost", "loss_cost_curve"]
 
 #: the grid (s) on which stage offsets are located when delta is not given
 PICOSECOND = 1e-12
@@ -68,7 +68,8 @@ def _grain(period: float, offsets: Sequence[float]) -> float:
 
 def loss_model(model: Interconnection, period: float, stages: Sequence[Stage], loss: float,
                delta: float | None = None) -> TimingModel:
-    """The :class:`TimingModel` of *stages* under Bernoulli message loss *loss* (see the module)."""
+    """The :class:`TimingModel` of *stages* repeated every *period* seconds under Bernoulli
+    message loss *loss* (a probability); ``delta``: its time grain (s), None to find it."""
     h = validate.positive(period, "loss_cost: period", kind="a positive number of seconds")
     p = validate.probability(loss, "loss_cost: loss (message loss probability)")
     st = list(stages)
