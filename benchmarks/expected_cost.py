@@ -28,8 +28,8 @@ import pandas as pd
 
 from netcosim.experiments import expected_cost_loss as ecl
 
-RUNS = 30
-DURATION = 1.2
+RUNS = 200
+DURATION = 2.2
 TARGET = 0.01
 
 

@@ -19,7 +19,7 @@ A lost message executes nothing downstream (hold).
   the runs with its 99 % confidence band, drawn under the exact curve.
 
 Run: ``python -m netcosim.experiments.expected_cost_loss`` (PNG + Parquet under
-results/expected_cost_loss/; --quick: 3 loss values, 12 runs of 0.6 s; full: 11 values, 200 runs of 4 s).
+results/expected_cost_loss/; --quick: 3 loss values, 12 runs of 0.6 s; full: 11 values, 400 runs of 4 s).
 """
 
 from __future__ import annotations
@@ -161,7 +161,7 @@ def main(outdir: str = "results/expected_cost_loss", quick: bool = False) -> pd.
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     losses = (0.0, 0.05, 0.1) if quick else LOSSES
-    runs, duration = (12, 0.6) if quick else (200, 4.0)
+    runs, duration = (12, 0.6) if quick else (400, 4.0)
     exact = expected_cost_curve(losses)
     rows = []
     for p, J in zip(losses, exact):

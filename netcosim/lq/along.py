@@ -40,6 +40,7 @@ run), a covariance or cost that stops being finite.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from typing import Any, Callable, Hashable
 
 from ..errors import ConfigurationError, ConfigurationTypeError
@@ -51,6 +52,24 @@ __all__ = ["ExpectedCost", "GRAIN"]
 
 #: intervals are rounded to this many seconds (the simulator's resolution, 1 ps)
 GRAIN = 1e-12
+#: models (by their total dynamics) whose interval matrices are shared by every ExpectedCost
+SHARED_MODELS = 16
+#: ``dynamics key -> {T: IntervalMatrices}``, least recently used first: the runs of a Monte
+#: Carlo or a sweep (one ExpectedCost each) compute each interval's exponentials once
+_SHARED: OrderedDict[bytes, dict] = OrderedDict()
+
+
+def _shared_cache(propagator: Propagator) -> dict:
+    d = propagator.dynamics
+    key = d.A.tobytes() + d.R_c.tobytes() + d.Q_c.tobytes() + str(d.A.shape).encode()
+    got = _SHARED.get(key)
+    if got is None:
+        got = _SHARED[key] = {}
+        if len(_SHARED) > SHARED_MODELS:
+            _SHARED.popitem(last=False)
+    else:
+        _SHARED.move_to_end(key)
+    return got
 
 
 class ExpectedCost:
@@ -74,6 +93,7 @@ class ExpectedCost:
                                          f"or a callable returning the time in seconds, got {clock!r}")
         start = self._read() if t0 is None else t0
         self.propagator = Propagator(model, m0=m0, P0=P0, t0=start, record=record)
+        self.propagator._cache = _shared_cache(self.propagator)     # one per model, across runs
         self.model = model
 
     def _read(self) -> float:

@@ -31,6 +31,7 @@ with ``log="none"`` or a ``log_interval`` (a copy is refused with an error sayin
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from typing import Any
 
 import numpy as np
@@ -43,6 +44,10 @@ from ..timebase import TICKS_PER_SECOND
 from .integrator import BoundPlant
 
 __all__ = ["NoisyZOH"]
+
+#: interval matrices kept process-wide (by plant matrices and interval), shared by every run
+SHARED_SIZE = 4096
+_SHARED: OrderedDict[tuple, tuple[IntervalMatrices, np.ndarray]] = OrderedDict()
 
 
 class NoisyZOH:
@@ -124,14 +129,22 @@ class _NoisyStepper:
         self.R_c[:nx, :nx] = R_c
         self.Q_c = Q_c
         self._cache: dict[int, tuple[IntervalMatrices, np.ndarray]] = {}
+        self._key = self.A.tobytes() + self.R_c.tobytes() + Q_c.tobytes() + str(self.A.shape).encode()
         self._t_end: float | None = None
 
     def _matrices(self, ticks: int) -> tuple[IntervalMatrices, np.ndarray]:
         got = self._cache.get(ticks)
         if got is None:
-            M = interval_matrices(self.A, self.R_c, self.Q_c, ticks / TICKS_PER_SECOND)
-            w, V = np.linalg.eigh(M.R[:self.nx, :self.nx])
-            got = self._cache[ticks] = (M, V * np.sqrt(np.clip(w, 0.0, None)))   # L L^T = R
+            got = _SHARED.get((self._key, ticks))
+            if got is None:
+                M = interval_matrices(self.A, self.R_c, self.Q_c, ticks / TICKS_PER_SECOND)
+                w, V = np.linalg.eigh(M.R[:self.nx, :self.nx])
+                got = _SHARED[(self._key, ticks)] = (M, V * np.sqrt(np.clip(w, 0.0, None)))   # L L^T = R
+                if len(_SHARED) > SHARED_SIZE:
+                    _SHARED.popitem(last=False)
+            if len(self._cache) >= SHARED_SIZE:
+                self._cache.clear()
+            self._cache[ticks] = got
         return got
 
     def integrate(self, rhs, t0, x0, t1, gs):
