@@ -40,6 +40,7 @@ EXPERIMENTS = [
     ("wireless_tpc", "TrueTime wireless example: 802.15.4 servo loop on batteries, transmit-power control"),
     ("dvs", "DVS of three PID loops under EDF: CPU energy against control cost over speeds"),
     ("jitterbug_servo", "Jitterbug's DC servo, exact LQ analysis: expected cost vs delay and vs period"),
+    ("expected_cost_loss", "Networked servo, Bernoulli loss: exact expected cost vs loss over a Monte-Carlo band"),
     ("loss_sweep_servo", "Networked servo over 802.11b: loss sweep, broadcast vs unicast, frame vs message loss"),
     ("ch2_landing", "Ch. 2: tethered-UAV landing, NMPC alone vs two-layer controller, calm and wind"),
     ("ch3_fig3_8", "Fig. 3.8: offline vs online gain, Fly-crane, small and large ball"),

@@ -10,7 +10,8 @@ vector ``d(t)``.
 :class:`PlantInstance` advances the state to ``now`` only when something reads or
 writes it, when the logger samples, or when a subscribed hybrid event is due; there is
 no fixed-step loop over the horizon.  Integrators (:class:`RK4`, :class:`SolveIVP`,
-:class:`ExactZOH` for linear time-invariant plants) all stop exactly at I/O instants,
+:class:`ExactZOH` for linear time-invariant plants, :class:`NoisyZOH` for linear plants
+with white process noise and their exact quadratic cost) all stop exactly at I/O instants,
 so the choice of integrator never changes the I/O semantics, only the numerical error
 between them.
 
@@ -44,6 +45,7 @@ from .events import EVENT_REARM
 from .exact_zoh import SHARED_TRANSITIONS_SIZE, ExactZOH
 from .instance import DEFAULT_LOG_INTERVAL, PlantInstance, default_log_interval
 from .integrator import Integrator, Stepper
+from .noisy_zoh import NoisyZOH
 from .ports import InputPort, OutputPort, UnknownPortError
 from .pycontrol import LinearPlant, NonlinearPlant, from_control, is_control_system
 from .rk4 import RK4
@@ -51,7 +53,8 @@ from .solve_ivp import IMPLICIT_METHODS, RTOL_MIN, SOLVE_IVP_METHODS, SolveIVP
 from .system import MAX_DIMENSION, ContinuousSystem, HybridEvent
 
 __all__ = ["EVENT_REARM", "DEFAULT_LOG_INTERVAL", "default_log_interval", "HybridEvent", "ContinuousSystem",
-           "MAX_DIMENSION", "RK4", "SolveIVP", "ExactZOH", "SOLVE_IVP_METHODS", "IMPLICIT_METHODS", "RTOL_MIN",
+           "MAX_DIMENSION", "RK4", "SolveIVP", "ExactZOH", "NoisyZOH",
+           "SOLVE_IVP_METHODS", "IMPLICIT_METHODS", "RTOL_MIN",
            "SHARED_TRANSITIONS_SIZE", "Integrator", "Stepper", "OutputPort", "InputPort", "UnknownPortError",
            "PlantInstance", "NotConnectedError", "IntegrationError",
            "from_control", "is_control_system", "LinearPlant", "NonlinearPlant"]
