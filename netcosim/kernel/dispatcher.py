@@ -38,17 +38,22 @@ class Dispatcher(Interpreter):
         if task.on_deadline_miss is not None and job.abs_deadline is not None:
             job.deadline_timer = OverrunTimer(job, job.abs_deadline - self._env.now, DEADLINE)
         if task.active is not None:
-            if task.on_busy == "skip":
-                task.skipped += 1
-                if job.deadline_timer is not None:
-                    job.deadline_timer.cancel()
-                return None
-            if task.max_pending is not None and len(task.pending) >= task.max_pending:
-                self._queue_full(task, job)
-                return None
-            task.pending.append(job)
-            return job
+            return self._release_while_busy(task, job)
         self._activate(job)
+        return job
+
+    def _release_while_busy(self, task: Task, job: Job) -> Job | None:
+        """*job* is released while the task's previous job is active: skipped (counted),
+        dropped when the queue is full, or queued (TrueTime); the queued job or None."""
+        if task.on_busy == "skip":
+            task.skipped += 1
+            if job.deadline_timer is not None:
+                job.deadline_timer.cancel()
+            return None
+        if task.max_pending is not None and len(task.pending) >= task.max_pending:
+            self._queue_full(task, job)
+            return None
+        task.pending.append(job)
         return job
 
     def _queue_full(self, task: Task, job: Job) -> None:

@@ -286,16 +286,7 @@ def release_local(node: Any, task: Task, t: int) -> Job | None:
         if task.on_deadline_miss is not None:
             job.deadline_timer = OverrunTimer(job, job.abs_deadline - node._env.now, DEADLINE)
     if task.active is not None:
-        if task.on_busy == "skip":
-            task.skipped += 1
-            if job.deadline_timer is not None:
-                job.deadline_timer.cancel()
-            return None
-        if task.max_pending is not None and len(task.pending) >= task.max_pending:
-            node._queue_full(task, job)
-            return None
-        task.pending.append(job)
-        return job
+        return node._release_while_busy(task, job)
     # on a partitioned multicore node the task's core activates it (its ready queue)
     pinned = getattr(node, "_pinned", None)
     (node if not pinned else pinned.get(task, node))._activate(job)
