@@ -33,7 +33,9 @@ class Simulation:
         of the others; same seed, same results, bit for bit.
     realtime:
         Run against the wall clock (for hardware-in-the-loop): one simulated second
-        takes ``factor`` wall-clock seconds.  ``True`` or ``False`` exactly.
+        takes ``factor`` wall-clock seconds, counted from the first :meth:`run` (the
+        set-up before it -- building nodes, plants, connecting remotes -- does not make
+        the first events late).  ``True`` or ``False`` exactly.
     strict:
         In real-time mode, raise when an event is processed more than ``max_lag``
         seconds late; otherwise record the lag in ``Simulation.lags``.
@@ -63,6 +65,7 @@ class Simulation:
         else:
             self.env = Engine()
         self.realtime = realtime
+        self._paced = False         # realtime: the wall clock is pinned at the first run()
         self.trace = Trace(clock=lambda: self.env.now)
         from .kernel.tables import register  # the kernel's schedule and jobs tables, empty until a node runs
         register(self.trace)
@@ -277,6 +280,11 @@ class Simulation:
             if stop == self.env.now:
                 pass            # nothing to advance (SimPy's run refuses until == now)
             elif self.realtime:
+                if not self._paced:
+                    sync = getattr(self.env, "sync", None)   # a HIL engine paces itself
+                    if sync is not None:
+                        sync()          # pin simulated time to the wall clock now
+                    self._paced = True
                 self.env.run(until=stop)
             else:
                 self.env.run_until(stop)
