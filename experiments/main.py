@@ -39,6 +39,7 @@ EXPERIMENTS = [
     ("multicore_dhall", "Multicore: Dhall's effect, global vs partitioned EDF and RM on M cores"),
     ("wireless_tpc", "TrueTime wireless example: 802.15.4 servo loop on batteries, transmit-power control"),
     ("dvs", "DVS of three PID loops under EDF: CPU energy against control cost over speeds"),
+    ("threeservos_cost", "Three servos scored by exact expected cost per loop: DM, EDF, CBS, TBS"),
     ("jitterbug_servo", "Jitterbug's DC servo, exact LQ analysis: expected cost vs delay and vs period"),
     ("expected_cost_loss", "Networked servo, Bernoulli loss: exact expected cost vs loss over a Monte-Carlo band"),
     ("loss_sweep_servo", "Networked servo over 802.11b: loss sweep, broadcast vs unicast, frame vs message loss"),
