@@ -125,6 +125,12 @@ def test_dropouts_equal_the_markov_jump_closed_form():
     tm.add_node(2, execute=3).add_node(3)
     ref = reference([(1 - p_loss, 4 * DELTA, True), (p_loss, 4 * DELTA, False)])
     assert tm.cost().cost_rate == pytest.approx(ref, rel=1e-9)
+    # the direct solve and the iteration find the same fixed point
+    solved, iterated = tm.cost(method="solve"), tm.cost(method="iterate")
+    assert solved.iterations == 0 and iterated.iterations > 10
+    assert iterated.cost_rate == pytest.approx(solved.cost_rate, rel=1e-9)
+    assert 0.0 < iterated.spectral_radius < 1.0 and solved.spectral_radius == pytest.approx(
+        iterated.spectral_radius, rel=0.05)
     assert ref > reference([(1.0, 4 * DELTA, True)])
 
 
@@ -133,9 +139,11 @@ def test_an_unstable_timing_returns_inf_and_says_so():
     tm = lq.TimingModel(servo_loop(), delta=DELTA, period=H)
     tm.add_node(1, delay=pmf((4, 1.0)), next=[2, 3], probabilities=[0.05, 0.95], execute=2)
     tm.add_node(2, execute=3).add_node(3)
-    got = tm.cost(max_iterations=20_000)
+    got = tm.cost()
     assert got.cost_rate == math.inf and not got.stable and "not mean-square stable" in got.note
-    assert got.spectral_radius > 1.0
+    assert got.spectral_radius > 1.0 and "spectral radius of the second-moment map" in got.note
+    it = tm.cost(method="iterate", max_iterations=20_000)
+    assert it.cost_rate == math.inf and it.spectral_radius == pytest.approx(got.spectral_radius, rel=0.01)
     slow = lq.periodic_cost(servo_loop(), [lq.Execute(2), lq.Wait(0.0), lq.Execute(3), lq.Wait(0.2)])
     assert slow.cost_rate == math.inf and slow.spectral_radius > 1 and "spectral radius" in slow.note
 

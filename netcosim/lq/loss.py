@@ -3,28 +3,47 @@
 A loop that repeats every ``period`` seconds is described by its **stages**: at offset
 ``at`` (s) into the period the discrete systems ``execute`` run -- the sampler at 0, the
 controller when the measurement arrives, the actuator when the control arrives.  A stage
-marked ``lossy`` is reached by a message that is lost with probability p, independently
-of every other message (Bernoulli loss): when it is lost, that stage and every later one
-of the same period do not execute -- the systems keep their state and held output (hold),
-until the next period's stages run.
+marked ``lossy`` is reached by a message sent as a frame on a **link** (``Stage.link``;
+stages naming the same link share its channel, None: a link of its own).  When the
+frame is lost it is sent again up to ``retries`` times, each attempt ``retry_delay``
+seconds after the previous one (a retrying MAC: 802.11 unicast; the delay taken as
+fixed), which shifts this stage and every later one of the period by that much; when
+every attempt is lost the message is lost: that stage and every later one of the same
+period do not execute -- the systems keep their state and held output (hold), until the
+next period's stages run.
+
+The **channel** of each link is a loss model (``loss``): a probability (independent
+frame losses: Bernoulli), or any model that describes itself as a finite Markov chain
+stepping once per frame on its link (``markov()``: :class:`~netcosim.network.Bernoulli`,
+:class:`~netcosim.network.GilbertElliott` bursts, :class:`~netcosim.network.AnyLoss` of
+those) -- the same models, with the same per-link, per-frame semantics, as a network's
+``loss=`` in the simulation.  A channel only steps when a frame is sent: a message that
+is never sent (its stage was not reached) does not move it.  ``loss`` may also map link
+names to models.
 
 The loss pattern makes the loop a Markov jump linear system (the mode: how far the
-period's chain of messages got).  :func:`loss_cost` builds it as a Jitterbug
-:class:`~netcosim.lq.timing.TimingModel` -- per stage a timing node, from it a branch to
-the next stage with probability 1 - p and to a "lost" node (no execution, wait for the
-period's end) with probability p -- and returns its exact stationary cost per second:
-the expectation over the plant noise *and* over the loss realisations, no Monte Carlo.
-:func:`loss_cost_curve` does it for several p (a cost-versus-loss curve in one call).
+period's chain of messages got, and the channels' states).  :func:`loss_model` builds it
+as a Jitterbug :class:`~netcosim.lq.timing.TimingModel` -- per stage, attempt and joint
+channel state a timing node, from it a branch to the next stage (the frame arrived) or to
+the next attempt or to a "lost" node (no execution, wait for the period's end), with the
+channel's probabilities; the channels' states pass to the next period through its start
+node -- and :func:`loss_cost` returns its exact stationary cost per second: the
+expectation over the plant noise *and* over the loss realisations, no Monte Carlo.
+:func:`loss_cost_curve` does it for several losses (a cost-versus-loss curve in one call).
+The result is the long-run (stationary) cost; a channel's initial state matters only if
+its chain is reducible, and then its most likely initial state is taken.
 
-The time grain of the timing model is the largest one on which the period and every
-stage offset lie (found on the simulator's 1 ps grid), unless ``delta`` is given.
+The time grain of the timing model is the largest one on which the period, every stage
+offset and every retry delay lie (found on the simulator's 1 ps grid), unless ``delta``
+is given.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Any, Hashable, Iterable, Sequence
+from typing import Any, Hashable, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -43,12 +62,21 @@ PICOSECOND = 1e-12
 
 @dataclass(frozen=True)
 class Stage:
-    """At ``at`` seconds into the period, the discrete systems ``execute`` run, if the
-    message that triggers them arrived (``lossy``) or always (``lossy=False``)."""
+    """At ``at`` seconds into the period the discrete systems ``execute`` run, if the
+    message that triggers them arrived (``lossy``) or always (``lossy=False``).
+
+    ``at`` is the offset when every earlier message arrived at its first attempt.
+    ``link``: the link the message is sent on (stages on one link share its channel;
+    None: a link of its own).  ``retries``: how many times a lost frame is sent again
+    (0: sent once); ``retry_delay``: seconds from one attempt's arrival time to the next's.
+    """
 
     at: float
     execute: tuple[Hashable, ...] = field(default=())
     lossy: bool = True
+    link: Hashable = None
+    retries: int = 0
+    retry_delay: float = 0.0
 
     def __post_init__(self) -> None:
         validate.non_negative(self.at, "Stage: at", kind="a non-negative offset in seconds")
@@ -56,6 +84,12 @@ class Stage:
         if isinstance(ex, (str, bytes)) or not isinstance(ex, Iterable):
             ex = (ex,)
         object.__setattr__(self, "execute", tuple(ex))
+        validate.count(self.retries, "Stage: retries")
+        validate.non_negative(self.retry_delay, "Stage: retry_delay", kind="a non-negative number of seconds")
+        if not self.lossy and (self.retries or self.link is not None):
+            raise ConfigurationError(f"Stage at {self.at!r} s: retries and link are for a lossy stage "
+                                     f"(reached by a message), got lossy=False with retries={self.retries!r}, "
+                                     f"link={self.link!r}")
 
 
 def _grain(period: float, offsets: Sequence[float]) -> float:
@@ -66,56 +100,106 @@ def _grain(period: float, offsets: Sequence[float]) -> float:
     return g * PICOSECOND
 
 
-def loss_model(model: Interconnection, period: float, stages: Sequence[Stage], loss: float,
+def _chain(loss: Any, link: Hashable) -> tuple[np.ndarray, np.ndarray, int]:
+    """(transition, per-state loss, start state) of the channel *loss* on *link*."""
+    what = f"loss_cost: loss of link {link!r}"
+    if validate.is_real(loss):
+        p = validate.probability(loss, f"{what} (frame loss probability)")
+        return np.ones((1, 1)), np.array([p]), 0
+    chain = loss.markov() if callable(getattr(loss, "markov", None)) else None
+    if chain is None:
+        raise ConfigurationTypeError(f"{what} must be a probability or a loss model that is a finite Markov "
+                                     f"chain (Bernoulli, GilbertElliott, AnyLoss of those), got {show(loss)}; "
+                                     f"for another channel, run the simulation and use ExpectedCost along it")
+    P, lo, init = (np.asarray(a, dtype=float) for a in (chain.transition, chain.loss, chain.initial))
+    return P, lo, int(np.argmax(init))
+
+
+def loss_model(model: Interconnection, period: float, stages: Sequence[Stage], loss: Any,
                delta: float | None = None) -> TimingModel:
-    """The :class:`TimingModel` of *stages* repeated every *period* seconds under Bernoulli
-    message loss *loss* (a probability); ``delta``: its time grain (s), None to find it."""
+    """The :class:`TimingModel` of *stages* repeated every *period* seconds, their messages
+    lost by *loss* (a frame loss probability, a Markov loss model, or a mapping from link
+    to those; see the module); ``delta``: its time grain (s), None to find it."""
     h = validate.positive(period, "loss_cost: period", kind="a positive number of seconds")
-    p = validate.probability(loss, "loss_cost: loss (message loss probability)")
     st = list(stages)
     if not st or not all(isinstance(s, Stage) for s in st):
         raise ConfigurationTypeError(f"loss_cost: stages must be a non-empty list of Stage, got {show(stages)}")
     at = [s.at for s in st]
-    if any(b < a for a, b in zip(at, at[1:])) or at[-1] >= h:
-        raise ConfigurationError(f"loss_cost: the stage offsets must be non-decreasing and below the period "
-                                 f"{h!r} s, got {at}")
-    d = _grain(h, at) if delta is None else validate.positive(delta, "loss_cost: delta")
+    late = sum(s.retries * s.retry_delay for s in st)
+    if any(b < a for a, b in zip(at, at[1:])) or at[-1] + late >= h:
+        raise ConfigurationError(f"loss_cost: the stage offsets must be non-decreasing and, with every retry "
+                                 f"({late!r} s), below the period {h!r} s, got {at}")
+    links = list(dict.fromkeys((s.link if s.link is not None else ("stage", i))
+                               for i, s in enumerate(st) if s.lossy))
+    of = {i: links.index(s.link if s.link is not None else ("stage", i)) for i, s in enumerate(st) if s.lossy}
+    if isinstance(loss, Mapping):
+        missing = [lk for lk in links if lk not in loss and not isinstance(lk, tuple)]
+        if missing or any(isinstance(lk, tuple) for lk in links):
+            raise ConfigurationError(f"loss_cost: a loss mapping needs every lossy stage to name its link and "
+                                     f"the mapping to give each link's loss; links {links}, given {list(loss)}")
+        chains = [_chain(loss[lk], lk) for lk in links]
+    else:
+        chains = [_chain(loss, lk) for lk in links]
+    d = _grain(h, at + [s.retry_delay for s in st if s.retries]) if delta is None else \
+        validate.positive(delta, "loss_cost: delta")
     steps = [round(a / d) for a in at]
-    if any(abs(k * d - a) > 1e-9 * h for k, a in zip(steps, at)):
-        raise ConfigurationError(f"loss_cost: the stage offsets {at} do not lie on the grain delta = {d!r} s")
+    retry = [round(s.retry_delay / d) for s in st]
+    if any(abs(k * d - a) > 1e-9 * h for k, a in zip(steps + retry, at + [s.retry_delay for s in st])):
+        raise ConfigurationError(f"loss_cost: the stage offsets {at} and retry delays do not lie on the grain "
+                                 f"delta = {d!r} s")
     tm = TimingModel(model, delta=d, period=h)
-    nodes: list[tuple[Any, int, tuple, bool]] = []
-    if st[0].lossy or steps[0] > 0:
-        nodes.append(("start", 0, (), False))
-    nodes += [(i, k, s.execute, s.lossy) for i, (s, k) in enumerate(zip(st, steps))]
-    for j, (key, k, ex, _) in enumerate(nodes):
-        if j + 1 == len(nodes):
-            tm.add_node(key, execute=ex)
-            continue
-        nkey, nk, _, nlossy = nodes[j + 1]
-        pmf = np.zeros(nk - k + 1)
-        pmf[-1] = 1.0
-        if nlossy:
-            tm.add_node(key, delay=pmf, next=(nkey, ("lost", nkey)), probabilities=(1.0 - p, p), execute=ex)
-        else:
-            tm.add_node(key, delay=pmf, next=nkey, execute=ex)
-    for key, _, _, lossy in nodes:
-        if lossy:
-            tm.add_node(("lost", key))
+    joint = list(itertools.product(*(range(P.shape[0]) for P, _, _ in chains)))
+    start = tuple(c for _, _, c in chains)
+    joint.remove(start)
+    joint.insert(0, start)                  # node 1: the start node of the channels' start states
+    for cs in joint:
+        tm.add_node(("start", cs), delay=_pmf(steps[0]), next=[_arrival(st, 0, cs)])
+    for i, s in enumerate(st):
+        for cs in joint:
+            if i + 1 < len(st):
+                tm.add_node((i, cs), delay=_pmf(steps[i + 1] - steps[i]), next=[_arrival(st, i + 1, cs)],
+                            execute=s.execute)
+            else:
+                tm.add_node((i, cs), execute=s.execute, then=("start", cs))
+            if not s.lossy:
+                continue
+            P, lo, _ = chains[of[i]]
+            c = cs[of[i]]
+            for j in range(s.retries + 1):
+                nxt, prob = [], []
+                for c2 in range(P.shape[0]):
+                    moved = cs[:of[i]] + (c2,) + cs[of[i] + 1:]
+                    nxt += [(i, moved), ("retry", i, j + 1, moved) if j < s.retries else ("lost", i, moved)]
+                    prob += [(1.0 - lo[c]) * P[c, c2], lo[c] * P[c, c2]]
+                tm.add_node(("try", i, j, cs), next=nxt, probabilities=prob)
+                if j:
+                    tm.add_node(("retry", i, j, cs), delay=_pmf(retry[i]), next=[("try", i, j, cs)])
+            tm.add_node(("lost", i, cs), then=("start", cs))
     return tm
 
 
-def loss_cost(model: Interconnection, period: float, stages: Sequence[Stage], loss: float,
+def _pmf(k: int) -> np.ndarray:
+    pmf = np.zeros(k + 1)
+    pmf[-1] = 1.0
+    return pmf
+
+
+def _arrival(st: list[Stage], i: int, cs: tuple) -> tuple:
+    return ("try", i, 0, cs) if st[i].lossy else (i, cs)
+
+
+def loss_cost(model: Interconnection, period: float, stages: Sequence[Stage], loss: Any,
               delta: float | None = None) -> StationaryCost:
     """The exact stationary expected cost per second of *model* under *stages* repeated
-    every *period* seconds, each lossy stage's message lost with probability *loss*
-    (Bernoulli, hold on loss).  ``cost_rate`` is ``inf`` (``stable=False``) when the loop
-    is not mean-square stable at that loss."""
+    every *period* seconds, their messages lost by *loss*: a frame loss probability
+    (Bernoulli), a Markov loss model (e.g. :class:`~netcosim.network.GilbertElliott`) or a
+    mapping from link to those (hold on loss; see the module).  ``cost_rate`` is ``inf``
+    (``stable=False``) when the loop is not mean-square stable under that loss."""
     return loss_model(model, period, stages, loss, delta).cost()
 
 
-def loss_cost_curve(model: Interconnection, period: float, stages: Sequence[Stage], losses: Iterable[float],
+def loss_cost_curve(model: Interconnection, period: float, stages: Sequence[Stage], losses: Iterable[Any],
                     delta: float | None = None) -> np.ndarray:
-    """:func:`loss_cost`'s ``cost_rate`` for each loss probability of *losses* (cost per
-    second; ``inf`` where not mean-square stable)."""
+    """:func:`loss_cost`'s ``cost_rate`` for each loss of *losses* (probabilities or loss
+    models; cost per second, ``inf`` where not mean-square stable)."""
     return np.array([loss_cost(model, period, stages, p, delta).cost_rate for p in losses])

@@ -13,8 +13,11 @@ the discrete systems of a model execute by a Markov chain of **timing nodes**:
   a node id); then a delay drawn from ``delay`` (the probabilities of 0, delta, 2 delta,
   ... seconds: Jitterbug's ``Ptau``) passes, and the chain moves to one of the nodes
   ``next`` with the probabilities ``probabilities``.  The first node added is node 1.
-  In a periodic model node 1 is entered at t = 0, h, 2h, ...: a node without successors
-  waits for the end of the period and the chain enters node 1 again (its delay must be 0);
+  In a periodic model node 1 is entered at t = 0: a node without successors waits for
+  the end of the period (its delay must be 0) and the chain enters node 1 again at the
+  next period's start, or the node named by its ``then`` (a *start node*: entered only at
+  a period's start; this is how a period passes on what the timing remembers -- e.g. the
+  state of a bursty channel, see :mod:`netcosim.lq.loss`);
   the delays of a path through the period may not exceed the period.  In an aperiodic
   model every node needs successors.
 
@@ -28,16 +31,21 @@ iteration of the Markov jump linear system is::
     Y_s  = E_s X_s E_s^T + pi_s W_s
     X_t <- sum over transitions s -> t (p, T) of  p (Phi(T) Y_s Phi(T)^T + pi_s R(T))
 
-from X = 0 until stationary; then the cost per unit time is (renewal reward)::
+to its fixed point; then the cost per unit time is (renewal reward)::
 
     J = sum_(s -> t, p, T)  p (tr(Q(T) Y_s) + pi_s J_noise(T))  /  sum_(s -> t, p, T) pi_s p T
 
 with Phi, R, Q, J_noise the exact interval matrices of :mod:`netcosim.lq.integrals`.
-**Convergence test**: stop when the largest change of an X_s (Frobenius norm) is at most
-``tol`` times the largest X_s.  **Divergence**: if X is no longer finite, exceeds
-``1e100``, or has not converged after ``max_iterations``, the loop is not mean-square
-stable (or too close to it): the cost is ``inf``, ``stable`` is False and the note says
-which happened and the spectral radius estimated from the last iterations' changes.
+**How the fixed point is found** (``method``): ``"solve"`` writes the iteration as one
+linear map on the stacked ``vec X_s`` (S N^2 unknowns, N the total state's size), takes
+its spectral radius from its eigenvalues (mean-square stable iff < 1) and solves the
+linear equation directly; ``"iterate"`` runs the iteration from X = 0 and stops when the
+largest change of an X_s (Frobenius norm) is at most ``tol`` times the largest X_s (if X
+is no longer finite, exceeds ``1e100``, or has not converged after ``max_iterations``,
+the loop is taken as not mean-square stable, with the spectral radius estimated from the
+last iterations' changes); ``"auto"`` (default) solves when S N^2 <= 1500 and iterates
+otherwise.  **Not mean-square stable**: the cost is ``inf``, ``stable`` is False and the
+note says why.
 The mean of z is taken as zero (the stationary mean of a stable model without
 deterministic inputs).
 """
@@ -64,6 +72,8 @@ __all__ = ["TimingModel"]
 PMF_TOLERANCE = 1e-9
 #: X beyond this: diverged
 DIVERGED = 1e100
+#: method="auto" solves directly up to this many unknowns (S N^2), iterates beyond
+SOLVE_LIMIT = 1500
 
 
 @dataclass(frozen=True)
@@ -73,6 +83,7 @@ class _Node:
     next: tuple[Hashable, ...]
     probabilities: np.ndarray
     execute: tuple[Hashable, ...]
+    then: Hashable = None
 
 
 class TimingModel:
@@ -96,12 +107,14 @@ class TimingModel:
         self.nodes: dict[Hashable, _Node] = {}
 
     def add_node(self, key: Hashable, delay: Any = (1.0,), next: Any = (), probabilities: Any = None,
-                 execute: Any = ()) -> "TimingModel":
+                 execute: Any = (), then: Hashable = None) -> "TimingModel":
         """Add timing node *key* (Jitterbug's ``addtimingnode``); returns self.
 
         ``delay``: probabilities of a delay of 0, delta, 2 delta, ... seconds before the next
         node (sums to 1; default: no delay).  ``next``: the next node(s); ``probabilities``:
         of each (default: equal).  ``execute``: the discrete system(s) executed on entry.
+        ``then`` (periodic models, nodes without ``next`` only): the start node of the next
+        period (default: node 1).
         """
         if key in self.nodes:
             raise ConfigurationError(f"TimingModel.add_node: node {key!r} is already defined")
@@ -123,7 +136,10 @@ class TimingModel:
         exe = _keys(execute)
         for k in exe:
             self.model.update_of(k)     # names a discrete system, or raises
-        self.nodes[key] = _Node(key, pmf / pmf.sum(), nxt, prob / prob.sum() if nxt else prob, exe)
+        if then is not None and (nxt or self.period_steps is None):
+            raise ConfigurationError(f"{what}: then= names the next period's start node; it is for nodes "
+                                     f"without next node in a periodic model, got then={then!r}")
+        self.nodes[key] = _Node(key, pmf / pmf.sum(), nxt, prob / prob.sum() if nxt else prob, exe, then)
         return self
 
     # --- the expanded chain -------------------------------------------------------------
@@ -135,6 +151,7 @@ class TimingModel:
             raise ConfigurationError("TimingModel: no timing node was added")
         first = next(iter(self.nodes))
         H = self.period_steps
+        starts = {first} | {n.then for n in self.nodes.values() if n.then is not None}
         states: list[tuple[Hashable, int]] = [(first, 0)]
         index = {states[0]: 0}
         trans: list[tuple[int, int, float, float]] = []
@@ -158,14 +175,17 @@ class TimingModel:
                 if node.delay.size > 1 and np.any(node.delay[1:] > 0):
                     raise ConfigurationError(f"TimingModel node {key!r}: a node without next node waits for "
                                              f"the period's end; its delay must be 0, got {show(node.delay)}")
-                trans.append((s, target((first, 0)), 1.0, (H - k) * self.delta))
+                then = first if node.then is None else node.then
+                if then not in self.nodes:
+                    raise ConfigurationError(f"TimingModel node {key!r}: then node {then!r} is not defined")
+                trans.append((s, target((then, 0)), 1.0, (H - k) * self.delta))
                 continue
             for j in node.next:
                 if j not in self.nodes:
                     raise ConfigurationError(f"TimingModel node {key!r}: next node {j!r} is not defined")
-                if H is not None and j == first:
-                    raise ConfigurationError(f"TimingModel node {key!r}: in a periodic model node 1 ({first!r}) "
-                                             f"is entered by the period only, not as a next node")
+                if H is not None and j in starts:
+                    raise ConfigurationError(f"TimingModel node {key!r}: in a periodic model the start node "
+                                             f"{j!r} is entered by the period only, not as a next node")
             for d in np.flatnonzero(node.delay):
                 kd = k + int(d) if H is not None else 0
                 if H is not None and kd > H:
@@ -176,8 +196,10 @@ class TimingModel:
                         trans.append((s, target((j, kd)), float(node.delay[d] * q), int(d) * self.delta))
         return states, trans
 
-    def cost(self, *, tol: float = 1e-14, max_iterations: int = 100_000) -> StationaryCost:
-        """The stationary cost per second (Jitterbug's ``calccost``; see the module)."""
+    def cost(self, *, method: str = "auto", tol: float = 1e-14, max_iterations: int = 100_000) -> StationaryCost:
+        """The stationary cost per second (Jitterbug's ``calccost``; see the module for
+        ``method``, and ``tol`` and ``max_iterations`` of the iteration)."""
+        validate.choice(method, "TimingModel.cost: method", ("auto", "solve", "iterate"))
         tol = validate.positive(tol, "TimingModel.cost: tol")
         max_iterations = validate.count(max_iterations, "TimingModel.cost: max_iterations", minimum=1)
         states, trans = self.transitions()
@@ -196,32 +218,14 @@ class TimingModel:
         const = [np.zeros((N, N)) for _ in range(S)]
         for (s, t, p, _), M in zip(trans, mats):
             const[t] += p * pi[s] * (M.Phi @ upd[s][1] @ M.Phi.T + M.R)
-        X = [np.zeros((N, N)) for _ in range(S)]
-        changes: deque[float] = deque(maxlen=20)
-        note, it = "", 0
-        converged = False
-        for it in range(1, max_iterations + 1):
-            Xn = [c.copy() for c in const]
-            for (s, t, p, _), M in zip(trans, mats):
-                EX = upd[s][0] @ X[s] @ upd[s][0].T
-                Xn[t] += p * (M.Phi @ EX @ M.Phi.T)
-            with np.errstate(over="ignore", invalid="ignore"):
-                change = max(float(np.linalg.norm(a - b)) for a, b in zip(Xn, X))
-                size = max(float(np.linalg.norm(a)) for a in Xn)
-            changes.append(change)
-            X = Xn
-            if not math.isfinite(size) or size > DIVERGED:
-                note = f"the covariance grew beyond {DIVERGED:g} after {it} iterations"
-                break
-            if change <= tol * size:
-                converged = True
-                break
-        rho = _rate(changes)
-        if not converged:
-            note = note or f"no convergence to {tol:g} in {max_iterations} iterations"
+        if method == "solve" or (method == "auto" and S * N * N <= SOLVE_LIMIT):
+            X, rho, it, note = _solve(S, N, trans, mats, upd, const)
+        else:
+            X, rho, it, note = _iterate(S, N, trans, mats, upd, const, tol, max_iterations)
+        if note:
             return StationaryCost(math.inf, math.nan if self.period_steps is None else self.period_steps * self.delta,
                                   False, rho, iterations=it,
-                                  note=note + f" (estimated mean-square spectral radius {rho:.6g}): "
+                                  note=note + f" (mean-square spectral radius {rho:.6g}): "
                                               f"the loop is not mean-square stable under this timing")
         J = 0.0
         time = 0.0
@@ -231,10 +235,52 @@ class TimingModel:
             time += pi[s] * p * T
         if not time > 0.0:
             raise ConfigurationError("TimingModel: time never passes in this timing model (every delay is 0)")
-        first = states[0][0]
-        cycle = time / float(sum(pi[s] for s in range(S) if states[s][0] == first))
+        if self.period_steps is not None:
+            cycle = self.period_steps * self.delta
+        else:
+            first = states[0][0]
+            cycle = time / float(sum(pi[s] for s in range(S) if states[s][0] == first))
         conditional = {states[s]: X[s] / pi[s] if pi[s] > 0 else X[s] for s in range(S)}
         return StationaryCost(float(J / time), float(cycle), True, rho, covariance=conditional, iterations=it)
+
+
+def _solve(S, N, trans, mats, upd, const):
+    """The fixed point as one linear equation; the spectral radius from its eigenvalues."""
+    n = N * N
+    L = np.zeros((S * n, S * n))
+    for (s, t, p, _), M in zip(trans, mats):
+        A = M.Phi @ upd[s][0]
+        L[t * n:(t + 1) * n, s * n:(s + 1) * n] += p * np.kron(A, A)
+    with np.errstate(over="ignore", invalid="ignore"):
+        rho = float(np.max(np.abs(np.linalg.eigvals(L)))) if L.size else 0.0
+    if not rho < 1.0:
+        return None, rho, 0, "the spectral radius of the second-moment map is not below 1"
+    x = np.linalg.solve(np.eye(S * n) - L, np.concatenate([c.reshape(-1) for c in const]))
+    X = [0.5 * (b + b.T) for b in x.reshape(S, N, N)]
+    return X, rho, 0, ""
+
+
+def _iterate(S, N, trans, mats, upd, const, tol, max_iterations):
+    """The fixed point by iteration from zero; the spectral radius from its changes."""
+    X = [np.zeros((N, N)) for _ in range(S)]
+    changes: deque[float] = deque(maxlen=20)
+    note, it = "", 0
+    for it in range(1, max_iterations + 1):
+        Xn = [c.copy() for c in const]
+        for (s, t, p, _), M in zip(trans, mats):
+            EX = upd[s][0] @ X[s] @ upd[s][0].T
+            Xn[t] += p * (M.Phi @ EX @ M.Phi.T)
+        with np.errstate(over="ignore", invalid="ignore"):
+            change = max(float(np.linalg.norm(a - b)) for a, b in zip(Xn, X))
+            size = max(float(np.linalg.norm(a)) for a in Xn)
+        changes.append(change)
+        X = Xn
+        if not math.isfinite(size) or size > DIVERGED:
+            note = f"the covariance grew beyond {DIVERGED:g} after {it} iterations"
+            break
+        if change <= tol * size:
+            return X, _rate(changes), it, ""
+    return X, _rate(changes), it, note or f"no convergence to {tol:g} in {max_iterations} iterations"
 
 
 def _keys(value: Any) -> tuple[Hashable, ...]:

@@ -23,7 +23,7 @@ from .ethernet import CSMACD
 from .frame import BROADCAST, LOSS_REASONS, Message
 from .ideal import FDMA, IdealLink
 from .interface import Interface
-from .loss import AnyLoss, Bernoulli, GilbertElliott, LossModel, MaskedLossWarning, TraceLoss
+from .loss import AnyLoss, Bernoulli, GilbertElliott, LossModel, MarkovChannel, MaskedLossWarning, TraceLoss
 from .lrwpan import IEEE802154
 from .radio import (
     LogDistance,
@@ -44,7 +44,7 @@ from .wlan import RATES, WLAN80211b
 
 __all__ = ["ARBITRATE", "AnyLoss", "BROADCAST", "Bernoulli", "CAN", "CSMACD", "FDMA", "GilbertElliott",
            "IEEE802154", "IdealLink", "Interface", "LOSS_REASONS", "LinkStats", "LogDistance", "LossModel",
-           "MaskedLossWarning", "Message",
+           "MarkovChannel", "MaskedLossWarning", "Message",
            "NETWORK_STATES", "Network", "RATES", "RadioNetwork", "RadioStation", "RoundRobin", "SaturatedSource",
            "SharedBus", "SlottedAloha", "SwitchedEthernet", "TDMA", "TraceLoss", "TrueTimePathLoss", "WLAN80211b",
            "ber_cck", "ber_dbpsk", "ber_dqpsk", "can_frame_bits", "dbm_to_watt", "loss_summary", "thermal_noise_dbm",

@@ -27,7 +27,7 @@ Several models can be combined by passing a list; the frame is lost if any says 
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
@@ -42,12 +42,34 @@ class MaskedLossWarning(UserWarning):
     (issued once per network, for models that state both)."""
 
 
+class MarkovChannel(NamedTuple):
+    """A loss model as a finite Markov chain, one step per frame on a link: in state i a
+    frame is lost with probability ``loss[i]``, then the chain moves by ``transition``
+    (row-stochastic, ``transition[i, j]``: i -> j); ``initial``: the distribution of the
+    first frame's state.  What :mod:`netcosim.lq.loss` needs for the expected cost over
+    loss realisations."""
+
+    transition: np.ndarray
+    loss: np.ndarray
+    initial: np.ndarray
+
+    def consecutive_loss(self, n: int) -> float:
+        """Probability that *n* consecutive frames from ``initial`` are all lost:
+        ``initial L (P L)**(n-1) 1``."""
+        v = self.initial * self.loss
+        for _ in range(n - 1):
+            v = (v @ self.transition) * self.loss
+        return float(v.sum())
+
+
 class LossModel:
     """Base class.  :meth:`link` returns the per-link state object with ``lost() -> bool``.
 
     A model may also state its long-run statistics, which the networks use to note a
     frame loss hidden by retries (:class:`MaskedLossWarning`): :meth:`frame_loss` and
-    :meth:`consecutive_loss` (both None: not known, no notice)."""
+    :meth:`consecutive_loss` (both None: not known, no notice); and itself as a finite
+    Markov chain (:meth:`markov`, None: not one), which the expected-cost analysis of
+    :mod:`netcosim.lq.loss` uses."""
 
     def link(self, rng: np.random.Generator) -> "LinkLoss":
         """A fresh per-link state object (a :class:`LinkLoss`) for one directed link, drawing from *rng*."""
@@ -61,6 +83,11 @@ class LossModel:
         """Long-run probability that *n* consecutive frames on one link are all lost (what a
         unicast message with *n* attempts suffers when nothing else fails them); None
         when the model cannot say."""
+        return None
+
+    def markov(self) -> MarkovChannel | None:
+        """The model as a :class:`MarkovChannel` (the same draws as :meth:`link` makes, in
+        distribution); None when it is not a finite Markov chain."""
         return None
 
 
@@ -108,6 +135,10 @@ class Bernoulli(LossModel):
     def consecutive_loss(self, n: int) -> float:
         """``p**n``."""
         return self.p ** n
+
+    def markov(self) -> MarkovChannel:
+        """One state, losing with probability ``p``."""
+        return MarkovChannel(np.ones((1, 1)), np.array([self.p]), np.ones(1))
 
     def __repr__(self):
         return f"Bernoulli(p={self.p})"
@@ -190,12 +221,18 @@ class GilbertElliott(LossModel):
         if self.p_gb + self.p_bg == 0.0:
             return None
         b = self.stationary_bad
-        v = np.array([1.0 - b, b]) * np.array([self.loss_good, self.loss_bad])
+        return self.markov()._replace(initial=np.array([1.0 - b, b])).consecutive_loss(n)
+
+    def markov(self) -> MarkovChannel:
+        """States (good, bad), losses (``loss_good``, ``loss_bad``), the initial state by
+        ``start`` (stationary: ``(1 - stationary_bad, stationary_bad)``)."""
         P = np.array([[1.0 - self.p_gb, self.p_gb], [self.p_bg, 1.0 - self.p_bg]])
-        L = np.array([self.loss_good, self.loss_bad])
-        for _ in range(n - 1):
-            v = (v @ P) * L
-        return float(v.sum())
+        if self.start == "stationary":
+            b = self.stationary_bad
+            initial = np.array([1.0 - b, b])
+        else:
+            initial = np.array([1.0, 0.0]) if self.start == "good" else np.array([0.0, 1.0])
+        return MarkovChannel(P, np.array([self.loss_good, self.loss_bad]), initial)
 
     def __repr__(self):
         return (f"GilbertElliott(p_gb={self.p_gb}, p_bg={self.p_bg}, loss_good={self.loss_good}, "
@@ -306,6 +343,17 @@ class AnyLoss(LossModel):
         seeds = rng.integers(0, 2**63, size=len(self.models))
         return _AnyLink([m.link(np.random.Generator(np.random.PCG64(int(s))))
                          for m, s in zip(self.models, seeds)])
+
+    def markov(self) -> MarkovChannel | None:
+        """The product chain of the models' chains (they move independently): a frame is
+        kept only if every model keeps it; None if one model is not a Markov chain."""
+        chains = [m.markov() for m in self.models]
+        if any(c is None for c in chains):
+            return None
+        P, keep, initial = np.ones((1, 1)), np.ones(1), np.ones(1)
+        for c in chains:
+            P, keep, initial = np.kron(P, c.transition), np.kron(keep, 1.0 - c.loss), np.kron(initial, c.initial)
+        return MarkovChannel(P, 1.0 - keep, initial)
 
 
 def as_loss_model(loss) -> LossModel | None:
