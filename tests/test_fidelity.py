@@ -116,7 +116,7 @@ def test_stored_numbers_are_the_full_runs(tmp_path):
     import importlib
     names = ["ch3_fig3_8", "ch3_fig3_10_12", "ch4_fig4_8_9", "ch4_fig4_10", "ch5_table5_2"]
     for n in names:
-        importlib.import_module(f"experiments.{n}").main(str(tmp_path / n), quick=False)
+        importlib.import_module(f"netcosim.experiments.{n}").main(str(tmp_path / n), quick=False)
     stored = fidelity.load()
     got = fidelity.measure(tmp_path, names)
     import pandas as pd
