@@ -264,5 +264,5 @@ def test_the_lq_layer_sits_low():
                                      if (PKG / Path(*m.split(".")[1:]).with_suffix(".py")).exists()
                                      else PKG / Path(*m.split(".")[1:]) / "__init__.py")}
     assert third_party <= {"numpy", "scipy", "pandas", "matplotlib", "netcosim", "__future__", "typing",
-                           "dataclasses", "math", "collections"}, third_party
+                           "dataclasses", "math", "collections", "itertools"}, third_party
     assert "simpy" not in third_party

@@ -347,11 +347,13 @@ class AnyLoss(LossModel):
     def markov(self) -> MarkovChannel | None:
         """The product chain of the models' chains (they move independently): a frame is
         kept only if every model keeps it; None if one model is not a Markov chain."""
-        chains = [m.markov() for m in self.models]
-        if any(c is None for c in chains):
-            return None
-        P, keep, initial = np.ones((1, 1)), np.ones(1), np.ones(1)
-        for c in chains:
+        P: np.ndarray = np.ones((1, 1))
+        keep: np.ndarray = np.ones(1)
+        initial: np.ndarray = np.ones(1)
+        for m in self.models:
+            c = m.markov()
+            if c is None:
+                return None
             P, keep, initial = np.kron(P, c.transition), np.kron(keep, 1.0 - c.loss), np.kron(initial, c.initial)
         return MarkovChannel(P, 1.0 - keep, initial)
 
