@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import ConfigurationError, ConfigurationTypeError
 from . import segments as sg
 from .lod import LOD_JS
-from .tables import read_tables
+from .tables import end_time, read_tables
 
 __all__ = ["write_view", "build_layout", "DEFAULTS"]
 
@@ -82,7 +82,7 @@ def _task_lane(tables: dict, x_range, width: int):
     if sched is None or not len(sched):
         return None, None, {}
     jobs = tables.get("jobs")
-    t_end = _t_end(tables)
+    t_end = end_time(tables)
     seg = sg.task_segments(sched, jobs, t_end=t_end)
     order = sg.task_order(sched)
     rows = list(reversed(order))                        # top row first, as in the PNG
@@ -214,11 +214,6 @@ def _marks(fig, tables: dict, row_of: dict) -> None:
                     legend_label=kind.replace("_", " "), name=f"mark:{kind}")
 
 
-def _t_end(tables: dict) -> float:
-    ends = [float(df["time"].max()) for n, df in tables.items() if n != "jobs" and len(df) and "time" in df]
-    return max(ends) if ends else 1.0
-
-
 def _t_start(tables: dict) -> float:
     starts = [float(df["time"].min()) for n, df in tables.items() if n != "jobs" and len(df) and "time" in df]
     return min(starts) if starts else 0.0
@@ -241,7 +236,7 @@ def build_layout(tables: dict, *, signals: Sequence | None = None, t_range=None,
         if not isinstance(v, int) or isinstance(v, bool) or v < 1:
             raise ConfigurationTypeError(f"{k} must be a positive integer, got {v!r}")
         opts[k] = v
-    lo, hi = _t_start(tables), _t_end(tables)
+    lo, hi = _t_start(tables), end_time(tables)
     if hi <= lo:
         hi = lo + 1e-9
     t0, t1 = (lo, hi) if t_range is None else (lo if t_range[0] is None else float(t_range[0]),
