@@ -167,6 +167,8 @@ def _signal_figure(tables: dict, signals, x_range, width: int):
     from bokeh.models import ColumnDataSource
     from bokeh.plotting import figure
     sig = tables.get("signals")
+    if signals is not None and len(signals) and (sig is None or not len(sig)):
+        raise ConfigurationError(f"no signal {signals[0]!r}: the run logged no signal")
     if sig is None or not len(sig) or (signals is not None and not len(signals)):
         return None, []
     pairs = _signal_pairs(sig, signals)

@@ -11,7 +11,8 @@ sources from them:
 * **signals**: at most ``max_points`` samples in the window are drawn exactly; otherwise
   each bin draws its minimum and maximum (in time order), so peaks stay visible.
 
-Work per update is one pass over the rows in the window (binary search for its ends).
+Work per update is one pass over the rows up to the window's end (binary search for it).
+Each update counts itself in ``window.__ncs_updates`` (the headless tests wait on it).
 """
 
 from __future__ import annotations
@@ -81,5 +82,6 @@ function update() {
       flush(); }
     O.data = {x: x, y: y};
   }
+  window.__ncs_updates = (window.__ncs_updates || 0) + 1;
 }
 """
