@@ -196,6 +196,7 @@ def test_cli_view_bad_arguments_exit_2_naming_them(tmp_path, capsys, args, messa
 def test_sweep_view_links_each_run_with_a_kept_trace(tmp_path):
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
     import sweep_scenarios
+
     from netcosim.sweep import run_sweep
     res = run_sweep(sweep_scenarios.servo_traced, {"share": [0.0, 0.6], "until": [0.2], "keep_trace": [True]},
                     seeds=2, out=tmp_path / "sw", executor="serial")

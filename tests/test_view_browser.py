@@ -114,6 +114,7 @@ def test_sweep_page_and_a_linked_run_load_without_errors(tmp_path):
     from pathlib import Path
     sys.path.insert(0, str(Path(__file__).parent))
     import sweep_scenarios
+
     from netcosim.sweep import run_sweep
     res = run_sweep(sweep_scenarios.servo_traced, {"share": [0.0, 0.6], "until": [0.2]}, seeds=2,
                     out=tmp_path / "sw", executor="serial")

@@ -172,8 +172,8 @@ def _signal_figure(tables: dict, signals, x_range, width: int):
     if sig is None or not len(sig) or (signals is not None and not len(signals)):
         return None, []
     pairs = _signal_pairs(sig, signals)
-    fig = figure(title="signals", height=260, width=width, min_border_left=110, x_range=x_range, tools="xpan,box_zoom,wheel_zoom,reset,save",
-                 active_drag="xpan", name="signals")
+    fig = figure(title="signals", height=260, width=width, min_border_left=110, x_range=x_range,
+                 tools="xpan,box_zoom,wheel_zoom,reset,save", active_drag="xpan", name="signals")
     fig.xaxis.axis_label = "time [s]"
     src, name = sig["source"].astype(str).to_numpy(), sig["signal"].astype(str).to_numpy()
     t_all, v_all = sig["time"].to_numpy(dtype=float), sig["value"].to_numpy(dtype=float)

@@ -99,11 +99,11 @@ def chrome_trace_events(tables: dict) -> list[dict]:
                 events.append(_meta(pid, i + 1, "thread_name", s))
             medium = len(senders) + 1
             events.append(_meta(pid, medium, "thread_name", "medium"))
-            tid = {s: i + 1 for i, s in enumerate(senders)}
+            sender_tid = {s: i + 1 for i, s in enumerate(senders)}
             for fr, src, dst, att_n, s, e, bits, reason, outcome in zip(
                     a["frame"], a["src"], a["dst"], a["attempt"], a["start"], a["end"], a["bits"], a["reason"],
                     a["outcome"]):
-                events.append({"ph": "X", "ts": s * _US, "dur": (e - s) * _US, "pid": pid, "tid": tid[src],
+                events.append({"ph": "X", "ts": s * _US, "dur": (e - s) * _US, "pid": pid, "tid": sender_tid[src],
                                "name": f"frame {int(fr)} -> {dst}", "cat": outcome,
                                "args": {"frame": int(fr), "attempt": int(att_n), "bits": _num(bits), "end": reason}})
             b = busy[busy["network"] == net]
@@ -123,7 +123,7 @@ def chrome_trace_events(tables: dict) -> list[dict]:
                                "args": {"value": float(v[i])}})
     mk = sg.marks(tables)
     if len(mk):
-        first_of_node = {}
+        first_of_node: dict[str, tuple[int, int]] = {}
         for lab, track in tid_of.items():
             first_of_node.setdefault(lab.split(".", 1)[0], track)
         fallback = next(iter(tid_of.values()), (1, 0))

@@ -100,11 +100,14 @@ class Page:
         return Path(path)
 
     def close(self) -> None:
-        for closer in (getattr(self, "_browser", None), getattr(self, "_pw", None)):
-            if closer is not None:
+        """Close the browser and stop Playwright (safe to call twice)."""
+        browser, pw = getattr(self, "_browser", None), getattr(self, "_pw", None)
+        self._browser = self._pw = None
+        for stop in (browser.close if browser is not None else None, pw.stop if pw is not None else None):
+            if stop is not None:
                 try:
-                    closer.close() if closer is getattr(self, "_browser", None) else closer.stop()
-                except Exception:   # noqa: BLE001 - closing a browser that already went away
+                    stop()
+                except Exception:   # noqa: BLE001 - a browser that already went away
                     pass
 
     def __enter__(self) -> Page:
