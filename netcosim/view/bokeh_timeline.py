@@ -124,7 +124,7 @@ def _network_lanes(tables: dict, x_range, width: int):
         senders = list(dict.fromkeys(a["src"]))
         rows = list(reversed(senders)) + ["medium"]
         row_of = {n: i for i, n in enumerate(rows)}
-        fig = _figure(f"network {net}", 80 + 30 * len(rows), x_range, rows, width)
+        fig = _figure(f"network {net}", max(80 + 30 * len(rows), 200), x_range, rows, width)   # room for the legend
         cats = list(sg.FRAME_OUTCOMES)
         outs = _quad_sources(fig, cats, sg.OUTCOME_COLOURS, f"frame:{net}")
         dst, dst_names = _codes(a["dst"])
@@ -191,8 +191,8 @@ def _signal_figure(tables: dict, signals, x_range, width: int):
 
 
 def _marks(fig, tables: dict, row_of: dict) -> None:
-    """Scatter the marks on the task panel: at the row of their task (or of the first task
-    of their node), else above the top row."""
+    """Scatter the marks on the task panel, on the row of their task (or of the first task
+    of their node; else above the top row), at its label's height."""
     from bokeh.models import ColumnDataSource
     mk = sg.marks(tables)
     if not len(mk):
@@ -201,7 +201,7 @@ def _marks(fig, tables: dict, row_of: dict) -> None:
     by_node: dict[str, int] = {}
     for lab, r in row_of.items():
         by_node.setdefault(lab.split(".", 1)[0], r)
-    ys = [row_of.get(w, by_node.get(w, by_node.get(w.split(".", 1)[0], top - 0.4))) + 0.7 for w in mk["where"]]
+    ys = [row_of.get(w, by_node.get(w, by_node.get(w.split(".", 1)[0], top - 0.4))) + 0.3 for w in mk["where"]]
     mk = mk.assign(y=ys)
     glyph = {"deadline_miss": "inverted_triangle", "budget_overrun": "diamond", "watchdog": "square_x",
              "hil": "circle_x"}
