@@ -51,6 +51,12 @@ def measure(n: int, folder: Path, rate: float) -> dict:
     sim = _run(until)
     sim_s = time.perf_counter() - t
     rows = rows_of(sim)
+    from netcosim.view import segments as sg
+    tables = {t: sim.trace.frame(t) for t in TABLES}
+    att = sg.frame_attempts(tables["frames"])
+    sig = tables["signals"]
+    drawn = (len(sg.task_segments(tables["schedule"])) + len(att) + len(sg.medium_busy(att))
+             + int(sig["signal"].astype(str).isin(("y.y", "u")).sum()))
     html = folder / f"view_{n}.html"
     t = time.perf_counter()
     sim.trace.view(html, signals=["servo.y.y", "sensor.actuate.u"])
@@ -58,7 +64,7 @@ def measure(n: int, folder: Path, rate: float) -> dict:
     t = time.perf_counter()
     js = sim.trace.to_chrome_trace(folder / f"trace_{n}.json")
     export_s = time.perf_counter() - t
-    out = {"rows": rows, "simulated_s": until, "simulate_s": sim_s, "build_s": build_s,
+    out = {"rows": rows, "drawn": drawn, "simulated_s": until, "simulate_s": sim_s, "build_s": build_s,
            "html_MB": html.stat().st_size / 1e6, "export_s": export_s, "json_MB": js.stat().st_size / 1e6}
     if chromium_path() is not None:
         with open_view(html, timeout=600) as page:
@@ -99,15 +105,17 @@ def main(argv: list[str] | None = None) -> None:
         return
     if chromium_path() is None:
         print("no Chromium (/usr/bin/chromium): load times are not measured")
+    import bokeh.embed  # noqa: F401 - imported before the clock: the first build would pay it (about 2 s)
+    import bokeh.plotting  # noqa: F401
     probe = _run(5.0)
     rate = rows_of(probe) / 5.0
     print(f"networked servo, share 0.6: {rate:.0f} trace rows per simulated second")
-    print(f"{'rows':>9} {'sim s':>7} {'build s':>8} {'HTML MB':>8} {'load s':>7} {'zoom in s':>9} {'zoom out s':>10} "
-          f"{'export s':>8} {'JSON MB':>8}")
+    print(f"{'rows':>9} {'drawn':>8} {'sim s':>7} {'build s':>8} {'HTML MB':>8} {'load s':>7} {'zoom in s':>9} "
+          f"{'zoom out s':>10} {'export s':>8} {'JSON MB':>8}")
     with tempfile.TemporaryDirectory() as tmp:
         for n in a.rows:
             m = measure(n, Path(tmp), rate)
-            print(f"{m['rows']:>9} {m['simulated_s']:>7.2f} {m['build_s']:>8.2f} {m['html_MB']:>8.1f} "
+            print(f"{m['rows']:>9} {m['drawn']:>8} {m['simulated_s']:>7.2f} {m['build_s']:>8.2f} {m['html_MB']:>8.1f} "
                   f"{m.get('load_s', float('nan')):>7.2f} {m.get('zoom_in_s', float('nan')):>9.3f} "
                   f"{m.get('zoom_out_s', float('nan')):>10.3f} {m['export_s']:>8.2f} {m['json_MB']:>8.1f}"
                   + (f"  ({m['errors']} page errors)" if m.get("errors") else ""), flush=True)
