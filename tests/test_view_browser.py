@@ -124,6 +124,14 @@ def test_sweep_page_and_a_linked_run_load_without_errors(tmp_path):
         assert page.drawn()["glyphs"]["runs"] == 4
         urls = page.page.evaluate("""() => [...Bokeh.documents[0]._all_models.values()]
             .find(m => m.name === "runs").data_source.data.url""")
+        # a click on a run selects it and runs the tap tool's callback: a new tab with its timeline
+        with page.page.context.expect_page() as opened:
+            page.page.evaluate("""() => { const ms = [...Bokeh.documents[0]._all_models.values()];
+                const runs = ms.find(m => m.name === "runs"), tap = ms.find(m => m.type === "TapTool"
+                    || (m.callback && m.callback.type === "OpenURL") || (m.callback && m.callback.url));
+                runs.data_source.selected.indices = [2];
+                tap.callback.execute(runs.data_source, {source: runs.data_source}); }""")
+        assert opened.value.url.endswith("/sw/" + urls[2])
     assert len(urls) == 4 and all((tmp_path / "sw" / u).is_file() for u in urls)
     with open_view(tmp_path / "sw" / urls[0]) as run:
         assert run.errors == [] and run.drawn()["rows"]["tasks"] == 3
