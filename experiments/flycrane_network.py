@@ -18,7 +18,9 @@ difference of the median cost (loss_steps.parquet); then the figures: fig4_11.pn
 strategy the per-time median of ||q - q^r|| and its 10-90 % band over the seeds, the
 verdicts in the titles), fig4_11_seed0.png (one seed, as the thesis's figure),
 figA_2.png, figA_3.png (20 % loss), figA_4.png, figA_5.png (schedules), figA_6.png
-(gains), cost_vs_loss.png and summary.parquet (the grid's runs).
+(gains), cost_vs_loss.png and summary.parquet (the grid's runs); timeline_online_loss20.html
+and timeline_offline_loss20.html: the interactive timelines of Figs. A.4/A.5's runs (tasks,
+frames, signals, watchdog firings; open from disk in a browser, needs Bokeh).
 
 Run ``python -m netcosim.experiments.flycrane_network`` (``--quick``: 3 losses x 3 seeds,
 15 s, no extra seeds).  ``--seeds N`` sets the number of seeds of the grid,
@@ -373,6 +375,31 @@ DEFAULT_SIZE = (GRID_LOSSES, 20, HORIZON)
 QUICK_SIZE = (FIG_LOSSES, 3, 15.0)
 
 
+def fig_view(r, path, t_range=(2.9, 4.9), title: str | None = None):
+    """The run's interactive timeline (:mod:`netcosim.view`): the kernels' tasks, the WLAN's
+    frames and busy medium, ``||q - q^r||`` on the sample grid and the gains the tasks
+    computed, the watchdog firings marked; opened at *t_range* (s), the
+    window of Figs. A.4/A.5.  Returns the path, or None (with a note) without Bokeh."""
+    try:
+        from netcosim.view import view
+    except ImportError:     # pragma: no cover - netcosim.view itself has no third-party import
+        return None
+    import importlib.util
+    if importlib.util.find_spec("bokeh") is None:
+        print("  (no interactive timeline: pip install 'netcosim[view]' for Bokeh)")
+        return None
+    grid = [pd.DataFrame({"time": r.t, "source": "run", "signal": "norm_e", "value": r.norm_e})]
+    logged = r.signals if r.signals is not None else pd.DataFrame(columns=["time", "source", "signal", "value"])
+    logged = logged.astype({"source": str, "signal": str})
+    signals = pd.concat(grid + [logged], ignore_index=True)
+    gains = logged[logged["signal"] == "k"]
+    chosen = ["run.norm_e"] + [f"{s}.k" for s in dict.fromkeys(gains["source"])]
+    tables = {"schedule": r.schedule, "jobs": r.jobs, "frames": r.frames, "network_schedule": r.network_schedule,
+              "signals": signals}
+    return view(tables, path, signals=chosen, t_range=t_range,
+                title=title or f"Fly-crane over 802.11b: {r.config.strategy} strategy, loss {r.config.loss:.0%}")
+
+
 def figures(runs: pd.DataFrame, error: pd.DataFrame, outdir: str, horizon: float = HORIZON, seed: int = 0,
             steps: pd.DataFrame | None = None) -> None:
     """Run the single-seed cases and write every figure into *outdir* (*error*: the runs'
@@ -389,6 +416,8 @@ def figures(runs: pd.DataFrame, error: pd.DataFrame, outdir: str, horizon: float
     fig_schedules(at20["offline"], path=os.path.join(outdir, "figA_5.png"),
                   title="Fig. A.5: offline strategy, loss 20 %")
     fig_a_6(at20, os.path.join(outdir, "figA_6.png"))
+    for st in STRATEGIES:   # the interactive timelines beside the PNGs (docs/viewer.md)
+        fig_view(at20[st], os.path.join(outdir, f"timeline_{st}_loss20.html"))
     fig_cost(runs, "iae", os.path.join(outdir, "cost_vs_loss.png"))
 
 

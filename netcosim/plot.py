@@ -19,13 +19,13 @@ import numpy as np
 from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError, NetcosimError
 from .timebase import RESOLUTION
+from .view.segments import TASK_STATES, staircase, state_intervals
 
 if TYPE_CHECKING:  # matplotlib and pandas load when a plot is drawn, not on import
     import pandas as pd
 
-#: Task states of the kernel's schedule table, with TrueTime's plotting level offsets (the
-#: kernel's table codes a state by its position here, :data:`netcosim.kernel.tables.STATE_CODES`).
-TASK_STATES = {"idle": 0.0, "blocked": 0.125, "ready": 0.25, "running": 0.5}
+__all__ = ["TASK_STATES", "MissingColumnsError", "PlotSaveError", "check_columns", "check_image_path",
+           "time_window", "check_table", "plot_staircases", "save", "plot_schedule", "plot_signals"]
 
 
 class MissingColumnsError(ConfigurationError, KeyError):
@@ -164,11 +164,7 @@ def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, o
         times = sel["time"].to_numpy(dtype=float)
         lv = row + sel["state"].astype(str).map(levels).to_numpy(dtype=float)
         # value in force at t0, then the changes inside the window, held to t1
-        before = times <= t0
-        start_level = lv[before][-1] if before.any() else row
-        inside = (times > t0) & (times < t1)
-        ts = np.concatenate(([t0], times[inside], [t1]))
-        ls = np.concatenate(([start_level], lv[inside], [lv[inside][-1] if inside.any() else start_level]))
+        ts, ls = staircase(times, lv, t0, t1, floor=row)
         ax.step(ts, ls, where="post", lw=1.2)
     ax.set_yticks([r + 0.25 for r in range(len(order))])
     ax.set_yticklabels(list(reversed(order)))
@@ -235,9 +231,8 @@ def _shade_cores(ax, df: pd.DataFrame, row_of: dict, t_end: float) -> None:
     for lab, sel in df.groupby("label", sort=False, observed=True):
         if lab not in row_of:
             continue
-        times = sel["time"].to_numpy(dtype=float)
-        ends = np.append(times[1:], t_end)
-        for t, end, st, core in zip(times, ends, sel["state"].astype(str), sel["core"]):
+        times, ends, states = state_intervals(sel["time"].to_numpy(dtype=float), sel["state"].astype(str), t_end)
+        for t, end, st, core in zip(times, ends, states, sel["core"]):
             if st == "running" and core >= 0 and end > t:
                 ax.broken_barh([(t, end - t)], (row_of[lab], 0.5), facecolors=f"C{int(core) % 10}", alpha=0.3,
                                label=None if int(core) in seen else f"core {int(core)}")

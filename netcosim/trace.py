@@ -385,6 +385,24 @@ class Trace:
                                      f"exists once a network is created)")
         return draw(self, **options)
 
+    def view(self, path: str | os.PathLike | None = "view.html", **options) -> Path:
+        """Write the run's interactive timeline as one self-contained HTML file (opens
+        offline from disk; needs ``pip install netcosim[view]``): tasks in TrueTime's
+        encoding, each network's frames and busy medium, signals, marks; linked time axes
+        in seconds.  Options: ``signals`` (``"source.signal"`` names; default the first 8),
+        ``t_range=(t0, t1)`` (s, the initial window), ``title``, ``width`` (px) and the
+        level of detail ``max_glyphs``, ``max_points``, ``bins``
+        (:func:`netcosim.view.bokeh_timeline.build_layout`).  Returns the path."""
+        from .view import view
+        return view(self, path, **options)
+
+    def to_chrome_trace(self, path: str | os.PathLike) -> Path:
+        """Write the run as Chrome/Perfetto trace-event JSON (one track per task, per
+        network sender and per signal; times in microseconds; mapping in docs/viewer.md),
+        to open in https://ui.perfetto.dev or ``chrome://tracing``.  Returns the path."""
+        from .view import to_chrome_trace
+        return to_chrome_trace(self, path)
+
     def to_parquet(self, directory: str | os.PathLike, prefix: str = "") -> list[Path]:
         """Write every non-empty table to ``directory/prefix<name>.parquet``.
 

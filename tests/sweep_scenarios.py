@@ -62,3 +62,21 @@ def cyclic(params, seed):
     big = _Big()
     REFS.append(weakref.ref(big))
     return {"n": len(big.data)}
+
+
+def servo_traced(params, seed):
+    """TrueTime's networked servo (:mod:`netcosim.experiments.networked_servo`, CSMA/CD) for
+    ``params["until"]`` s with interferer share ``params["share"]``: its cost J, and (opt-in)
+    the run's trace tables (unless ``keep_trace`` is false), for the sweep view to link to."""
+    from netcosim.experiments.networked_servo import build, control_cost
+    from netcosim.view import trace_tables
+    sim, _ = build("csma_cd", params["share"], seed=seed)
+    until = params.get("until", 0.3)
+    sim.run(until=until)
+    out = {"cost": control_cost(sim, until)}
+    if params.get("keep_trace", True):
+        out.update(trace_tables(sim))
+    return out
+
+
+servo_traced.params = {"share", "until", "keep_trace"}

@@ -235,6 +235,12 @@ def test_figures_and_summary(tmp_path):
     fn.fig_a_6(at20, tmp_path / "f.png")
     fn.fig_cost(runs, path=tmp_path / "g.png")
     assert len(list(tmp_path.glob("*.png"))) == 7
+    # the online run's watchdogs zero a stale command at 20 % loss: the timeline marks each firing
+    from netcosim.view import segments as sg
+    fired = sg.marks({"signals": at20["online"].signals})
+    assert len(fired) == int((at20["online"].signals["signal"].astype(str) == "watchdog_zero").sum()) > 0
+    assert set(fired["kind"]) == {"watchdog"}
+    assert fn.fig_view(at20["online"], tmp_path / "t.html") == tmp_path / "t.html"
 
 
 @pytest.mark.slow
@@ -276,6 +282,8 @@ def test_main_quick_writes_the_dataset_and_every_figure(tmp_path):
     names = {p.name for p in tmp_path.glob("*.png")}
     assert names == {"fig4_11.png", "fig4_11_seed0.png", "figA_2.png", "figA_3.png", "figA_4.png", "figA_5.png",
                      "figA_6.png", "cost_vs_loss.png"}
+    # the interactive timelines of Figs. A.4/A.5's runs beside them (make run; docs/viewer.md)
+    assert {p.name for p in tmp_path.glob("*.html")} == {"timeline_online_loss20.html", "timeline_offline_loss20.html"}
     steps = pd.read_parquet(tmp_path / "loss_steps.parquet")
     assert len(steps) == 4 and (steps[["runs_from", "runs_to"]] == 3).all().all()     # quick: no extra seeds
     assert not (tmp_path / "dataset_fig4_11").exists()

@@ -323,7 +323,9 @@ class FlyCraneRun:
     ``t``, ``node``, ``k`` (1/s) of every command computed; ``schedule``, ``jobs``:
     the kernels' schedule and job tables; ``network_schedule``, ``frames``: the WLAN's;
     ``messages``: DataFrame per robot (``robot``, ``sent``, ``received``, ``loss``);
-    ``failure``: None, or the error that stopped the plant.
+    ``failure``: None, or the error that stopped the plant; ``signals``: the trace's
+    signals table (what the tasks logged, e.g. ``watchdog_zero`` when a watchdog zeroed a
+    command; None if not collected).
     """
 
     config: FlyCraneNetworkConfig
@@ -339,6 +341,7 @@ class FlyCraneRun:
     frames: Any
     messages: Any
     failure: str | None = None
+    signals: Any = None
 
     @property
     def norm_e(self) -> np.ndarray:
@@ -377,7 +380,8 @@ class FlyCraneRun:
                                 columns=["robot", "sent", "received", "processed"])
         messages["loss"] = 1.0 - messages["received"] / messages["sent"].where(messages["sent"] > 0)
         return cls(config, t, q, u, q_ref, dep.to_pandas(), gains, sim.trace.frame("schedule"),
-                   sim.trace.frame("jobs"), sim.trace.frame("network_schedule"), frames, messages, failure)
+                   sim.trace.frame("jobs"), sim.trace.frame("network_schedule"), frames, messages, failure,
+                   sim.trace.frame("signals"))
 
     def to_pandas(self):
         """DataFrame on the grid: ``t``, ``norm_e``, ``q0..q9``, ``u0..u11``."""

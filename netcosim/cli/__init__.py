@@ -32,6 +32,11 @@ also the all-simulated run and, with ``--replay``, the replay; docs/hil.md).
 ``plot schedule`` draws a schedule table written by ``Trace.to_parquet``; ``plot network``
 its network timeline (``network_schedule``, with ``frames`` when it lies beside it).
 
+``view`` writes the interactive HTML timeline of a run saved by ``Trace.to_parquet``
+(PATH: its directory or one of its files), or the page of a stored sweep (PATH: the
+sweep's directory); ``--chrome-trace OUT.json`` exports the run as Chrome/Perfetto
+trace events (docs/viewer.md).
+
 Bad arguments (unknown experiment, unreadable trace, empty time window, ...) print one
 line naming the value on stderr and exit with status 2.
 """
@@ -41,7 +46,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import hil, plot, run, sweep
+from . import hil, plot, run, sweep, view
 from ._common import UsageError, check_writable_dir
 from .hil import check_endpoint
 from .plot import FRAME_MARKER_COLUMNS, NETWORK_SCHEDULE_COLUMNS, SCHEDULE_COLUMNS, time_window
@@ -59,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
                                 epilog="\n".join(__doc__.splitlines()[2:]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
-    for command in (run, sweep, hil, plot):
+    for command in (run, sweep, hil, plot, view):
         command.add_parser(sub)
     return p
 

@@ -18,14 +18,15 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from ..plot import check_columns, check_image_path, plot_staircases, save
+from ..view.segments import NETWORK_COLOURS, NETWORK_STATES, frame_markers, state_intervals
 
 if TYPE_CHECKING:
     import pandas as pd
 
-#: Network-schedule states with their levels above a node's row in the plot (idle lowest, sending highest).
-NETWORK_STATES = {"idle": 0.0, "receiving": 0.2, "waiting": 0.4, "sending": 0.7}
-#: Fill colour of each non-idle network state (idle is not shaded).
-STATE_COLOURS = {"receiving": "tab:green", "waiting": "tab:orange", "sending": "tab:blue"}
+__all__ = ["NETWORK_STATES", "STATE_COLOURS", "LOST_LABEL", "RETRANSMISSION_LABEL", "plot_network_schedule"]
+
+#: Fill colour of each non-idle network state (idle is not shaded; :data:`netcosim.view.segments.NETWORK_COLOURS`).
+STATE_COLOURS = NETWORK_COLOURS
 #: Legend labels of the two kinds of markers.
 LOST_LABEL = "frame lost"
 RETRANSMISSION_LABEL = "retransmission"
@@ -38,10 +39,8 @@ def _shade(ax, df, row_of, t0, t1) -> None:
     states = df["state"].astype(str).to_numpy()
     for lab, row in row_of.items():
         sel = labels == lab
-        ts, ss = times[sel], states[sel]
         # (start, end, state) intervals clipped to the window
-        ends = np.append(ts[1:], t1)
-        for a, b, s in zip(ts, ends, ss):
+        for a, b, s in zip(*state_intervals(times[sel], states[sel], t1)):
             a, b = max(a, t0), min(b, t1)
             if b <= a or s not in STATE_COLOURS:
                 continue
@@ -86,12 +85,10 @@ def plot_network_schedule(schedule: pd.DataFrame, *, network: str | None = None,
         fr = frames
         if network is not None:
             fr = fr[fr["network"] == network]
-        fr = fr[(fr["time"] >= t0) & (fr["time"] <= t1)]
-        lost = fr[fr["event"] == "lost"]
+        lost, rt = frame_markers(fr, t0, t1)
         where = [n if n in row_of else s for n, s in zip(lost["node"].astype(str), lost["src"].astype(str))]
         ys = [row_of.get(n, np.nan) + top for n in where]
         ax.plot(lost["time"].to_numpy(dtype=float), ys, "x", color="red", ms=7, mew=1.5, label=LOST_LABEL)
-        rt = fr[(fr["event"] == "attempt_start") & (fr["attempt"] > 1)]
         ys = [row_of.get(s, np.nan) + top for s in rt["src"].astype(str)]
         ax.plot(rt["time"].to_numpy(dtype=float), ys, "^", color="darkorange", ms=5, label=RETRANSMISSION_LABEL)
         handles += ax.get_lines()[-2:]

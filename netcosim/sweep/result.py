@@ -124,6 +124,17 @@ class SweepResult:
         kw.setdefault("diverged", "diverged" if "diverged" in self.runs.columns else None)
         return plot_sweep(self.runs, x=x or self.params[0], y=y, hue=hue, **kw)
 
+    def view(self, path=None, **options):
+        """Write the sweep's HTML view (cost versus parameter with its seed band; a click on
+        a run opens its timeline when the scenario kept its trace, see
+        :func:`netcosim.view.trace_tables`); needs a sweep stored on disk (``out=``).
+        Returns the path (:func:`netcosim.view.sweep_view.write_sweep_view`)."""
+        from ..errors import ConfigurationError
+        if self.path is None:
+            raise ConfigurationError("this sweep was kept in memory: run it with out=DIR to view it")
+        from ..view import view_sweep
+        return view_sweep(self.path, path, **options)
+
     def __repr__(self) -> str:
         s = self.summary
         where = f", path={str(self.path)!r}" if self.path is not None else ""
