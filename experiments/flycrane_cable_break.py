@@ -50,6 +50,7 @@ from netcosim.controllers.planner.gain_design import design_nonsquare, estimate_
 from netcosim.plants.flycrane.cable_break import (
     CableBreak,
     PostBreakDynamics,
+    cable_labels,
     cables,
     configuration_after_break,
     state_after_break,
@@ -102,17 +103,21 @@ class _Phase:
         self.system, self.q_ref, self.plant = system, q_ref, plant
         self.kbar = np.ones(system.m)
         self.norm = WeightedNorm(weights(system), 2)
+        self.labels = cable_labels(system)
 
     def f(self, t, x, u):
         return self.plant.f(t, x, u, None) if isinstance(self.plant, VelocityTrackingPlant) else self.plant.f(t, x, u)
 
-    def min_tension(self, x, u) -> tuple[float, float]:
-        """(minimum-norm allocation, best allocation) smallest tension [N]."""
+    def min_tension(self, x, u) -> tuple[float, float, str]:
+        """(minimum-norm allocation, best allocation) smallest tension [N] and, when
+        the latter is negative, the labels of the cables that go slack."""
         if isinstance(self.plant, VelocityTrackingPlant):
-            t = self.plant.min_tension(x, u)
-            return t, t
+            ts = self.plant.tensions(x, u)
+            return float(ts.min()), float(ts.min()), self.labels[int(np.argmin(ts))] if ts.min() < 0 else ""
         t0 = float(self.plant.tensions(x, u).min())
-        return t0, self.plant.best_min_tension(x, u)[0]
+        best, ts = self.plant.best_min_tension(x, u)
+        low = ",".join(self.labels[j] for j in self.plant.bottleneck(x, u)) if best < 0 else ""
+        return t0, best, low
 
 
 def simulate(n_robots: int, brk: CableBreak | None, k: float, n_samples: int = N_SAMPLES, alpha: float = ALPHA,
@@ -126,14 +131,16 @@ def simulate(n_robots: int, brk: CableBreak | None, k: float, n_samples: int = N
     x = phase.plant.initial_state(q0)
     broken = False
     t_min = t_best = np.inf
-    slack_t, outcome, failure = np.nan, None, ""
+    slack_t, slack_cable, outcome, failure = np.nan, "", None, ""
     grid_t, grid_p, traj = [], [], []
     errs = []
 
     def check(tt, xx, u):
-        nonlocal t_min, t_best
-        a, b = phase.min_tension(xx, u)
+        nonlocal t_min, t_best, slack_cable
+        a, b, lowest = phase.min_tension(xx, u)
         t_min, t_best = min(t_min, a), min(t_best, b)
+        if b < 0.0 and broken and not slack_cable:
+            slack_cable = lowest
         m = phase.system.m
         grid_t.append(tt)
         grid_p.append(phase.system.h(xx[:m]))
@@ -143,7 +150,6 @@ def simulate(n_robots: int, brk: CableBreak | None, k: float, n_samples: int = N
                              **{f"p{j}": v for j, v in enumerate(grid_p[-1])}))
         return b
 
-    n_check = int(round(T / check_dt))
     for h in range(n_samples + 1):
         m = phase.system.m
         q = x[:m]
@@ -183,13 +189,141 @@ def simulate(n_robots: int, brk: CableBreak | None, k: float, n_samples: int = N
             x = sol.y[:, -1]
         if outcome:
             break
-    del n_check
     final_err = errs[-1] if outcome is None else np.nan
     if outcome is None:
         outcome = "finishes" if final_err < FINISH_TOL else "holds"
     ca = min_pairwise_distance(np.array(grid_t), np.array(grid_p), chord_error=None) if len(grid_t) > 1 else None
     row = dict(robots=n_robots, cable="none" if brk is None else brk.label,
                t_break=np.nan if brk is None else brk.time, outcome=outcome, final_err=final_err,
-               t_slack=slack_t, min_tension=t_min, min_tension_best=t_best, failure=failure,
+               t_slack=slack_t, slack_cable=slack_cable, min_tension=t_min, min_tension_best=t_best, failure=failure,
                **({} if ca is None else ca.as_row()))
     return row, (pd.DataFrame(traj) if record else None)
+
+
+def statics(n_robots: int) -> list[dict]:
+    """The analytic statics at the goal: intact and after each cable's break."""
+    sys0, _, q_ref = configuration(n_robots)
+    rows = []
+    sb = static_balance(sys0, q_ref)
+    rows.append(dict(robots=n_robots, cable="none", cables_left=len(cables(sys0)), feasible=sb.feasible,
+                     margin=sb.margin, residual=sb.residual, holds=sb.holds))
+    for i, c in cables(sys0):
+        sys1 = system_after_break(sys0, i, c)
+        sb = static_balance(sys1, configuration_after_break(sys0, sys1, q_ref))
+        zero = [cable_labels(sys1)[j] for j in sb.forced_slack]
+        rows.append(dict(robots=n_robots, cable=CableBreak(i, c, 0.0).label, cables_left=len(cables(sys1)),
+                         feasible=sb.feasible, margin=sb.margin, residual=sb.residual, holds=sb.holds,
+                         forced_slack=",".join(zero)))
+    return rows
+
+
+def run(quick: bool = False, robots=ROBOTS, break_times=None, n_mu: int | None = None):
+    """All runs; returns ``(runs, statics)`` DataFrames."""
+    n_mu = n_mu or (16 if quick else 200)
+    break_times = break_times or (BREAK_TIMES[::2] if quick else BREAK_TIMES)
+    rows, stat = [], []
+    for N in robots:
+        sys0, q0, q_ref = configuration(N)
+        k = offline_gain(sys0, q0, q_ref, n_mu)
+        stat += statics(N)
+        row, _ = simulate(N, None, k)
+        rows.append(dict(row, k=k))
+        which = [(0, 0)] if quick else cables(sys0)
+        for i, c in which:
+            for tb in break_times:
+                row, _ = simulate(N, CableBreak(i, c, tb), k)
+                rows.append(dict(row, k=k))
+    return pd.DataFrame(rows), pd.DataFrame(stat)
+
+
+#: Colours of the outcomes in the matrix figure.
+OUTCOME_COLOURS = {"finishes": "#2ca02c", "holds": "#ffbf00", "slack": "#d62728", "diverged": "#555555"}
+
+
+def plot_outcomes(runs: pd.DataFrame, path: str) -> None:
+    """Matrix configuration x broken cable (one sub-row per break time), coloured by outcome."""
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+    br = runs[runs.cable != "none"]
+    times = sorted(br.t_break.unique())
+    labels = sorted(br.cable.unique(), key=lambda s: (int(s[1:-1]), s[-1]))
+    ylab, grid = [], []
+    code = {k: i for i, k in enumerate(OUTCOME_COLOURS)}
+    for N in sorted(br.robots.unique()):
+        for tb in times:
+            ylab.append(f"N = {N}, t_b = {tb:g} s")
+            line = []
+            for lab in labels:
+                d = br[(br.robots == N) & (br.t_break == tb) & (br.cable == lab)]
+                line.append(code[d.outcome.iloc[0]] if len(d) else np.nan)
+            grid.append(line)
+    from matplotlib.colors import ListedColormap
+    fig, ax = plt.subplots(figsize=(1.2 + 0.45 * len(labels), 1.2 + 0.32 * len(ylab)))
+    ax.imshow(np.array(grid, dtype=float), cmap=ListedColormap(list(OUTCOME_COLOURS.values())), vmin=-0.5,
+              vmax=len(OUTCOME_COLOURS) - 0.5, aspect="auto")
+    ax.set_xticks(range(len(labels)), labels, fontsize=7, rotation=90)
+    ax.set_yticks(range(len(ylab)), ylab, fontsize=7)
+    ax.set_xlabel("broken cable (robot, anchor)")
+    ax.legend(handles=[Patch(color=c, label=k) for k, c in OUTCOME_COLOURS.items()], fontsize=7,
+              loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.set_title("Cable break during the 80 -> 60 deg manoeuvre: outcome", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_trajectories(trajs: dict, path: str) -> None:
+    """Error, smallest best tension and platform height of a few runs."""
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 7), sharex=True)
+    for name, d in trajs.items():
+        axes[0].semilogy(d.t, np.maximum(d.err, 1e-12), label=name)
+        axes[1].plot(d.t, d.t_min_best, label=name)
+        axes[2].plot(d.t, d.z_V, label=name)
+    axes[0].set_ylabel("||D (q - q^r)||_2")
+    axes[1].axhline(0.0, color="k", lw=0.5)
+    axes[1].set_ylabel("smallest tension,\nbest allocation [N]")
+    axes[2].set_ylabel("platform z_V [m]")
+    axes[2].set_xlabel("t [s]")
+    axes[0].legend(fontsize=7)
+    axes[0].set_title("One cable (r1a) breaks at t_b = 3.75 s", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def trajectories(robots=ROBOTS, t_break: float = BREAK_TIMES[1], n_mu: int = 16) -> dict:
+    """Recorded runs of cable r1a breaking at *t_b* for each configuration."""
+    out = {}
+    for N in robots:
+        sys0, q0, q_ref = configuration(N)
+        k = offline_gain(sys0, q0, q_ref, n_mu)
+        _, traj = simulate(N, CableBreak(0, 0, t_break), k, record=True)
+        out[f"N = {N}"] = traj
+    return out
+
+
+def main(outdir: str = "results/flycrane_cable_break", quick: bool = False) -> pd.DataFrame:
+    """Run, write the tables and figures; return the runs table."""
+    os.makedirs(outdir, exist_ok=True)
+    runs, stat = run(quick)
+    runs.to_parquet(os.path.join(outdir, "runs.parquet"))
+    stat.to_parquet(os.path.join(outdir, "statics.parquet"))
+    col = ["robots", "cable", "t_break", "min_distance", "t_min_distance", "pair_a", "pair_b",
+           "min_distance_at_samples", "chord_error", "safety_distance", "below_safety"]
+    runs[col].to_parquet(os.path.join(outdir, "collisions.parquet"))
+    plot_outcomes(runs, os.path.join(outdir, "outcomes.png"))
+    trajs = trajectories(n_mu=16 if quick else 200)
+    pd.concat([d.assign(run=k) for k, d in trajs.items()], ignore_index=True).to_parquet(
+        os.path.join(outdir, "trajectory.parquet"))
+    plot_trajectories(trajs, os.path.join(outdir, "trajectory.png"))
+    return runs
+
+
+if __name__ == "__main__":
+    from netcosim.experiments._cli import experiment_parser
+    a = experiment_parser(__doc__, "results/flycrane_cable_break").parse_args()
+    with pd.option_context("display.width", 220, "display.max_columns", 30):
+        r = main(a.outdir, a.quick)
+        print(r[["robots", "cable", "t_break", "outcome", "final_err", "t_slack", "slack_cable", "min_tension",
+                 "min_tension_best", "min_distance", "below_safety"]].to_string())

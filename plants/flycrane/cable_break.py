@@ -41,7 +41,7 @@ from scipy.optimize import linprog
 from .attachments import OneCable, TwoCable
 from .kinematics import MultiRobotSystem, SingularConfigurationError
 
-__all__ = ["CableBreak", "cables", "system_after_break", "configuration_after_break", "state_after_break",
+__all__ = ["CableBreak", "cables", "cable_labels", "system_after_break", "configuration_after_break", "state_after_break",
            "platform_wrench_matrix", "static_balance", "StaticBalance", "PostBreakDynamics"]
 
 
@@ -70,6 +70,19 @@ class CableBreak:
 def cables(system: MultiRobotSystem) -> list[tuple[int, int]]:
     """``(robot, cable)`` of every cable, in attachment order (the order of the tensions)."""
     return [(i, c) for i, a in enumerate(system.attachments) for c in range(len(a.anchors))]
+
+
+def cable_labels(system: MultiRobotSystem) -> list[str]:
+    """Labels ``r<robot><a|b>`` (1-based robot, anchor a or b of its original two-cable
+    attachment) of the cables of *system* in attachment order; after a break the broken
+    robot's remaining cable keeps its original letter."""
+    broken = getattr(system, "broken", None)
+    out = []
+    for i, c in cables(system):
+        if broken is not None and i == broken[0]:
+            c = 1 - broken[1]
+        out.append(f"r{i + 1}{'ab'[c]}")
+    return out
 
 
 def _check_break(system, robot, cable):
@@ -180,7 +193,9 @@ class StaticBalance:
     ``margin`` [N]: the largest achievable smallest tension (``-inf`` if not feasible);
     ``tensions`` [N]: a maximiser (least squares if not feasible); ``residual`` [N, N m]:
     ``|W t - w_g|`` of the least-squares tensions (0 when feasible).
-    ``holds`` = feasible and margin > ``tol``.
+    ``holds`` = feasible and margin > ``tol``; ``forced_slack``: when the margin is
+    not positive, the indices of the cables whose tension no equilibrium with
+    non-negative tensions can make positive (they must go slack).
     """
 
     feasible: bool
@@ -188,6 +203,7 @@ class StaticBalance:
     tensions: np.ndarray
     residual: float
     tol: float = 1e-9
+    forced_slack: tuple = ()
 
     @property
     def holds(self) -> bool:
@@ -208,12 +224,22 @@ def static_balance(system: MultiRobotSystem, q, *, tol: float = 1e-9) -> StaticB
     cap = 10.0 * float(np.linalg.norm(w))  # the margin is bounded: sum of u_c,z t_c = m_V g
     c = np.zeros(k + 1)
     c[-1] = -1.0
+    A_eq = np.hstack([W, np.zeros((6, 1))])
     r = linprog(c, A_ub=np.hstack([-np.eye(k), np.ones((k, 1))]), b_ub=np.zeros(k),
-                A_eq=np.hstack([W, np.zeros((6, 1))]), b_eq=w, bounds=[(None, None)] * k + [(None, cap)],
-                method="highs")
+                A_eq=A_eq, b_eq=w, bounds=[(None, None)] * k + [(None, cap)], method="highs")
     if r.status != 0:
         return StaticBalance(False, -np.inf, t_ls, res, tol)
-    return StaticBalance(True, float(-r.fun), r.x[:k], 0.0, tol)
+    margin = float(-r.fun)
+    # a representative maximiser: the largest total tension with every t_c >= margin
+    r2 = linprog(-np.ones(k), A_eq=W, b_eq=w, bounds=[(margin - 1e-12, cap)] * k, method="highs")
+    t = r2.x if r2.status == 0 else r.x[:k]
+    forced = ()
+    if margin <= tol:
+        # cables that no equilibrium with non-negative tensions can tighten
+        forced = tuple(j for j in range(k)
+                       if (rj := linprog(-np.eye(k)[j], A_eq=W, b_eq=w, bounds=[(0.0, cap)] * k,
+                                         method="highs")).status == 0 and -rj.fun <= tol)
+    return StaticBalance(True, margin, t, 0.0, tol, forced)
 
 
 class PostBreakDynamics:
@@ -262,28 +288,52 @@ class PostBreakDynamics:
         q, qd, qdd, F, _ = self._parts(x, u)
         return self.model.tensions_eval(q, qd, qdd, F)[0]
 
-    def best_min_tension(self, x, u) -> tuple[float, np.ndarray]:
-        """The largest smallest tension [N] the robots can reach at state *x* by adding
-        internal forces ``F_0 = N lambda`` with ``A_q^T F_0 = 0`` (they change no
-        motion, only how the load is shared; ``|lambda_j| <=``
-        :attr:`internal_force_bound`), and those tensions.  Equals the smallest
-        minimum-norm tension when ``A_q^T`` has no null space (``n <= m``)."""
+    def _internal(self, x, u):
         q, qd, qdd, F, A = self._parts(x, u)
         t0 = self.model.tensions_eval(q, qd, qdd, F)[0]
         s = np.linalg.svd(A.T)
         rank = int((s[1] > s[1][0] * 1e-10).sum())
         Nsp = s[2][rank:].T
-        if Nsp.shape[1] == 0:
-            return float(t0.min()), t0
         Tm = np.column_stack([self.model.tensions_eval(q, qd, qdd, F + Nsp[:, j])[0] - t0
-                              for j in range(Nsp.shape[1])])
-        k, r = t0.size, Nsp.shape[1]
+                              for j in range(Nsp.shape[1])]) if Nsp.shape[1] else np.zeros((t0.size, 0))
+        return t0, Tm
+
+    def best_min_tension(self, x, u) -> tuple[float, np.ndarray]:
+        """The largest smallest tension [N] the robots can reach at state *x* by adding
+        internal forces ``F_0 = N lambda`` with ``A_q^T F_0 = 0`` (they change no
+        motion, only how the load is shared; ``|lambda_j| <=``
+        :attr:`internal_force_bound`), and those tensions (among the best allocations,
+        the one with the largest total tension).  Equals the smallest minimum-norm
+        tension when ``A_q^T`` has no null space (``n <= m``)."""
+        t0, Tm = self._internal(x, u)
+        r = Tm.shape[1]
+        if r == 0:
+            return float(t0.min()), t0
+        lam = self.internal_force_bound
         c = np.zeros(r + 1)
         c[-1] = -1.0
-        lam = self.internal_force_bound
-        res = linprog(c, A_ub=np.hstack([-Tm, np.ones((k, 1))]), b_ub=t0,
+        res = linprog(c, A_ub=np.hstack([-Tm, np.ones((t0.size, 1))]), b_ub=t0,
                       bounds=[(-lam, lam)] * r + [(None, None)], method="highs")
         if res.status != 0:
             return float(t0.min()), t0
-        t = t0 + Tm @ res.x[:r]
-        return float(t.min()), t
+        best = float(-res.fun)
+        res2 = linprog(-Tm.sum(axis=0), A_ub=-Tm, b_ub=t0 - (best - 1e-12), bounds=[(-lam, lam)] * r,
+                       method="highs")
+        t = t0 + Tm @ (res2.x if res2.status == 0 else res.x[:r])
+        return best, t
+
+    def bottleneck(self, x, u, tol: float = 1e-9) -> tuple[int, ...]:
+        """Indices of the cables that stay at the smallest tension in *every* best
+        allocation of :meth:`best_min_tension` (the ones that go slack first)."""
+        best, _ = self.best_min_tension(x, u)
+        t0, Tm = self._internal(x, u)
+        r = Tm.shape[1]
+        if r == 0:
+            return tuple(int(j) for j in np.flatnonzero(t0 <= best + tol))
+        lam = self.internal_force_bound
+        out = []
+        for j in range(t0.size):
+            res = linprog(-Tm[j], A_ub=-Tm, b_ub=t0 - (best - 1e-12), bounds=[(-lam, lam)] * r, method="highs")
+            if res.status == 0 and t0[j] - res.fun <= best + tol:
+                out.append(j)
+        return tuple(out)
