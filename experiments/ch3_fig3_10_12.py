@@ -201,6 +201,15 @@ def plot(series: pd.DataFrame, samples: pd.DataFrame, outdir: str) -> None:
     plt.close(fig)
 
 
+def clearance(series: pd.DataFrame) -> pd.DataFrame:
+    """Closest robot-robot approach of each strategy's run along its recorded
+    configuration series (dense grid, chord error bounded)."""
+    from netcosim.controllers.planner.clearance import trajectory_clearance
+    system = experimental_flycrane()
+    return pd.DataFrame([dict(strategy=s, **trajectory_clearance(system, d.t, d[list(LABELS)]).as_row())
+                         for s, d in series.groupby("strategy", sort=False)])
+
+
 def main(outdir: str = "results/ch3_fig3_10_12", quick: bool = False, loss: float = LOSS) -> pd.DataFrame:
     """Run, save the figures and tables; return the summary."""
     os.makedirs(outdir, exist_ok=True)
@@ -208,6 +217,7 @@ def main(outdir: str = "results/ch3_fig3_10_12", quick: bool = False, loss: floa
     series.to_parquet(os.path.join(outdir, "series.parquet"))
     samples.to_parquet(os.path.join(outdir, "samples.parquet"))
     summary.to_parquet(os.path.join(outdir, "summary.parquet"))
+    clearance(series).to_parquet(os.path.join(outdir, "collisions.parquet"))
     series.attrs["loss"] = loss
     plot(series, samples, outdir)
     return summary
