@@ -267,8 +267,7 @@ def plot_outcomes(runs: pd.DataFrame, path: str) -> None:
     ax.legend(handles=[Patch(color=c, label=k) for k, c in OUTCOME_COLOURS.items()], fontsize=7,
               loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title("Cable break during the 80 -> 60 deg manoeuvre: outcome", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
 
 
