@@ -41,8 +41,8 @@ from scipy.optimize import linprog
 from .attachments import OneCable, TwoCable
 from .kinematics import MultiRobotSystem, SingularConfigurationError
 
-__all__ = ["CableBreak", "cables", "cable_labels", "system_after_break", "configuration_after_break", "state_after_break",
-           "platform_wrench_matrix", "static_balance", "StaticBalance", "PostBreakDynamics"]
+__all__ = ["CableBreak", "cables", "cable_labels", "system_after_break", "configuration_after_break",
+           "state_after_break", "platform_wrench_matrix", "static_balance", "StaticBalance", "PostBreakDynamics"]
 
 
 @dataclass(frozen=True)
