@@ -21,8 +21,9 @@ with (3.26) recomputed every sample; a robot zeroes a command older than T.
 Run ``python -m netcosim.experiments.ch3_fig3_10_12`` (``--quick``: 5 s per waypoint, fewer
 Monte-Carlo samples).  Writes ``fig3_10.png`` (q(t): load position, orientation, cable
 angles), ``fig3_11.png`` (robot velocities), ``fig3_12.png`` (tau_o and k per sample),
-``series.parquet`` (0.1 s grid), ``samples.parquet`` (one row per period) and
-``summary.parquet`` (one row per strategy and waypoint) under *outdir*.
+``series.parquet`` (0.1 s grid), ``samples.parquet`` (one row per period),
+``summary.parquet`` (one row per strategy and waypoint) and ``collisions.parquet``
+(closest robot-robot approach per strategy) under *outdir*.
 """
 
 from __future__ import annotations

@@ -13,7 +13,8 @@ the three scenarios mu < 1/2, 1/2 <= mu < 1, mu >= 1, with ``tau_s_bar`` and
 
 Run ``python -m netcosim.experiments.ch3_fig3_8`` (``--quick`` for a fast check).  Writes
 ``fig3_5.png``, ``fig3_6.png``, ``fig3_8.png``, ``samples.parquet`` (one row per sample,
-strategy and case) and ``summary.parquet`` under *outdir*.
+strategy and case), ``summary.parquet`` and ``collisions.parquet`` (closest robot-robot
+approach per run, between the samples) under *outdir*.
 """
 
 from __future__ import annotations

@@ -18,7 +18,8 @@ difference of the median cost (loss_steps.parquet); then the figures: fig4_11.pn
 strategy the per-time median of ||q - q^r|| and its 10-90 % band over the seeds, the
 verdicts in the titles), fig4_11_seed0.png (one seed, as the thesis's figure),
 figA_2.png, figA_3.png (20 % loss), figA_4.png, figA_5.png (schedules), figA_6.png
-(gains), cost_vs_loss.png and summary.parquet (the grid's runs).
+(gains), cost_vs_loss.png, summary.parquet (the grid's runs) and collisions.parquet
+(closest robot-robot approach per strategy and loss, over all runs).
 
 Run ``python -m netcosim.experiments.flycrane_network`` (``--quick``: 3 losses x 3 seeds,
 15 s, no extra seeds).  ``--seeds N`` sets the number of seeds of the grid,
