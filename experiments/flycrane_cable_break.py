@@ -47,9 +47,11 @@ from scipy.integrate import solve_ivp
 
 from netcosim.controllers.planner import WeightedNorm, sampled_velocity
 from netcosim.controllers.planner.gain_design import design_nonsquare, estimate_mu
+from netcosim.plants.flycrane.attachments import TwoCable
 from netcosim.plants.flycrane.cable_break import (
     CableBreak,
     PostBreakDynamics,
+    _rotation,
     cable_labels,
     cables,
     configuration_after_break,
@@ -73,6 +75,9 @@ POSE_WEIGHT = 4.0
 BREAK_TIMES = (0.75, 3.75, 12.75)
 #: ``||D (q - q^r)||_2`` below this at the end counts as finished.
 FINISH_TOL = 1e-2
+#: A released (slack) cable counts as taut again once its robot is this much [m] farther
+#: from its anchor than its length.
+RETIGHTEN_TOL = 1e-4
 #: Grid [s] on which tensions and robot positions are checked.
 CHECK_DT = 0.05
 
@@ -120,18 +125,30 @@ class _Phase:
         return t0, best, low
 
 
+def _split_at(label: str) -> tuple[int, int]:
+    return int(label[1:-1]) - 1, "ab".index(label[-1])
+
+
 def simulate(n_robots: int, brk: CableBreak | None, k: float, n_samples: int = N_SAMPLES, alpha: float = ALPHA,
-             check_dt: float = CHECK_DT, record: bool = False):
+             check_dt: float = CHECK_DT, record: bool = False, cascade: bool = False):
     """One run; returns ``(row, trajectory)``: the summary dict and (if *record*) a
     DataFrame of ``t``, ``err``, ``t_min``, ``t_min_best``, ``z_V`` and robot positions
     on the check grid (else None).  Pre-break, each period is integrated exactly as
-    Fig. 4.10 (LSODA, rtol 1e-8, atol 1e-10 over ``[0, T]``)."""
+    Fig. 4.10 (LSODA, rtol 1e-8, atol 1e-10 over ``[0, T]``).
+
+    *cascade*: when a remaining cable of a two-cable robot goes slack, go on with that
+    cable released (the robot on its other cable, as after a break) instead of stopping;
+    the released cable is watched: once its robot is as far from its anchor as its
+    length it would tighten again, which is not modelled, and the run stops there
+    (``after_slack = "retightens"``).  The row then also holds ``after_slack`` (the
+    outcome of the continued run) and ``t_retighten``."""
     sys0, q0, q_ref0 = configuration(n_robots)
     phase = _Phase(sys0, q_ref0, VelocityTrackingPlant(sys0, alpha))
     x = phase.plant.initial_state(q0)
     broken = False
     t_min = t_best = np.inf
     slack_t, slack_cable, outcome, failure = np.nan, "", None, ""
+    after, t_retighten, released = None, np.nan, None
     grid_t, grid_p, traj = [], [], []
     errs = []
 
@@ -142,6 +159,8 @@ def simulate(n_robots: int, brk: CableBreak | None, k: float, n_samples: int = N
         if b < 0.0 and broken and not slack_cable:
             slack_cable = lowest
         m = phase.system.m
+        if grid_t and tt <= grid_t[-1]:  # the instant of a switch, already on the grid
+            return b
         grid_t.append(tt)
         grid_p.append(phase.system.h(xx[:m]))
         if record:
@@ -149,6 +168,16 @@ def simulate(n_robots: int, brk: CableBreak | None, k: float, n_samples: int = N
                              z_V=xx[m - 4], broken=broken,
                              **{f"p{j}": v for j, v in enumerate(grid_p[-1])}))
         return b
+
+    def released_stretch(xx) -> float:
+        """Distance robot - anchor of the released cable minus its length [m]."""
+        j, c = released
+        m = phase.system.m
+        qq = xx[:m]
+        R = _rotation(phase.system, qq)
+        att0 = sys0.attachments[j]
+        anchor = qq[list(phase.system.pivot_cols)][:3] + R @ att0.anchors[c]
+        return float(np.linalg.norm(phase.system.h(qq)[list(phase.system.rows[j])] - anchor) - att0.lengths[c])
 
     for h in range(n_samples + 1):
         m = phase.system.m
@@ -158,45 +187,77 @@ def simulate(n_robots: int, brk: CableBreak | None, k: float, n_samples: int = N
             check(h * T, x, np.zeros(phase.system.n))
             break
         u = sampled_velocity(phase.system, q, phase.q_ref, k, phase.kbar)
-        pieces = [(0.0, T)]
-        if brk is not None and not broken and h * T <= brk.time < (h + 1) * T:
-            pieces = [(0.0, brk.time - h * T), (brk.time - h * T, T)]
-        for j, (a, b) in enumerate(pieces):
-            if j == 1:  # the hybrid event: the cable breaks
+        a = 0.0
+        while a < T and not (outcome and after):
+            b = T
+            breaking = brk is not None and not broken and h * T <= brk.time < (h + 1) * T
+            if breaking and brk.time - h * T > a:
+                b = brk.time - h * T
+            elif breaking:  # the hybrid event: the cable breaks
                 sys1 = system_after_break(sys0, brk.robot, brk.cable)
                 x = state_after_break(sys0, sys1, x)
                 phase = _Phase(sys1, configuration_after_break(sys0, sys1, q_ref0), PostBreakDynamics(sys1, alpha))
                 broken = True
-            if b - a <= 0:
-                continue
-            ts = h * T + np.array([a + (b - a) * i / max(1, round((b - a) / check_dt)) for i in
-                                   range(int(max(1, round((b - a) / check_dt))))])
+            n_grid = int(max(1, round((b - a) / check_dt)))
+            ts = h * T + np.array([a + (b - a) * i / n_grid for i in range(n_grid)])
             try:
                 sol = solve_ivp(lambda t, y: phase.f(t, y, u), (a, b), x, method="LSODA", rtol=1e-8, atol=1e-10,
                                 dense_output=True)
             except Exception as exc:  # singular chart, non-finite dynamics
-                outcome, failure = "diverged", f"{type(exc).__name__}: {exc}"
+                sol, fail = None, f"{type(exc).__name__}: {exc}"
+            if sol is None or sol.status != 0:
+                fail = fail if sol is None else sol.message
+                if outcome:
+                    after = "diverged"
+                else:
+                    outcome = "diverged"
+                failure = fail
                 break
-            if sol.status != 0:
-                outcome, failure = "diverged", sol.message
-                break
+            stop = None
             for tt in ts:
-                if check(tt, sol.sol(tt - h * T), u) < 0.0 and broken:
-                    outcome, slack_t = "slack", tt
+                xx = sol.sol(tt - h * T)
+                if released is not None and released_stretch(xx) > RETIGHTEN_TOL:
+                    after, t_retighten = "retightens", tt
                     break
-            if outcome:
+                if check(tt, xx, u) < 0.0 and broken:
+                    if outcome:  # a second cable goes slack
+                        after = "slack"
+                        break
+                    outcome, slack_t = "slack", tt
+                    low = slack_cable.split(",")[0]
+                    j, c = _split_at(low)
+                    if not cascade or not isinstance(phase.system.attachments[j], TwoCable):
+                        after = "stopped"
+                        break
+                    sys2 = system_after_break(phase.system, j, c)
+                    x = state_after_break(phase.system, sys2, xx)
+                    phase = _Phase(sys2, configuration_after_break(phase.system, sys2, phase.q_ref),
+                                   PostBreakDynamics(sys2, alpha))
+                    released, stop = (j, c), tt - h * T
+                    break
+            if after:
                 break
+            if stop is not None:
+                a = stop
+                continue
             x = sol.y[:, -1]
-        if outcome:
+            a = b
+        if after:
             break
-    final_err = errs[-1] if outcome is None else np.nan
+    final_err = errs[-1] if (outcome is None or after is None) else np.nan
     if outcome is None:
         outcome = "finishes" if final_err < FINISH_TOL else "holds"
+    elif after is None:
+        after = "finishes" if final_err < FINISH_TOL else "holds"
     ca = min_pairwise_distance(np.array(grid_t), np.array(grid_p), chord_error=None) if len(grid_t) > 1 else None
     row = dict(robots=n_robots, cable="none" if brk is None else brk.label,
-               t_break=np.nan if brk is None else brk.time, outcome=outcome, final_err=final_err,
+               t_break=np.nan if brk is None else brk.time, outcome=outcome,
+               final_err=np.nan if outcome in ("slack", "diverged") else final_err,
                t_slack=slack_t, slack_cable=slack_cable, min_tension=t_min, min_tension_best=t_best, failure=failure,
                **({} if ca is None else ca.as_row()))
+    if cascade:
+        row.update(after_slack=after or "", final_err_after_slack=final_err if after else np.nan,
+                   t_retighten=t_retighten)
     return row, (pd.DataFrame(traj) if record else None)
 
 

@@ -125,3 +125,21 @@ def test_best_allocation_never_below_minimum_norm():
     best, t = dyn.best_min_tension(x, u)
     assert best >= dyn.tensions(x, u).min() - 1e-12 and best == pytest.approx(t.min(), abs=1e-9)
     assert math.isfinite(best)
+
+
+def test_square_after_releasing_the_forced_slack_cable_is_singular(gains):
+    """Release the forced-slack cable r3a as well: the six cables left can hold the weight
+    (margin 1.172 N) but no longer fix the platform -- W has rank 5 and A_q (12 x 12) is
+    singular at the goal, so the continued run fails at once (a second cable slack)."""
+    sys0, _, q_ref = ex.configuration(4)
+    s1 = system_after_break(sys0, 0, 0)
+    s2 = system_after_break(s1, 2, 0)
+    assert cable_labels(s2) == ["r1b", "r2a", "r2b", "r3b", "r4a", "r4b"] and (s2.n, s2.m) == (12, 12)
+    q2 = configuration_after_break(s1, s2, configuration_after_break(sys0, s1, q_ref))
+    assert np.linalg.matrix_rank(platform_wrench_matrix(s2, q2), tol=1e-9) == 5
+    assert s2.singularity_measure(q2) < 1e-12
+    sb = static_balance(s2, q2)
+    assert sb.holds and sb.margin == pytest.approx(1.172305, abs=1e-5)
+    row, _ = ex.simulate(4, CableBreak(0, 0, 12.75), gains[4], cascade=True)
+    assert row["outcome"] == "slack" and row["slack_cable"] == "r3a" and row["after_slack"] == "slack"
+    assert row["min_tension_best"] < -1.0

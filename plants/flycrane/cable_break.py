@@ -76,11 +76,11 @@ def cable_labels(system: MultiRobotSystem) -> list[str]:
     """Labels ``r<robot><a|b>`` (1-based robot, anchor a or b of its original two-cable
     attachment) of the cables of *system* in attachment order; after a break the broken
     robot's remaining cable keeps its original letter."""
-    broken = getattr(system, "broken", None)
+    lost = dict(getattr(system, "breaks", ()))
     out = []
     for i, c in cables(system):
-        if broken is not None and i == broken[0]:
-            c = 1 - broken[1]
+        if i in lost:
+            c = 1 - lost[i]
         out.append(f"r{i + 1}{'ab'[c]}")
     return out
 
@@ -111,6 +111,8 @@ def system_after_break(system: MultiRobotSystem, robot: int, cable: int) -> Mult
     new = MultiRobotSystem(atts, mass=system.mass, name=f"{system.name}_broken_r{robot + 1}{'ab'[cable]}",
                            singular_tol=system.singular_tol)
     new.broken = (robot, cable)
+    #: every cable lost so far, (robot, cable of its original two), in order
+    new.breaks = tuple(getattr(system, "breaks", ())) + ((robot, cable),)
     if hasattr(system, "platform_vertices"):
         new.platform_vertices = system.platform_vertices
     return new
