@@ -51,10 +51,10 @@ from netcosim.plants.flycrane.attachments import TwoCable
 from netcosim.plants.flycrane.cable_break import (
     CableBreak,
     PostBreakDynamics,
-    _rotation,
     cable_labels,
     cables,
     configuration_after_break,
+    platform_rotation,
     state_after_break,
     static_balance,
     system_after_break,
@@ -174,7 +174,7 @@ def simulate(n_robots: int, brk: CableBreak | None, k: float, n_samples: int = N
         j, c = released
         m = phase.system.m
         qq = xx[:m]
-        R = _rotation(phase.system, qq)
+        R = platform_rotation(phase.system, qq)
         att0 = sys0.attachments[j]
         anchor = qq[list(phase.system.pivot_cols)][:3] + R @ att0.anchors[c]
         return float(np.linalg.norm(phase.system.h(qq)[list(phase.system.rows[j])] - anchor) - att0.lengths[c])

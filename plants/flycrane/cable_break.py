@@ -42,7 +42,8 @@ from .attachments import OneCable, TwoCable
 from .kinematics import MultiRobotSystem, SingularConfigurationError
 
 __all__ = ["CableBreak", "cables", "cable_labels", "system_after_break", "configuration_after_break",
-           "state_after_break", "platform_wrench_matrix", "static_balance", "StaticBalance", "PostBreakDynamics"]
+           "state_after_break", "platform_rotation", "platform_wrench_matrix", "static_balance", "StaticBalance",
+           "PostBreakDynamics"]
 
 
 @dataclass(frozen=True)
@@ -135,13 +136,14 @@ def configuration_after_break(before: MultiRobotSystem, after: MultiRobotSystem,
     q = before._q(q)
     parts, qV = _split(before, q)
     p = before.h(q)
-    R = np.asarray(_rotation(before, q))
+    R = np.asarray(platform_rotation(before, q))
     local = R.T @ (p[list(before.rows[robot])] - qV[:3])
     parts[robot] = _one_cable_angles(after.attachments[robot], local)
     return np.concatenate(parts + [qV])
 
 
-def _rotation(system, q):
+def platform_rotation(system: MultiRobotSystem, q) -> np.ndarray:
+    """The platform's rotation matrix ``R_V^O`` (B.1) at configuration *q* (3 x 3)."""
     import casadi as ca
     if not hasattr(system, "_R_fun"):
         system._R_fun = ca.Function(f"{system.name}_R", [system.q_sym], [system.R_expr])
@@ -176,7 +178,7 @@ def platform_wrench_matrix(system: MultiRobotSystem, q) -> np.ndarray:
     q = system._q(q)
     p = system.h(q)
     qV = q[list(system.pivot_cols)]
-    R = _rotation(system, q)
+    R = platform_rotation(system, q)
     cols = []
     for att, r in zip(system.attachments, system.rows):
         for anchor in att.anchors:
