@@ -28,7 +28,7 @@ from pathlib import Path
 EXPERIMENTS = ["servo", "threeservos", "networked_servo", "ch2_landing", "ch3_fig3_8", "ch3_fig3_10_12", "ch4_fig4_8_9",
                "ch4_fig4_10", "ch5_table5_2", "ch5_fig5_8_9", "gateway", "aodv", "clock_sync", "multicore_dhall",
                "jitterbug_servo", "wireless_tpc", "dvs", "expected_cost_loss",
-               "threeservos_cost"]
+               "threeservos_cost", "flycrane_cable_break"]
 #: Network scenarios fingerprinted beside the experiments (see :func:`network_saturation`).
 SCENARIOS = ["network_saturation"]
 REFERENCE = Path(__file__).with_name("behaviour_reference.json")

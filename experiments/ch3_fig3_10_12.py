@@ -21,8 +21,9 @@ with (3.26) recomputed every sample; a robot zeroes a command older than T.
 Run ``python -m netcosim.experiments.ch3_fig3_10_12`` (``--quick``: 5 s per waypoint, fewer
 Monte-Carlo samples).  Writes ``fig3_10.png`` (q(t): load position, orientation, cable
 angles), ``fig3_11.png`` (robot velocities), ``fig3_12.png`` (tau_o and k per sample),
-``series.parquet`` (0.1 s grid), ``samples.parquet`` (one row per period) and
-``summary.parquet`` (one row per strategy and waypoint) under *outdir*.
+``series.parquet`` (0.1 s grid), ``samples.parquet`` (one row per period),
+``summary.parquet`` (one row per strategy and waypoint) and ``collisions.parquet``
+(closest robot-robot approach per strategy) under *outdir*.
 """
 
 from __future__ import annotations
@@ -201,6 +202,15 @@ def plot(series: pd.DataFrame, samples: pd.DataFrame, outdir: str) -> None:
     plt.close(fig)
 
 
+def clearance(series: pd.DataFrame) -> pd.DataFrame:
+    """Closest robot-robot approach of each strategy's run along its recorded
+    configuration series (dense grid, chord error bounded)."""
+    from netcosim.controllers.planner.clearance import trajectory_clearance
+    system = experimental_flycrane()
+    return pd.DataFrame([dict(strategy=s, **trajectory_clearance(system, d.t, d[list(LABELS)]).as_row())
+                         for s, d in series.groupby("strategy", sort=False)])
+
+
 def main(outdir: str = "results/ch3_fig3_10_12", quick: bool = False, loss: float = LOSS) -> pd.DataFrame:
     """Run, save the figures and tables; return the summary."""
     os.makedirs(outdir, exist_ok=True)
@@ -208,6 +218,7 @@ def main(outdir: str = "results/ch3_fig3_10_12", quick: bool = False, loss: floa
     series.to_parquet(os.path.join(outdir, "series.parquet"))
     samples.to_parquet(os.path.join(outdir, "samples.parquet"))
     summary.to_parquet(os.path.join(outdir, "summary.parquet"))
+    clearance(series).to_parquet(os.path.join(outdir, "collisions.parquet"))
     series.attrs["loss"] = loss
     plot(series, samples, outdir)
     return summary

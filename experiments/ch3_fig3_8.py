@@ -13,7 +13,8 @@ the three scenarios mu < 1/2, 1/2 <= mu < 1, mu >= 1, with ``tau_s_bar`` and
 
 Run ``python -m netcosim.experiments.ch3_fig3_8`` (``--quick`` for a fast check).  Writes
 ``fig3_5.png``, ``fig3_6.png``, ``fig3_8.png``, ``samples.parquet`` (one row per sample,
-strategy and case) and ``summary.parquet`` under *outdir*.
+strategy and case), ``summary.parquet`` and ``collisions.parquet`` (closest robot-robot
+approach per run, between the samples) under *outdir*.
 """
 
 from __future__ import annotations
@@ -126,12 +127,23 @@ def plot(samples: pd.DataFrame, summary: pd.DataFrame, path: str) -> None:
     plt.close(fig)
 
 
+def clearance(samples: pd.DataFrame) -> pd.DataFrame:
+    """Closest robot-robot approach of each run, between the samples too (square system:
+    straight segments in closed form, :func:`netcosim.controllers.planner.clearance.sampled_clearance`)."""
+    from netcosim.controllers.planner.clearance import sampled_clearance
+    sys_ = thesis_flycrane(cable_length=1.5)
+    return pd.DataFrame([dict(case=c, strategy=s, **sampled_clearance(sys_, d, T).as_row())
+                         for (c, s), d in samples.groupby(["case", "strategy"], sort=False)])
+
+
 def main(outdir: str = "results/ch3_fig3_8", quick: bool = False) -> pd.DataFrame:
-    """Run, save ``fig3_8.png``, ``samples.parquet``, ``summary.parquet``; return the summary."""
+    """Run, save ``fig3_8.png``, ``samples.parquet``, ``summary.parquet``,
+    ``collisions.parquet`` (closest robot-robot approach per run); return the summary."""
     os.makedirs(outdir, exist_ok=True)
     samples, summary = run(quick)
     samples.to_parquet(os.path.join(outdir, "samples.parquet"))
     summary.to_parquet(os.path.join(outdir, "summary.parquet"))
+    clearance(samples).to_parquet(os.path.join(outdir, "collisions.parquet"))
     plot(samples, summary, os.path.join(outdir, "fig3_8.png"))
     plot_design(os.path.join(outdir, "fig3_5.png"), os.path.join(outdir, "fig3_6.png"))
     return summary

@@ -24,7 +24,8 @@ grow, and the robot velocities ``p_dot = A_q q_dot`` then follow the projection
 reach the singular configuration near 110 deg).
 
 Run ``python -m netcosim.experiments.ch4_fig4_10`` (``--quick``: 10 samples, 16 Monte-Carlo
-samples).  Writes ``fig4_4.png``, ``fig4_10.png``, ``samples.parquet``, ``summary.parquet``.
+samples).  Writes ``fig4_4.png``, ``fig4_10.png``, ``samples.parquet``, ``summary.parquet`` and
+``collisions.parquet`` (closest robot-robot approach per run, along the dense trajectory).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import pandas as pd
 from scipy.integrate import solve_ivp
 
 from netcosim.controllers.planner import OfflineGain, OnlineGain, WeightedNorm, sampled_velocity
+from netcosim.controllers.planner.clearance import trajectory_clearance
 from netcosim.controllers.planner.gain_design import design_nonsquare, estimate_mu
 from netcosim.experiments.ch4_fig4_8_9 import KBAR, WEIGHTS, T, setting
 from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
@@ -44,8 +46,11 @@ from netcosim.plants.flycrane.input_modes import VelocityTrackingPlant
 ALPHAS = (0.3, 3.0, 30.0)
 
 
-def simulate_dynamic(sys_, plant, q0, q_ref, gain, norm, n_samples):
-    """Sampled planner on the velocity-tracking dynamic plant; one row per sample."""
+def simulate_dynamic(sys_, plant, q0, q_ref, gain, norm, n_samples, trace: list | None = None, trace_dt: float = 0.1):
+    """Sampled planner on the velocity-tracking dynamic plant; one row per sample.
+
+    *trace*: a list to which ``(t, q)`` pairs are appended every *trace_dt* seconds
+    (from the integrator's dense output; the integration itself is the same)."""
     x = plant.initial_state(q0)
     rows = []
     m = sys_.m
@@ -54,13 +59,19 @@ def simulate_dynamic(sys_, plant, q0, q_ref, gain, norm, n_samples):
         err = norm(q - q_ref)
         if h == n_samples:
             rows.append((h, h * T, np.nan, err, float(np.linalg.norm(x[m:])), np.nan))
+            if trace is not None:
+                trace.append((h * T, q.copy()))
             break
         k, _ = gain(sys_, q, q_ref, T, KBAR, norm)
         u = sampled_velocity(sys_, q, q_ref, k, KBAR)
         rows.append((h, h * T, k, err, float(np.linalg.norm(x[m:])), plant.min_tension(x, u)))
-        sol = solve_ivp(lambda t, y: plant.f(t, y, u, None), (0.0, T), x, method="LSODA", rtol=1e-8, atol=1e-10)
+        sol = solve_ivp(lambda t, y: plant.f(t, y, u, None), (0.0, T), x, method="LSODA", rtol=1e-8, atol=1e-10,
+                        dense_output=trace is not None)
         if sol.status != 0:
             raise RuntimeError(f"dynamic plant integration failed at sample {h}: {sol.message}")
+        if trace is not None:
+            n_tr = int(round(T / trace_dt))
+            trace.extend((h * T + j * T / n_tr, sol.sol(j * T / n_tr)[:m]) for j in range(n_tr))
         x = sol.y[:, -1]
     return pd.DataFrame(rows, columns=["h", "t", "k", "err", "qdot_norm", "min_tension"])
 
@@ -71,7 +82,10 @@ def _max_ratio(err, floor=1e-7):
     return float((e1[keep] / e0[keep]).max())
 
 
-def run(quick: bool = False, seed: int = 0):
+def run(quick: bool = False, seed: int = 0, clearance: list | None = None):
+    """Both strategies for each alpha; returns ``(samples, summary)``.  *clearance*: a
+    list that receives one row per run with the closest robot-robot approach along the
+    dense trajectory (0.1 s grid, :func:`trajectory_clearance`)."""
     sys_, q_ref, q0s = setting()
     q0 = q0s["q2"]
     norm = WeightedNorm(WEIGHTS, 2)
@@ -79,11 +93,14 @@ def run(quick: bool = False, seed: int = 0):
                       norm=norm, seed=seed)
     d = design_nonsquare(est.mu_hat, KBAR)
     n_samples = 10 if quick else 30
-    rows, summ = [], []
+    rows, summ, clear = [], [], []
     for alpha in ALPHAS:
         plant = VelocityTrackingPlant(sys_, alpha)
         for strategy, gain in (("offline", OfflineGain(d.gain(T))), ("online", OnlineGain())):
-            df = simulate_dynamic(sys_, plant, q0, q_ref, gain, norm, n_samples)
+            trace: list = []
+            df = simulate_dynamic(sys_, plant, q0, q_ref, gain, norm, n_samples, trace=trace)
+            ca = trajectory_clearance(sys_, [t for t, _ in trace], [q for _, q in trace])
+            clear.append(dict(alpha=alpha, strategy=strategy, **ca.as_row()))
             df.insert(0, "strategy", strategy)
             df.insert(0, "alpha", alpha)
             rows.append(df)
@@ -92,6 +109,8 @@ def run(quick: bool = False, seed: int = 0):
                              # per-sample ratio, above the integrator's noise floor (1e-7)
                              max_contraction=_max_ratio(df.err.values),
                              min_tension=float(np.nanmin(df.min_tension))))
+    if clearance is not None:
+        clearance.extend(clear)
     return pd.concat(rows, ignore_index=True), pd.DataFrame(summ)
 
 
@@ -150,9 +169,11 @@ def plot_projection(df: pd.DataFrame, path: str) -> None:
 def main(outdir: str = "results/ch4_fig4_10", quick: bool = False) -> pd.DataFrame:
     """Run, save ``fig4_10.png`` and Parquet files; return the summary."""
     os.makedirs(outdir, exist_ok=True)
-    samples, summary = run(quick)
+    clear: list = []
+    samples, summary = run(quick, clearance=clear)
     samples.to_parquet(os.path.join(outdir, "samples.parquet"))
     summary.to_parquet(os.path.join(outdir, "summary.parquet"))
+    pd.DataFrame(clear).to_parquet(os.path.join(outdir, "collisions.parquet"))
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for alpha in ALPHAS:
         for strategy, style in (("offline", "o-"), ("online", "s--")):

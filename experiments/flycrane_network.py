@@ -18,7 +18,8 @@ difference of the median cost (loss_steps.parquet); then the figures: fig4_11.pn
 strategy the per-time median of ||q - q^r|| and its 10-90 % band over the seeds, the
 verdicts in the titles), fig4_11_seed0.png (one seed, as the thesis's figure),
 figA_2.png, figA_3.png (20 % loss), figA_4.png, figA_5.png (schedules), figA_6.png
-(gains), cost_vs_loss.png and summary.parquet (the grid's runs); timeline_online_loss20.html
+(gains), cost_vs_loss.png, summary.parquet (the grid's runs) and collisions.parquet
+(closest robot-robot approach per strategy and loss, over all runs); timeline_online_loss20.html
 and timeline_offline_loss20.html: the interactive timelines of Figs. A.4/A.5's runs (tasks,
 frames, signals, watchdog firings; open from disk in a browser, needs Bokeh).
 
@@ -29,6 +30,7 @@ Run ``python -m netcosim.experiments.flycrane_network`` (``--quick``: 3 losses x
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from typing import Any
@@ -36,7 +38,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from netcosim.controllers.planner.clearance import trajectory_clearance
 from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, FlyCraneRun, run
+from netcosim.plants.flycrane.configurations import four_robot_nonsquare
 
 #: Loss probabilities of Fig. 4.11.
 FIG_LOSSES = (0.0, 0.3, 0.7)
@@ -75,6 +79,12 @@ def config_of(params: dict, seed: int) -> FlyCraneNetworkConfig:
     return FlyCraneNetworkConfig(seed=int(seed), schedules=False, **kw)
 
 
+@functools.lru_cache(maxsize=1)
+def _system():
+    """The Fly-crane of the runs (built once per process)."""
+    return four_robot_nonsquare()
+
+
 def metrics(r: FlyCraneRun) -> dict:
     """Scalar metrics of one run.
 
@@ -86,7 +96,10 @@ def metrics(r: FlyCraneRun) -> dict:
     ``msg_loss``: measured fraction of the load's messages each robot (all robots)
     did not receive; ``messages``: messages the load sent; ``frames_sent``:
     transmissions on the air (retransmissions included, ACKs not); ``frames_lost``:
-    frame losses (one per frame and receiver that missed it); ``messages_lost``.
+    frame losses (one per frame and receiver that missed it); ``messages_lost``;
+    ``min_distance`` [m]: the closest robot-robot approach along the run (its
+    ``sample_dt`` grid, chord error bounded) and ``below_safety`` whether it comes
+    below :data:`~netcosim.plants.flycrane.collisions.SAFETY_DISTANCE`.
     """
     e = r.norm_e
     failed = r.failure is not None
@@ -106,6 +119,8 @@ def metrics(r: FlyCraneRun) -> dict:
            "failure": r.failure or ""}
     for name, loss in zip(r.messages["robot"], r.messages["loss"]):
         out[f"msg_loss_{name}"] = float(loss)
+    ca = trajectory_clearance(_system(), r.t, r.q)
+    out["min_distance"], out["below_safety"] = ca.distance, ca.below_safety
     out["msg_loss"] = float(out["messages_lost"] / max(1, 4 * out["messages"]))
     return out
 
@@ -421,6 +436,14 @@ def figures(runs: pd.DataFrame, error: pd.DataFrame, outdir: str, horizon: float
     fig_cost(runs, "iae", os.path.join(outdir, "cost_vs_loss.png"))
 
 
+def collisions(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per strategy and loss: runs, the smallest closest robot-robot approach over them
+    (``min_distance``, m) and how many come below the safety distance."""
+    g = runs.groupby(["strategy", "loss"])
+    return pd.DataFrame({"runs": g.size(), "min_distance": g["min_distance"].min(),
+                         "below_safety": g["below_safety"].sum()}).reset_index()
+
+
 def main(outdir: str = "results/flycrane_network", quick: bool = False, seeds: int | None = None,
          workers: int = 2, verdict_seeds: int | None = None) -> pd.DataFrame:
     """The sweep into ``outdir/dataset`` (Parquet), the figures and ``summary.parquet``;
@@ -443,6 +466,7 @@ def main(outdir: str = "results/flycrane_network", quick: bool = False, seeds: i
         fig_error = pd.concat([error, more_error], ignore_index=True)
     steps = loss_steps(fig_runs)
     steps.to_parquet(os.path.join(outdir, "loss_steps.parquet"))
+    collisions(fig_runs).to_parquet(os.path.join(outdir, "collisions.parquet"))
     figures(runs, fig_error, outdir, horizon, steps=steps)
     return summ
 

@@ -218,6 +218,10 @@ def test_settle_time_is_the_entry_into_the_tolerance_for_good():
     k = int(round(m["t_settle"] / r.config.sample_dt))
     assert r.norm_e[k] < fn.SETTLE_TOL <= r.norm_e[k - 1]
     assert (r.norm_e[k:] < fn.SETTLE_TOL).all()
+    # closest robots: adjacent ones at the 80 deg start, sqrt(2) (1/2 + sqrt(2) cos 80 deg) m
+    assert m["min_distance"] == pytest.approx(math.sqrt(2) * (0.5 + math.sqrt(2) * math.cos(math.radians(80))),
+                                              abs=1e-9)
+    assert not m["below_safety"]
 
 
 def test_figures_and_summary(tmp_path):

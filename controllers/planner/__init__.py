@@ -17,6 +17,8 @@ module                        holds
 :mod:`.dop853`                the DOP853 stepper of the flow, dense output, event location
 :mod:`.dop853_coefficients`   the DOP853 tableau (Hairer, Norsett & Wanner), vendored
 :mod:`.gain_design`           offline gain design (3.21)-(3.25), (4.27)-(4.29)
+:mod:`.clearance`             closest robot-robot approach of a planned motion, between
+                              the samples too (§6.3)
 :mod:`.sikm`                  sampled tracking, ch. 5 (SIKM)
 :mod:`.sikm_environment`      the realistic environment of Fig. 5.6 (dynamic model, MoCap, UKF)
 :mod:`.plant_models`          plants under the tasks: kinematic, dynamic (4.10)-(4.11)

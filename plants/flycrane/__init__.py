@@ -8,7 +8,10 @@
   square family, 2-D formation);
 * :mod:`.dynamics` — Lagrangian model M(q), C(q, q̇)q̇, g(q), cable tensions;
 * :mod:`.input_modes` — netcosim plants (kinematic velocity input, velocity tracking
-  with gravity compensation, raw forces).
+  with gravity compensation, raw forces);
+* :mod:`.cable_break` — a cable that breaks: the post-break system, the hybrid reset,
+  its dynamics and the platform statics (beyond the thesis, §6.3);
+* :mod:`.collisions` — closest robot–robot approach along a motion, between samples.
 """
 
 from . import configurations

@@ -18,7 +18,7 @@ from netcosim.errors import ConfigurationError
 from .attachments import OneCable, PlanarAgent, TwoCable
 from .kinematics import MassProperties, MultiRobotSystem, plate_inertia
 
-__all__ = ["thesis_flycrane", "experimental_flycrane", "four_robot_nonsquare", "square_family",
+__all__ = ["thesis_flycrane", "experimental_flycrane", "four_robot_nonsquare", "two_cable_polygon", "square_family",
            "formation_2d", "regular_polygon", "SQUARE_FAMILY"]
 
 #: Robot mass of the LAAS Fly-crane [kg] (§3.6).
@@ -101,6 +101,25 @@ def four_robot_nonsquare(cable_length: float = 1.5, edge: float = 1.0, robot_mas
     atts = [TwoCable(V[i], V[(i + 1) % 4], cable_length) for i in range(4)]
     sys = MultiRobotSystem(atts, mass=_mass(V, 4, None, robot_mass, g), name="flycrane_4")
     sys.q_nominal = sys.check_configuration(sys.q_from([80] * 4, [0, 0, 0, 0, 0, 0]), "q_nominal")
+    sys.platform_vertices = V
+    return sys
+
+
+def two_cable_polygon(n_robots: int, cable_length: float = 1.5, edge: float = 1.0,
+                      robot_mass: float = ROBOT_MASS, g: float = 9.81) -> MultiRobotSystem:
+    """*n_robots* robots, each on two cables to one edge of a regular polygon platform
+    (edge 1 m, cables 1.5 m, plate at the Fly-crane's areal density): the family of the
+    Fly-crane (3 robots, square, n = m = 9; the platform mass is then the LAAS 0.338 kg)
+    and of the ch. 4 system (4 robots: :func:`four_robot_nonsquare`), rectangular for
+    4 or more robots (n = 3N > m = N + 6).  ``q_nominal``: cable angles 80 deg, q_V = 0.
+    """
+    k = int(n_robots)
+    if k != n_robots or k < 3:
+        raise ValueError(f"a two-cable polygon needs an integer number of robots >= 3, got {n_robots!r}")
+    V = regular_polygon(k, edge)
+    atts = [TwoCable(V[i], V[(i + 1) % k], cable_length) for i in range(k)]
+    sys = MultiRobotSystem(atts, mass=_mass(V, k, None, robot_mass, g), name=f"flycrane_{k}")
+    sys.q_nominal = sys.check_configuration(sys.q_from([80] * k, [0, 0, 0, 0, 0, 0]), "q_nominal")
     sys.platform_vertices = V
     return sys
 
