@@ -11,7 +11,7 @@ from __future__ import annotations
 
 __all__ = ["NetcosimError", "ConfigurationError", "ConfigurationTypeError", "NotConnectedError",
            "SimulationFailedError", "UnyieldedExecuteError",
-           "IntegrationError", "LossTraceExhaustedError", "TraceWriteError"]
+           "IntegrationError", "LossTraceExhaustedError", "TraceWriteError", "FMUError"]
 
 
 class NetcosimError(Exception):
@@ -44,6 +44,11 @@ class UnyieldedExecuteError(NetcosimError, RuntimeError):
 
 class IntegrationError(NetcosimError, RuntimeError):
     """A plant could not be advanced (non-finite state or output, too many steps)."""
+
+
+class FMUError(NetcosimError, RuntimeError):
+    """An FMU could not be loaded, instantiated or advanced, or returned an error status
+    (the message names the FMU file, the FMI function or variable, and the time)."""
 
 
 class LossTraceExhaustedError(NetcosimError, RuntimeError):

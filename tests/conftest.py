@@ -7,6 +7,8 @@ Times are in seconds, as in the public API.
 
 import os
 
+import pytest
+
 os.environ.setdefault("MPLBACKEND", "Agg")      # before anything imports matplotlib
 
 from netcosim import Simulation  # noqa: E402
@@ -168,3 +170,24 @@ def assert_every_request_accounted(c: dict, samples: int, *, extra_drops=(), pro
     assert c["received"] + c["after_end"] + c["dropped"].get("late", 0) == c["published"], c
     if process is not None:
         assert process["received"] == process["published"] == c["published"], process
+
+
+@pytest.fixture(scope="session")
+def fmu_builder(tmp_path_factory):
+    """``get(model, fmi, **options)``: the path of a test FMU compiled from ``tests/fmus/``
+    (see ``tests/fmu_build.py``), built once per session and option set.  Skips when FMPy
+    (the ``fmi`` extra) or gcc is missing."""
+    import shutil
+    pytest.importorskip("fmpy", reason="FMPy (pip install 'netcosim[fmi]') is not installed")
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is needed to build the test FMUs")
+    from fmu_build import build_fmu
+    root = tmp_path_factory.mktemp("fmus")
+    cache: dict = {}
+
+    def get(model, fmi, **options):
+        key = (model, fmi, tuple(sorted(options.items())))
+        if key not in cache:
+            cache[key] = build_fmu(model, fmi, root / f"build{len(cache)}", **options)
+        return cache[key]
+    return get

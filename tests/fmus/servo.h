@@ -1,0 +1,19 @@
+/* DC servo k / (s (s + a)): x = (angle, velocity), u (V), y = angle (rad).
+   Value references: 0 angle, 1 velocity, 2 der(angle), 3 der(velocity), 4 u, 5 y, 6 k, 7 a,
+   8 fail_at (s: from this time on every call returns an error; a test of error handling). */
+#define MODEL_GUID "{netcosim-servo-1}"
+#define NX 2
+#define NZ 0
+#define NR 9
+#define FAIL_AT_VR 8
+static const double START[NR] = {0, 0, 0, 0, 0, 0, 1000.0, 1.0, 1e300};
+static const int STATE_VR[NX] = {0, 1};
+static const int DER_VR[NX] = {2, 3};
+
+static void model_update(double *r) {       /* derivatives and outputs from states, inputs, parameters */
+    r[2] = r[1];
+    r[3] = -r[7] * r[1] + r[6] * r[4];
+    r[5] = r[0];
+}
+static void model_indicators(const double *r, double *z) { (void)r; (void)z; }
+static void model_event(double *r, int *changed) { (void)r; *changed = 0; }
