@@ -28,6 +28,7 @@ SERVO = dict(guid="{netcosim-servo-1}", indicators=[], variables=[
     ("k", 6, "parameter", "fixed", 1000.0, "rad/(V.s2)", None),
     ("a", 7, "parameter", "fixed", 1.0, "1/s", None),
     ("fail_at", 8, "parameter", "fixed", 1e300, "s", None),
+    ("max_step", 9, "parameter", "fixed", 1e300, "s", None),
 ])
 BALL = dict(guid="{netcosim-ball-1}", indicators=[0], variables=[
     ("h", 0, "output", "continuous", 1.0, "m", None),
@@ -37,6 +38,7 @@ BALL = dict(guid="{netcosim-ball-1}", indicators=[0], variables=[
     ("g", 4, "parameter", "fixed", 9.81, "m/s2", None),
     ("e", 5, "parameter", "fixed", 0.7, "1", None),
     ("fail_at", 6, "parameter", "fixed", 1e300, "s", None),
+    ("max_step", 7, "parameter", "fixed", 1e300, "s", None),
 ])
 MODELS = {"servo": SERVO, "ball": BALL}
 
@@ -47,7 +49,8 @@ def _fmi2_xml(name, spec, guid):
            f'<fmiModelDescription fmiVersion="2.0" modelName="{name}" guid="{guid}" '
            f'numberOfEventIndicators="{len(spec["indicators"])}">',
            f'<ModelExchange modelIdentifier="{name}"/>',
-           f'<CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="true"/>',
+           f'<CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="true" '
+           'canGetAndSetFMUstate="true"/>',
            '<UnitDefinitions>', *(f'<Unit name="{u}"/>' for u in units), '</UnitDefinitions>',
            '<ModelVariables>']
     index = {}
@@ -77,7 +80,8 @@ def _fmi3_xml(name, spec, guid):
     out = ['<?xml version="1.0" encoding="UTF-8"?>',
            f'<fmiModelDescription fmiVersion="3.0" modelName="{name}" instantiationToken="{guid}">',
            f'<ModelExchange modelIdentifier="{name}"/>',
-           f'<CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="true"/>',
+           f'<CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="true" '
+           'canGetAndSetFMUState="true" canReturnEarlyAfterIntermediateUpdate="true"/>',
            '<UnitDefinitions>', *(f'<Unit name="{u}"/>' for u in units), '</UnitDefinitions>',
            '<ModelVariables>',
            '<Float64 name="time" valueReference="999" causality="independent" variability="continuous"/>']

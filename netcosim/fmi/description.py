@@ -156,8 +156,9 @@ class FMUFile:
         return self._vr_names.get(vr, f"value reference {vr}")
 
     # Instances -----------------------------------------------------------------
-    def instantiate(self, instance_name: str, cls_name: str):
-        """Load the binary and instantiate it as FMPy class *cls_name* (``FMU2Model``, ...)."""
+    def instantiate(self, instance_name: str, cls_name: str, **options):
+        """Load the binary and instantiate it as FMPy class *cls_name* (``FMU2Model``, ...;
+        *options* go to its ``instantiate``)."""
         import fmpy.fmi2
         import fmpy.fmi3
         module = fmpy.fmi2 if self.fmi_version == 2 else fmpy.fmi3
@@ -169,7 +170,7 @@ class FMUFile:
         except Exception as exc:
             raise FMUError(f"{self.label}: cannot load its binary for this platform: {exc}") from None
         try:
-            fmu.instantiate()
+            fmu.instantiate(**options)
         except Exception as exc:
             raise FMUError(f"{self.label}: instantiation failed ({self.kind}, FMI {md.fmiVersion}): {exc}") from None
         self.instance = fmu

@@ -60,7 +60,11 @@ class PlantInstance:
     x0: initial state (length ``system.nx``, finite, in the states' units).
     integrator: :class:`SolveIVP` (default), :class:`RK4` or :class:`ExactZOH`, or
         anything with the same ``integrate`` method (and optionally a ``bind(plant)``
-        method returning the integrator to use for this plant).
+        method returning the integrator to use for this plant; a stepper whose
+        ``reports_dense`` is True reports the default logging grid's states through the
+        ``dense=(times, report)`` argument, as SolveIVP does).  When None, the system's
+        ``default_integrator`` if it has one (a co-simulation FMU's own stepper), else
+        SolveIVP().
     params: passed as ``params`` to f, h and events (default ``system.params``).
     disturbance: ``d(t) -> array`` of length ``system.nd`` (default zeros); ``t`` in s.
     log_interval: log states, inputs and outputs every ``log_interval`` s (the plant
@@ -107,7 +111,9 @@ class PlantInstance:
         if integrator is not None and not callable(getattr(integrator, "integrate", None)):
             raise ConfigurationTypeError(f"plant {name!r}: integrator must be an RK4, a SolveIVP or an object "
                                          f"with an integrate method, got {integrator!r}")
-        self.integrator = integrator if integrator is not None else SolveIVP()
+        if integrator is None:  # a system may bring its own (a co-simulation FMU steps itself)
+            integrator = getattr(system, "default_integrator", None) or SolveIVP()
+        self.integrator = integrator
         if disturbance is not None:
             validate.callable_(disturbance, f"plant {name!r}: disturbance", kind="a callable d(t)")
         if disturbance is None and system.nd:
@@ -144,7 +150,7 @@ class PlantInstance:
             # SolveIVP reports grid states from its dense output, RK4 those of its own steps
             # when the grid falls on them; others integrate a copy
             self._grid_dense = ((isinstance(stepper, SolveIVP) and type(stepper).integrate is SolveIVP.integrate)
-                                or type(stepper) is _RK4Stepper)
+                                or type(stepper) is _RK4Stepper or getattr(stepper, "reports_dense", False) is True)
         #: how this plant's signals are sampled (also in ``sim.trace.grids``)
         self.log_grid = (f"log_interval {_seconds_text(log_interval)}" if log_interval is not None
                          # without log_interval, the default grid is on exactly when log="io"

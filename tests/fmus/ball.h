@@ -1,12 +1,13 @@
 /* Bouncing ball: x = (h, v) (m, m/s), a state event when h reaches 0 falling: v <- -e v.
-   Value references: 0 h, 1 v, 2 der(h), 3 der(v), 4 g (m/s^2), 5 e (restitution), 6 fail_at.
+   Value references: 0 h, 1 v, 2 der(h), 3 der(v), 4 g (m/s^2), 5 e (restitution), 6 fail_at, 7 max_step.
    The event indicator is h (m); the bounce fires when h <= 1e-9 m while v < 0. */
 #define MODEL_GUID "{netcosim-ball-1}"
 #define NX 2
 #define NZ 1
-#define NR 7
+#define NR 8
 #define FAIL_AT_VR 6
-static const double START[NR] = {1.0, 0, 0, 0, 9.81, 0.7, 1e300};
+#define MAX_STEP_VR 7
+static const double START[NR] = {1.0, 0, 0, 0, 9.81, 0.7, 1e300, 1e300};
 static const int STATE_VR[NX] = {0, 1};
 static const int DER_VR[NX] = {2, 3};
 

@@ -48,7 +48,6 @@ fmi2Status fmi2Reset(fmi2Component c) {
 }
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]) {
     Instance *m = c;
-    if (failing(m)) return fmi2Error;
     model_update(m->r);
     for (size_t i = 0; i < n; i++) { if (vr[i] >= NR) return fmi2Error; v[i] = m->r[vr[i]]; }
     return fmi2OK;
@@ -114,6 +113,7 @@ static void rk4(Instance *m, const double *x, double h, double *out) {
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noset) {
     Instance *m = c; (void)noset;
     if (failing(m)) return fmi2Error;
+    if (h > m->r[MAX_STEP_VR]) return fmi2Discard;    /* rejected: nothing computed, time stays t */
     double t_end = t + h, x[NX], xn[NX];
     int n = (int)ceil(h / H_INT - 1e-9); if (n < 1) n = 1;
     double step = h / n;
@@ -130,3 +130,13 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noset
     return fmi2OK;
 }
 fmi2Status fmi2CancelStep(fmi2Component c) { (void)c; return fmi2Error; }
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *v) {
+    if (s != fmi2LastSuccessfulTime) return fmi2Discard;
+    *v = ((Instance *)c)->time; return fmi2OK;
+}
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
+    if (!*s) *s = malloc(sizeof(Instance));
+    memcpy(*s, c, sizeof(Instance)); return fmi2OK;
+}
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) { memcpy(c, s, sizeof(Instance)); return fmi2OK; }
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) { (void)c; free(*s); *s = NULL; return fmi2OK; }

@@ -52,7 +52,6 @@ fmi3Status fmi3Reset(fmi3Instance c) {
 }
 fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Float64 v[], size_t nv) {
     Instance *m = c; (void)nv;
-    if (failing(m)) return fmi3Error;
     model_update(m->r);
     for (size_t i = 0; i < n; i++) { if (vr[i] >= NR) return fmi3Error; v[i] = m->r[vr[i]]; }
     return fmi3OK;
@@ -122,6 +121,7 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
     Instance *m = c; (void)noset;
     *ev = fmi3False; *term = fmi3False; *early = fmi3False; *last = t;
     if (failing(m)) return fmi3Error;
+    if (h > m->r[MAX_STEP_VR]) { h = m->r[MAX_STEP_VR]; *early = fmi3True; }  /* a partial step */
     double x[NX], xn[NX];
     int n = (int)ceil(h / H_INT - 1e-9); if (n < 1) n = 1;
     double step = h / n;
@@ -136,3 +136,9 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
     model_update(m->r);
     return fmi3OK;
 }
+fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *s) {
+    if (!*s) *s = malloc(sizeof(Instance));
+    memcpy(*s, c, sizeof(Instance)); return fmi3OK;
+}
+fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState s) { memcpy(c, s, sizeof(Instance)); return fmi3OK; }
+fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) { (void)c; free(*s); *s = NULL; return fmi3OK; }
