@@ -1,5 +1,6 @@
 """Command line: ``netcosim run EXPERIMENT``, ``netcosim sweep SCENARIO``, ``netcosim sweep verify DIR``,
-``netcosim hil SCENARIO --remote NODE`` and ``netcosim plot schedule|network TRACE``.
+``netcosim hil SCENARIO --remote NODE``, ``netcosim plot schedule|network TRACE`` and
+``netcosim export-fmu BUILDER --nodes A,B --out NET.fmu``.
 
 ``run`` calls an experiment's entry point with ``outdir`` (and ``quick``) keyword
 arguments.  EXPERIMENT is one of
@@ -29,6 +30,10 @@ the remote side, waits for it and runs in real time, or ``--factor`` times slowe
 prints the counters and response times and writes the trace to ``--out`` (``--compare``:
 also the all-simulated run and, with ``--replay``, the replay; docs/hil.md).
 
+``export-fmu`` writes a network (``package.module:function`` returning it) as an FMI 2.0
+co-simulation FMU whose inputs are messages to send and whose outputs are the delivered
+messages and their delays (docs/fmi.md).
+
 ``plot schedule`` draws a schedule table written by ``Trace.to_parquet``; ``plot network``
 its network timeline (``network_schedule``, with ``frames`` when it lies beside it).
 
@@ -46,7 +51,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import hil, plot, run, sweep, view
+from . import export_fmu, hil, plot, run, sweep, view
 from ._common import UsageError, check_writable_dir
 from .hil import check_endpoint
 from .plot import FRAME_MARKER_COLUMNS, NETWORK_SCHEDULE_COLUMNS, SCHEDULE_COLUMNS, time_window
@@ -64,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
                                 epilog="\n".join(__doc__.splitlines()[2:]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
-    for command in (run, sweep, hil, plot, view):
+    for command in (run, sweep, hil, plot, view, export_fmu):
         command.add_parser(sub)
     return p
 
