@@ -174,7 +174,7 @@ def assert_every_request_accounted(c: dict, samples: int, *, extra_drops=(), pro
 
 @pytest.fixture(scope="session")
 def fmu_builder(tmp_path_factory):
-    """``get(model, fmi, **options)``: the path of a test FMU compiled from ``tests/fmus/``
+    """``get(model, fmi, **options)``: the path of a test FMU compiled from ``netcosim/fmi/csrc/``
     (see ``tests/fmu_build.py``), built once per session and option set.  Skips when FMPy
     (the ``fmi`` extra) or gcc is missing."""
     import shutil

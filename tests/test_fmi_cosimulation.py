@@ -2,7 +2,7 @@
 the simulation needs: the DC servo FMU against the Python servo under one schedule, rejected
 (FMI 2) and partial (FMI 3) steps, the default logging grid, and failures.
 
-The test FMU integrates with RK4 sub-steps of at most 1 ms inside each doStep (tests/fmus/):
+The test FMU integrates with RK4 sub-steps of at most 1 ms inside each doStep (netcosim/fmi/csrc/):
 its step error on the servo is below 1e-12 rad over these runs, so the co-simulation
 trajectory must match the exact zero-order-hold solution of the Python plant to 1e-8.
 """

@@ -2,7 +2,7 @@
 DC servo under one schedule, the bouncing ball's state events at the analytic instants,
 units and start values from modelDescription.xml, parameters per run, and bad FMUs.
 
-The FMUs are compiled from ``tests/fmus/`` by the ``fmu_builder`` fixture (conftest.py).
+The FMUs are compiled from ``netcosim/fmi/csrc/`` by the ``fmu_builder`` fixture (conftest.py).
 """
 
 import math

@@ -1,7 +1,7 @@
 """FMI 3 Scheduled Execution: the two clocked partitions of a C-built FMU run as kernel tasks,
 and their schedule under fixed priority and under EDF is the one computed by hand.
 
-The FMU (tests/fmus/fmi3_se.c): clock ``fast`` every 5 ms, ``slow`` every 8 ms; here the
+The FMU (netcosim/fmi/csrc/fmi3_se.c): clock ``fast`` every 5 ms, ``slow`` every 8 ms; here the
 partitions take 2 ms and 4 ms of CPU (utilisation 0.4 + 0.5 = 0.9).
 """
 
