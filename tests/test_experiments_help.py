@@ -29,7 +29,7 @@ def _env(**extra):
 
 
 def test_the_experiment_list_is_complete():
-    assert len(MODULES) == 30 and "netcosim.experiments.hil_servo" in MODULES
+    assert len(MODULES) == 31 and "netcosim.experiments.hil_servo" in MODULES
     assert "netcosim.experiments.flycrane_network" in MODULES and "netcosim.experiments.gateway" in MODULES
     assert "netcosim.experiments.aodv" in MODULES and "netcosim.experiments.multicore_dhall" in MODULES
     assert "netcosim.experiments.wireless_tpc" in MODULES
