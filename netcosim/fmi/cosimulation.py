@@ -30,6 +30,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from .. import validate
 from ..errors import ConfigurationError, FMUError
 from ..plant.system import ContinuousSystem
 from .description import FMUFile, Variable
@@ -77,9 +78,8 @@ class CoSimulationFMU(ContinuousSystem):
         self.fmi_version = file.fmi_version
         if min_step is None:
             min_step = float(getattr(file.interface, "fixedInternalStepSize", None) or 0.0)
-        if not isinstance(min_step, (int, float)) or isinstance(min_step, bool) or not 0 <= min_step < 1e9:
-            raise ConfigurationError(f"{file.label}: min_step must be a duration >= 0 s, got {min_step!r}")
-        self.min_step = float(min_step)
+        self.min_step = validate.real(min_step, f"{file.label}: min_step (s)", lo=0.0, hi=1e9,
+                                      kind="a duration in [0, 1e9] s")
         self.can_restore = bool(getattr(file.interface, "canGetAndSetFMUstate", False))
         self.steps = self.rejected = self.partial = 0
         self._initialise(parameters or {}, float(start_time), tolerance)

@@ -16,6 +16,9 @@ import re
 import subprocess
 import zipfile
 from pathlib import Path
+from typing import Any
+
+from ..errors import ConfigurationError
 
 __all__ = ["build_fmu", "build_se_fmu", "MODELS"]
 
@@ -44,7 +47,8 @@ BALL = dict(guid="{netcosim-ball-1}", indicators=[0], variables=[
     ("fail_at", 6, "parameter", "fixed", 1e300, "s", None),
     ("max_step", 7, "parameter", "fixed", 1e300, "s", None),
 ])
-MODELS = {"servo": SERVO, "ball": BALL}
+#: the models build_fmu compiles: name -> GUID, event indicators (value references), variables
+MODELS: dict[str, dict[str, Any]] = {"servo": SERVO, "ball": BALL}
 
 
 def _fmi2_xml(name, spec, guid):
@@ -123,7 +127,15 @@ def build_fmu(model: str, fmi: int, directory, *, guid: str | None = None, fmi_v
     *guid*: the GUID/instantiation token written to the XML (a different one than the
     binary's makes instantiation fail); *fmi_version*: the fmiVersion attribute written
     (e.g. ``"1.0"`` for a wrong-version FMU).  Returns the ``.fmu`` path."""
+    import shutil
+
     import fmpy
+    if model not in MODELS:
+        raise ConfigurationError(f"demo FMU model must be one of {sorted(MODELS)}, got {model!r}")
+    if fmi not in (2, 3):
+        raise ConfigurationError(f"demo FMU FMI version must be 2 or 3, got {fmi!r}")
+    if shutil.which("gcc") is None:
+        raise ConfigurationError("building the demo FMUs needs gcc on the PATH")
     spec = MODELS[model]
     name = name or f"{model}{fmi}"
     work = Path(directory) / name

@@ -23,6 +23,7 @@ import tempfile
 from pathlib import Path
 from typing import Any, Sequence
 
+from .. import validate
 from ..errors import ConfigurationError
 
 __all__ = ["export_network_fmu"]
@@ -51,10 +52,8 @@ def export_network_fmu(builder: str, nodes: Sequence[str], path: Any, *, seed: i
         raise ConfigurationError(f"nodes must be a non-empty list of station names, got {nodes!r}")
     if len(set(nodes)) != len(nodes):
         raise ConfigurationError(f"nodes must be unique, got {list(nodes)!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2 ** 31:
-        raise ConfigurationError(f"seed must be an integer in [0, 2**31), got {seed!r}")
-    if isinstance(size_bits, bool) or not isinstance(size_bits, int) or size_bits <= 0:
-        raise ConfigurationError(f"size_bits must be a positive integer, got {size_bits!r}")
+    seed = validate.integer(seed, "FMU seed", lo=0, hi=2 ** 31 - 1)
+    size_bits = validate.bits(size_bits, "FMU size_bits", allow_zero=False)
     try:
         fn = load_builder(builder)
     except (ValueError, ImportError) as exc:

@@ -117,7 +117,8 @@ class NetworkSlave(Fmi2Slave):
         v[f"{node}.rx_delay"] = float(msg.delivered - msg.created)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
-        """Send the messages whose ``tx_seq`` changed, then run the network to the step's end."""
+        """Send the messages whose ``tx_seq`` changed at *current_time* (s), then run the network
+        to the step's end, ``current_time + step_size`` (s)."""
         if self.sim is None:
             self._build()
         sim, v = self.sim, self.values
