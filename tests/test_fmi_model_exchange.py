@@ -182,3 +182,20 @@ def test_an_error_status_mid_run_names_the_fmu_and_keeps_the_partial_trace(fmu_b
     # up to the failure the state is the analytic step response, 1000 (t - 1 + e^-t)
     t = angle["time"].to_numpy()
     np.testing.assert_allclose(angle["value"].to_numpy(), 1000 * (t - 1 + np.exp(-t)), rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("version", [2, 3])
+@pytest.mark.parametrize("integrator", [lambda: SolveIVP(rtol=1e-10, atol=1e-12), lambda: RK4(dt=3e-3)],
+                         ids=["solve_ivp", "rk4"])
+def test_a_time_event_switches_the_slope_at_the_announced_instant(fmu_builder, version, integrator):
+    # x' = +1 until T = 0.37 s (the FMU's nextEventTime), then -1: x(t) = 2 T - t after T
+    ramp = fmi.ModelExchangeFMU(fmu_builder("ramp", version), parameters={"T": 0.37})
+    assert [e.name for e in ramp.events] == ["time_event"] and ramp.next_event_time == 0.37
+    sim = Simulation()
+    plant = sim.plant(ramp, ramp.x0, integrator=integrator())
+    sim.run(0.2)
+    assert float(plant.output("y").read()) == pytest.approx(0.2, abs=1e-12)
+    sim.run(1.0)
+    assert plant.event_log == [(pytest.approx(0.37, abs=1e-12), "time_event")]
+    assert float(plant.output("y").read()) == pytest.approx(2 * 0.37 - 1.0, abs=1e-9)
+    assert ramp.next_event_time is None          # no further time event after the switch

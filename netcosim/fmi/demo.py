@@ -3,7 +3,8 @@ Scheduled Execution FMU, for the tests, the example ``fmu_servo`` and the benchm
 ``fmu_overhead`` (no FMU is downloaded).
 
 ``build_fmu(model, fmi, directory)`` compiles ``fmi{2,3}_model.c`` around the model's header
-(``servo.h``: the DC servo 1000/(s(s+1)); ``ball.h``: a bouncing ball with a state event)
+(``servo.h``: the DC servo 1000/(s(s+1)); ``ball.h``: a bouncing ball with a state event;
+``ramp.h``: a ramp whose slope changes sign at a time event)
 with the FMI headers FMPy ships (``fmpy/c-code``), writes ``modelDescription.xml`` (both
 interfaces, model exchange and co-simulation, in one FMU) and zips them.  The FMI functions
 a model does not implement are stubs returning an error (FMPy binds every function of the
@@ -47,8 +48,17 @@ BALL = dict(guid="{netcosim-ball-1}", indicators=[0], variables=[
     ("fail_at", 6, "parameter", "fixed", 1e300, "s", None),
     ("max_step", 7, "parameter", "fixed", 1e300, "s", None),
 ])
+RAMP = dict(guid="{netcosim-ramp-1}", indicators=[], variables=[
+    ("x", 0, "local", "continuous", 0.0, "m", None),
+    ("der(x)", 1, "local", "continuous", None, "m/s", 0),
+    ("slope", 2, "local", "discrete", 1.0, "m/s", None),
+    ("T", 3, "parameter", "fixed", 0.5, "s", None),
+    ("fail_at", 4, "parameter", "fixed", 1e300, "s", None),
+    ("max_step", 5, "parameter", "fixed", 1e300, "s", None),
+    ("y", 6, "output", "continuous", None, "m", None),
+])
 #: the models build_fmu compiles: name -> GUID, event indicators (value references), variables
-MODELS: dict[str, dict[str, Any]] = {"servo": SERVO, "ball": BALL}
+MODELS: dict[str, dict[str, Any]] = {"servo": SERVO, "ball": BALL, "ramp": RAMP}
 
 
 def _fmi2_xml(name, spec, guid):
@@ -122,7 +132,7 @@ def _stubs(fmi: int, source: str) -> str:
 
 def build_fmu(model: str, fmi: int, directory, *, guid: str | None = None, fmi_version: str | None = None,
               name: str | None = None) -> Path:
-    """Compile *model* (``"servo"`` or ``"ball"``) as an FMI *fmi* (2 or 3) FMU in *directory*.
+    """Compile *model* (``"servo"``, ``"ball"`` or ``"ramp"``) as an FMI *fmi* (2 or 3) FMU in *directory*.
 
     *guid*: the GUID/instantiation token written to the XML (a different one than the
     binary's makes instantiation fail); *fmi_version*: the fmiVersion attribute written

@@ -16,7 +16,8 @@ static void model_update(double *r) {
     r[3] = -r[4];
 }
 static void model_indicators(const double *r, double *z) { z[0] = r[0]; }
-static void model_event(double *r, int *changed) {
+static void model_event(double *r, double time, int *changed) {
+    (void)time;
     *changed = 0;
     if (r[0] <= 1e-9 && r[1] < 0) {
         r[0] = 0.0;
@@ -24,3 +25,4 @@ static void model_event(double *r, int *changed) {
         *changed = 1;
     }
 }
+static int model_next_time(const double *r, double time, double *next) { (void)r; (void)time; (void)next; return 0; }

@@ -61,11 +61,12 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
 fmi2Status fmi2EnterEventMode(fmi2Component c) { (void)c; return fmi2OK; }
 fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) {
     Instance *m = c; int changed;
-    model_event(m->r, &changed);
+    model_event(m->r, m->time, &changed);
     model_update(m->r);
     e->newDiscreteStatesNeeded = fmi2False; e->terminateSimulation = fmi2False;
     e->nominalsOfContinuousStatesChanged = fmi2False; e->valuesOfContinuousStatesChanged = changed;
-    e->nextEventTimeDefined = fmi2False; e->nextEventTime = 0;
+    e->nextEventTime = 0;
+    e->nextEventTimeDefined = model_next_time(m->r, m->time, &e->nextEventTime) ? fmi2True : fmi2False;
     return fmi2OK;
 }
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) { (void)c; return fmi2OK; }
@@ -122,7 +123,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noset
         rk4(m, x, step, xn);
         memcpy(x, xn, sizeof(x));
         for (int i = 0; i < NX; i++) m->r[STATE_VR[i]] = x[i];
-        if (NZ > 0) { int changed; model_event(m->r, &changed);
+        { int changed; model_event(m->r, t + (k + 1) * step, &changed);
                       for (int i = 0; i < NX; i++) x[i] = m->r[STATE_VR[i]]; }
     }
     m->time = t_end;

@@ -65,9 +65,10 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
 fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *need, fmi3Boolean *term, fmi3Boolean *nom,
                                     fmi3Boolean *vals, fmi3Boolean *ntd, fmi3Float64 *nt) {
     Instance *m = c; int changed;
-    model_event(m->r, &changed);
+    model_event(m->r, m->time, &changed);
     model_update(m->r);
-    *need = fmi3False; *term = fmi3False; *nom = fmi3False; *vals = changed; *ntd = fmi3False; *nt = 0;
+    *need = fmi3False; *term = fmi3False; *nom = fmi3False; *vals = changed; *nt = 0;
+    *ntd = model_next_time(m->r, m->time, nt) ? fmi3True : fmi3False;
     return fmi3OK;
 }
 /* ---- model exchange ---- */
@@ -129,7 +130,7 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
     for (int k = 0; k < n; k++) {
         rk4(m, x, step, xn);
         for (int i = 0; i < NX; i++) m->r[STATE_VR[i]] = xn[i];
-        if (NZ > 0) { int changed; model_event(m->r, &changed); }
+        { int changed; model_event(m->r, t + (k + 1) * step, &changed); }
         for (int i = 0; i < NX; i++) x[i] = m->r[STATE_VR[i]];
     }
     m->time = t + h; *last = m->time;

@@ -18,4 +18,6 @@ static void model_update(double *r) {       /* derivatives and outputs from stat
     r[5] = r[0];
 }
 static void model_indicators(const double *r, double *z) { (void)r; (void)z; }
-static void model_event(double *r, int *changed) { (void)r; *changed = 0; }
+static void model_event(double *r, double time, int *changed) {
+    (void)time; (void)r; *changed = 0; }
+static int model_next_time(const double *r, double time, double *next) { (void)r; (void)time; (void)next; return 0; }
