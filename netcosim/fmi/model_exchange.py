@@ -97,7 +97,6 @@ class ModelExchangeFMU(ContinuousSystem):
         self._dx = np.zeros(self._nx)
         self._z = np.zeros(self._nz)
         self._y = (ctypes.c_double * self._ny)()
-        self._ubuf = (ctypes.c_double * len(input_names))()
         self.next_event_time: float | None = None
         self._initialise(parameters or {}, start_time, tolerance)
         events = [HybridEvent(self._indicator_name(i), (lambda t, x, u, p, i=i: self._indicator(t, x, u, i)),
@@ -117,30 +116,51 @@ class ModelExchangeFMU(ContinuousSystem):
             file.set_values(values)
             file.call("fmi2EnterInitializationMode", fmu.enterInitializationMode, t=t0)
             file.call("fmi2ExitInitializationMode", fmu.exitInitializationMode, t=t0)
-            self._set_time = lambda t: fmu.fmi2SetTime(c, t)  # noqa: E731
-            self._set_x = lambda p: fmu.fmi2SetContinuousStates(c, p, self._nx)  # noqa: E731
             self._get_x = lambda p: fmu.fmi2GetContinuousStates(c, p, self._nx)  # noqa: E731
-            self._get_dx = lambda p: fmu.fmi2GetDerivatives(c, p, self._nx)  # noqa: E731
-            self._get_z = lambda p: fmu.fmi2GetEventIndicators(c, p, self._nz)  # noqa: E731
-            self._set_u = lambda: fmu.fmi2SetReal(c, self._u_vr, len(self._u_vr), self._ubuf)  # noqa: E731
             self._get_y = lambda: fmu.fmi2GetReal(c, self._y_vr, self._ny, self._y)  # noqa: E731
         else:
             file.set_values(values)
             file.call("fmi3EnterInitializationMode", fmu.enterInitializationMode, tolerance, t0, t=t0)
             file.call("fmi3ExitInitializationMode", fmu.exitInitializationMode, t=t0)
-            self._set_time = lambda t: fmu.fmi3SetTime(c, t)  # noqa: E731
-            self._set_x = lambda p: fmu.fmi3SetContinuousStates(c, p, self._nx)  # noqa: E731
             self._get_x = lambda p: fmu.fmi3GetContinuousStates(c, p, self._nx)  # noqa: E731
-            self._get_dx = lambda p: fmu.fmi3GetContinuousStateDerivatives(c, p, self._nx)  # noqa: E731
-            self._get_z = lambda p: fmu.fmi3GetEventIndicators(c, p, self._nz)  # noqa: E731
-            n_u = len(self._u_vr)
-            self._set_u = lambda: fmu.fmi3SetFloat64(c, self._u_vr, n_u, self._ubuf, n_u)  # noqa: E731
             self._get_y = lambda: fmu.fmi3GetFloat64(c, self._y_vr, self._ny, self._y, self._ny)  # noqa: E731
+        self._bind_hot_path(fmu)
         self._iterate(t0)
         file.call("EnterContinuousTimeMode", fmu.enterContinuousTimeMode, t=t0)
         file.call("GetContinuousStates", self._get_x, self._x.ctypes.data_as(_DOUBLE_P), t=t0)
         self.x0 = self._x.copy()
         self._get_y()  # outputs computable after initialisation (raises on an error status)
+
+    def _bind_hot_path(self, fmu) -> None:
+        """The FMI functions every evaluation calls, taken as FMPy's ctypes functions (their
+        argument types set) and called with preallocated buffers; their status is checked
+        here (> fmiWarning is an error) instead of in FMPy's wrapper, which costs as much
+        as the call itself.  Falls back to FMPy's wrappers if it keeps them elsewhere."""
+        v = self.fmi_version
+        raw = getattr(fmu, "_functions", None) or {}
+
+        def get(name):
+            fn = raw.get(name)
+            if fn is None:      # pragma: no cover - FMPy versions that keep them elsewhere
+                wrapped = getattr(fmu, name)
+                return lambda *a: (wrapped(*a), 0)[1]
+            return fn
+        self._c = fmu.component
+        self._f_time = get(f"fmi{v}SetTime")
+        self._f_set_x = get(f"fmi{v}SetContinuousStates")
+        self._f_get_dx = get("fmi2GetDerivatives" if v == 2 else "fmi3GetContinuousStateDerivatives")
+        self._f_get_z = get(f"fmi{v}GetEventIndicators")
+        self._f_set_u = get("fmi2SetReal" if v == 2 else "fmi3SetFloat64")
+        self._f_get_y = get("fmi2GetReal" if v == 2 else "fmi3GetFloat64")
+        self._xbuf = np.zeros(self._nx)
+        self._xptr = self._xbuf.ctypes.data_as(_DOUBLE_P)
+        self._dxptr = self._dx.ctypes.data_as(_DOUBLE_P)
+        self._zptr = self._z.ctypes.data_as(_DOUBLE_P)
+        self._n_u = len(self._u_vr)
+        self._u_np = np.zeros(self._n_u)
+        self._uptr = self._u_np.ctypes.data_as(_DOUBLE_P)
+        self._extra = (self._n_u,) if v == 3 else ()
+        self._extra_y = (self._ny,) if v == 3 else ()
 
     def _iterate(self, t: float) -> None:
         """Event iteration at *t* (s): discrete-state updates until the FMU needs none."""
@@ -166,41 +186,38 @@ class ModelExchangeFMU(ContinuousSystem):
     # The model's equations -------------------------------------------------------
     def _set(self, t: float, x, u) -> None:
         """Time, continuous states and inputs of the FMU (an error status raises FMUError)."""
-        try:
-            self._set_time(t)
-            x = np.ascontiguousarray(x, dtype=float)
-            self._set_x(x.ctypes.data_as(_DOUBLE_P))
-            if len(self._u_vr):
-                self._ubuf[:] = [float(v) for v in u[:len(self._u_vr)]]
-                self._set_u()
-        except Exception as exc:
+        c = self._c
+        self._xbuf[:] = x
+        status = self._f_time(c, t) | self._f_set_x(c, self._xptr, self._nx)
+        if self._n_u:
+            self._u_np[:] = u[:self._n_u]
+            status |= self._f_set_u(c, self._u_vr, self._n_u, self._uptr, *self._extra)
+        if status > 1:
             raise FMUError(f"{self.file.label}: setting time, states {list(self.state_names)} and inputs "
-                           f"{list(self.input_names)} failed at t={t!r} s: {exc}") from None
+                           f"{list(self.input_names)} failed at t={t!r} s (status {status})")
 
     def f(self, t, x, u, params):
         self._set(t, x, u)
-        try:
-            self._get_dx(self._dx.ctypes.data_as(_DOUBLE_P))
-        except Exception as exc:
+        status = self._f_get_dx(self._c, self._dxptr, self._nx)
+        if status > 1:
             raise FMUError(f"{self.file.label}: getting the derivatives of {list(self.state_names)} failed at "
-                           f"t={t!r} s: {exc}") from None
+                           f"t={t!r} s: {_status_text(status)}")
         return self._dx.copy()
 
     def h(self, t, x, u, params):
         self._set(t, x, u)
-        try:
-            self._get_y()
-        except Exception as exc:
+        status = self._f_get_y(self._c, self._y_vr, self._ny, self._y, *self._extra_y)
+        if status > 1:
             raise FMUError(f"{self.file.label}: reading outputs {list(self.output_names)} failed at t={t!r} s: "
-                           f"{exc}") from None
+                           f"{_status_text(status)}")
         return np.array(self._y, dtype=float)
 
     def _indicator(self, t, x, u, i: int) -> float:
         self._set(t, x, u)
-        try:
-            self._get_z(self._z.ctypes.data_as(_DOUBLE_P))
-        except Exception as exc:
-            raise FMUError(f"{self.file.label}: getting the event indicators failed at t={t!r} s: {exc}") from None
+        status = self._f_get_z(self._c, self._zptr, self._nz)
+        if status > 1:
+            raise FMUError(f"{self.file.label}: getting the event indicators failed at t={t!r} s: "
+                           f"{_status_text(status)}")
         return float(self._z[i])
 
     def _time_guard(self, t, x, u, params) -> float:
@@ -221,6 +238,12 @@ class ModelExchangeFMU(ContinuousSystem):
     def __repr__(self) -> str:
         return (f"ModelExchangeFMU({str(self.file.path)!r}, FMI {self.fmi_version}, states={list(self.state_names)}, "
                 f"inputs={list(self.input_names)}, outputs={list(self.output_names)})")
+
+
+def _status_text(status: int) -> str:
+    """An FMI status for messages: ``status 3 (error)``."""
+    label = {2: "discard", 3: "error", 4: "fatal", 5: "pending"}.get(status, "illegal")
+    return f"status {status} ({label})"
 
 
 def _check_names(names, what) -> None:
