@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run run-all lint test test-all bench clean
+.PHONY: run run-all lint test test-all bench docs doctest-docs clean
 
 $(BIN)/python:
 	@echo "== creating the virtual environment $(VENV)"
@@ -46,5 +46,26 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m benchmarks
 
+# The documentation site (Sphinx, docs/conf.py) into build/docs/html, offline, warnings as errors.
+# The tutorial and the gallery run during the build; GALLERY=quick (default) runs each gallery
+# experiment's --quick mode, GALLERY=full their full runs, GALLERY=off none of them.
+GALLERY ?= quick
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): pyproject.toml $(STAMP)
+	$(BIN)/python -m pip install --progress-bar on -e '.[dev,docs]'
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	NETCOSIM_DOCS_GALLERY=$(GALLERY) MPLBACKEND=Agg $(BIN)/python -m sphinx -W --keep-going -n -q -b html \
+		-d build/docs/doctrees docs build/docs/html
+	@echo "== built build/docs/html/index.html"
+
+# The executable documentation: docstring examples (doctest) and the code blocks of docs/*.md
+# and README.md; then the checks of the built site (tutorial figures present and non-trivial).
+doctest-docs: $(DOCS_STAMP)
+	MPLBACKEND=Agg $(BIN)/python -m pytest -q -p no:cacheprovider --doctest-modules netcosim plants controllers \
+		--ignore=netcosim/transport/ncsm_wire.h
+	NETCOSIM_DOCS_BUILD=1 MPLBACKEND=Agg $(BIN)/python -m pytest -q -m docs tests/test_docs.py
+
 clean:
-	rm -rf $(VENV) results .pytest_cache
+	rm -rf $(VENV) results .pytest_cache build/docs docs/api/generated docs/tutorial_built docs/gallery

@@ -41,7 +41,7 @@ def networked_loop(plant: Any, sensor: Any, controller: Any, sensor_iface: Any, 
     Checked before any task is added, each error naming the argument: *sensor* and
     *controller* must be nodes (``sim.node(...)``, not their names), the interfaces
     network interfaces, *law* and *reference* callables, ``u_max`` None or a positive
-    finite bound (|u| <= u_max; 0 or less would hold u at -u_max).
+    finite bound (``|u| <= u_max``; 0 or less would hold u at -u_max).
     """
     for what, node in (("sensor", sensor), ("controller", controller)):
         if not (hasattr(node, "periodic") and hasattr(node, "aperiodic") and hasattr(node, "name")):

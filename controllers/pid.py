@@ -1,5 +1,7 @@
 """Discrete PID with set-point weighting and filtered derivative (TrueTime's ``pidcode``).
 
+The law, each sample::
+
     P = K (beta r - y)
     D = Td/(N h + Td) D_old + N K Td/(N h + Td) (y_old - y)     (derivative on y,
                                                                  backward difference)

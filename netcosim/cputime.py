@@ -114,7 +114,7 @@ class Measurement:
 
 
 class CPUTimeModel:
-    """Base: subclasses implement :meth:`cost`; the base logs every charge.
+    """Base: subclasses implement :meth:`~CPUTimeModel.cost`; the base logs every charge.
 
     ``reproducible``: True when the charged times do not depend on the host.
     ``reads_clock``: True when :meth:`measure` reads ``clock`` around the block.

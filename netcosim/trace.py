@@ -26,12 +26,14 @@ bounded, its disk use grows.  :meth:`Trace.configure` (one table) and
 :meth:`Trace.configure_all` (every table, including those created later) choose, at any
 time, also mid-run:
 
+==========  ========================================================================
 ``keep``    every row (the default; ``memory=None``: all of them in memory)
 ``off``     no rows at all
 ``ring``    the last ``rows`` rows
 ``window``  the rows whose time lies in the last ``seconds`` of simulated time
 ``stream``  rows written to Parquet files in ``path`` every ``row_group`` rows; only
             the unwritten rows stay in memory; reading the table returns both
+==========  ========================================================================
 
 and, for tables with a per-signal key (``signals``), ``every=k`` keeps every k-th
 sample of each ``(source, signal)`` (the 1st, the (k+1)-th, ...) before the mode
@@ -185,6 +187,7 @@ class Trace:
             when the table is cleared, reconfigured or the process ends) and are read
             back from it, the same values, when the table is read.  ``None``: no limit,
             every row in memory.  Ignored by the other modes.
+
         Rows held in memory carry over to the new mode (within its bounds); rows an
         earlier stream wrote stay in its files but are no longer part of the table.
         Current-state rows from providers (unfinished jobs) are added when the table is

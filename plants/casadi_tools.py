@@ -88,7 +88,7 @@ class BufferedFunction:
 
 class FunctionBuffers:
     """Preallocated arrays of a Function with dense outputs: fill ``args[i][:]``, call
-    :meth:`eval`, read ``res[j]`` (the nonzeros, column-major; overwritten by the next call)."""
+    ``eval()``, read ``res[j]`` (the nonzeros, column-major; overwritten by the next call)."""
 
     def __init__(self, fun: ca.Function):
         self.args = [np.zeros(fun.nnz_in(i)) for i in range(fun.n_in())]

@@ -20,7 +20,7 @@ __all__ = ["TetheredUAVParams"]
 class TetheredUAVParams:
     """Physical parameters of the tethered UAV and of its simulation model (SI units).
 
-    The thesis gives only the bounds of Table 2.1 (0 ≤ f_R ≤ 15 N, |τ_R| ≤ 1.2 N·m,
+    The thesis gives only the bounds of Table 2.1 (0 ≤ f_R ≤ 15 N, ``|τ_R| ≤ 1.2`` N·m,
     0 ≤ f_L ≤ 10 N), the slope of §2.6.2 (ϑ* = 30° = -φ*) and the structure of the
     simulation non-idealities (§2.6.1).  Everything else is chosen here for a ~1 kg
     vehicle; the reason for each value is next to it.
@@ -36,7 +36,7 @@ class TetheredUAVParams:
     #: centripetal load at the ~100 °/s of §2.6.2 is m l φ̇² ≈ 3 N, inside f_L ≤ 10 N.
     l: float = 1.0  # noqa: E741 (the thesis's name)
     #: Distance propeller–CoM [m]: with each propeller limited to f_R,max/2 = 7.5 N,
-    #: (2.1) gives |τ_R| ≤ d · 7.5 N = 1.2 N·m, the torque bound of Table 2.1.
+    #: (2.1) gives ``|τ_R| ≤ d · 7.5`` N = 1.2 N·m, the torque bound of Table 2.1.
     d: float = 0.16
     #: Gravity [m/s²].
     g: float = 9.81

@@ -2,17 +2,17 @@
 
 Modules, from the problem to the scenario:
 
-=====================================================  =============================================
-:mod:`~netcosim.controllers.landing.ocp`                        the landing OCP of §2.3 and its RTI NMPC (§2.4)
-:mod:`~netcosim.controllers.landing.feedback_linearization`     low-level controller of §2.5
-:mod:`~netcosim.controllers.landing.interpolation`              the C² reference interpolator of Fig. 2.6
-:mod:`~netcosim.controllers.landing.timing`                     CPU times of the tasks
-:mod:`~netcosim.controllers.landing.scenario`                   one run's validated configuration
-:mod:`~netcosim.controllers.landing.tasks`                      shared loop state and the task factories
-:mod:`~netcosim.controllers.landing.topology`                   wiring per topology, :func:`run_landing`
-:mod:`~netcosim.controllers.landing.result`                     :class:`LandingRun`, metrics, plot
-:mod:`~netcosim.controllers.landing.variants`                   named variants of the 2LC (:data:`SCHEMES`)
-=====================================================  =============================================
+===========================================================  ===============================================
+:mod:`~netcosim.controllers.landing.ocp`                     the landing OCP of §2.3 and its RTI NMPC (§2.4)
+:mod:`~netcosim.controllers.landing.feedback_linearization`  low-level controller of §2.5
+:mod:`~netcosim.controllers.landing.interpolation`           the C² reference interpolator of Fig. 2.6
+:mod:`~netcosim.controllers.landing.timing`                  CPU times of the tasks
+:mod:`~netcosim.controllers.landing.scenario`                one run's validated configuration
+:mod:`~netcosim.controllers.landing.tasks`                   shared loop state and the task factories
+:mod:`~netcosim.controllers.landing.topology`                wiring per topology, :func:`run_landing`
+:mod:`~netcosim.controllers.landing.result`                  :class:`LandingRun`, metrics, plot
+:mod:`~netcosim.controllers.landing.variants`                named variants of the 2LC (:data:`SCHEMES`)
+===========================================================  ===============================================
 
 Every public name is re-exported here, so ``from netcosim.controllers.landing import
 LandingConfig, landing_nmpc, run_landing`` works whatever module holds it.  Names are imported on first

@@ -62,7 +62,7 @@ class LandingConfig:
     #: Fraction of the Table 2.1 thrust and torque ranges the NMPC may plan with,
     #: centred in the range (1 = the whole range).  A reference generator for a
     #: tracking controller leaves it some margin (e.g. 0.9: f_R in [0.75, 14.25] N,
-    #: |τ_R| <= 1.08 N·m); the actuator bounds themselves are enforced by saturation.
+    #: ``|τ_R| <= 1.08`` N·m); the actuator bounds themselves are enforced by saturation.
     input_range: float = 1.0
     #: Horizon: N intervals of Ts seconds, rk4_steps RK4 steps per interval.
     N: int = 30

@@ -121,7 +121,7 @@ class LandingRun:
 def landing_metrics(run: LandingRun, tol_deg: float = 1.0) -> dict:
     """Summary numbers of a landing run (angles in degrees, times in s, SI otherwise).
 
-    ``t_reach``: first instant both |φ - φ*| and |ϑ - ϑ*| are within *tol_deg*;
+    ``t_reach``: first instant both ``|φ - φ*|`` and ``|ϑ - ϑ*|`` are within *tol_deg*;
     ``t_settle``: instant after which they stay within it until the end (NaN if never);
     ``rms_phi``, ``rms_theta``: RMS over the run of the errors against the final
     reference (φ* = -α, ϑ* = α); ``rms`` = sqrt(mean(e_φ² + e_ϑ²)); extremes of the

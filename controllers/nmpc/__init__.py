@@ -2,16 +2,16 @@
 
 Modules, from the problem to its solvers:
 
-=====================================  ====================================================
-:mod:`~netcosim.controllers.nmpc.ocp`           :class:`OCP` (the least-squares optimal control
-                                       problem, its input checks) and :func:`rk4_discretize`
-:mod:`~netcosim.controllers.nmpc.transcription` its multiple-shooting NLP in stage-wise order
-:mod:`~netcosim.controllers.nmpc.qp`            the QP solvers (:data:`QP_SOLVERS`), their default
-                                       options and status names
-:mod:`~netcosim.controllers.nmpc.rti`           the real-time iteration :class:`RTINMPC` (Diehl et
-                                       al., 2002) and its per-sample :class:`RTIStep`
-:mod:`~netcosim.controllers.nmpc.full`          converged solves: :class:`FullSolution`, IPOPT
-=====================================  ====================================================
+===============================================  =====================================================
+:mod:`~netcosim.controllers.nmpc.ocp`            :class:`OCP` (the least-squares optimal control
+                                                 problem, its input checks) and :func:`rk4_discretize`
+:mod:`~netcosim.controllers.nmpc.transcription`  its multiple-shooting NLP in stage-wise order
+:mod:`~netcosim.controllers.nmpc.qp`             the QP solvers (:data:`QP_SOLVERS`), their default
+                                                 options and status names
+:mod:`~netcosim.controllers.nmpc.rti`            the real-time iteration :class:`RTINMPC` (Diehl et
+                                                 al., 2002) and its per-sample :class:`RTIStep`
+:mod:`~netcosim.controllers.nmpc.full`           converged solves: :class:`FullSolution`, IPOPT
+===============================================  =====================================================
 
 Every public name is re-exported here: ``from netcosim.controllers.nmpc import OCP, RTINMPC``.
 

@@ -164,7 +164,9 @@ def rk4_discretize(x: ca.SX, u: ca.SX, p: ca.SX, xdot: ca.SX, Ts: float, steps: 
 class OCP:
     """A least-squares optimal control problem for :class:`RTINMPC` (see module doc).
 
-    Parameters (keyword only)
+    All parameters are keyword-only.
+
+    Parameters
     ----------
     x, u, p:
         CasADi ``SX.sym`` column vectors of states, inputs and parameters (``p`` may

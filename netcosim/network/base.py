@@ -12,14 +12,16 @@ stores it in ``node.interfaces[network.name]`` so tasks can ``ctx.send(...)``.
 
 Traces (tables of ``sim.trace``, times in seconds):
 
-``frames``  one row per frame event: ``time, network, frame, event, src, dst, node,
+``frames``
+    one row per frame event: ``time, network, frame, event, src, dst, node,
     attempt, outcome, bits, backoff``.  Events: ``created`` (``bits`` = declared
     size), ``queued``, ``attempt_start`` (``bits`` on the wire, ``backoff`` = slots
     drawn before this attempt where the MAC draws them), ``attempt_end`` (``outcome``:
     ``ok``/``sent`` or the failure reason), ``ack`` (WLAN: the receiver starts its ACK),
     ``delivered`` (``node`` = receiver), ``lost`` (``outcome`` = reason, ``node`` = where).
     ``dst`` is ``*`` for broadcast.  ``attempt`` counts attempts made so far.
-``network_schedule``  ``time, network, node, state`` with state in
+``network_schedule``
+    ``time, network, node, state`` with state in
     ``idle / waiting / sending / receiving`` (rows only on changes).
 
 Durations are integer ticks computed once per (bits, rate): two frames of equal

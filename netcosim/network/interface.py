@@ -134,8 +134,8 @@ class Interface:
 
         A released task fetches the message from :attr:`mailbox` (``yield
         iface.mailbox.fetch()`` or ``iface.mailbox.try_fetch()``); a callable gets the
-        message directly (it is still posted to the mailbox unless the callable is
-        registered with ``consume=True`` via :meth:`on_message`).  Usable as a decorator.
+        message directly (it is posted to the mailbox as well when the interface has one,
+        ``mailbox=True``, the default).  Usable as a decorator.
         """
         def reg(t):
             if not (isinstance(t, Task) or callable(t)):

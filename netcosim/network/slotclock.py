@@ -21,7 +21,7 @@ flag as the crowd, or busy with the same view of the medium.  A broadcast frame 
 delivered (or lost) at each crowd station in station order, with the crowd's outcome.
 Stations outside the crowd are processed exactly as on the per-station path.
 
-:func:`hears_all` decides from the geometry, powers and thresholds whether the
+:class:`Audibility` decides from the geometry, powers and thresholds whether the
 conditions hold: every received power at or above the receiver and carrier-sense
 thresholds, no receiver where one sender is within the capture ratio of another (so any
 overlap destroys both frames everywhere), and a bit error rate of exactly zero at the
@@ -82,7 +82,8 @@ class SharedSlotClock:
 
 
 class Audibility:
-    """Incremental check of :func:`hears_all` as stations attach (O(n) per station).
+    """Incremental check that every station hears every other one (the conditions above)
+    as stations attach (O(n) per station).
 
     Keeps, per listener index, the smallest and largest power received from any other
     station, and the smallest power over all links (W).

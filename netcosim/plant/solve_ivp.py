@@ -43,10 +43,10 @@ class SolveIVP:
         * ``"RK45"`` (default), ``"DOP853"`` (tight tolerances), ``"RK23"``: explicit,
           cheap per step, for non-stiff plants.
         * ``"Radau"``, ``"BDF"``, ``"LSODA"``: implicit (LSODA switches
-          automatically), for **stiff** plants, whose fastest modes (|λ| of the
+          automatically), for **stiff** plants, whose fastest modes (``|λ|`` of the
           Jacobian) are far faster than the sampling and than the dynamics of
           interest, e.g. λ = 10**6 1/s under 1 ms sampling.  An explicit method must
-          then take steps of about 1/|λ| whatever the tolerance (one simulated second
+          then take steps of about ``1/|λ|`` whatever the tolerance (one simulated second
           at λ = 10**6 takes RK45 about 10**6 steps); an implicit one takes steps set by
           the accuracy only.  Each implicit step costs a Jacobian (``system.jac`` if the
           system defines it, else ``nx`` extra evaluations of ``f``) and a linear solve.

@@ -165,7 +165,7 @@ def decode(data: bytes | bytearray | memoryview) -> tuple[int, int, int, int, in
 
 #: the ROS 2 interface name of the type (what rosidl hashes)
 ROS_TYPE = "netcosim_msgs/msg/Frame"
-#: the DDS type name that rmw_zenoh_cpp puts in key expressions ("<pkg>::msg::dds_::<Name>_",
+#: the DDS type name that rmw_zenoh_cpp puts in key expressions (``<pkg>::msg::dds_::<Name>_``,
 #: rmw_zenoh_cpp/src/detail/type_support_common.cpp, _create_type_name)
 TYPE_NAME = "netcosim_msgs::msg::dds_::Frame_"
 #: the fields of the type with their ``type_description_interfaces/msg/FieldType`` ids
@@ -184,7 +184,7 @@ _INTERFACE = re.compile(r"[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)+")
 
 
 def rihs01(ros_type: str, fields: Sequence[tuple[str, int]]) -> str:
-    """The ROS 2 type hash ("RIHS01_" + 64 hex digits, REP-2016) of a type whose fields
+    """The ROS 2 type hash (``"RIHS01_"`` + 64 hex digits, REP-2016) of a type whose fields
     are all unbounded and none of a nested type, given as ``(name, FieldType id)`` pairs.
 
     As ``rosidl_generator_type_description`` computes it (``calculate_type_hash`` in

@@ -9,7 +9,7 @@ processes (or prints the commands for someone to start them by hand, on another
 machine), waits until each has claimed its node, runs the simulation, ends the run
 (:meth:`finish` sends END, also when the run failed), reads each process's counters from
 the last line of its stdout (a JSON object, the convention of the example processes) and
-counts the replies that arrived after the stop time (:meth:`drain`).  A run that fails
+counts the replies that arrived after the stop time (:func:`~netcosim.transport.base.drain`).  A run that fails
 (an exception of a simulated component, or a :class:`~netcosim.transport.remote.RemoteFault`
 asked for with ``abort_on``) is returned with ``failure`` set and its trace intact.  The
 processes are killed and reaped in every case.

@@ -56,7 +56,7 @@ def _zenoh():
 
 
 def key(run: str, node: str, leaf: str) -> str:
-    """The key ``netcosim/<run>/<node>/<leaf>`` (each part letters, digits, ``_ . -``)."""
+    """The key ``netcosim/<run>/<node>/<leaf>`` (each part letters, digits, ``_``, ``.`` or ``-``)."""
     for what, part in (("run id", run), ("node name", node), ("key leaf", leaf)):
         if not isinstance(part, str) or not _NAME.match(part):
             raise ValueError(f"{what} must be letters, digits, '_', '.' or '-', got {part!r}")

@@ -85,7 +85,7 @@ class TwoCable:
     (pivot frame, m).  One coordinate: the rotation ``q_i`` [rad] about the axis a→b.
 
     Geometry: the robot lies on the circle of centre ``c = a + s e_ab`` and radius
-    ``r`` with ``s = (l_a² - l_b² + L²) / (2L)``, ``r = sqrt(l_a² - s²)``, L = |b - a|;
+    ``r`` with ``s = (l_a² - l_b² + L²) / (2L)``, ``r = sqrt(l_a² - s²)``, ``L = |b - a|``;
     for equal cables ``r = l sin β`` with ``cos β = L / (2 l)``, the β of B.1.1.
     Raises :class:`GeometryError` if the cables cannot both be taut (triangle
     inequality fails or is degenerate).

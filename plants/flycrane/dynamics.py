@@ -2,7 +2,7 @@
 
 Model: a rigid platform (mass ``m_V``, inertia ``I_V`` about its CoM in F_V) and N
 robots modelled as point masses ``m_i`` at the cable ends, joined by massless taut
-cables (bilateral constraints built into the coordinates ``q``).  With
+cables (bilateral constraints built into the coordinates ``q``).  With::
 
     K = ½ m_V |ṗ_V|² + ½ ω_Vᵀ I_V ω_V + Σ ½ m_i |ṗ_i|²,   ω_V = E(θ_V, ψ_V) η̇_V,
     U = g (m_V z_V + Σ m_i z_i),
