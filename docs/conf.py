@@ -14,9 +14,15 @@ from __future__ import annotations
 
 import os
 import sys
+import types
 from pathlib import Path
 
 import netcosim
+
+# autosummary's recursion imports every submodule: the command line's __main__ modules would
+# parse sphinx-build's arguments on import.  They hold no API of their own.
+for _name in ("netcosim.__main__", "netcosim.cli.__main__"):
+    sys.modules.setdefault(_name, types.ModuleType(_name))
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
@@ -41,7 +47,7 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "_inv", "_templates", "**/README.md", "tutorial/*.py", "gallery_src/*.py",
+exclude_patterns = ["_build", "_inv", "_templates", "_ext", "**/README.md", "tutorial/*.py", "gallery_src/*.py",
                     "tutorial/GALLERY_HEADER.rst", "gallery_src/GALLERY_HEADER.rst"]
 templates_path = ["_templates"]
 
@@ -99,6 +105,11 @@ html_static_path: list[str] = []
 html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
+    # the API reference has ~800 pages: a sidebar listing them all on every page would make
+    # the site ten times larger; the sidebar shows the current section's level only
+    "collapse_navigation": True,
+    "navigation_depth": 2,
+    "show_nav_level": 1,
     "navbar_align": "left",
     "icon_links": [],
     "footer_start": ["copyright"],
@@ -129,4 +140,5 @@ sphinx_gallery_conf = {
     "capture_repr": (),
     "line_numbers": False,
     "min_reported_time": 1,
+    "write_computation_times": False,
 }

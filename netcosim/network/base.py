@@ -86,8 +86,10 @@ def _check_sim(sim: Any, who: str) -> None:
 class Network(FrameLifecycle, LinkAccounting):
     """Base class of all networks (the common pipeline; subclasses are MACs).
 
-    Parameters (all networks)
-    -------------------------
+    The parameters below are common to all networks.
+
+    Parameters
+    ----------
     sim, name:
         The simulation and a unique component name.
     data_rate:

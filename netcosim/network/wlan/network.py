@@ -96,8 +96,10 @@ def _index(r) -> int:
 class WLAN80211b(RadioNetwork):
     """IEEE 802.11b DCF network.  See the module docstring for the semantics.
 
-    Parameters (besides those of :class:`~netcosim.network.base.Network`)
-    ----------------------------------------------------------------------
+    The parameters below come besides those of every network (:class:`~netcosim.network.base.Network`).
+
+    Parameters
+    ----------
     data_rate:
         Data rate in bit/s (default 11 Mbit/s; any positive value at which a frame of
         ``max_frame_bits`` takes at most :data:`MAX_FRAME_SECONDS`, see the module docstring).
