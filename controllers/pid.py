@@ -23,7 +23,17 @@ from netcosim.errors import ConfigurationError
 
 @dataclass
 class PID:
-    """State and parameters of one PID loop. Call :meth:`compute` once per sample."""
+    """State and parameters of one PID loop. Call :meth:`compute` once per sample.
+
+    Examples
+    --------
+    The first sample from rest: only the proportional part acts, ``K * beta * r``.
+
+    >>> from netcosim.controllers.pid import PID
+    >>> pid = PID(h=0.006)
+    >>> round(pid.compute(1.0, 0.0), 6)
+    0.48
+    """
 
     h: float
     K: float = 0.96

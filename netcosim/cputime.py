@@ -255,7 +255,7 @@ class RecordedCPUTime(CPUTimeModel):
 
     @classmethod
     def load(cls, path: str | PathLike, **kw) -> "RecordedCPUTime":
-        """Read a table written by :meth:`CPUTimeModel.save` (``.csv`` or ``.parquet``)."""
+        """Read a table written by :meth:`CPUTimeModel.save` from *path* (``.csv`` or ``.parquet``)."""
         import pandas as pd
         p = Path(path)
         if not p.is_file():
@@ -284,7 +284,8 @@ class WallClockCPUTime(CPUTimeModel):
 
     Not reproducible: emits :class:`NonReproducibleWarning` when constructed.  ``clock``
     (default :func:`time.perf_counter`) is injectable, so a test can drive it with a
-    fake clock and get a deterministic schedule.
+    fake clock and get a deterministic schedule.  ``warn=False`` silences the warning
+    (the results are flagged all the same).
     """
 
     reproducible = False

@@ -327,6 +327,14 @@ def iae(data: Any, signal: Any = None, *, reference: Any = None, start: float | 
     ``reference``: a number or ``r(t)`` (t in s) making the error ``r - y``; ``hold``:
     ``"zoh"`` or ``"linear"`` (the integral is exact for the held or interpolated signal).
     Result in (signal unit) x s, a :class:`Cost` (its ``grid`` names the samples used).
+
+    Examples
+    --------
+    Held samples (zero-order hold): ``|1| * 1 s + |-0.5| * 1 s``.
+
+    >>> from netcosim import metrics
+    >>> float(metrics.iae([0.0, 1.0, 2.0], [1.0, -0.5, 0.0]))
+    1.5
     """
     t, e, _, hold = _prepare(data, signal, reference, start, until, hold, "iae")
     if hold == "zoh":

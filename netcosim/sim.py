@@ -47,6 +47,25 @@ class Simulation:
     traces included); Python's cyclic garbage collector does, eventually.  A loop that
     runs many simulations in one process (a sweep) calls ``gc.collect()`` after each run,
     or every few runs, to keep memory flat (``benchmarks/sweep_memory.py`` measures it).
+
+    Examples
+    --------
+    Two tasks under EDF: ``fast`` (1 ms every 4 ms) has the earlier deadline at t = 0, so
+    ``slow`` (2 ms every 10 ms) waits 1 ms; times in seconds.
+
+    >>> from netcosim import Simulation
+    >>> sim = Simulation(seed=1)
+    >>> cpu = sim.node("cpu", scheduler="edf")
+    >>> @cpu.periodic(period=0.010, name="slow")
+    ... def slow(ctx):
+    ...     yield ctx.execute(0.002)
+    >>> @cpu.periodic(period=0.004, name="fast")
+    ... def fast(ctx):
+    ...     yield ctx.execute(0.001)
+    >>> sim.run(until=0.015)
+    >>> jobs = sim.trace.to_pandas("jobs")
+    >>> jobs[jobs.task == "slow"]["response_time"].round(6).tolist()
+    [0.003, 0.002]
     """
 
     def __init__(self, seed: int = 0, *, realtime: bool = False, factor: float = 1.0,
@@ -111,7 +130,8 @@ class Simulation:
         return Timer.call(self.env, ticks - self.env.now, fn, arg, priority)
 
     def call_in(self, delay: float, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
-        """Call ``fn()`` (``fn(arg)`` if *arg* is given) *delay* seconds from now; see :meth:`call_at`."""
+        """Call ``fn()`` (``fn(arg)`` if *arg* is given) *delay* seconds from now; *priority* as
+        for :meth:`call_at`."""
         delay_ticks = to_ticks(delay, "call_in delay")
         validate.callable_(fn, "call_in fn", kind="callable (called when the time comes)")
         return Timer.call(self.env, delay_ticks, fn, arg, priority)
@@ -119,7 +139,8 @@ class Simulation:
     def call_at_ticks(self, ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG) -> Timer:
         """:meth:`call_at` with the instant in integer ticks (for components that compute in ticks).
 
-        *ticks* must be an ``int`` (not a float, not a bool) and *fn* callable.  The
+        *ticks* must be an ``int`` (not a float, not a bool) and *fn* callable; *priority*
+        and *arg* as for :meth:`call_at`.  The
         framework's own components call the unchecked :meth:`_call_at_ticks` (once per
         frame or job: no per-event check).
         """
@@ -138,7 +159,8 @@ class Simulation:
 
     def call_in_ticks(self, delay_ticks: int, fn: Callable, priority: int = NORMAL, arg: Any = Timer.NOARG
                       ) -> Timer:
-        """:meth:`call_in` with the delay in integer ticks (for components that compute in ticks)."""
+        """:meth:`call_in` with the delay *delay_ticks* in integer ticks (for components that compute
+        in ticks): calls *fn* (with *arg*, at *priority*) then; unchecked."""
         return Timer.call(self.env, delay_ticks, fn, arg, priority)
 
     def timeout(self, seconds: float) -> simpy.Timeout:
@@ -224,8 +246,9 @@ class Simulation:
 
         *system* is a :class:`~netcosim.plant.ContinuousSystem`, or a python-control
         ``StateSpace``, ``TransferFunction`` or ``NonlinearIOSystem`` (converted by
-        :func:`netcosim.plant.pycontrol.from_control`).  See
-        :class:`netcosim.plant.PlantInstance` for the other arguments.
+        :func:`netcosim.plant.pycontrol.from_control`).  The other arguments (*x0*, *name*,
+        *integrator*, *params*, *disturbance*, *log_interval*, *log*) are those of
+        :class:`netcosim.plant.PlantInstance`; returns the instance.
         """
         from .plant import PlantInstance, from_control, is_control_system
         if name is None:    # the system's own name, else plant0, plant1, ... ('' is refused as a name)

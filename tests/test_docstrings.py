@@ -13,6 +13,12 @@
    for ``__init__``, the class docstring) contains one of the unit markers ``_UNITS``
    (``s``, ``seconds``, ``ticks``, ``bit/s``, ``Hz``, ``dB``, ``dBm``, ``W``, ``m``, ``bits``)
    as a word.
+3. Summary: the first paragraph of every public docstring is a sentence (what the API
+   reference's tables show).
+4. Parameters: every parameter of a public callable is named in its docstring (for
+   ``__init__``, the class's; for an override, also the overridden method's), without
+   exception for the names of ``netcosim.__all__``; elsewhere the gaps found when the rule
+   came are listed in ``docstring_parameter_gaps.txt``, a list that only shrinks.
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ import importlib
 import inspect
 import pkgutil
 import re
+from pathlib import Path
 
 import netcosim
 
@@ -102,3 +109,92 @@ def test_unit_rule_reads_units_as_words():
     assert not _UNITS.search("*size_bits* of payload")     # a parameter name is not a unit
     assert _UNIT_PARAM.match("slot_time") and _UNIT_PARAM.match("data_rate") and _UNIT_PARAM.match("t")
     assert not _UNIT_PARAM.match("priority")
+
+
+# ------------------------------------------------------------------ summary lines and parameters
+def test_every_docstring_opens_with_a_summary_sentence():
+    """The first paragraph of every public docstring is a sentence (it ends with a stop, a
+    colon or a closing bracket): what autosummary shows in the API reference's tables."""
+    bad = []
+    for qual, obj, _owner in _public_objects():
+        if qual.endswith(".__init__"):
+            continue
+        first = (inspect.getdoc(obj) or "").split("\n\n")[0]
+        if not re.search(r"[.:;?!)]\s*$|[.:;?!]\s", first):
+            bad.append(f"{qual}: {first[:60]!r}")
+    assert not bad, f"{len(bad)} docstrings without a summary sentence:\n" + "\n".join(bad)
+
+
+def _docs_naming_parameters(obj, owner) -> str:
+    """The text that may document *obj*'s parameters: its docstring, or for a method the
+    docstrings of the same method up the class's bases; for ``__init__`` the class's."""
+    if owner is None:
+        return inspect.getdoc(obj) or ""
+    parts = []
+    for base in owner.__mro__:
+        if obj.__name__ == "__init__":
+            parts.append(base.__doc__ or "")
+        member = vars(base).get(obj.__name__)
+        member = getattr(member, "__func__", member)
+        parts.append(getattr(member, "__doc__", None) or "")
+    return "\n".join(parts)
+
+
+def _undocumented_parameters(obj, owner) -> list[str]:
+    try:
+        params = inspect.signature(obj).parameters.values()
+    except (TypeError, ValueError):
+        return []
+    names = [p.name for p in params if p.name not in ("self", "cls")
+             and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+    doc = _docs_naming_parameters(obj, owner)
+    return [n for n in names if not re.search(rf"(?<!\w){re.escape(n)}(?!\w)", doc)]
+
+
+_GAPS = Path(__file__).with_name("docstring_parameter_gaps.txt")
+
+
+def _known_gaps() -> set[str]:
+    return {line.strip() for line in _GAPS.read_text().splitlines() if line.strip() and not line.startswith("#")}
+
+
+def _gaps() -> set[str]:
+    found = set()
+    for qual, obj, owner in _public_objects():
+        if isinstance(obj, property) or not inspect.isfunction(obj):
+            continue
+        found.update(f"{qual}({name})" for name in _undocumented_parameters(obj, owner))
+    return found
+
+
+def test_parameters_are_documented():
+    """Every parameter of a public callable is named in its docstring (for ``__init__``,
+    in the class's; for an override, also in the overridden method's).  The parameters
+    undocumented when this rule came are listed in docstring_parameter_gaps.txt; the list
+    may only shrink."""
+    gaps, known = _gaps(), _known_gaps()
+    new = sorted(gaps - known)
+    assert not new, f"{len(new)} parameters not named in their docstring:\n" + "\n".join(new)
+    fixed = sorted(known - gaps)
+    assert not fixed, (f"{len(fixed)} listed parameters are documented now (or gone): delete their lines from "
+                       f"{_GAPS.name}:\n" + "\n".join(fixed))
+
+
+def test_the_package_namespace_documents_every_parameter():
+    """netcosim.__all__, what the API reference opens with, has no gap at all."""
+    top = []
+    for name in netcosim.__all__:
+        obj = getattr(netcosim, name)
+        if inspect.isclass(obj) or inspect.isfunction(obj):
+            top.append(f"{obj.__module__}.{obj.__qualname__}")
+    gaps = [g for g in _gaps() if any(g.startswith(t + "(") or g.startswith(t + ".") for t in top)]
+    assert not gaps, "\n".join(sorted(gaps))
+
+
+def test_parameter_rule_reads_names_as_words():
+    def f(period, rate):
+        """Run every *period* seconds at ``rate`` bit/s."""
+    def g(period, rate):
+        """Run with a periodic rate_limit."""
+    assert _undocumented_parameters(f, None) == []
+    assert _undocumented_parameters(g, None) == ["period", "rate"]

@@ -157,7 +157,8 @@ class LocalClock:
         return self.due_nd(local.numerator, local.denominator, after)
 
     def due_nd(self, num: int, den: int, after: int) -> int:
-        """:meth:`due` of the local time ``num / den`` (local ticks; *den* > 0), in integers."""
+        """:meth:`due` of the local time ``num / den`` (local ticks; *den* > 0) not before the global
+        tick *after*, in integers."""
         g0s, ints = self._g0, self._ints
         i = self._segment(after)
         last = len(g0s) - 1

@@ -50,7 +50,7 @@ class _Op(Blocking):
 
 
 class Mailbox:
-    """A FIFO message buffer; ``capacity=None`` is unbounded."""
+    """A FIFO message buffer called *name*, of at most *capacity* messages (``capacity=None``: unbounded)."""
 
     def __init__(self, name: str = "mailbox", capacity: int | None = None):
         _check_name("mailbox", name)
@@ -107,7 +107,7 @@ class Mailbox:
 
     # non-blocking (usable from anywhere, e.g. a network delivering a frame) ------
     def try_post(self, item: Any) -> bool:
-        """Post without blocking; returns False (and counts a drop) when full."""
+        """Post *item* without blocking; returns False (and counts a drop) when full."""
         if self._getters:
             job = self._getters.popleft()
             job.node._unblock(job, item)
@@ -134,7 +134,7 @@ class Mailbox:
 
 
 class Semaphore:
-    """A counting semaphore (FIFO waiters, no priority inheritance)."""
+    """A counting semaphore called *name* with the initial count *value* (FIFO waiters, no priority inheritance)."""
 
     def __init__(self, name: str = "semaphore", value: int = 1):
         _check_name("semaphore", name)
@@ -174,7 +174,7 @@ class Semaphore:
 
 
 class Monitor:
-    """Mutual exclusion with (optional) priority inheritance."""
+    """A monitor called *name*: mutual exclusion with priority inheritance unless ``inheritance=False``."""
 
     def __init__(self, name: str = "monitor", inheritance: bool = True):
         _check_name("monitor", name)
@@ -238,7 +238,7 @@ class Monitor:
 
 
 class ConditionVariable:
-    """A kernel condition variable (TrueTime's "event"); optionally tied to a monitor.
+    """A kernel condition variable called *name* (TrueTime's "event"); optionally tied to a *monitor*.
 
     Named so as not to be confused with SimPy's ``Event`` or a plant's
     :class:`~netcosim.plant.HybridEvent`.

@@ -39,6 +39,8 @@ class CSMACD(Network):
 
     ``data_rate`` in bit/s; ``min_frame_bits`` and ``jam_bits`` in bits; ``collision_window``,
     ``interframe_gap`` and ``slot_time`` in s (``slot_time`` None: ``min_frame_bits / data_rate``).
+    ``max_attempts``: transmission attempts per frame before it is dropped (None: unlimited,
+    as TrueTime); ``backoff_limit``: the cap on the backoff exponent (10: at most 1023 slots).
     """
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, min_frame_bits: int = 512,

@@ -45,7 +45,10 @@ class SwitchedEthernet(Network):
     has it, finished (stored), dropped (``queue_overflow``) or requeued (``switch_full``).
 
     ``data_rate`` (each link) in bit/s; ``min_frame_bits`` and ``switch_memory_bits`` (None:
-    unbounded) in bits; ``switch_delay`` in s.
+    unbounded) in bits; ``switch_delay`` in s.  ``buffer``: ``"shared"`` switch memory or
+    ``"symmetric"`` (split evenly between the ports); ``overflow``: ``"drop"`` a frame the
+    memory cannot take or ``"retransmit"`` it from the sender; ``port_queue``: ``"fifo"`` or
+    ``"priority"`` order of each output port's queue.
     """
 
     carrier = CARRIER_SENDER   # full duplex: the output ports make the receivers receiving

@@ -100,7 +100,8 @@ class TDMA(Network):
         return TdmaStation()
 
     def window(self, iface, t: int) -> tuple[int, int]:
-        """The owned transmission window (start, end) in ticks containing *t* or the first after it."""
+        """The transmission window (start, end) in ticks owned by interface *iface* containing *t*
+        or the first after it."""
         wins = self._windows.get(iface.name)
         if not wins:
             raise ValueError(f"network {self.name!r}: node {iface.name!r} owns no slot in the TDMA schedule "

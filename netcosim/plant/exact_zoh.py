@@ -115,7 +115,8 @@ class ExactZOH:
         return _ExactZOHStepper(self, plant, A, B)
 
     def integrate(self, rhs, t0, x0, t1, gs):
-        """Not callable unbound: the exact step needs the plant's ``A``, ``B`` and held input.
+        """Not callable unbound (*rhs*, *t0*, *x0*, *t1*, *gs*: as :meth:`SolveIVP.integrate`): the exact
+        step needs the plant's ``A``, ``B`` and held input.
 
         :class:`~netcosim.plant.instance.PlantInstance` calls :meth:`bind` and integrates with what it returns.
         """

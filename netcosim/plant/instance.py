@@ -54,6 +54,7 @@ class PlantInstance:
 
     Parameters
     ----------
+    name: the plant's name in traces and plots (``"servo"``: signals ``servo.y``, ...).
     system: a :class:`ContinuousSystem` (:meth:`Simulation.plant
         <netcosim.sim.Simulation.plant>` converts python-control systems with
         :func:`netcosim.plant.pycontrol.from_control` before they get here).
@@ -175,8 +176,8 @@ class PlantInstance:
 
     # Ports -------------------------------------------------------------------
     def output(self, key=None) -> OutputPort:
-        """A read port on one output (name or index; a negative index counts from the end,
-        as in Python), several (a list or a slice), or all (None)."""
+        """A read port on output *key*: one output (name or index; a negative index counts
+        from the end, as in Python), several (a list or a slice), or all (None)."""
         if type(key) is str and key in self._ports:  # a task body may ask for its port every job
             return self._ports[key]
         idx, label = _select(self.system.output_names, key, "output", self.name)
@@ -186,8 +187,8 @@ class PlantInstance:
         return port
 
     def input(self, key=None) -> InputPort:
-        """A write port on one input (name or index; a negative index counts from the end,
-        as in Python), several (a list or a slice), or all (None)."""
+        """A write port on input *key*: one input (name or index; a negative index counts
+        from the end, as in Python), several (a list or a slice), or all (None)."""
         if type(key) is str and (" in", key) in self._ports:
             return self._ports[(" in", key)]
         idx, label = _select(self.system.input_names, key, "input", self.name)
@@ -415,7 +416,8 @@ class PlantInstance:
         return self.x.copy()
 
     def set_input(self, index, value, label="inputs") -> None:
-        """Hold *value* (in the input's units) on input(s) *index* from now on (ZOH)."""
+        """Hold *value* (in the input's units) on input(s) *index* from now on (ZOH); *label* names
+        the inputs in error messages."""
         if type(value) is float and type(index) is int and math.isfinite(value) and -len(self.u) <= index < len(self.u):
             # one finite number on one input: what the generic path below would accept as is
             self.advance()

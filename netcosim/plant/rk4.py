@@ -59,7 +59,8 @@ class RK4:
 
     @staticmethod
     def step(rhs, t, x, h):
-        """One classical Runge-Kutta step of length *h* (s) from ``(t, x)`` (t in s); returns the new state."""
+        """One classical Runge-Kutta step of ``rhs(t, x)`` of length *h* (s) from ``(t, x)`` (t in s);
+        returns the new state."""
         k1 = rhs(t, x)
         k2 = rhs(t + 0.5 * h, x + (0.5 * h) * k1)
         k3 = rhs(t + 0.5 * h, x + (0.5 * h) * k2)

@@ -15,7 +15,7 @@ __all__ = ["HybridEvent", "MAX_DIMENSION", "ContinuousSystem"]
 
 @dataclass(frozen=True)
 class HybridEvent:
-    """A zero crossing ``g(t, x, u, params) = 0`` of a plant.
+    """A zero crossing ``g(t, x, u, params) = 0`` of a plant, called *name* in the trace.
 
     ``direction``: +1 fires on rising crossings (g goes from < 0 to >= 0), -1 on
     falling ones, 0 on both.  ``reset(t, x, u, params) -> x_new`` (optional) replaces
@@ -55,6 +55,8 @@ class ContinuousSystem:
         ContinuousSystem(f=lambda t, x, u, p: ..., states=2, inputs=1, outputs=1,
                          h=lambda t, x, u, p: x[:1])
 
+    ``disturbances`` (a count or names) are extra inputs set by the plant's disturbance
+    function, not by tasks; ``name`` is the default name of its instances.
     ``h`` must return ``ny`` finite values.  A subclass may also define
     ``jac(t, x, u, params) -> d f / d x`` (an ``nx`` × ``nx`` array); the implicit
     methods of :class:`SolveIVP` (Radau, BDF, LSODA) then use it instead of finite
@@ -132,7 +134,8 @@ class ContinuousSystem:
         return len(self.output_names)
 
     def f(self, t: float, x: np.ndarray, u: np.ndarray, params: Any) -> np.ndarray:
-        """State derivative ``dx/dt`` at time *t* (s), state *x*, input *u* (controls then disturbances).
+        """State derivative ``dx/dt`` at time *t* (s), state *x*, input *u* (controls then
+        disturbances), *params*.
 
         Uses the ``f`` given to the constructor (or a subclass override); raises
         :class:`NotImplementedError` when there is none.
@@ -143,7 +146,8 @@ class ContinuousSystem:
         return fn(t, x, u, params)
 
     def h(self, t: float, x: np.ndarray, u: np.ndarray, params: Any) -> np.ndarray:
-        """Output ``y`` at time *t* (s), state *x*, input *u*; the state itself when no ``h`` was given."""
+        """Output ``y`` at time *t* (s), state *x*, input *u*, *params*; the state itself when no ``h``
+        was given."""
         fn = getattr(self, "_h", None)
         if fn is None:
             return x
