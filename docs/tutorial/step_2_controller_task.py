@@ -63,4 +63,6 @@ print(f"response time: {jobs['response_time'].min() * 1e3:.3f} ms to {jobs['resp
 
 # %%
 # The kernel's timeline over the first 30 ms: TrueTime's staircase (high while running).
-sim.trace.plot("schedule", t_range=(0, 0.03), title="schedule of the controller node")
+fig, ax = plt.subplots(figsize=(7, 2.5))
+sim.trace.plot("schedule", t_range=(0, 0.03), ax=ax, title="schedule of the controller node")
+fig.tight_layout()
