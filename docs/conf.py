@@ -54,8 +54,6 @@ templates_path = ["_templates"]
 # -- MyST: the existing docs/*.md pages ---------------------------------------------------
 myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
-# a page's first heading is its title; the project's pages use '#' once and '##' below it
-suppress_warnings = ["myst.header"]
 
 # -- API reference: autosummary + autodoc + numpydoc ---------------------------------------
 autosummary_generate = True

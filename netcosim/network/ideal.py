@@ -22,6 +22,26 @@ class IdealLink(Network):
     """Bandwidth and a fixed delay, no contention.  See the module docstring.
 
     ``delay`` is an alias of ``propagation_delay`` (s).
+
+    Examples
+    --------
+    1000 bits at 1 Mbit/s arrive 1 ms after they are sent:
+
+    >>> from netcosim import IdealLink, Simulation
+    >>> sim = Simulation(seed=0)
+    >>> net = IdealLink(sim, "link", data_rate=1e6)
+    >>> a, b = sim.node("a"), sim.node("b")
+    >>> ia, ib = net.attach(a), net.attach(b)
+    >>> @a.aperiodic(priority=1)
+    ... def send(ctx):
+    ...     ctx.send("b", "hello", 1000)
+    ...     yield ctx.execute(1e-6)
+    >>> arrivals = []
+    >>> _ = ib.on_receive(lambda msg: arrivals.append((sim.now, msg.payload)))
+    >>> _ = send.release()
+    >>> sim.run(until=0.01)
+    >>> arrivals
+    [(0.001, 'hello')]
     """
 
     def __init__(self, sim, name: str, *, data_rate: float = 10e6, delay: float | None = None, **kw):

@@ -208,6 +208,17 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
 
     A sweep holds at most :data:`MAX_RUNS` (10**7) runs, cases times seeds: a larger one
     is refused, naming the count, before anything is listed.
+
+    Examples
+    --------
+    Two cases, two seeds each, in this process; one row per run:
+
+    >>> from netcosim.sweep import run_sweep
+    >>> def scenario(params, seed):
+    ...     return {"double": 2 * params["x"]}
+    >>> result = run_sweep(scenario, grid={"x": [1, 2]}, seeds=2, executor="serial", quiet=True)
+    >>> result.to_pandas()[["x", "seed_index", "double"]].values.tolist()
+    [[1, 0, 2], [1, 1, 2], [2, 0, 4], [2, 1, 4]]
     """
     if notify is not None and not callable(notify):
         raise ConfigurationTypeError(f"notify must be a function notify(message: str) or None, got {notify!r}")
