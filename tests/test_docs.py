@@ -43,6 +43,7 @@ FRAGMENTS = {
     ("docs/sweeps.md", 0): "names a study module of the reader's (my_study)",
     ("docs/sweeps.md", 2): "names a study module of the reader's (my_study)",
     ("docs/sweeps.md", 3): "reads a sweep's results directory written by block 0",
+    ("docs/viewer.md", 0): "views a simulation built elsewhere (sim)",
 }
 
 _BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
