@@ -69,7 +69,7 @@ numpydoc_xref_param_type = False
 numpydoc_validation_checks: set[str] = set()
 
 # -- intersphinx: offline inventories -----------------------------------------------------
-# (URL the links point to, local inventory).  NumPy, python-control, CasADi and Matplotlib
+# (URL the links point to, local inventory).  NumPy, python-control, CasADi, Matplotlib and Bokeh
 # have no inventory reachable offline (no Debian documentation package ships one for the
 # versions in use, and their wheels and sdists do not carry objects.inv): their names are
 # written as plain literals in the docs, and nitpick_ignore below lists the few that
@@ -92,6 +92,8 @@ nitpick_ignore_regex = [
     ("py:.*", r"matplotlib\..*"),
     ("py:.*", r"control\..*"),
     ("py:.*", r"(zenoh|dask|distributed|pyarrow|filterpy)\..*"),
+    # Bokeh (the viewer's optional dependency): no offline inventory either
+    ("py:.*", r"bokeh\..*"),
     # numpydoc's type fields in the docstrings' Parameters sections are prose, not names
     ("py:class", r"(array_like|array-like|optional|callable|sequence|iterable|mapping|default.*|or|of)"),
 ]
