@@ -44,6 +44,9 @@ FRAGMENTS = {
     ("docs/sweeps.md", 2): "names a study module of the reader's (my_study)",
     ("docs/sweeps.md", 3): "reads a sweep's results directory written by block 0",
     ("docs/viewer.md", 0): "views a simulation built elsewhere (sim)",
+    ("docs/fmi.md", 0): "loads an FMU file of the reader's (servo.fmu)",
+    ("docs/fmi.md", 1): "loads an FMU file of the reader's (servo.fmu) into a simulation built in block 0",
+    ("docs/fmi.md", 2): "loads an FMU file of the reader's (controller.fmu)",
 }
 
 _BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
