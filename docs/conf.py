@@ -92,8 +92,8 @@ nitpick_ignore_regex = [
     ("py:.*", r"matplotlib\..*"),
     ("py:.*", r"control\..*"),
     ("py:.*", r"(zenoh|dask|distributed|pyarrow|filterpy)\..*"),
-    # Bokeh (the viewer's optional dependency): no offline inventory either
-    ("py:.*", r"bokeh\..*"),
+    # Bokeh (the viewer), pythonfmu and FMPy (the FMI coupling): no offline inventory either
+    ("py:.*", r"(bokeh|pythonfmu|fmpy)\..*"),
     # numpydoc's type fields in the docstrings' Parameters sections are prose, not names
     ("py:class", r"(array_like|array-like|optional|callable|sequence|iterable|mapping|default.*|or|of)"),
 ]
