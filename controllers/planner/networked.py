@@ -42,6 +42,7 @@ from netcosim.plant import SolveIVP
 
 from .laws import OfflineGain, OnlineGain
 from .norms import WeightedNorm
+from .plant_dop853 import CompiledDOP853
 from .plant_models import KinematicModel, VelocityTrackingModel
 from .tasks import Deployment, DeploymentConfig, PlannerLaw, deploy
 
@@ -221,17 +222,30 @@ def offline_gain(config: FlyCraneNetworkConfig) -> float:
 
 
 class GridRecorder(SolveIVP):
-    """The plant integrator *base* (a :class:`~netcosim.plant.SolveIVP`), also
-    reporting q (the first *m* states, rad and m) and the held u (m/s) every ``dt`` s
-    from the solver's dense output (the steps are those of the plain integrator).
-    Pass it as ``integrator=`` to :func:`~netcosim.controllers.planner.tasks.deploy`, call
-    :meth:`start` with the built plant, read :meth:`arrays` after the run."""
+    """The plant integrator *base*, also reporting q (the first *m* states, rad and m)
+    and the held u (m/s) every ``dt`` s from the solver's dense output (the steps are
+    those of the plain integrator).  *base* is a :class:`~netcosim.plant.SolveIVP`
+    (this recorder then integrates as it would) or a
+    :class:`~netcosim.controllers.planner.plant_dop853.CompiledDOP853` (bound to the plant
+    with this recorder's hooks).  Pass it as ``integrator=`` to
+    :func:`~netcosim.controllers.planner.tasks.deploy`, call :meth:`start` with the built
+    plant, read :meth:`arrays` after the run."""
 
-    def __init__(self, base: SolveIVP, dt: float, m: int):
-        super().__init__(base.method, base.rtol, base.atol, base.max_step, base.max_evaluations)
+    def __init__(self, base: Any, dt: float, m: int):
+        if isinstance(base, CompiledDOP853):
+            super().__init__("DOP853", base.rtol, base.atol, max_evaluations=base.max_evaluations)
+        else:
+            super().__init__(base.method, base.rtol, base.atol, base.max_step, base.max_evaluations)
+        self.base = base
         self.dt, self.m = dt, m
         self.rows: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.plant: Any = None
+
+    def bind(self, plant) -> Any:
+        """This recorder for a SolveIVP base; the base's stepper, reporting here, for a CompiledDOP853."""
+        if isinstance(self.base, CompiledDOP853):
+            return self.base.bind(plant, hooks=self)
+        return self
 
     def t_eval(self, t0, t1):
         dt = self.dt

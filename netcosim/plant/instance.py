@@ -148,7 +148,8 @@ class PlantInstance:
             every = default_log_interval(stepper.owner if isinstance(stepper, _RK4Stepper) else stepper)
             self._grid = max(1, round(every * TICKS_PER_SECOND))
             # SolveIVP reports grid states from its dense output, RK4 those of its own steps
-            # when the grid falls on them; others integrate a copy
+            # when the grid falls on them, a stepper with ``reports_dense = True`` (dense=
+            # as SolveIVP's) its own; others integrate a copy
             self._grid_dense = ((isinstance(stepper, SolveIVP) and type(stepper).integrate is SolveIVP.integrate)
                                 or type(stepper) is _RK4Stepper or getattr(stepper, "reports_dense", False) is True)
         #: how this plant's signals are sampled (also in ``sim.trace.grids``)

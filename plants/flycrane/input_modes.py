@@ -24,6 +24,7 @@ singularity) and raises naming the value.
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 
 from netcosim import validate
@@ -149,3 +150,24 @@ class VelocityTrackingPlant(_DynamicPlant):
             F = -self.alpha * (A @ qd - u[:n])
             qdd = self.model.forward_eval(q, qd, F)[0]
         return self._checked(x, qdd), F
+
+    def casadi_dynamics(self):
+        """``(F, pack)`` for integrators that evaluate whole steps in CasADi
+        (:class:`netcosim.controllers.planner.plant_dop853.CompiledDOP853`), or None without
+        gravity compensation: ``F(x, p) -> dx/dt`` with x = (q, q̇) and
+        ``p = pack(u) = (u[:n], alpha)`` (m/s, N·s/m), the same expression as :meth:`f`
+        (the model's ``velocity_tracking_fun``); one Function per dynamics object."""
+        if not self.gravity_compensation:
+            return None
+        F = _FLOWS.get(id(self.model))
+        if F is None or F[0] is not self.model:
+            m, n = self.system.m, self.system.n
+            x, p = ca.MX.sym("x", 2 * m), ca.MX.sym("p", n + 1)
+            qdd = self.model.velocity_tracking_fun(x[:m], x[m:], p[:n], p[n])[0]
+            fun = ca.Function(f"{self.system.name}_vt_flow", [x, p], [ca.vertcat(x[m:], qdd)], ["x", "p"], ["dx"])
+            F = _FLOWS[id(self.model)] = (self.model, fun)
+        n, alpha = self.system.n, self.alpha
+        return F[1], lambda u: np.append(np.asarray(u, dtype=float)[:n], alpha)
+
+
+_FLOWS: dict = {}  # id(LagrangianModel) -> (model, F): the model is held, so the id stays its own

@@ -1,0 +1,319 @@
+"""DOP853 for CasADi plants: every integrator step one compiled call, no Python per stage.
+
+:class:`CompiledDOP853` is a plant integrator (:mod:`netcosim.plant.integrator`) for
+plants whose system offers ``casadi_dynamics() -> (F, pack)``: ``F(x, p) -> dx/dt`` a
+CasADi Function of the state and of a parameter vector ``p = pack(u)`` built from the
+held input (the right-hand side does not depend on t; e.g.
+:meth:`netcosim.plants.flycrane.input_modes.VelocityTrackingPlant.casadi_dynamics`).  At
+:meth:`~CompiledDOP853.bind` it builds, from F, one CasADi Function per step -- the 12
+stages of DOP853, the new point, the error norm and a finiteness check -- and one for the 3
+extra stages of the dense output, compiled to C by
+:func:`netcosim.plants.casadi_tools.compile_functions` (cached on disk; uncompiled, in
+CasADi's virtual machine, without a C compiler or with ``compiled=False``).  Python then
+only chooses the step sizes.
+
+The method is SciPy's ``solve_ivp(method="DOP853")``: the same coefficients (Hairer,
+Norsett & Wanner, Sec. II.10, as :mod:`.dop853_coefficients`), the same initial step,
+error norm (the 5th/3rd-order estimates, RMS over the states of ``err / (atol + rtol
+max(|y|, |y_new|))``) and step-size control, and the same 7th-order dense output; so
+``rtol`` and ``atol`` mean what they mean there, and the steps agree with SciPy's to
+rounding (tests/test_plant_dop853.py).
+
+Finiteness: every step's stages are summed in the compiled code; a non-finite sum makes
+the stepper re-evaluate that step's stages one by one through the plant's own checked
+right-hand side (``PlantInstance._rhs``), which raises the plant's error naming the state
+(for the Fly-crane, :class:`~netcosim.plants.flycrane.kinematics.SingularConfigurationError`
+naming q).  A plant with hybrid events, a disturbance or no ``casadi_dynamics`` is
+advanced by ``SolveIVP(method="DOP853")`` with the same tolerances instead (the same
+method, its stages evaluated one by one in Python).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+import netcosim.plants.casadi_tools as casadi_tools
+from netcosim import validate
+from netcosim.errors import ConfigurationError, IntegrationError
+from netcosim.plant import SolveIVP
+from netcosim.plant.solve_ivp import RTOL_MIN
+from netcosim.plant.values import _check_count
+
+from . import dop853_coefficients as _dop
+
+__all__ = ["CompiledDOP853", "dop853_functions"]
+
+_NS, _NSX = _dop.N_STAGES, _dop.N_STAGES_EXTENDED
+_A, _B, _E3, _E5, _D = _dop.A, _dop.B, _dop.E3, _dop.E5, _dop.D
+
+
+def dop853_functions(F: ca.Function) -> tuple[ca.Function, ca.Function]:
+    """CasADi Functions of one DOP853 step of ``dx/dt = F(x, p)``.
+
+    ``step(y, f, h, p, tol) -> (y_new, f_new, err, check, K)``: from ``(y, f = F(y, p))``
+    over h (s), ``tol = (rtol, atol)``; ``err`` is SciPy's error norm (accept when < 1),
+    ``check`` the sum of every stage and of y_new (non-finite if one of them is), ``K``
+    the 13 stages (nx by 13).  ``dense(y, y_new, h, p, K) -> Fd`` (nx by 7): the
+    coefficients of the 7th-order dense output (3 more stages), as SciPy's
+    ``Dop853DenseOutput`` reads them."""
+    nx, npar = F.size1_in(0), F.size1_in(1)
+    y, f0, h = ca.MX.sym("y", nx), ca.MX.sym("f", nx), ca.MX.sym("h")
+    p, tol = ca.MX.sym("p", npar), ca.MX.sym("tol", 2)
+    K = [f0]
+
+    def combo(row, upto):
+        terms = [float(row[j]) * K[j] for j in range(upto) if row[j] != 0.0]
+        return sum(terms[1:], terms[0])
+
+    for s in range(1, _NS):
+        K.append(F(y + h * combo(_A[s], s), p))
+    y_new = y + h * combo(_B, _NS)
+    f_new = F(y_new, p)
+    K.append(f_new)
+    Kmat = ca.horzcat(*K)
+    scale = tol[1] + ca.fmax(ca.fabs(y), ca.fabs(y_new)) * tol[0]
+    n5 = ca.sumsqr(combo(_E5, _NS + 1) / scale)
+    n3 = ca.sumsqr(combo(_E3, _NS + 1) / scale)
+    err = ca.if_else(n5 + n3 == 0, 0, ca.fabs(h) * n5 / ca.sqrt((n5 + 0.01 * n3) * nx))
+    check = ca.sum1(ca.sum2(Kmat)) + ca.sum1(y_new)
+    step = ca.Function("dop853_step", [y, f0, h, p, tol], [y_new, f_new, err, check, Kmat],
+                       ["y", "f", "h", "p", "tol"], ["y_new", "f_new", "err", "check", "K"])
+    ynew_d, Kin = ca.MX.sym("y_new", nx), ca.MX.sym("K", nx, _NS + 1)
+    K = [Kin[:, j] for j in range(_NS + 1)]
+    for s in range(_NS + 1, _NSX):
+        K.append(F(y + h * combo(_A[s], s), p))
+    dy = ynew_d - y
+    cols = [dy, h * K[0] - dy, 2.0 * dy - h * (K[_NS] + K[0])]
+    cols += [h * combo(_D[r], _NSX) for r in range(_D.shape[0])]
+    dense = ca.Function("dop853_dense", [y, ynew_d, h, p, Kin], [ca.horzcat(*cols)],
+                        ["y", "y_new", "h", "p", "K"], ["F"])
+    return step, dense
+
+
+_BUILT: dict = {}  # id(F) -> (F, compiled?, (rhs, step, dense)): F is held, so the id stays its own
+
+
+def _functions(F: ca.Function, compiled: bool):
+    key = (id(F), compiled)
+    hit = _BUILT.get(key)
+    if hit is None or hit[0] is not F:
+        step, dense = dop853_functions(F)
+        funs = [F, step, dense]
+        if compiled:
+            funs = casadi_tools.compile_functions(funs, f"netcosim_dop853_{F.name()}")
+        hit = _BUILT[key] = (F, funs)
+    return hit[1]
+
+
+class CompiledDOP853:
+    """DOP853 with SciPy's control, each step one call of compiled CasADi code.
+
+    ``rtol``, ``atol``: tolerances as in ``solve_ivp`` (per state, in the state's units;
+    ``rtol`` from :data:`~netcosim.plant.solve_ivp.RTOL_MIN` to below 1); ``max_evaluations``:
+    most stage evaluations one advance may use (12 per step attempt, 3 more per step
+    holding a dense-output instant, 2 to start), beyond which it stops with
+    :class:`~netcosim.errors.IntegrationError`; ``compiled``: compile the step to C
+    (default; False evaluates it in CasADi's virtual machine: the same steps, slower).
+    See the module docstring for what it needs of the plant and when it falls back to
+    ``SolveIVP(method="DOP853")``.
+
+    Hooks as :class:`~netcosim.plant.SolveIVP`'s: :meth:`t_eval` instants in an advance
+    are reported through :meth:`observe` from the dense output (a
+    :class:`~netcosim.controllers.planner.networked.GridRecorder` passes its own).
+    """
+
+    def __init__(self, rtol: float = 1e-8, atol: float = 1e-10, max_evaluations: int = 50_000,
+                 compiled: bool = True):
+        for nm, v in (("rtol", rtol), ("atol", atol)):
+            validate.positive(v, f"CompiledDOP853 {nm}", kind="a positive number", type_error=ConfigurationError)
+        if not RTOL_MIN <= rtol < 1.0:
+            raise ConfigurationError(f"CompiledDOP853 rtol must be at least {RTOL_MIN!r} and below 1, got {rtol!r}")
+        _check_count(max_evaluations, "CompiledDOP853 max_evaluations")
+        self.rtol, self.atol, self.max_evaluations = float(rtol), float(atol), int(max_evaluations)
+        self.compiled = bool(compiled)
+
+    def __repr__(self):
+        return f"CompiledDOP853(rtol={self.rtol!r}, atol={self.atol!r})"
+
+    def t_eval(self, t0: float, t1: float):
+        """Instants (s) in ``(t0, t1]`` to report through :meth:`observe` (default None)."""
+        return None
+
+    def observe(self, t, x) -> None:
+        """Receives the states ``x`` (nx by k) at the instants ``t`` asked by :meth:`t_eval`."""
+
+    def bind(self, plant: Any, hooks: Any = None) -> Any:
+        """The stepper advancing *plant*: a :class:`_BoundDOP853` when the plant's system
+        has ``casadi_dynamics()`` (not None) and the plant has no hybrid events and no
+        disturbance, else ``SolveIVP(method="DOP853")`` with these tolerances.  *hooks*
+        (default this integrator) provides ``t_eval`` and ``observe``."""
+        hooks = self if hooks is None else hooks
+        seam = getattr(plant.system, "casadi_dynamics", None)
+        dyn = seam() if callable(seam) else None
+        if dyn is None or plant.system.events or plant.disturbance is not None:
+            return _HookedSolveIVP(self, hooks)
+        F, pack = dyn
+        return _BoundDOP853(self, plant, _functions(F, self.compiled), pack, hooks)
+
+    def integrate(self, rhs, t0, x0, t1, gs, jac=None, dense=None):
+        """Unbound use (no plant): ``SolveIVP(method="DOP853")`` with these tolerances."""
+        return _HookedSolveIVP(self, self).integrate(rhs, t0, x0, t1, gs, dense=dense)
+
+
+class _HookedSolveIVP(SolveIVP):
+    """``SolveIVP(method="DOP853")`` with the tolerances and hooks of a :class:`CompiledDOP853`."""
+
+    def __init__(self, owner: CompiledDOP853, hooks: Any):
+        super().__init__("DOP853", owner.rtol, owner.atol, max_evaluations=owner.max_evaluations)
+        self.hooks = hooks
+
+    def t_eval(self, t0, t1):
+        return self.hooks.t_eval(t0, t1)
+
+    def observe(self, t, x) -> None:
+        self.hooks.observe(t, x)
+
+
+def _rms(v: np.ndarray) -> float:
+    return math.sqrt(float(np.dot(v, v)) / v.shape[0])
+
+
+class _BoundDOP853:
+    """:class:`CompiledDOP853` bound to one plant (see :meth:`CompiledDOP853.bind`).
+
+    ``nfev``: stage evaluations so far (the compiled ones included), over all advances."""
+
+    #: reports :meth:`integrate`'s ``dense=`` instants from its dense output (PlantInstance's default grid)
+    reports_dense = True
+
+    def __init__(self, owner: CompiledDOP853, plant: Any, funs, pack, hooks: Any):
+        self.owner, self.plant, self.pack, self.hooks = owner, plant, pack, hooks
+        self._f, self._step, self._dense = (casadi_tools.FunctionBuffers(fn) for fn in funs)
+        self._step.args[4][:] = (owner.rtol, owner.atol)
+        self.nfev = 0
+
+    def __repr__(self):
+        return f"{self.owner!r} bound to plant {self.plant.name!r}"
+
+    def _eval_f(self, x: np.ndarray, t: float, rhs) -> np.ndarray:
+        b = self._f
+        b.args[0][:] = x
+        b.eval()
+        self.nfev += 1
+        f = b.res[0]
+        if not math.isfinite(float(f.sum())):
+            rhs(t, x)  # the plant's checked right-hand side names the failure
+            raise IntegrationError(f"non-finite derivative at t={t!r} s, x={x.tolist()!r}")
+        return f.copy()
+
+    def _replay(self, rhs, t: float, y: np.ndarray, f: np.ndarray, h: float) -> None:
+        """A step's stages one by one through the plant's checked *rhs* (raises at the first
+        bad one); called when the compiled step was not finite."""
+        K = [f]
+        for s in range(1, _NSX):
+            if s == _NS:
+                ys = y + h * sum(float(_B[j]) * K[j] for j in range(_NS))
+            else:
+                ys = y + h * sum(float(_A[s, j]) * K[j] for j in range(s) if _A[s, j] != 0.0)
+            K.append(np.asarray(rhs(t + float(_dop.C[s]) * h if s != _NS else t + h, ys), dtype=float))
+        raise IntegrationError(f"a DOP853 step from t={t!r} s over {h!r} s is not finite (x={y.tolist()!r})")
+
+    def integrate(self, rhs, t0, x0, t1, gs, jac=None, dense=None):
+        """Advance from ``(t0, x0)`` to *t1* (s) under the input held now: ``(t1, x1, None)``.
+        *gs* must be empty (a plant with events is bound to SolveIVP); *dense* as in
+        :meth:`netcosim.plant.SolveIVP.integrate`."""
+        if gs:
+            raise ConfigurationError(f"{self!r}: hybrid events need SolveIVP (bind() chooses it for such plants)")
+        owner = self.owner
+        rtol, atol, budget = owner.rtol, owner.atol, owner.max_evaluations
+        p = np.asarray(self.pack(self.plant.u), dtype=float)
+        self._f.args[1][:] = p
+        sb, db = self._step, self._dense
+        sa, sr = sb.args, sb.res
+        sa[3][:] = p
+        db.args[3][:] = p
+        used0 = self.nfev
+        x0 = np.asarray(x0, dtype=float)
+        t_eval = self.hooks.t_eval(t0, t1)
+        want = [] if t_eval is None else list(t_eval)
+        dense_t = [] if dense is None else [float(v) for v in np.asarray(dense[0], dtype=float)]
+        times = sorted(set(want) | set(dense_t))
+        got: dict[float, np.ndarray] = {}
+        # SciPy's select_initial_step, error order 7
+        f0 = self._eval_f(x0, t0, rhs)
+        interval = abs(t1 - t0)
+        scale = atol + np.abs(x0) * rtol
+        d0, d1 = _rms(x0 / scale), _rms(f0 / scale)
+        h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+        h0 = min(h0, interval)
+        d2 = _rms((self._eval_f(x0 + h0 * f0, t0 + h0, rhs) - f0) / scale) / h0
+        h1 = max(1e-6, h0 * 1e-3) if d1 <= 1e-15 and d2 <= 1e-15 else (0.01 / max(d1, d2)) ** 0.125
+        h_abs = min(100 * h0, h1, interval)
+        sa[0][:] = x0
+        sa[1][:] = f0
+        t, ti = t0, 0
+        while ti < len(times) and times[ti] <= t0:
+            ti += 1
+        while t < t1:
+            min_step = 10 * abs(math.nextafter(t, math.inf) - t)
+            if h_abs < min_step:
+                h_abs = min_step
+            rejected = False
+            while True:
+                if h_abs < min_step:
+                    raise IntegrationError(f"{owner!r}: step size below {min_step!r} s at t={t!r} s")
+                t_new = t + h_abs
+                if t_new > t1:
+                    t_new = t1
+                h = t_new - t
+                h_abs = abs(h)
+                sa[2][0] = h
+                sb.eval()
+                self.nfev += _NS
+                if not math.isfinite(sr[3][0]):
+                    self._replay(rhs, t, sa[0].copy(), sa[1].copy(), h)
+                if self.nfev - used0 > budget:
+                    raise IntegrationError(
+                        f"{owner!r} used more than max_evaluations={budget} evaluations of f advancing from "
+                        f"t={t0!r} to t={t1!r} s and got only to t={t!r} s; raise max_evaluations")
+                err = sr[2][0]
+                if err < 1.0:
+                    factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** -0.125)
+                    h_abs *= min(1.0, factor) if rejected else factor
+                    break
+                h_abs *= max(0.2, 0.9 * err ** -0.125)
+                rejected = True
+            if ti < len(times) and times[ti] <= t_new:
+                db.args[0][:] = sa[0]
+                db.args[1][:] = sr[0]
+                db.args[2][0] = h
+                db.args[4][:] = sr[4]
+                db.eval()
+                self.nfev += _NSX - _NS - 1
+                Fd = db.res[0].reshape(7, -1)   # column-major nx x 7 -> rows F0..F6
+                while ti < len(times) and times[ti] <= t_new:
+                    tk = times[ti]
+                    got[tk] = sr[0].copy() if tk == t_new else _dense_value(Fd, sa[0], (tk - t) / h)
+                    ti += 1
+            sa[0][:] = sr[0]
+            sa[1][:] = sr[1]
+            t = t_new
+        x1 = sa[0].copy()
+        if want:
+            self.hooks.observe(np.array(want), np.array([got[tk] for tk in want]).T)
+        if dense is not None and dense_t:
+            dense[1](np.array(dense_t), np.array([got[tk] for tk in dense_t]).T)
+        return t1, x1, None
+
+
+def _dense_value(Fd: np.ndarray, y_old: np.ndarray, x: float) -> np.ndarray:
+    """SciPy's ``Dop853DenseOutput`` at the fraction *x* of the step."""
+    y = np.zeros_like(y_old)
+    for i, f in enumerate(Fd[::-1]):
+        y += f
+        y *= x if i % 2 == 0 else 1.0 - x
+    return y + y_old
