@@ -3,7 +3,9 @@
 :class:`CompiledDOP853` is a plant integrator (:mod:`netcosim.plant.integrator`) for
 plants whose system offers ``casadi_dynamics() -> (F, pack)``: ``F(x, p) -> dx/dt`` a
 CasADi Function of the state and of a parameter vector ``p = pack(u)`` built from the
-held input (the right-hand side does not depend on t; e.g.
+held input (the right-hand side does not depend on t), with optionally a second output
+``r``, a regularity margin that is negative where the expression may not be trusted (e.g.
+a near-singular linear solve; e.g.
 :meth:`netcosim.plants.flycrane.input_modes.VelocityTrackingPlant.casadi_dynamics`).  At
 :meth:`~CompiledDOP853.bind` it builds, from F, one CasADi Function per step -- the 12
 stages of DOP853, the new point, the error norm and a finiteness check -- and one for the 3
@@ -19,11 +21,12 @@ max(|y|, |y_new|))``) and step-size control, and the same 7th-order dense output
 ``rtol`` and ``atol`` mean what they mean there, and the steps agree with SciPy's to
 rounding (tests/test_plant_dop853.py).
 
-Finiteness: every step's stages are summed in the compiled code; a non-finite sum makes
-the stepper re-evaluate that step's stages one by one through the plant's own checked
-right-hand side (``PlantInstance._rhs``), which raises the plant's error naming the state
-(for the Fly-crane, :class:`~netcosim.plants.flycrane.kinematics.SingularConfigurationError`
-naming q).  A plant with hybrid events, a disturbance or no ``casadi_dynamics`` is
+Finiteness, regularity and stiffness: every step's stages are summed in the compiled
+code and their smallest ``r`` kept; an advance meeting a non-finite sum or ``r <= 0``, or using more than ``stiff_evaluations``, is done again
+from its start by ``solve_ivp``'s LSODA with the same tolerances, through the plant's own
+checked right-hand side (``PlantInstance._rhs``), which raises the plant's error naming
+the state at once where the dynamics are undefined (for the Fly-crane,
+:class:`~netcosim.plants.flycrane.kinematics.SingularConfigurationError` naming q).  A plant with hybrid events, a disturbance or no ``casadi_dynamics`` is
 advanced by ``SolveIVP(method="DOP853")`` with the same tolerances instead (the same
 method, its stages evaluated one by one in Python).
 """
@@ -56,23 +59,33 @@ def dop853_functions(F: ca.Function) -> tuple[ca.Function, ca.Function]:
 
     ``step(y, f, h, p, tol) -> (y_new, f_new, err, check, K)``: from ``(y, f = F(y, p))``
     over h (s), ``tol = (rtol, atol)``; ``err`` is SciPy's error norm (accept when < 1),
-    ``check`` the sum of every stage and of y_new (non-finite if one of them is), ``K``
-    the 13 stages (nx by 13).  ``dense(y, y_new, h, p, K) -> Fd`` (nx by 7): the
-    coefficients of the 7th-order dense output (3 more stages), as SciPy's
-    ``Dop853DenseOutput`` reads them."""
+    ``check`` the sum of every stage and of y_new (non-finite if one of them is, or if
+    F's second output ``r``, when it has one, is not positive at a stage), ``K``
+    the 13 stages (nx by 13).  ``dense(y, y_new, h, p, K) -> (Fd, check)``: ``Fd`` (nx
+    by 7) the coefficients of the 7th-order dense output (3 more stages), as SciPy's
+    ``Dop853DenseOutput`` reads them, ``check`` as the step's for those stages."""
     nx, npar = F.size1_in(0), F.size1_in(1)
     y, f0, h = ca.MX.sym("y", nx), ca.MX.sym("f", nx), ca.MX.sym("h")
     p, tol = ca.MX.sym("p", npar), ca.MX.sym("tol", 2)
     K = [f0]
+    regular = F.n_out() > 1
+    rs = []
+
+    def stage_value(x):
+        out = F(x, p)
+        if regular:
+            rs.append(out[1])
+            return out[0]
+        return out
 
     def combo(row, upto):
         terms = [float(row[j]) * K[j] for j in range(upto) if row[j] != 0.0]
         return sum(terms[1:], terms[0])
 
     for s in range(1, _NS):
-        K.append(F(y + h * combo(_A[s], s), p))
+        K.append(stage_value(y + h * combo(_A[s], s)))
     y_new = y + h * combo(_B, _NS)
-    f_new = F(y_new, p)
+    f_new = stage_value(y_new)
     K.append(f_new)
     Kmat = ca.horzcat(*K)
     scale = tol[1] + ca.fmax(ca.fabs(y), ca.fabs(y_new)) * tol[0]
@@ -80,17 +93,23 @@ def dop853_functions(F: ca.Function) -> tuple[ca.Function, ca.Function]:
     n3 = ca.sumsqr(combo(_E3, _NS + 1) / scale)
     err = ca.if_else(n5 + n3 == 0, 0, ca.fabs(h) * n5 / ca.sqrt((n5 + 0.01 * n3) * nx))
     check = ca.sum1(ca.sum2(Kmat)) + ca.sum1(y_new)
+    if regular:   # NaN where a stage is not regular
+        check = ca.if_else(ca.mmin(ca.vertcat(*rs)) > 0, check, np.nan)
     step = ca.Function("dop853_step", [y, f0, h, p, tol], [y_new, f_new, err, check, Kmat],
                        ["y", "f", "h", "p", "tol"], ["y_new", "f_new", "err", "check", "K"])
     ynew_d, Kin = ca.MX.sym("y_new", nx), ca.MX.sym("K", nx, _NS + 1)
     K = [Kin[:, j] for j in range(_NS + 1)]
     for s in range(_NS + 1, _NSX):
-        K.append(F(y + h * combo(_A[s], s), p))
+        K.append(stage_value(y + h * combo(_A[s], s)))
     dy = ynew_d - y
     cols = [dy, h * K[0] - dy, 2.0 * dy - h * (K[_NS] + K[0])]
     cols += [h * combo(_D[r], _NSX) for r in range(_D.shape[0])]
-    dense = ca.Function("dop853_dense", [y, ynew_d, h, p, Kin], [ca.horzcat(*cols)],
-                        ["y", "y_new", "h", "p", "K"], ["F"])
+    Fd = ca.horzcat(*cols)
+    dcheck = ca.sum1(ca.sum2(Fd))
+    if regular:
+        dcheck = ca.if_else(ca.mmin(ca.vertcat(*rs[-(_NSX - _NS - 1):])) > 0, dcheck, np.nan)
+    dense = ca.Function("dop853_dense", [y, ynew_d, h, p, Kin], [Fd, dcheck],
+                        ["y", "y_new", "h", "p", "K"], ["F", "check"])
     return step, dense
 
 
@@ -113,11 +132,17 @@ class CompiledDOP853:
     """DOP853 with SciPy's control, each step one call of compiled CasADi code.
 
     ``rtol``, ``atol``: tolerances as in ``solve_ivp`` (per state, in the state's units;
-    ``rtol`` from :data:`~netcosim.plant.solve_ivp.RTOL_MIN` to below 1); ``max_evaluations``:
-    most stage evaluations one advance may use (12 per step attempt, 3 more per step
-    holding a dense-output instant, 2 to start), beyond which it stops with
-    :class:`~netcosim.errors.IntegrationError`; ``compiled``: compile the step to C
-    (default; False evaluates it in CasADi's virtual machine: the same steps, slower).
+    ``rtol`` from :data:`~netcosim.plant.solve_ivp.RTOL_MIN` to below 1);
+    ``stiff_evaluations``: most stage evaluations one compiled advance may use (12 per
+    step attempt, 3 more per step holding a dense-output instant, 2 to start; default
+    6000, about 500 steps where an advance of the Fly-crane takes about 10): beyond it the
+    plant is taken to be stiff there and the advance is done again, from its start, by
+    ``solve_ivp``'s LSODA with the same tolerances (stiffness switching, as the former
+    integrator); so is an advance meeting a non-finite stage (LSODA then evaluates the
+    plant's checked right-hand side, which names a singular configuration at once).
+    ``max_evaluations``: LSODA's budget (:class:`~netcosim.plant.SolveIVP`);
+    ``compiled``: compile the step to C (default; False evaluates it in CasADi's
+    virtual machine: the same steps, slower).
     See the module docstring for what it needs of the plant and when it falls back to
     ``SolveIVP(method="DOP853")``.
 
@@ -127,13 +152,15 @@ class CompiledDOP853:
     """
 
     def __init__(self, rtol: float = 1e-8, atol: float = 1e-10, max_evaluations: int = 50_000,
-                 compiled: bool = True):
+                 compiled: bool = True, stiff_evaluations: int = 6_000):
         for nm, v in (("rtol", rtol), ("atol", atol)):
             validate.positive(v, f"CompiledDOP853 {nm}", kind="a positive number", type_error=ConfigurationError)
         if not RTOL_MIN <= rtol < 1.0:
             raise ConfigurationError(f"CompiledDOP853 rtol must be at least {RTOL_MIN!r} and below 1, got {rtol!r}")
         _check_count(max_evaluations, "CompiledDOP853 max_evaluations")
+        _check_count(stiff_evaluations, "CompiledDOP853 stiff_evaluations")
         self.rtol, self.atol, self.max_evaluations = float(rtol), float(atol), int(max_evaluations)
+        self.stiff_evaluations = int(stiff_evaluations)
         self.compiled = bool(compiled)
 
     def __repr__(self):
@@ -165,10 +192,10 @@ class CompiledDOP853:
 
 
 class _HookedSolveIVP(SolveIVP):
-    """``SolveIVP(method="DOP853")`` with the tolerances and hooks of a :class:`CompiledDOP853`."""
+    """``SolveIVP(method)`` (DOP853 by default) with the tolerances and hooks of a :class:`CompiledDOP853`."""
 
-    def __init__(self, owner: CompiledDOP853, hooks: Any):
-        super().__init__("DOP853", owner.rtol, owner.atol, max_evaluations=owner.max_evaluations)
+    def __init__(self, owner: CompiledDOP853, hooks: Any, method: str = "DOP853"):
+        super().__init__(method, owner.rtol, owner.atol, max_evaluations=owner.max_evaluations)
         self.hooks = hooks
 
     def t_eval(self, t0, t1):
@@ -178,6 +205,10 @@ class _HookedSolveIVP(SolveIVP):
         self.hooks.observe(t, x)
 
 
+class _Fallback(Exception):
+    """The compiled advance met a non-finite stage or its stiffness budget: LSODA redoes it."""
+
+
 def _rms(v: np.ndarray) -> float:
     return math.sqrt(float(np.dot(v, v)) / v.shape[0])
 
@@ -185,7 +216,8 @@ def _rms(v: np.ndarray) -> float:
 class _BoundDOP853:
     """:class:`CompiledDOP853` bound to one plant (see :meth:`CompiledDOP853.bind`).
 
-    ``nfev``: stage evaluations so far (the compiled ones included), over all advances."""
+    ``nfev``: compiled stage evaluations so far, over all advances (LSODA's not included);
+    ``fallbacks``: advances redone by LSODA."""
 
     #: reports :meth:`integrate`'s ``dense=`` instants from its dense output (PlantInstance's default grid)
     reports_dense = True
@@ -194,7 +226,10 @@ class _BoundDOP853:
         self.owner, self.plant, self.pack, self.hooks = owner, plant, pack, hooks
         self._f, self._step, self._dense = (casadi_tools.FunctionBuffers(fn) for fn in funs)
         self._step.args[4][:] = (owner.rtol, owner.atol)
+        self._lsoda = _HookedSolveIVP(owner, hooks, "LSODA")
         self.nfev = 0
+        #: advances redone by LSODA (a non-finite stage, or stiff)
+        self.fallbacks = 0
 
     def __repr__(self):
         return f"{self.owner!r} bound to plant {self.plant.name!r}"
@@ -205,31 +240,27 @@ class _BoundDOP853:
         b.eval()
         self.nfev += 1
         f = b.res[0]
-        if not math.isfinite(float(f.sum())):
-            rhs(t, x)  # the plant's checked right-hand side names the failure
-            raise IntegrationError(f"non-finite derivative at t={t!r} s, x={x.tolist()!r}")
+        if not math.isfinite(float(f.sum())) or (len(b.res) > 1 and not b.res[1][0] > 0.0):
+            raise _Fallback
         return f.copy()
-
-    def _replay(self, rhs, t: float, y: np.ndarray, f: np.ndarray, h: float) -> None:
-        """A step's stages one by one through the plant's checked *rhs* (raises at the first
-        bad one); called when the compiled step was not finite."""
-        K = [f]
-        for s in range(1, _NSX):
-            if s == _NS:
-                ys = y + h * sum(float(_B[j]) * K[j] for j in range(_NS))
-            else:
-                ys = y + h * sum(float(_A[s, j]) * K[j] for j in range(s) if _A[s, j] != 0.0)
-            K.append(np.asarray(rhs(t + float(_dop.C[s]) * h if s != _NS else t + h, ys), dtype=float))
-        raise IntegrationError(f"a DOP853 step from t={t!r} s over {h!r} s is not finite (x={y.tolist()!r})")
 
     def integrate(self, rhs, t0, x0, t1, gs, jac=None, dense=None):
         """Advance from ``(t0, x0)`` to *t1* (s) under the input held now: ``(t1, x1, None)``.
         *gs* must be empty (a plant with events is bound to SolveIVP); *dense* as in
-        :meth:`netcosim.plant.SolveIVP.integrate`."""
+        :meth:`netcosim.plant.SolveIVP.integrate`.  An advance that meets a non-finite
+        stage or uses more than ``stiff_evaluations`` is done again by LSODA (see
+        :class:`CompiledDOP853`)."""
         if gs:
             raise ConfigurationError(f"{self!r}: hybrid events need SolveIVP (bind() chooses it for such plants)")
+        try:
+            return self._integrate(rhs, t0, x0, t1, dense)
+        except _Fallback:
+            self.fallbacks += 1
+            return self._lsoda.integrate(rhs, t0, np.asarray(x0, dtype=float), t1, gs, dense=dense)
+
+    def _integrate(self, rhs, t0, x0, t1, dense):
         owner = self.owner
-        rtol, atol, budget = owner.rtol, owner.atol, owner.max_evaluations
+        rtol, atol, budget = owner.rtol, owner.atol, owner.stiff_evaluations
         p = np.asarray(self.pack(self.plant.u), dtype=float)
         self._f.args[1][:] = p
         sb, db = self._step, self._dense
@@ -274,12 +305,8 @@ class _BoundDOP853:
                 sa[2][0] = h
                 sb.eval()
                 self.nfev += _NS
-                if not math.isfinite(sr[3][0]):
-                    self._replay(rhs, t, sa[0].copy(), sa[1].copy(), h)
-                if self.nfev - used0 > budget:
-                    raise IntegrationError(
-                        f"{owner!r} used more than max_evaluations={budget} evaluations of f advancing from "
-                        f"t={t0!r} to t={t1!r} s and got only to t={t!r} s; raise max_evaluations")
+                if not math.isfinite(sr[3][0]) or self.nfev - used0 > budget:
+                    raise _Fallback
                 err = sr[2][0]
                 if err < 1.0:
                     factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** -0.125)
@@ -294,6 +321,8 @@ class _BoundDOP853:
                 db.args[4][:] = sr[4]
                 db.eval()
                 self.nfev += _NSX - _NS - 1
+                if not math.isfinite(db.res[1][0]):
+                    raise _Fallback
                 Fd = db.res[0].reshape(7, -1)   # column-major nx x 7 -> rows F0..F6
                 while ti < len(times) and times[ti] <= t_new:
                     tk = times[ti]

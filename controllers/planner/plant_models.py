@@ -25,6 +25,7 @@ Two models:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -162,16 +163,45 @@ def _compiled_velocity_tracking(dynamics):
 
 class _CompiledVelocityTracking(VelocityTrackingPlant):
     """:class:`~netcosim.plants.flycrane.input_modes.VelocityTrackingPlant` with gravity
-    compensation, its closed-loop dynamics evaluated by compiled code."""
+    compensation, its closed-loop dynamics evaluated by compiled code: the arguments are
+    written into the Function's own buffers in place (no conversion per call) and the
+    finiteness of q̈ checked by one sum (the plant's ``_checked`` names q when it fails)."""
 
     def __init__(self, system, alpha, **kw):
         super().__init__(system, alpha, **kw)
         self._vt = _compiled_velocity_tracking(system.dynamics)
+        from netcosim.plants.casadi_tools import FunctionBuffers
+        self._buf = FunctionBuffers(self._vt.fun)
+        self._buf.args[3][0] = self.alpha
 
     def _qdd_F(self, x, u):
         m, n = self.system.m, self.system.n
-        qdd, F = self._vt(x[:m], x[m:], u[:n], self.alpha)
-        return self._checked(x, qdd), F
+        b = self._buf
+        a = b.args
+        a[0][:] = x[:m]
+        a[1][:] = x[m:]
+        a[2][:] = u[:n]
+        b.eval()
+        qdd = b.res[0]
+        if not math.isfinite(qdd.sum()):
+            self._checked(x, qdd)
+        return qdd.copy(), b.res[1].copy()
+
+    def f(self, t, x, u, params):
+        m, n = self.system.m, self.system.n
+        b = self._buf
+        a = b.args
+        a[0][:] = x[:m]
+        a[1][:] = x[m:]
+        a[2][:] = u[:n]
+        b.eval()
+        qdd = b.res[0]
+        if not math.isfinite(qdd.sum()):
+            self._checked(x, qdd)
+        dx = np.empty(2 * m)
+        dx[:m] = x[m:]
+        dx[m:] = qdd
+        return dx
 
 
 #: Plant model names accepted by :func:`plant_model`.
