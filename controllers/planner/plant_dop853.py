@@ -340,9 +340,13 @@ class _BoundDOP853:
 
 
 def _dense_value(Fd: np.ndarray, y_old: np.ndarray, x: float) -> np.ndarray:
-    """SciPy's ``Dop853DenseOutput`` at the fraction *x* of the step."""
-    y = np.zeros_like(y_old)
-    for i, f in enumerate(Fd[::-1]):
-        y += f
-        y *= x if i % 2 == 0 else 1.0 - x
-    return y + y_old
+    """SciPy's ``Dop853DenseOutput`` at the fraction *x* of the step: ``y_old + x (F0 + (1-x)
+    (F1 + x (F2 + (1-x) (F3 + x (F4 + (1-x) (F5 + x F6))))))``, as one weighted sum of the rows."""
+    z = 1.0 - x
+    w0 = x
+    w1 = w0 * z
+    w2 = w1 * x
+    w3 = w2 * z
+    w4 = w3 * x
+    w5 = w4 * z
+    return y_old + np.array((w0, w1, w2, w3, w4, w5, w5 * x)) @ Fd
