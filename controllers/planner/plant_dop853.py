@@ -22,13 +22,15 @@ max(|y|, |y_new|))``) and step-size control, and the same 7th-order dense output
 rounding (tests/test_plant_dop853.py).
 
 Finiteness, regularity and stiffness: every step's stages are summed in the compiled
-code and their smallest ``r`` kept; an advance meeting a non-finite sum or ``r <= 0``, or using more than ``stiff_evaluations``, is done again
-from its start by ``solve_ivp``'s LSODA with the same tolerances, through the plant's own
-checked right-hand side (``PlantInstance._rhs``), which raises the plant's error naming
-the state at once where the dynamics are undefined (for the Fly-crane,
-:class:`~netcosim.plants.flycrane.kinematics.SingularConfigurationError` naming q).  A plant with hybrid events, a disturbance or no ``casadi_dynamics`` is
-advanced by ``SolveIVP(method="DOP853")`` with the same tolerances instead (the same
-method, its stages evaluated one by one in Python).
+code and their smallest ``r`` kept; an advance meeting a non-finite sum or ``r <= 0``,
+or using more than ``stiff_evaluations``, is done again from its start by
+``solve_ivp``'s LSODA with the same tolerances, through the plant's own checked
+right-hand side (``PlantInstance._rhs``), which raises the plant's error naming the
+state at once where the dynamics are undefined (for the Fly-crane,
+:class:`~netcosim.plants.flycrane.kinematics.SingularConfigurationError` naming q).  A
+plant with hybrid events, a disturbance or no ``casadi_dynamics`` is advanced by
+``SolveIVP(method="DOP853")`` with the same tolerances instead (the same method, its
+stages evaluated one by one in Python).
 """
 
 from __future__ import annotations

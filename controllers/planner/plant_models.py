@@ -39,8 +39,8 @@ from netcosim.plants.kinematic import KinematicPlant
 
 from .plant_dop853 import CompiledDOP853
 
-__all__ = ["KinematicVelocityPlant", "KinematicModel", "VelocityTrackingModel", "PLANT_MODELS", "VELOCITY_TRACKING_METHODS",
-           "plant_model", "check_model", "plant_integrator"]
+__all__ = ["KinematicVelocityPlant", "KinematicModel", "VelocityTrackingModel", "PLANT_MODELS",
+           "VELOCITY_TRACKING_METHODS", "plant_model", "check_model", "plant_integrator"]
 
 
 class KinematicVelocityPlant(KinematicPlant):
