@@ -341,3 +341,22 @@ def test_a_sweep_run_keeps_only_the_traces_its_metrics_read():
     assert len(lean.frames) == len(full.frames) > 0
     assert fn.metrics(lean) == fn.metrics(full)
     assert fn.config_of({"loss": 0.3, "strategy": "online"}, 2).schedules is False
+
+
+def test_a_sweep_run_logs_no_plant_signals():
+    """``schedules=False`` also switches the ``signals`` table off: 2 s of the dynamic plant
+    log no row (the outputs are not evaluated for it), against 55 per read or write
+    instant of the plant otherwise (20 states, 12 inputs, 23 outputs); the recorder's grid
+    (21 instants) is the same."""
+    from netcosim import Simulation
+    counts = {}
+    for schedules in (True, False):
+        sim = Simulation(0)
+        cfg = FlyCraneNetworkConfig(strategy="online", loss=0.0, horizon=2.0, schedules=schedules)
+        dep, rec = build(sim, cfg)
+        rec.start(dep.plant)
+        sim.run(cfg.horizon)
+        sig = sim.trace.frame("signals")
+        counts[schedules] = int((sig["source"] == "plant").sum()) if len(sig) else 0
+        assert rec.arrays()[1].shape == (21, 10)
+    assert counts[False] == 0 and counts[True] > 0 and counts[True] % 55 == 0

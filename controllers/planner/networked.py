@@ -118,10 +118,12 @@ class FlyCraneNetworkConfig:
     ``sample_dt`` (s): grid of the recorded time series.  ``k_offline`` (1/s): the
     offline gain; None designs it (:func:`offline_gain`, ``n_mu`` Monte-Carlo samples).
     ``seed``: root seed of the simulation (frame losses, backoffs).
-    ``schedules``: record the kernels' ``schedule`` and ``jobs`` tables and the
-    network's ``network_schedule`` (Figs. A.4/A.5); False switches those traces off
-    (``FlyCraneRun.schedule``, ``jobs`` and ``network_schedule`` are then empty), which
-    a sweep run does: its metrics read only the time series and the ``frames`` table.
+    ``schedules``: record the kernels' ``schedule`` and ``jobs`` tables, the
+    network's ``network_schedule`` (Figs. A.4/A.5) and the plant's ``signals`` (its
+    states, inputs and outputs at every read and write); False switches those traces off
+    (``FlyCraneRun.schedule``, ``jobs`` and ``network_schedule`` are then empty, and the
+    plant's outputs are not evaluated for a log), which a sweep run does: its metrics read
+    only the time series (the recorder's grid) and the ``frames`` table.
     """
 
     strategy: str = "offline"
@@ -289,7 +291,7 @@ def build(sim: Simulation, config: FlyCraneNetworkConfig, *, network: Any = None
         network = WLAN80211b(sim, "wlan", data_rate=config.data_rate, retry_limit=config.retry_limit + 1,
                              loss=Bernoulli(config.loss) if config.loss > 0 else None)
     if not config.schedules:
-        for table in ("schedule", "jobs", "network_schedule"):
+        for table in ("schedule", "jobs", "network_schedule", "signals"):
             sim.trace.configure(table, mode="off")
     online = config.strategy == "online"
     gain = OnlineGain() if online else OfflineGain(offline_gain(config))

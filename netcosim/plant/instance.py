@@ -456,6 +456,8 @@ class PlantInstance:
 
     # Logging -------------------------------------------------------------------
     def _log(self, t, y=None):
+        if self._rec.mode == "off":  # nothing would be kept: the outputs are not evaluated for it
+            return
         if y is None:
             y = self._outputs(t)
         # rows (t, plant, signal, value), built by zip in C
