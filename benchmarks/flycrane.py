@@ -13,6 +13,10 @@ the dynamic plant at >= 500x real time.
 ``--sweep`` also times the default ``python -m netcosim.experiments.flycrane_network`` sweep
 (10 losses x 2 strategies x 20 seeds on 2 processes; several minutes).
 ``--profile`` prints the functions that dominate one dynamic run.
+``--trajectories`` compares the default integrator with the former one: the largest
+``|q_DOP853 - q_LSODA|`` on the 0.1 s grid over the 30 s runs of 5 seeds x losses 0, 30 %,
+70 % x both strategies, and whether every frame, network-schedule, kernel-schedule and
+job table is identical (no timing).
 
 Run: ``python -m benchmarks.flycrane``.
 """
@@ -85,10 +89,47 @@ def main(repeats: int = 3, sweep: bool = False, profile: bool = False) -> list[t
     return rows
 
 
+def trajectories(seeds: int = 5, losses=(0.0, 0.3, 0.7)) -> dict:
+    """``{(strategy, loss): max |q_dop853 - q_lsoda|}`` over *seeds* 30 s runs each; prints
+    the table and whether the frame and schedule tables are all identical."""
+    import numpy as np
+
+    import netcosim.controllers.planner.networked as nw
+    from netcosim.controllers.planner.plant_models import VelocityTrackingModel
+    orig = nw.VelocityTrackingModel
+    worst: dict = {}
+    same = True
+    for strategy in ("online", "offline"):
+        for loss in losses:
+            for seed in range(seeds):
+                cfg = nw.FlyCraneNetworkConfig(loss=loss, strategy=strategy, seed=seed)
+                a = nw.run(cfg)
+                nw.VelocityTrackingModel = lambda alpha: VelocityTrackingModel(alpha, method="lsoda")  # type: ignore
+                try:
+                    b = nw.run(cfg)
+                finally:
+                    nw.VelocityTrackingModel = orig
+                key = (strategy, loss)
+                worst[key] = max(worst.get(key, 0.0), float(np.abs(a.q - b.q).max()))
+                same &= all(getattr(a, t).equals(getattr(b, t)) for t in ("frames", "network_schedule", "schedule",
+                                                                           "jobs"))
+    print(f"max |q_DOP853 - q_LSODA| (rad, m) over {seeds} seeds, 30 s runs")
+    print("strategy  " + "  ".join(f"loss {x:<6g}" for x in losses))
+    for strategy in ("online", "offline"):
+        print(f"{strategy:<8}  " + "  ".join(f"{worst[(strategy, x)]:<11.2g}" for x in losses))
+    print("frame, network-schedule, schedule and job tables identical:", same)
+    return worst
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--sweep", action="store_true", help="also time the default sweep (minutes)")
     ap.add_argument("--profile", action="store_true", help="profile one dynamic run")
+    ap.add_argument("--trajectories", action="store_true", help="only compare q of the default integrator "
+                    "with LSODA's (no timing)")
     a = ap.parse_args()
-    main(a.repeats, a.sweep, a.profile)
+    if a.trajectories:
+        trajectories()
+    else:
+        main(a.repeats, a.sweep, a.profile)
