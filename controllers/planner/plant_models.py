@@ -94,8 +94,8 @@ class VelocityTrackingModel:
     the compiled step (and of ``simulate_dynamic``), to reproduce the former numbers.
     DOP853 is the default because its trajectories stay within the tolerance of LSODA's:
     over the networked Fly-crane runs (30 s, both strategies, several seeds) the largest
-    ``|q_dop853 - q_lsoda|`` is stated in docs/flycrane_network.md; it is about 3 times
-    faster per run.  With ``cable_slack_event`` or without gravity compensation the
+    ``|q_dop853 - q_lsoda|`` is stated in docs/flycrane_network.md (1.5e-8); the integration
+    is about 3 times faster, a sweep run about twice.  With ``cable_slack_event`` or without gravity compensation the
     integrator is LSODA whatever ``method`` says (the compiled step has no events and is
     built for the compensated dynamics).  ``compiled``: evaluate the closed-loop dynamics with the CasADi function
     compiled to C (:func:`netcosim.plants.casadi_tools.compile_functions`, cached on disk; the
