@@ -6,7 +6,7 @@ do not, so a test (``tests/test_cost_counters.py``) checks them against stored v
 the host.  Three kinds:
 
 ``events_per_job``  SimPy events scheduled per kernel job: every event, timeout or timer
-                    pushed onto the engine's queue draws one id from ``env._eid``; the
+                    pushed onto the engine's queue draws one id from ``env.ids`` (SimPy's counter); the
                     ids drawn in a run, less those the kernel draws only to order release
                     groups (``Engine.mark``), divided by the jobs in the ``jobs`` table.
                     Example: the 10 periodic tasks of :mod:`benchmarks.kernel` (utilisation
@@ -56,10 +56,10 @@ class _EventCount:
             self.marks += 1
             return mark()
         env.mark = counted_mark     # an instance attribute: the kernel calls env.mark()
-        self.start = next(env._eid)
+        self.start = next(env.ids)
 
     def events(self) -> int:
-        return next(self.env._eid) - self.start - 1 - self.marks
+        return next(self.env.ids) - self.start - 1 - self.marks
 
 
 class _RhsCount:
