@@ -73,12 +73,16 @@ class BufferedFunction:
         if len(args) != len(self._in):
             raise TypeError(f"{self.fun.name()} takes {len(self._in)} arguments, got {len(args)}")
         for dst, a in zip(self._in, args):
-            dst[:] = np.ravel(a, order="F") if np.ndim(a) > 1 else a
+            if type(a) is np.ndarray and a.ndim > 1:  # matrices column-major; vectors, lists, floats as they are
+                a = a.ravel(order="F")
+            elif type(a) is not np.ndarray and type(a) is not float and np.ndim(a) > 1:
+                a = np.ravel(a, order="F")
+            dst[:] = a
         self._eval()
         res = []
         for nz, shape, sc in zip(self._out, self._shape, self._scatter):
             if sc is None:
-                res.append(nz.reshape(shape, order="F").copy() if len(shape) == 2 else nz.copy())
+                res.append(nz.copy() if len(shape) == 1 else nz.reshape(shape, order="F").copy())
             else:
                 d = np.zeros(shape if len(shape) == 2 else (shape[0], 1))
                 d[sc[0], sc[1]] = nz

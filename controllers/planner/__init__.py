@@ -22,6 +22,7 @@ module                        holds
 :mod:`.sikm`                  sampled tracking, ch. 5 (SIKM)
 :mod:`.sikm_environment`      the realistic environment of Fig. 5.6 (dynamic model, MoCap, UKF)
 :mod:`.plant_models`          plants under the tasks: kinematic, dynamic (4.10)-(4.11)
+:mod:`.plant_dop853`          DOP853 for CasADi plants, each step one compiled call
 :mod:`.tasks`                 the laws as netcosim tasks in both architectures (Fig. 3.3/5.1)
 :mod:`.networked`             the networked Fly-crane of §4.6.1 over lossy 802.11b
 ============================  ==========================================================

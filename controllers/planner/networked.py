@@ -42,6 +42,7 @@ from netcosim.plant import SolveIVP
 
 from .laws import OfflineGain, OnlineGain
 from .norms import WeightedNorm
+from .plant_dop853 import CompiledDOP853
 from .plant_models import KinematicModel, VelocityTrackingModel
 from .tasks import Deployment, DeploymentConfig, PlannerLaw, deploy
 
@@ -117,10 +118,12 @@ class FlyCraneNetworkConfig:
     ``sample_dt`` (s): grid of the recorded time series.  ``k_offline`` (1/s): the
     offline gain; None designs it (:func:`offline_gain`, ``n_mu`` Monte-Carlo samples).
     ``seed``: root seed of the simulation (frame losses, backoffs).
-    ``schedules``: record the kernels' ``schedule`` and ``jobs`` tables and the
-    network's ``network_schedule`` (Figs. A.4/A.5); False switches those traces off
-    (``FlyCraneRun.schedule``, ``jobs`` and ``network_schedule`` are then empty), which
-    a sweep run does: its metrics read only the time series and the ``frames`` table.
+    ``schedules``: record the kernels' ``schedule`` and ``jobs`` tables, the
+    network's ``network_schedule`` (Figs. A.4/A.5) and the plant's ``signals`` (its
+    states, inputs and outputs at every read and write); False switches those traces off
+    (``FlyCraneRun.schedule``, ``jobs`` and ``network_schedule`` are then empty, and the
+    plant's outputs are not evaluated for a log), which a sweep run does: its metrics read
+    only the time series (the recorder's grid) and the ``frames`` table.
     """
 
     strategy: str = "offline"
@@ -221,17 +224,30 @@ def offline_gain(config: FlyCraneNetworkConfig) -> float:
 
 
 class GridRecorder(SolveIVP):
-    """The plant integrator *base* (a :class:`~netcosim.plant.SolveIVP`), also
-    reporting q (the first *m* states, rad and m) and the held u (m/s) every ``dt`` s
-    from the solver's dense output (the steps are those of the plain integrator).
-    Pass it as ``integrator=`` to :func:`~netcosim.controllers.planner.tasks.deploy`, call
-    :meth:`start` with the built plant, read :meth:`arrays` after the run."""
+    """The plant integrator *base*, also reporting q (the first *m* states, rad and m)
+    and the held u (m/s) every ``dt`` s from the solver's dense output (the steps are
+    those of the plain integrator).  *base* is a :class:`~netcosim.plant.SolveIVP`
+    (this recorder then integrates as it would) or a
+    :class:`~netcosim.controllers.planner.plant_dop853.CompiledDOP853` (bound to the plant
+    with this recorder's hooks).  Pass it as ``integrator=`` to
+    :func:`~netcosim.controllers.planner.tasks.deploy`, call :meth:`start` with the built
+    plant, read :meth:`arrays` after the run."""
 
-    def __init__(self, base: SolveIVP, dt: float, m: int):
-        super().__init__(base.method, base.rtol, base.atol, base.max_step, base.max_evaluations)
+    def __init__(self, base: Any, dt: float, m: int):
+        if isinstance(base, CompiledDOP853):
+            super().__init__("DOP853", base.rtol, base.atol, max_evaluations=base.max_evaluations)
+        else:
+            super().__init__(base.method, base.rtol, base.atol, base.max_step, base.max_evaluations)
+        self.base = base
         self.dt, self.m = dt, m
         self.rows: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.plant: Any = None
+
+    def bind(self, plant) -> Any:
+        """This recorder for a SolveIVP base; the base's stepper, reporting here, for a CompiledDOP853."""
+        if isinstance(self.base, CompiledDOP853):
+            return self.base.bind(plant, hooks=self)
+        return self
 
     def t_eval(self, t0, t1):
         dt = self.dt
@@ -275,7 +291,7 @@ def build(sim: Simulation, config: FlyCraneNetworkConfig, *, network: Any = None
         network = WLAN80211b(sim, "wlan", data_rate=config.data_rate, retry_limit=config.retry_limit + 1,
                              loss=Bernoulli(config.loss) if config.loss > 0 else None)
     if not config.schedules:
-        for table in ("schedule", "jobs", "network_schedule"):
+        for table in ("schedule", "jobs", "network_schedule", "signals"):
             sim.trace.configure(table, mode="off")
     online = config.strategy == "online"
     gain = OnlineGain() if online else OfflineGain(offline_gain(config))

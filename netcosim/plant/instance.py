@@ -149,7 +149,8 @@ class PlantInstance:
             every = default_log_interval(stepper.owner if isinstance(stepper, _RK4Stepper) else stepper)
             self._grid = max(1, round(every * TICKS_PER_SECOND))
             # SolveIVP reports grid states from its dense output, RK4 those of its own steps
-            # when the grid falls on them; others integrate a copy
+            # when the grid falls on them, a stepper with ``reports_dense = True`` (dense=
+            # as SolveIVP's) its own; others integrate a copy
             self._grid_dense = ((isinstance(stepper, SolveIVP) and type(stepper).integrate is SolveIVP.integrate)
                                 or type(stepper) is _RK4Stepper or getattr(stepper, "reports_dense", False) is True)
         #: how this plant's signals are sampled (also in ``sim.trace.grids``)
@@ -457,6 +458,8 @@ class PlantInstance:
 
     # Logging -------------------------------------------------------------------
     def _log(self, t, y=None):
+        if self._rec.mode == "off":  # nothing would be kept: the outputs are not evaluated for it
+            return
         if y is None:
             y = self._outputs(t)
         # rows (t, plant, signal, value), built by zip in C

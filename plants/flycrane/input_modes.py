@@ -24,6 +24,7 @@ singularity) and raises naming the value.
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 
 from netcosim import validate
@@ -149,3 +150,51 @@ class VelocityTrackingPlant(_DynamicPlant):
             F = -self.alpha * (A @ qd - u[:n])
             qdd = self.model.forward_eval(q, qd, F)[0]
         return self._checked(x, qdd), F
+
+    def casadi_dynamics(self):
+        """``(F, pack)`` for integrators that evaluate whole steps in CasADi
+        (:class:`netcosim.controllers.planner.plant_dop853.CompiledDOP853`), or None without
+        gravity compensation: ``F(x, p) -> (dx/dt, r)`` with x = (q, q̇),
+        ``p = pack(u) = (u[:n], alpha)`` (m/s, N·s/m) and ``r`` a regularity margin,
+        negative at or near a singular configuration (a QR pivot ratio of ``M`` or
+        ``A_qᵀA_q`` below :data:`PIVOT_RTOL`), where the integrator must fall back to
+        :meth:`f`, which raises naming q.  The dynamics of :meth:`f` as one SX expression
+        (the model's ``M``, ``C q̇``, ``g`` and ``A_q``, the two linear solves by symbolic
+        QR): about twice as fast compiled as ``velocity_tracking_fun`` (an MX graph with
+        numeric solves), equal to it to rounding where regular.  One Function per
+        dynamics object."""
+        if not self.gravity_compensation:
+            return None
+        F = _FLOWS.get(id(self.model))
+        if F is None or F[0] is not self.model:
+            F = _FLOWS[id(self.model)] = (self.model, _velocity_tracking_flow(self.model))
+        n, alpha = self.system.n, self.alpha
+        return F[1], lambda u: np.append(np.asarray(u, dtype=float)[:n], alpha)
+
+
+_FLOWS: dict = {}  # id(LagrangianModel) -> (model, F): the model is held, so the id stays its own
+
+
+#: Pivot ratio ``min |R_ii| / max |R_ii|`` of the QR factors of ``M`` and ``A_qᵀA_q`` below
+#: which :meth:`VelocityTrackingPlant.casadi_dynamics` calls the configuration singular (its
+#: regularity output turns negative; the integrator then falls back to the checked path).
+PIVOT_RTOL = 1e-10
+
+
+def _velocity_tracking_flow(model) -> ca.Function:
+    """``F(x, p) -> ((q̇, q̈), r)`` of (4.10) under (4.11), ``p = (u, alpha)``, in SX;
+    the solves by QR, ``r`` = the smaller pivot ratio of the two minus :data:`PIVOT_RTOL`."""
+    sys_ = model.system
+    n = sys_.n
+    q, qd = sys_.q_sym, model.qd_sym
+    p = ca.SX.sym("p", n + 1)
+    A, M, c, g = sys_.A_expr, model.M_expr, model.Cqd_expr, model.g_expr
+    Qa, Ra = ca.qr(A.T @ A)
+    Fg = A @ ca.solve(Ra, Qa.T @ g)
+    Fv = -p[n] * (A @ qd - p[:n]) + Fg
+    Qm, Rm = ca.qr(M)
+    qdd = ca.solve(Rm, Qm.T @ (A.T @ Fv - c - g))
+    da, dm = ca.fabs(ca.diag(Ra)), ca.fabs(ca.diag(Rm))
+    r = ca.fmin(ca.mmin(da) / ca.mmax(da), ca.mmin(dm) / ca.mmax(dm)) - PIVOT_RTOL
+    return ca.Function(f"{sys_.name}_vt_flow", [ca.vertcat(q, qd), p], [ca.vertcat(qd, qdd), r],
+                       ["x", "p"], ["dx", "r"])
