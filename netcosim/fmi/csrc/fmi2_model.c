@@ -6,6 +6,13 @@
 #include "fmi2Functions.h"
 #include MODEL_H
 
+/* a model reading the time (TIME_VR: a slot of r not in the XML) gets it from SetTime */
+#ifdef TIME_VR
+#define SET_TIME(m) ((m)->r[TIME_VR] = (m)->time)
+#else
+#define SET_TIME(m) ((void)0)
+#endif
+
 #define H_INT 1e-3
 
 typedef struct {
@@ -38,7 +45,7 @@ void fmi2FreeInstance(fmi2Component c) { free(c); }
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean td, fmi2Real tol, fmi2Real t0, fmi2Boolean sd,
                                fmi2Real t1) {
     (void)td; (void)tol; (void)sd; (void)t1;
-    ((Instance *)c)->time = t0; return fmi2OK;
+    ((Instance *)c)->time = t0; SET_TIME((Instance *)c); return fmi2OK;
 }
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) { model_update(((Instance *)c)->r); return fmi2OK; }
@@ -73,7 +80,7 @@ fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) { (void)c; return fmi2OK
 fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean nos, fmi2Boolean *ev, fmi2Boolean *term) {
     (void)c; (void)nos; *ev = fmi2False; *term = fmi2False; return fmi2OK;
 }
-fmi2Status fmi2SetTime(fmi2Component c, fmi2Real t) { ((Instance *)c)->time = t; return fmi2OK; }
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real t) { ((Instance *)c)->time = t; SET_TIME((Instance *)c); return fmi2OK; }
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
     Instance *m = c; for (size_t i = 0; i < nx && i < NX; i++) m->r[STATE_VR[i]] = x[i]; return fmi2OK;
 }

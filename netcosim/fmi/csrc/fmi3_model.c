@@ -6,6 +6,13 @@
 #include "fmi3Functions.h"
 #include MODEL_H
 
+/* a model reading the time (TIME_VR: a slot of r not in the XML) gets it from SetTime */
+#ifdef TIME_VR
+#define SET_TIME(m) ((m)->r[TIME_VR] = (m)->time)
+#else
+#define SET_TIME(m) ((void)0)
+#endif
+
 #define H_INT 1e-3
 
 typedef struct {
@@ -42,7 +49,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
 void fmi3FreeInstance(fmi3Instance c) { free(c); }
 fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean td, fmi3Float64 tol, fmi3Float64 t0,
                                        fmi3Boolean sd, fmi3Float64 t1) {
-    (void)td; (void)tol; (void)sd; (void)t1; ((Instance *)c)->time = t0; return fmi3OK;
+    (void)td; (void)tol; (void)sd; (void)t1; ((Instance *)c)->time = t0; SET_TIME((Instance *)c); return fmi3OK;
 }
 fmi3Status fmi3ExitInitializationMode(fmi3Instance c) { model_update(((Instance *)c)->r); return fmi3OK; }
 fmi3Status fmi3EnterEventMode(fmi3Instance c) { (void)c; return fmi3OK; }
@@ -76,7 +83,7 @@ fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) { (void)c; return fmi3OK;
 fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean nos, fmi3Boolean *ev, fmi3Boolean *term) {
     (void)c; (void)nos; *ev = fmi3False; *term = fmi3False; return fmi3OK;
 }
-fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 t) { ((Instance *)c)->time = t; return fmi3OK; }
+fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 t) { ((Instance *)c)->time = t; SET_TIME((Instance *)c); return fmi3OK; }
 fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 x[], size_t nx) {
     Instance *m = c; for (size_t i = 0; i < nx && i < NX; i++) m->r[STATE_VR[i]] = x[i]; return fmi3OK;
 }
