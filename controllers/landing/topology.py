@@ -60,28 +60,33 @@ def wire_two_nodes(sim: Simulation, onboard, loop: LandingLoop) -> None:
 WIRINGS = {"single": wire_single_node, "two_nodes": wire_two_nodes}
 
 
-def _add_plant(sim: Simulation, sc: LandingScenario, xs0):
-    """The tethered UAV with landers (and wind), in the input mode of the controller."""
-    system = TetheredUAV(sc.params, inputs=sc.plant_inputs, landers=True)
+def _add_plant(sim: Simulation, sc: LandingScenario, xs0, system=None):
+    """The tethered UAV with landers (and wind), in the input mode of the controller; *system*
+    replaces the Python plant (it then carries the wind itself: no disturbance is passed)."""
+    wind = wind_disturbance(sc.params) if sc.wind and system is None else None
+    system = TetheredUAV(sc.params, inputs=sc.plant_inputs, landers=True) if system is None else system
     x0 = xs0 if sc.plant_inputs == "rates" else xs0[:4]
     uav = sim.plant(system, x0, name="uav", integrator=RK4(dt=sc.integrator_dt),
-                    disturbance=wind_disturbance(sc.params) if sc.wind else None, log_interval=sc.log_interval)
+                    disturbance=wind, log_interval=sc.log_interval)
     if sc.plant_inputs == "forces":
         uav.inputs.write(xs0[4:6])  # hover thrust, zero torque until the first FL job
     return uav
 
 
-def build_landing(scenario: LandingScenario, *, low_level: bool = True):
+def build_landing(scenario: LandingScenario, *, low_level: bool = True, system=None):
     """The simulation of *scenario*, ready to run: ``(sim, uav, loop)`` -- the
     :class:`~netcosim.Simulation`, the plant, the shared
     :class:`~netcosim.controllers.landing.tasks.LandingLoop` with the tasks of the scenario's
     topology.  ``low_level=False`` leaves out the 2LC's 500 Hz task (priority 1 on node
     ``onboard``): something else then drives the force inputs, e.g. the low-level
-    controller in a separate process (``experiments/hil_landing_llc.py``)."""
+    controller in a separate process (``experiments/hil_landing_llc.py``).  ``system``: a
+    plant with the Python plant's states, inputs and outputs in place of
+    :class:`~netcosim.plants.tethered_uav.TetheredUAV` (the UAV as an FMU, carrying its own
+    wind: ``plants/tethered_uav_fmu.py``)."""
     sc = scenario
     xs0 = sc.initial_state()
     sim = Simulation(seed=sc.seed)
-    uav = _add_plant(sim, sc, xs0)
+    uav = _add_plant(sim, sc, xs0, system)
     onboard = sim.node("onboard", scheduler="fixed_priority", context_switch=sc.timing.context_switch)
     loop = LandingLoop(sc, uav.inputs, uav.outputs, xs0)
     WIRINGS[sc.topology](sim, onboard, loop)
