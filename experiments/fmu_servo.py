@@ -1,4 +1,4 @@
-"""The DC servo as an FMU, through the same networked loop as the Python servo.
+"""The DC servo and the tethered UAV as FMUs, through the same loops as their Python versions.
 
 TrueTime's networked servo (``networked_servo``: sensor and actuator on one node, a PID on
 another, CSMA/CD at 80 kbit/s shared with an interferer offering 30 % of the bandwidth)
@@ -13,6 +13,13 @@ runs four times with one seed, with the plant
 The FMUs are compiled from C with gcc (:mod:`netcosim.fmi.demo`; FMPy is needed:
 ``pip install 'netcosim[fmi]'``).  Same seed, so the same network: the outputs must agree to
 the integrators' error, which the run prints (``max |y - y_python|``) with the control cost.
+
+Second part: the tethered UAV's landing (2LC: NMPC every 10 ms and the low-level controller
+every 2 ms on one node, wind on, RK4 0.1 ms) runs with the Python plant
+(:class:`netcosim.plants.tethered_uav.TetheredUAV`) and with the UAV as a model-exchange FMU
+(FMI 2.0, 3.0) generated from its CasADi model (:mod:`netcosim.plants.tethered_uav_fmu`,
+:func:`netcosim.fmi.casadi_fmu.build_casadi_fmu`); the run prints the largest output
+difference and the hybrid events' instants (wind edges, touchdown) of each.
 
 Run: ``python -m netcosim.experiments.fmu_servo`` (PNG + Parquet under results/fmu_servo/).
 """
@@ -79,11 +86,65 @@ def build(kind: str, fmus: dict, seed: int = 0):
     return sim
 
 
-def main(outdir: str = "results/fmu_servo", quick: bool = False) -> pd.DataFrame:
-    """Run the five plants for 2 s (0.5 s if *quick*); write the outputs' plot and a table.
+UAV_PLANTS = ("python", "me2", "me3")
 
-    Returns the table: per plant, the control cost ``integral (r - y)^2 dt`` and the largest
-    difference of its output from the Python plant's on the 1 ms log grid."""
+
+def uav_landing(kind: str, fmus: dict, until: float):
+    """The 2LC landing with wind for *until* s with the UAV plant *kind*: ``(times, outputs
+    (one column per output), event instants)``."""
+    from netcosim.controllers.landing.scenario import LandingScenario
+    from netcosim.controllers.landing.topology import build_landing
+    from netcosim.fmi import ModelExchangeFMU
+    sc = LandingScenario(controller="2lc", wind=True, duration=until)
+    system = None if kind == "python" else ModelExchangeFMU(fmus[int(kind[-1])], name="tethered_uav")
+    sim, uav, _loop = build_landing(sc, system=system)
+    sim.run(until)
+    s = sim.trace.signals()
+    s = s[(s["source"] == "uav") & s["signal"].str.startswith("y.")]
+    cols = [s[s["signal"] == n] for n in dict.fromkeys(s["signal"])]
+    return (cols[0]["time"].to_numpy(), np.column_stack([c["value"].to_numpy() for c in cols]),
+            [t for t, _ in uav.event_log])
+
+
+def uav_part(out: Path, quick: bool) -> pd.DataFrame:
+    """The UAV's landing for 1.5 s (0.6 s if *quick*: touchdown at 0.47 s) with the three
+    plants; writes ``fmu_uav.png`` and ``uav_summary.parquet``; returns the table (per plant:
+    samples, largest output difference from the Python plant, event instants)."""
+    from netcosim.plants.tethered_uav_fmu import build_uav_fmu
+    until = 0.6 if quick else 1.5
+    with tempfile.TemporaryDirectory() as tmp:
+        fmus = {v: build_uav_fmu(tmp, inputs="forces", wind=True, fmi=v) for v in (2, 3)}
+        runs = {kind: uav_landing(kind, fmus, until) for kind in UAV_PLANTS}
+    t_ref, y_ref, _ = runs["python"]
+    table = pd.DataFrame([{"plant": kind, "samples": len(t), "max_diff_from_python": float(np.max(np.abs(y - y_ref))),
+                           "events": ", ".join(f"{e:.6f}" for e in ev)} for kind, (t, y, ev) in runs.items()])
+    table.to_parquet(out / "uav_summary.parquet")
+    fig, (ax, ax_d) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    for kind, (t, y, _) in runs.items():
+        ax.plot(t, np.degrees(y[:, 0]), label=f"{kind}: phi", lw=1.0)
+        ax.plot(t, np.degrees(y[:, 2]), "--", label=f"{kind}: theta", lw=1.0)
+        if kind != "python":
+            ax_d.semilogy(t, np.maximum(np.max(np.abs(y - y_ref), axis=1), 1e-17), label=kind, lw=0.8)
+    for e in runs["python"][2]:
+        ax.axvline(e, color="0.6", lw=0.6)
+    ax.set_ylabel("angle (deg)")
+    ax.legend(ncol=3, fontsize=8)
+    ax.set_title("tethered UAV landing (2LC, wind): Python plant and CasADi-generated FMUs")
+    ax_d.set_ylabel("max |y - y_python| over outputs")
+    ax_d.set_xlabel("time (s)")
+    ax_d.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "fmu_uav.png", dpi=120)
+    plt.close(fig)
+    return table
+
+
+def main(outdir: str = "results/fmu_servo", quick: bool = False) -> pd.DataFrame:
+    """Run the five servo plants for 2 s (0.5 s if *quick*) and the UAV part (:func:`uav_part`);
+    write the outputs' plots and tables (the UAV's: ``uav_summary.parquet``).
+
+    Returns the servo's table: per plant, the control cost ``integral (r - y)^2 dt`` and the
+    largest difference of its output from the Python plant's on the 1 ms log grid."""
     from netcosim.fmi.demo import build_fmu
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -120,6 +181,7 @@ def main(outdir: str = "results/fmu_servo", quick: bool = False) -> pd.DataFrame
     fig.tight_layout()
     fig.savefig(out / "fmu_servo.png", dpi=120)
     plt.close(fig)
+    uav_part(out, quick)
     return table
 
 
@@ -127,3 +189,4 @@ if __name__ == "__main__":
     from netcosim.experiments._cli import experiment_parser
     a = experiment_parser(__doc__, "results/fmu_servo", quick="simulate 0.5 s instead of 2 s").parse_args()
     print(main(a.outdir, quick=a.quick).to_string(index=False))
+    print(pd.read_parquet(Path(a.outdir) / "uav_summary.parquet").to_string(index=False))
