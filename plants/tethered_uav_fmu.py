@@ -20,8 +20,15 @@ from pathlib import Path
 
 import casadi as ca
 
-from .tethered_uav import (TetheredUAV, TetheredUAVParams, cable_stress, force_dynamics, lander_reaction,
-                           propeller_ground_distances, smooth_dynamics)
+from .tethered_uav import (
+    TetheredUAV,
+    TetheredUAVParams,
+    cable_stress,
+    force_dynamics,
+    lander_reaction,
+    propeller_ground_distances,
+    smooth_dynamics,
+)
 
 __all__ = ["uav_fmu_functions", "build_uav_fmu", "UNITS"]
 

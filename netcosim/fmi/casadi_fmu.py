@@ -130,7 +130,8 @@ def build_casadi_fmu(name: str, directory, *, f, h, states: Sequence[str], input
         _check_function(g, "g", None, nx, nu)
         nz = g.numel_out(0)
     # value references: states, derivatives, inputs, outputs that are not states
-    variables, out_vr = [], []
+    variables: list[tuple[str, int, str, str, float | None, str, int | None]] = []
+    out_vr: list[int] = []
     for i, s in enumerate(xs):
         variables.append((s, i, "output" if s in ys else "local", "continuous", float(start.get(s, 0.0)),
                           units.get(s, "1"), None))
@@ -147,7 +148,7 @@ def build_casadi_fmu(name: str, directory, *, f, h, states: Sequence[str], input
             variables.append((s, vr, "output", "continuous", None, units.get(s, "1"), None))
             out_vr.append(vr)
             vr += 1
-    start_r = [v[4] or 0.0 for v in variables[:nx]] + [0.0] * nx + [v[4] for v in variables[2 * nx:2 * nx + nu]]
+    start_r = [float(start.get(s, 0.0)) for s in xs] + [0.0] * nx + [float(start.get(s, 0.0)) for s in us]
     start_r += [0.0] * (vr - 2 * nx - nu) + [1e300, 1e300, 0.0]
     guid = guid or f"{{netcosim-casadi-{name}}}"
     work = Path(directory) / name
