@@ -1,6 +1,6 @@
 """
-The DC servo as an FMU, through the same networked loop as the Python servo
-===========================================================================
+The DC servo and the tethered UAV as FMUs, through the loops of their Python versions
+=====================================================================================
 
 The experiment ``netcosim.experiments.fmu_servo`` in its quick mode (what
 ``python -m netcosim.experiments.fmu_servo --quick`` runs), written into a temporary
