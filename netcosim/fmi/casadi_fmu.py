@@ -99,7 +99,9 @@ def build_casadi_fmu(name: str, directory, *, f, h, states: Sequence[str], input
     """Generate, compile and zip the model-exchange FMU *name* (FMI *fmi*: 2 or 3) in *directory*.
 
     *f*, *h*, *g*: ``casadi.Function`` of ``(t, x, u)`` returning ``xdot`` (len(states)),
-    ``y`` (len(outputs)) and the event indicators (optional).  *units*: name -> unit string
+    ``y`` (len(outputs)) and the event indicators (optional).  *states*, *inputs*, *outputs*:
+    the variables' names, in the functions' order.  *guid*: the FMI 2 GUID / FMI 3
+    instantiation token (default ``{netcosim-casadi-<name>}``).  *units*: name -> unit string
     (default ``"1"``); *start*: name -> start value of a state or input (default 0).  The
     derivative variables are ``der(<state>)``.  Returns the ``.fmu`` path; needs gcc and FMPy
     (for the FMI headers)."""
