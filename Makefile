@@ -23,7 +23,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $(STAMP)
 
 # The main job: the networked Fly-crane of the thesis (§4.6.1, Fig. 4.11) over lossy 802.11b,
-# offline vs online strategy, as a loss sweep on the sweep engine (1 to 3 minutes on 2 cores).
+# offline vs online strategy, as a loss sweep on the sweep engine (about a minute on 2 cores).
 run: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m netcosim.experiments.flycrane_network --outdir results/flycrane_network
 
