@@ -118,7 +118,8 @@ class LocalTime:
     def skipped(self, alarm: Alarm, first_num: int, first_den: int, period: int) -> int:
         """Instants of the grid ``first + j·period`` (local ticks) a step skipped between
         *alarm*'s index ``k`` and now (0 unless the clock changed since it was armed);
-        advances ``alarm.k`` to the last index due now."""
+        advances ``alarm.k`` to the last index due now.  The grid's first instant is the
+        fraction ``first_num / first_den`` local ticks (integers); *period* in local ticks."""
         if not alarm.remapped:
             return 0
         alarm.remapped = False
@@ -171,14 +172,15 @@ class LocalReleases:
             self.local.cancel(alarm)
 
     def group_of(self, task: Task) -> None:
-        """Tasks on a local clock are released one by one (no release groups)."""
+        """None: *task*, on a local clock, is released on its own (no release groups)."""
         return None
 
 
 class LocalKernelTimer:
     """:class:`~netcosim.kernel.timers.KernelTimer` on a local clock: releases *target* when
     the clock reads ``at`` (local s; now when None), then every ``period`` local s.
-    ``overruns``: periodic instants a forward step skipped (released once, at once)."""
+    ``overruns``: periodic instants a forward step skipped (released once, at once).
+    ``node``: the node (with a local clock) whose kernel releases *target*."""
 
     def __init__(self, node: Any, target: Task, at: float | None, period: float | None):
         self.node, self.target = node, target
@@ -268,8 +270,8 @@ class LocalTaskContext(TaskContext):
 
 
 def release_local(node: Any, task: Task, t: int) -> Job | None:
-    """``Dispatcher._release`` for a node on a local clock, a release at global tick *t*
-    (ticks): the job's absolute deadline (ticks) is its relative deadline after the
+    """``Dispatcher._release`` for a node on a local clock, a release of *task* (one of
+    *node*'s) at global tick *t* (ticks): the job's absolute deadline (ticks) is its relative deadline after the
     release in local time (kept in step with
     :meth:`netcosim.kernel.dispatcher.Dispatcher._release` otherwise)."""
     task.jobs_released = n = task.jobs_released + 1

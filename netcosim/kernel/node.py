@@ -41,7 +41,28 @@ def _check_target(target: Any, what: str) -> None:
 
 
 class Node(Dispatcher):
-    """A CPU with a scheduler.  Create with :meth:`Simulation.node`."""
+    """A CPU with a scheduler.  Create with :meth:`Simulation.node`.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The simulation the node belongs to (its environment, trace and random streams).
+    name : str
+        The node's name, unique in *sim* (names its tasks' random streams and trace rows).
+    scheduler : str or policy
+        A policy instance or one of ``"fixed_priority"`` (default), ``"rate_monotonic"``,
+        ``"deadline_monotonic"``, ``"edf"``.
+    context_switch : float
+        CPU time (s, at speed 1) of one context switch; 0 (default): none.
+    speed : float
+        CPU speed, positive and finite (1: nominal, 2.0: twice as fast); every execution
+        time and context switch is divided by it (:attr:`speed`, :meth:`set_speed`).
+    clock, clock_offset, clock_drift
+        A :class:`~netcosim.kernel.localclock.LocalClock`, or its ``clock_offset`` (s) and
+        ``clock_drift`` (dimensionless, 50e-6 = 50 ppm) to build one (not both forms); then
+        periods, timers, sleeps and ``ctx.now`` are in the node's local time.  All None
+        (default): the node runs on simulation time.
+    """
 
     #: False: one CPU (a :class:`~netcosim.kernel.multicore.MulticoreNode` has several)
     multicore = False
@@ -281,8 +302,19 @@ class Node(Dispatcher):
                  on_queue_full: str = "drop", server=None, core: int | None = None):
         """Add a periodic task released at ``offset + k*period`` (s).  Usable as a decorator.
 
+        ``body``: the task's code, a generator function ``body(ctx)`` (a plain function runs
+        in zero time and must return None); None: return a decorator taking the body.
+        ``name``: the task's name, unique on the node (default: the body's ``__name__``).
+        ``period`` (s, > 0) and ``offset`` (s, >= 0, from the task's creation).
         ``priority``: small = high (fixed-priority policy; ignored by RM/DM/EDF).
-        ``deadline``: relative deadline (default: the period).  ``max_pending`` (jobs,
+        ``deadline``: relative deadline (s; default: the period).  ``wcet``: execution
+        budget (s) per job, None: none; a job exceeding it is a budget overrun.
+        ``preemptible``: False runs each job to its end once started (handlers still
+        interrupt it).  ``on_busy``: what a release does while the previous job is still
+        active, ``"queue"`` (default) or ``"skip"`` (dropped, counted in ``task.skipped``).
+        ``on_deadline_miss``, ``on_budget_overrun``: a callable ``f(job)`` called at the
+        instant of the miss or overrun, or ``"kill"`` to abort the job; None (default):
+        only recorded.  ``max_pending`` (jobs,
         None: unbounded) and ``on_queue_full`` (``"drop"`` or ``"error"``): the bound on
         queued jobs (:class:`~netcosim.kernel.task.Task`).  ``server``: a server of this
         node (:meth:`cbs`, :meth:`tbs`) that serves the task.  ``core``: the core the task is
@@ -306,6 +338,8 @@ class Node(Dispatcher):
                   core: int | None = None):
         """Add a task whose jobs are released by ``task.release()``, triggers, timers or messages.
 
+        ``body``, ``name``, ``priority``, ``preemptible``, ``on_busy``, ``on_deadline_miss``,
+        ``on_budget_overrun``: as for :meth:`periodic`.
         ``deadline``: relative deadline (s) of each job; ``wcet``: execution budget (s);
         ``max_pending``, ``on_queue_full``: the bound on queued jobs, as for :meth:`periodic`;
         ``server``: a server of this node that serves the task, and ``core``, as for :meth:`periodic`.
@@ -322,6 +356,10 @@ class Node(Dispatcher):
                 deadline: float | None = None, core: int | None = None):
         """Add an interrupt handler: it beats every task; handlers are ordered by priority.
 
+        ``body``: the handler's code, a generator function ``body(ctx)`` (or a plain function
+        returning None); None: return a decorator taking the body.  ``name``: unique on the
+        node (default: the body's ``__name__``).  ``priority``: a finite number, small = high,
+        ordering the handlers among themselves (default 0).
         ``deadline``: relative deadline (s) of each activation.  ``core``: the core it runs
         on, on a partitioned multicore node (default 0).
         """
@@ -335,13 +373,15 @@ class Node(Dispatcher):
         *period* s, soft (``hard=False``: the deadline is postponed when the budget runs out)
         or hard (the server's tasks wait for the next period).  Needs an EDF node; attach
         tasks with ``server=`` or :meth:`CBS.attach <netcosim.kernel.servers.CBS.attach>`
-        (:mod:`netcosim.kernel.servers` states the rules)."""
+        (:mod:`netcosim.kernel.servers` states the rules).  ``name``: the server's name,
+        unique on the node (default ``"cbs<n>"``, n the number of servers so far)."""
         return self._add_server(CBS, name, budget=budget, period=period, hard=hard)
 
     def tbs(self, utilization: float, *, name: str | None = None) -> TBS:
         """A total-bandwidth server of *utilization* Us (0 < Us <= 1): a job reaching it at r
         gets the deadline ``max(d_last, r) + wcet / Us``.  Needs an EDF node; its tasks need
-        a ``wcet``."""
+        a ``wcet``.  ``name``: the server's name, unique on the node (default ``"tbs<n>"``,
+        n the number of servers so far)."""
         return self._add_server(TBS, name, utilization=utilization)
 
     def _add_server(self, cls, name, **kw):
@@ -412,8 +452,13 @@ class Node(Dispatcher):
     def send(self, dst, payload=None, size_bits=None, *, priority=None, network=None):
         """Send a message through a network interface of this node.
 
+        ``dst``: the receiver, a node name, a node, an interface or
+        :data:`~netcosim.network.BROADCAST`.  ``payload``: any Python object, delivered as is
+        (its size on the wire is ``size_bits``, not measured).
         ``size_bits``: the message size in bits (the network's default when None);
-        ``network`` names the interface when the node has several.
+        ``priority``: the MAC priority (small = high; CAN's identifier order), default the
+        interface's.  ``network`` names the interface when the node has several.
+        Returns the :class:`~netcosim.network.frame.Message`.
         """
         if not self.interfaces:
             raise NotConnectedError(f"node {self.name!r} has no network interface; attach it to a network first")

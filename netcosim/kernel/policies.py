@@ -126,7 +126,10 @@ def own_choose(policy: SchedulingPolicy):
 
 
 def make_policy(spec) -> SchedulingPolicy:
-    """A policy instance from an instance, a class, or a name."""
+    """A policy instance from *spec*: a :class:`SchedulingPolicy` instance (returned as is),
+    a subclass (instantiated without arguments) or a name of :data:`POLICIES`, any case
+    (``"fixed_priority"``, ``"rate_monotonic"``, ``"deadline_monotonic"``, ``"edf"``, and the
+    short ``"fp"``, ``"rm"``, ``"dm"``)."""
     if isinstance(spec, SchedulingPolicy):
         return spec
     if isinstance(spec, type) and issubclass(spec, SchedulingPolicy):

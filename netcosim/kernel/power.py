@@ -100,7 +100,8 @@ class CpuMeter(PowerMeter):
         self.update()
 
     def update(self, _event: Any = None) -> None:
-        """Set the power for the CPU's state now (busy or idle, speed); also a timer callback."""
+        """Set the power for the CPU's state now (busy or idle, speed); also a timer callback
+        (*_event*, the fired event, is ignored)."""
         p = self._power_now()
         if p != self.power:
             self.set(p)
@@ -144,7 +145,8 @@ class CoresMeter(PowerMeter):
         self.update()
 
     def update(self, _event: Any = None) -> None:
-        """Set the power for the cores' state now; also a timer callback."""
+        """Set the power for the cores' state now; also a timer callback (*_event*, the fired
+        event, is ignored)."""
         p = self._power_of(self.owner)
         if p != self.power:
             self.set(p)

@@ -63,6 +63,8 @@ class Server:
 
     A subclass gives :meth:`deadline_for` (the key of a job reaching the server) and, if it
     enforces a budget, :meth:`_start` / :meth:`_stop` (a job of the server got / left the CPU).
+    ``node``: the (EDF) node whose tasks it serves; ``name``: its name, unique on the node
+    (the ``servers`` table's rows carry it).
     """
 
     #: a hard server's jobs may be held back from the CPU (see :meth:`eligible`)
@@ -161,7 +163,7 @@ class CBS(Server):
     """Constant-bandwidth server: *budget* Qs (s of CPU) per *period* Ts (s); ``hard=True``
     suspends the server's jobs until its deadline when the budget runs out (TrueTime's hard
     CBS), ``hard=False`` postpones the deadline at once (soft).  Create with
-    :meth:`Node.cbs <netcosim.kernel.node.Node.cbs>`.
+    :meth:`Node.cbs <netcosim.kernel.node.Node.cbs>`; ``node`` and ``name`` as for :class:`Server`.
 
     Run-time counters: :attr:`budget` (s left), :attr:`deadline` (s), ``exhaustions``
     (times the budget ran out), ``recharges`` (arrival rule), ``throttled`` (hard: held now).
@@ -268,7 +270,8 @@ class CBS(Server):
 class TBS(Server):
     """Total-bandwidth server of utilisation *utilization* (0 < Us <= 1): a job reaching it
     at r gets the deadline ``max(d_last, r) + C/Us`` with C its task's ``wcet`` (required).
-    Create with :meth:`Node.tbs <netcosim.kernel.node.Node.tbs>`."""
+    Create with :meth:`Node.tbs <netcosim.kernel.node.Node.tbs>`; ``node`` and ``name`` as
+    for :class:`Server`."""
 
     def __init__(self, node, name: str, utilization: float):
         super().__init__(node, name)

@@ -70,7 +70,12 @@ class Sleep(Blocking):
 
 
 class Job:
-    """One activation of a task."""
+    """One activation of a task.
+
+    ``task``: the :class:`Task` it belongs to; ``index``: its number among the task's jobs
+    (0 for the first release); ``release``: its release time (ticks), from which the
+    absolute deadline ``release + task.deadline_ticks`` is set.
+    """
 
     # Slots: a job is created per release, and slot stores are cheaper than a dict's.
     __slots__ = ("task", "index", "release", "abs_deadline", "cls", "gen", "state", "remaining",
@@ -201,6 +206,14 @@ class Task:
     (a 1 ps period with a 10 ms body: 330 MB per simulated microsecond).
     ``on_deadline_miss`` / ``on_budget_overrun`` are called with the job at the instant of
     the overrun (``"kill"`` aborts the job); without them misses are only recorded.
+
+    Created by :meth:`Node.periodic <netcosim.kernel.node.Node.periodic>`,
+    :meth:`~netcosim.kernel.node.Node.aperiodic` and :meth:`~netcosim.kernel.node.Node.handler`:
+    ``node`` runs it, ``body`` is its generator function ``body(ctx)``, ``name`` its name
+    (None: the body's ``__name__``), ``kind`` one of ``"periodic"``, ``"aperiodic"``,
+    ``"handler"`` (a handler beats every task).  ``priority``: small = high (a handler's
+    orders the handlers; a task's is read by the fixed-priority policy).  ``preemptible``
+    (bool): False runs a started job to its end, interrupted only by handlers.
     """
 
     # Slots for what the kernel reads on every job (fewer cache lines per task when there
@@ -401,7 +414,9 @@ class TaskContext:
         return reader()
 
     def write(self, port, value) -> None:
-        """Write an analog output; the plant holds it until the next write (ZOH)."""
+        """Write *value* (the plant's input units) to *port*, an analog output (a plant input
+        port or a node's :meth:`~netcosim.kernel.node.Node.analog_out` channel); the plant
+        holds it until the next write (ZOH)."""
         try:
             writer = port.write
         except AttributeError:
@@ -418,8 +433,10 @@ class TaskContext:
         return task.release()
 
     def send(self, dst, payload: Any = None, size_bits: int | None = None, *, priority=None, network=None):
-        """Send a message over one of this node's network interfaces (see netcosim.network);
-        ``size_bits`` in bits."""
+        """Send a message over one of this node's network interfaces (see netcosim.network):
+        *payload* to *dst* (a node name, node, interface or ``BROADCAST``), ``size_bits`` in
+        bits, ``priority`` the MAC priority (small = high), ``network`` the interface when the
+        node has several (:meth:`Node.send <netcosim.kernel.node.Node.send>`)."""
         return self.node.send(dst, payload, size_bits, priority=priority, network=network)
 
     def kill(self) -> None:

@@ -22,7 +22,8 @@ if TYPE_CHECKING:
 
 class KernelTimer:
     """Releases a task at an absolute time ``at`` (s; now when None), then every ``period`` s if
-    given (TrueTime's timers)."""
+    given (TrueTime's timers): ``target`` (a task of ``node``) gets ``target.release()`` at
+    each instant; ``at`` may not lie in the past, ``period`` must be positive."""
 
     def __init__(self, node: KernelState, target: Task, at: float | None, period: float | None):
         self.node, self.target = node, target
@@ -52,7 +53,10 @@ class KernelTimer:
 
 
 class Trigger:
-    """An external trigger edge source; ``fire()`` releases the target unless too soon."""
+    """An external trigger edge source; ``fire()`` releases the target unless too soon.
+
+    ``target``: the task of ``node`` released on each edge; ``min_interval`` (s, >= 0): an
+    edge less than this after the last accepted one is ignored (0: every edge counts)."""
 
     def __init__(self, node: KernelState, target: Task, min_interval: float):
         self.node, self.target = node, target
