@@ -225,7 +225,9 @@ class Network(FrameLifecycle, LinkAccounting):
         ``priority``: default MAC priority of the node's messages.  ``handler``: a task
         (released per delivered message) or callable ``fn(msg)``.  ``mailbox=False``:
         deliver only to handlers.  Other keyword options are MAC-specific (e.g.
-        ``position`` on wireless networks).
+        ``position`` on wireless networks).  ``mailbox_capacity`` (messages, >= 1),
+        ``queue`` (``"fifo"`` or ``"priority"``) and ``queue_capacity`` (frames, >= 1): this
+        interface's receive mailbox size and sender queue, default (None) the network's.
         """
         if isinstance(node, str):
             name, knode = node, None

@@ -38,7 +38,8 @@ from .bus import SharedBus
 def can_frame_bits(data_bytes: int, *, extended: bool = False, stuffing: bool = True) -> int:
     """Bits a CAN 2.0 data frame with *data_bytes* (0..8) occupies on the bus, with the 3-bit IFS.
 
-    Worst-case bit stuffing (Davis et al. 2007) unless ``stuffing=False``.
+    ``extended``: a 29-bit identifier (CAN 2.0B, 54 header bits before stuffing) instead of
+    the 11-bit one (34).  Worst-case bit stuffing (Davis et al. 2007) unless ``stuffing=False``.
     """
     data_bytes = validate.integer(data_bytes, "a CAN frame's data_bytes", lo=0, hi=8, type_error=ConfigurationError)
     g = 54 if extended else 34

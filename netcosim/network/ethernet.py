@@ -25,7 +25,7 @@ from .base import ARBITRATE, Network
 
 class EthernetStation:
     """A CSMA/CD station's state: its pending timer (end of transmission or of backoff) and
-    its backoff stream ``<net>/<node>/backoff``."""
+    its backoff stream ``<net>/<node>/backoff`` (``rng``, a :class:`numpy.random.Generator`)."""
 
     __slots__ = ("timer", "rng")
 

@@ -59,6 +59,8 @@ class Message:
     (small = high, as on CAN); ``created`` when ``send`` was called; ``sent`` when
     the first bit of the (last) successful attempt went on the medium; ``delivered``
     when it reached the receiver's mailbox; ``attempts`` transmission attempts made.
+    ``id``: the message's number on its network (1, 2, ... in send order), the ``id`` of the
+    frames table; ``network``: the network's name.
     """
 
     __slots__ = ("id", "network", "src", "dst", "payload", "size_bits", "priority", "created",
@@ -96,7 +98,13 @@ class Message:
 
 
 class Frame:
-    """A message in transit (internal).  Times in ticks."""
+    """A message in transit (internal).  Times in ticks.
+
+    ``msg``: the :class:`Message` it carries; ``src``: the sending interface; ``dst``: the
+    receiving interface, or :data:`BROADCAST`; ``bits``: its length on the wire (after the
+    minimum frame size and the MAC's overhead); ``priority``: its MAC priority (small =
+    high); ``seq``: the sender's sequence number (duplicate detection); ``created``: the
+    tick ``send`` was called."""
 
     __slots__ = ("msg", "id", "src", "dst", "dname", "bits", "priority", "seq", "attempts", "created",
                  "queued", "sent", "remaining", "holds", "lstats", "pend", "rx_now", "silenced")

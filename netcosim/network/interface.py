@@ -24,7 +24,9 @@ from .lifecycle import Attempt
 class TxQueue:
     """Sender queue: ``"fifo"`` or ``"priority"`` (smallest priority first, FIFO among equals).
 
-    ``capacity`` (frames, None = unbounded) counts frames waiting, not the frame in service.
+    ``discipline`` is ``"fifo"`` (default) or ``"priority"``; ``capacity`` (frames, None =
+    unbounded) counts frames waiting, not the frame in service; ``what`` names the queue's
+    owner in error messages (e.g. ``"network 'can' node 'n1'"``).
     """
 
     __slots__ = ("discipline", "capacity", "_q", "_n")
@@ -92,6 +94,10 @@ class Interface:
     (the MAC's per-station state object, e.g. a WLAN station's contention window).
     ``on_done`` is a list of callables ``fn(frame, ok)`` called when the sender is done
     with a frame (sent / acknowledged: ``ok=True``; dropped: ``ok=False``).
+    ``index``: the interface's position in the network's attach order (0 for the first),
+    its receiver index in the loss and link accounting; ``mailbox_capacity`` (messages,
+    None: unbounded) bounds the mailbox; ``queue`` (``"fifo"`` or ``"priority"``) and
+    ``queue_capacity`` (frames, None: unbounded) make the sender :class:`TxQueue`.
     """
 
     def __init__(self, network, name: str, node, index: int, *, priority=None, mailbox: bool = True,
@@ -120,7 +126,8 @@ class Interface:
 
     # ------------------------------------------------------------------ user API
     def send(self, dst, payload: Any = None, size_bits: int | None = None, *, priority=None):
-        """Queue a message to *dst* (node name, node, interface or ``BROADCAST``).
+        """Queue a message carrying *payload* (any Python object, delivered as is) to *dst*
+        (node name, node, interface or ``BROADCAST``).
 
         ``size_bits``: message length in bits (the wire carries ``max(size_bits,
         min_frame_bits)`` plus the MAC's own overhead).  ``priority``: MAC priority

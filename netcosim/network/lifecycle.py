@@ -91,7 +91,9 @@ class MacOrderError(RuntimeError):
 
 class Attempt:
     """The frame in service at one sender interface and the state of its current attempt
-    (see the module docstring for the order).  Got from :meth:`FrameLifecycle.begin_attempt`."""
+    (see the module docstring for the order).  Got from :meth:`FrameLifecycle.begin_attempt`.
+    ``net``: the network (its ``carrier`` one of :data:`CARRIERS`); ``iface``: the sender
+    interface it belongs to."""
 
     __slots__ = ("net", "iface", "frame", "state", "_rx_state")
 
@@ -211,7 +213,8 @@ class Attempt:
 
     def drop(self, reason: str, restart: bool = True, where: str | None = None) -> None:
         """The sender gives the frame up after its last attempt (``lost`` row with *reason* at
-        the sender, or at the node named *where*): counted dropped, ``on_done`` called."""
+        the sender, or at the node named *where*): counted dropped, ``on_done`` called; then,
+        if *restart* (default), the sender serves its next queued frame."""
         if self.state is not FAILED and self.state is not OK:
             self._order("drop", "after end()")
         net, iface, frame = self.net, self.iface, self.frame

@@ -359,7 +359,9 @@ class AnyLoss(LossModel):
 
 
 def as_loss_model(loss) -> LossModel | None:
-    """Accept None, a probability (Bernoulli), a model, or a list of those."""
+    """The :class:`LossModel` a network's ``loss=`` / ``message_loss=`` argument *loss* stands for:
+    None or 0.0 (no loss: None), a probability in [0, 1] (a :class:`Bernoulli` model), a
+    model (as is), or a list or tuple of those (an :class:`AnyLoss`: lost if any says so)."""
     if loss is None:
         return None
     if isinstance(loss, LossModel):

@@ -53,7 +53,8 @@ _K = np.arange(2, 17)
 _COEF = (-1.0) ** _K * np.array([math.comb(16, int(k)) for k in _K], dtype=float)
 
 def ber_oqpsk(sinr):
-    """802.15.4 2.4 GHz O-QPSK bit error rate as a function of the SINR (linear, >= 0)."""
+    """802.15.4 2.4 GHz O-QPSK bit error rate as a function of *sinr*, the SINR (a linear
+    power ratio, not dB, >= 0; a number or an array, giving a float or an array)."""
     s = np.atleast_1d(linear_ratio(sinr, "SINR"))
     terms = _COEF[None, :] * np.exp(20.0 * s[:, None] * (1.0 / _K[None, :] - 1.0))
     ber = np.clip(8.0 / 15.0 / 16.0 * terms.sum(axis=1), 0.0, 0.5)
@@ -62,7 +63,9 @@ def ber_oqpsk(sinr):
 class CsmaCaStation(RadioStation):
     """An 802.15.4 station: radio and ACK state plus unslotted CSMA/CA: ``nb`` (backoffs
     so far), ``be`` (backoff exponent), ``in_cca``/``cca_busy`` (a CCA is running / saw
-    the channel busy), ``ifs_until`` (tick before which the next frame may not start)."""
+    the channel busy), ``ifs_until`` (tick before which the next frame may not start).
+    ``net``, ``iface`` and the radio parameters as for
+    :class:`~netcosim.network.wireless.RadioStation`."""
 
     __slots__ = ("nb", "be", "in_cca", "cca_busy", "ifs_until")
 

@@ -36,7 +36,12 @@ _TOL = 1.0 - 1e-9    # power ratios within 1e-9 of the capture ratio count as me
 
 class Transmission:
     """One frame (data or ACK) on the air.  Times in ticks, powers in watts; ``src`` and
-    ``dst`` are radio stations (``dst`` may be :data:`BROADCAST`)."""
+    ``dst`` are radio stations (``dst`` may be :data:`BROADCAST`).  ``kind``: ``"data"`` or
+    ``"ack"``; ``frame``: the :class:`~netcosim.network.frame.Frame` sent (an ACK's: the data
+    frame it acknowledges); ``start`` and ``end``: the ticks its first and last bit go on the
+    air; ``plcp_end``: the tick its PLCP preamble and header end (bits before it are decoded
+    with the medium's PLCP modulation, bits after with ``mod``); ``mod``: the
+    :class:`~netcosim.network.radio.Modulation` of the rest of the frame."""
 
     __slots__ = ("src", "kind", "frame", "dst", "start", "end", "plcp_end", "mod", "powers", "fail",
                  "dst_reason", "acked", "crowd_fail")
@@ -99,6 +104,8 @@ class WirelessMedium:
     interface index), each with its radio attributes (``pos``, ``tx_w``, ``cs_w``,
     ``sens_w``) and its listener state.  ``noise_w``: noise power (W); ``capture_ratio``:
     linear power ratio (not dB); ``plcp_rate``: bit rate of the PLCP header (bit/s).
+    ``path_loss``: a :class:`~netcosim.network.radio.PathLoss` (its ``gain(d)``, d in m,
+    gives the received over the transmitted power).
     """
 
     def __init__(self, mac, *, path_loss, noise_w: float, capture_ratio: float, plcp_rate: float = 1e6):
@@ -116,7 +123,8 @@ class WirelessMedium:
         self.transmissions = 0
 
     def init_listener(self, r) -> None:
-        """A station joins: check that nothing is on the air, note whether it moves."""
+        """Station *r* (a :class:`~netcosim.network.wireless.RadioStation`) joins: check that
+        nothing is on the air, note whether it moves (a callable ``r.pos``)."""
         if self.active:
             raise RuntimeError(f"network {self.mac.name!r}: cannot attach {r.name!r} while "
                                f"{len(self.active)} transmission(s) are on the air; attach nodes before or "

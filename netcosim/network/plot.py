@@ -52,13 +52,16 @@ def plot_network_schedule(schedule: pd.DataFrame, *, network: str | None = None,
                           path: str | Path | None = None, title: str | None = None):
     """Draw ``sim.trace.frame("network_schedule")`` as one staircase per node, with a legend.
 
+    ``schedule``: that table (columns ``time``, ``network``, ``node``, ``state``).
+
     ``network`` selects one network (needed if the table holds several); ``nodes``
     orders the rows (top first; default order of appearance); ``t_range = (t0, t1)``
     in seconds.  ``frames`` (the ``frames`` table) adds a marker for every ``lost`` row
     inside the window (label :data:`LOST_LABEL`, at the row of the node where the frame
     was lost, the sender's row if that node is not drawn) and for every retransmission,
     an ``attempt_start`` with ``attempt > 1`` (label :data:`RETRANSMISSION_LABEL`, on the
-    sender's row).  ``path`` saves a PNG.  Returns the axes.
+    sender's row).  ``ax``: the matplotlib axes to draw on (None: a new figure);
+    ``title``: the axes' title (None: none).  ``path`` saves a PNG.  Returns the axes.
     """
     check_columns(schedule, ("time", "network", "node", "state"), "schedule")
     check_image_path(path)

@@ -150,7 +150,8 @@ class TrueTimePathLoss(PathLoss):
 
 
 def as_position(p, what: str) -> tuple[float, ...] | Callable:
-    """A fixed 2-D/3-D position as a tuple of floats, or a callable ``p(t) -> point`` as is."""
+    """A fixed 2-D/3-D position *p* (m) as a tuple of floats, or a callable ``p(t) -> point`` as
+    is; *what* names the position's owner in the error for a bad one."""
     if callable(p):
         return p
     try:
@@ -195,7 +196,8 @@ def linear_ratio(value, what: str = "Eb/N0") -> np.ndarray:
 
 
 def ber_dbpsk(ebn0):
-    """Bit error rate of differential BPSK: ``1/2 exp(-Eb/N0)`` (Eb/N0 linear, >= 0)."""
+    """Bit error rate of differential BPSK: ``1/2 exp(-Eb/N0)`` at *ebn0*, Eb/N0 (linear, not dB,
+    >= 0; a number or an array)."""
     if type(ebn0) is float and ebn0 >= 0.0:
         return 0.5 * math.exp(-ebn0)
     g = linear_ratio(ebn0)
@@ -206,7 +208,8 @@ def ber_dqpsk(ebn0):
     """Exact bit error rate of Gray-coded DQPSK (Proakis): ``Q1(a, b) - 1/2 I0(ab) exp(-(a^2+b^2)/2)``.
 
     ``a = sqrt(2 g (1 - 1/sqrt 2))``, ``b = sqrt(2 g (1 + 1/sqrt 2))``, ``g = Eb/N0``;
-    Marcum Q1 via the non-central chi-square survival function.  ``Eb/N0`` linear, >= 0;
+    Marcum Q1 via the non-central chi-square survival function.  *ebn0*: ``Eb/N0``, linear
+    (not dB), >= 0, a number or an array;
     above 10**4 the BER is 0.0 in double precision and is computed at 10**4.
     """
     g = np.minimum(linear_ratio(ebn0), 1e4)
@@ -222,7 +225,7 @@ def ber_dqpsk(ebn0):
 
 def ber_cck(ebn0):
     """Simple CCK model: coherent QPSK bit error rate ``Q(sqrt(2 Eb/N0)) = 1/2 erfc(sqrt(Eb/N0))``
-    (Eb/N0 linear, >= 0)."""
+    of *ebn0*, Eb/N0 (linear, not dB, >= 0; a number or an array)."""
     from scipy import special
     g = linear_ratio(ebn0)
     ber = 0.5 * special.erfc(np.sqrt(g))
@@ -230,7 +233,12 @@ def ber_cck(ebn0):
 
 
 class Modulation:
-    """A modulation with its bit rate: ``ber(sinr)`` maps a linear SINR to a bit error rate."""
+    """A modulation with its bit rate: ``ber(sinr)`` maps a linear SINR to a bit error rate.
+
+    ``name``: its name (e.g. ``"dqpsk"``); ``bit_rate`` (bit/s); ``ber_of_ebn0``: the bit
+    error rate as a function of a linear Eb/N0 (e.g. :func:`ber_dqpsk`); ``bandwidth``
+    (Hz, default the 22 MHz of 802.11b's DSSS): with the bit rate, the processing gain
+    ``B / R`` that turns the SINR into Eb/N0."""
 
     def __init__(self, name: str, bit_rate: float, ber_of_ebn0: Callable, bandwidth: float = DSSS_BANDWIDTH):
         self.name = name

@@ -74,6 +74,9 @@ class RadioStation:
     during a reception), ``responding`` (ACKs scheduled), ``last_seq`` (duplicate
     detection per sender index), ``rng`` (backoff stream ``<net>/<node>/backoff``),
     ``bo_drawn`` (backoff slots drawn before the next attempt, for the trace).
+    ``net``: the network; ``iface``: the station's interface; ``pos``, ``tx_power_dbm``
+    (dBm), ``sens_w``, ``cs_w`` (W): its radio parameters, checked by
+    :meth:`RadioNetwork.attach`.
     """
 
     __slots__ = ("iface", "name", "index", "pos", "tx_power_dbm", "tx_w", "sens_w", "cs_w", "power", "n_active",
@@ -195,7 +198,9 @@ class RadioNetwork(Network):
                threshold_dbm: float | None = None, cs_threshold_dbm: float | None = None, **kw) -> Interface:
         """Attach *node* at *position* (2-D/3-D point in m, or a callable ``p(t)`` of seconds,
         evaluated at the start of every transmission).  Radio parameters (dBm) default to
-        the network's."""
+        the network's: ``tx_power_dbm`` (transmit power), ``threshold_dbm`` (receiver
+        sensitivity: weaker frames are not decoded), ``cs_threshold_dbm`` (carrier sense:
+        the channel is busy above it; default the network's, not this node's threshold)."""
         return super().attach(node, position=position, tx_power_dbm=tx_power_dbm, threshold_dbm=threshold_dbm,
                               cs_threshold_dbm=cs_threshold_dbm, **kw)
 
@@ -232,7 +237,7 @@ class RadioNetwork(Network):
         return watt_to_dbm(self.medium.powers_from(s)[d.index])
 
     def set_tx_power(self, node, dbm: float) -> None:
-        """Transmit power (dBm) of *node* (name, kernel node or interface) from its next frame on
+        """Transmit power *dbm* (dBm, finite) of *node* (name, kernel node or interface) from its next frame on
         (:meth:`RadioStation.set_tx_power`); e.g. from task code, transmit-power control."""
         self.station(node).set_tx_power(dbm)
 
