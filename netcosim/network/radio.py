@@ -132,8 +132,8 @@ class LogDistance(PathLoss):
 
 
 class TrueTimePathLoss(PathLoss):
-    """TrueTime's model: ``P_rx = P_tx / (d + 1)^a`` with d in metres (default a = 3.5;
-    positive and finite)."""
+    """TrueTime's model: ``P_rx = P_tx / (d + 1)^a`` with d in metres (``exponent`` a, default
+    3.5; positive and finite)."""
 
     def __init__(self, exponent: float = 3.5):
         self.exponent = validate.positive(exponent, "TrueTimePathLoss exponent")

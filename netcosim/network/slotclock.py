@@ -50,7 +50,8 @@ class SharedSlotClock:
     current idle period, or frozen while busy); ``heap`` of ``(key, index, seq,
     station)`` (an entry is current while ``station.cseq == seq``); ``access_at``,
     ``acc_gen`` (the crowd's entry in the network's access heap; generations are
-    negative so they never equal a station's).
+    negative so they never equal a station's).  ``now``: the tick the crowd is created
+    (its idle period starts then); ``difs``: the DIFS (ticks), after which it counts slots.
     """
 
     __slots__ = ("count", "rx", "rx_ok", "rx_reason", "audible", "mac_busy", "idle_start", "eifs", "nav_end",
@@ -96,7 +97,14 @@ class Audibility:
         self.ok = True
 
     def add(self, n, stations, gain, capture_ratio: float, capture_tol: float, noise_w: float, mods) -> bool:
-        """Station *n* (already in *stations*, by index) joins; False once the conditions fail."""
+        """Station *n* (already in *stations*, by index) joins; False once the conditions fail.
+
+        ``gain``: the path loss's ``gain(d)`` (received over transmitted power at d m);
+        ``capture_ratio``: the medium's capture ratio (linear, not dB) and ``capture_tol``
+        the tolerance (just below 1) within which a power ratio counts as meeting it;
+        ``noise_w``: the noise power (W); ``mods``: the
+        :class:`~netcosim.network.radio.Modulation` objects in use (PLCP, data, ACK), each of
+        which must be error-free at the weakest link's SNR."""
         if not self.ok:
             return False
         if callable(n.pos):

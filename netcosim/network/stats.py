@@ -91,7 +91,8 @@ def total(links) -> dict:
 
 
 def stats_frame(links) -> "pd.DataFrame":
-    """One row per link: ``src, dst`` and the :data:`STATS_KEYS` columns."""
+    """One row per link of *links* (:class:`LinkStats` objects): ``src, dst`` and the
+    :data:`STATS_KEYS` columns."""
     import pandas as pd
 
     rows = [{"src": ls.src, "dst": ls.dst, **ls.as_dict()} for ls in links]

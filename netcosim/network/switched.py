@@ -27,7 +27,8 @@ from .lifecycle import CARRIER_SENDER
 
 class SwitchPort:
     """The switch's output port towards one node: its queue, the frame it sends, and the
-    bits of switch memory its frames hold."""
+    bits of switch memory its frames hold.  ``discipline``: its queue's, ``"fifo"`` or
+    ``"priority"`` (:class:`~netcosim.network.interface.TxQueue`)."""
 
     __slots__ = ("queue", "current", "used")
 

@@ -80,7 +80,7 @@ class PerStationAccess:
         return False
 
     def reeval(self, r) -> None:
-        """Re-evaluate the station's (physical + virtual) medium state and act on changes."""
+        """Re-evaluate station *r*'s (physical + virtual) medium state and act on changes."""
         if r.in_crowd:
             return              # joined the shared clock at this instant, nothing changed since
         now = self.env.now
@@ -122,7 +122,10 @@ class PerStationAccess:
         self.net._push_access(r, cs + r.backoff * self.slot)
 
     def rx_end(self, r, tx, ok, reason, locked) -> None:
-        """MAC processing of the end of *tx* at listener *r* (called by the medium)."""
+        """MAC processing of the end of *tx* at listener *r* (called by the medium), with the
+        reception outcome of :func:`~netcosim.network.medium.reception_end`: ``ok`` (decoded),
+        ``reason`` (why not, e.g. ``"collision"``; None when ok), ``locked`` (*r* was receiving
+        *tx*, which sets EIFS on a failure)."""
         net = self.net
         f = tx.frame
         if tx.kind == "data":

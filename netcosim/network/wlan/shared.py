@@ -103,7 +103,8 @@ class SharedClockAccess(PerStationAccess):
             self.net._arm_access(at)
 
     def pop_due(self, now, push: bool) -> list:
-        """Members whose access instant is now leave the crowd (in station order) to transmit."""
+        """Members whose access instant is *now* (ticks) leave the crowd (in station order) to
+        transmit; with *push* each is also put in the network's access heap at *now*."""
         c = self.clock
         h = c.heap
         out = []
@@ -135,7 +136,7 @@ class SharedClockAccess(PerStationAccess):
             c.S += (now - c.C) // self.slot
 
     def clock_reeval(self, now) -> None:
-        """_reeval for the crowd."""
+        """_reeval for the crowd, at tick *now*."""
         c = self.clock
         if c.audible or c.nav_end > now:
             if not c.mac_busy:
@@ -231,7 +232,7 @@ class SharedClockAccess(PerStationAccess):
             self.net._push_access(r, c.C + b * self.slot)
 
     def fast_start(self, tx: Transmission) -> None:
-        """WirelessMedium.start when every station hears every other (see the module docstring of
+        """WirelessMedium.start of transmission *tx* when every station hears every other (see the module docstring of
         netcosim.network.slotclock): a frame that overlaps another fails at every listener."""
         m = self.net.medium
         now = self.env.now
@@ -288,7 +289,7 @@ class SharedClockAccess(PerStationAccess):
                         self.try_join_busy(r, c, now)
 
     def try_join_busy(self, r, c, now) -> None:
-        """Busy station *r* joins the busy crowd if it will see the medium as the crowd does:
+        """Busy station *r* joins the busy crowd *c* (at tick *now*) if it will see the medium as the crowd does:
         same locked frame and reception outcome, carrier sense, NAV and EIFS, and no frame on
         the air is addressed to it (while busy, the instant it went idle last does not matter;
         both freeze their backoff and count again from the same idle instant)."""
@@ -309,7 +310,7 @@ class SharedClockAccess(PerStationAccess):
 
     def solo_start(self, r, tx, first, now) -> None:
         """*tx* starts at *r*, a station outside the crowd: it locks onto it (spoilt unless it is the
-        *first* frame on the air) or, already receiving or sending, misses it."""
+        *first* frame on the air) or, already receiving or sending, misses it (*now*: ticks)."""
         r.n_active += 1
         if r.tx is not None:
             tx.fail[r.index] = "half_duplex"
@@ -328,7 +329,7 @@ class SharedClockAccess(PerStationAccess):
             self.reeval(r)
 
     def fast_end(self, tx: Transmission) -> None:
-        """WirelessMedium.end when every station hears every other."""
+        """WirelessMedium.end of transmission *tx* when every station hears every other."""
         m = self.net.medium
         now = self.env.now
         m.active.remove(tx)
@@ -378,8 +379,10 @@ class SharedClockAccess(PerStationAccess):
         self.reeval(r)
 
     def bcast_end(self, tx, src, c_ok, c_locked, c_reason) -> None:
-        """End of a broadcast data frame with a crowd (already updated): every station in
-        order delivers or loses it (the crowd's stations with the crowd's outcome), the
+        """End of a broadcast data frame *tx* from station *src* with a crowd (already updated:
+        its outcome ``c_ok``, ``c_reason``, ``c_locked`` as of
+        :func:`~netcosim.network.medium.reception_end`): every station in order delivers or
+        loses it (the crowd's stations with the crowd's outcome), the
         others also do their own reception and DCF step."""
         stations: list = self.net._stations
         f = tx.frame
