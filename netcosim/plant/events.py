@@ -76,7 +76,8 @@ def terminal_events(gs: Sequence[Guard]) -> list:
 
 
 def first_event(sol) -> tuple[float, int, np.ndarray]:
-    """``(t, index, x)`` of the earliest terminal event of a ``solve_ivp`` solution stopped by one."""
+    """``(t, index, x)`` of the earliest terminal event of *sol*, a ``solve_ivp`` solution stopped
+    by one (status 1): its time (s), the index of its event function and the state there."""
     first = None
     for j, te in enumerate(sol.t_events):
         if len(te) and (first is None or te[0] < first[0]):

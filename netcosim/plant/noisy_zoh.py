@@ -111,7 +111,10 @@ class NoisyZOH:
         return _NoisyStepper(self, plant, A, B, R, Q, rng)
 
     def integrate(self, rhs, t0, x0, t1, gs):
-        """Not callable unbound (the plant calls :meth:`bind`)."""
+        """Not callable unbound (the plant calls :meth:`bind`): raises
+        :class:`~netcosim.errors.ConfigurationError` whatever the integrator interface's
+        arguments, ``rhs``, ``t0``, ``x0``, ``t1`` (s) and ``gs``
+        (:meth:`SolveIVP.integrate <netcosim.plant.solve_ivp.SolveIVP.integrate>`)."""
         raise ConfigurationError("NoisyZOH advances the plant it is bound to (PlantInstance calls "
                                  "NoisyZOH.bind(plant)); it cannot integrate a bare right-hand side")
 

@@ -22,7 +22,12 @@ class _Plant(Protocol):
 
 
 class OutputPort:
-    """Read side of a plant: samples ``h(t, x, u)`` (selected outputs) at ``now``."""
+    """Read side of a plant: samples ``h(t, x, u)`` (selected outputs) at ``now``.
+
+    Made by :meth:`PlantInstance.output <netcosim.plant.instance.PlantInstance.output>`:
+    ``plant`` the plant; ``index`` the outputs it selects (an int: one, read as a float;
+    a list or a slice: several, read as an array); ``label`` its name in messages (the
+    output's name, or e.g. ``"outputs"`` for all)."""
 
     def __init__(self, plant: _Plant, index, label: str):
         self.plant, self.index, self.label = plant, index, label
@@ -41,7 +46,11 @@ class OutputPort:
 
 
 class InputPort:
-    """Write side of a plant: the value written is held (ZOH) until the next write."""
+    """Write side of a plant: the value written is held (ZOH) until the next write.
+
+    Made by :meth:`PlantInstance.input <netcosim.plant.instance.PlantInstance.input>`:
+    ``plant`` the plant; ``index`` the inputs it selects (an int: one; a list or a slice:
+    several); ``label`` its name in messages (the input's name, or ``"inputs"`` for all)."""
 
     def __init__(self, plant: _Plant, index, label: str):
         self.plant, self.index, self.label = plant, index, label

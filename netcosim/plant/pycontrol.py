@@ -66,7 +66,9 @@ class LinearPlant(ContinuousSystem):
 
 class NonlinearPlant(ContinuousSystem):
     """A converted ``control.NonlinearIOSystem``: f and h call the system's public
-    ``dynamics(t, x, u, params)`` and ``output(t, x, u, params)``."""
+    ``dynamics(t, x, u, params)`` and ``output(t, x, u, params)``.  ``sys``: the
+    continuous-time system (its labels name the states and ports, its ``params`` are
+    copied to ``self.params``); ``name``: the plant's name."""
 
     def __init__(self, sys, *, name):
         super().__init__(states=list(sys.state_labels), inputs=list(sys.input_labels),
