@@ -117,7 +117,8 @@ def plot_sweep(df: pd.DataFrame, x: str = "loss", y: str = "J", hue: str | None 
     median, or at the top of the axes if no run was used) and the totals in the legend.
     A numeric ``x`` axis spans every ``x`` of the runs, usable or not.
 
-    Arguments as :func:`summarize`; ``ax``: a matplotlib ``Axes`` (default: a new
+    ``df``: the run table (:attr:`SweepResult.runs <netcosim.sweep.result.SweepResult.runs>`);
+    other arguments as :func:`summarize`; ``ax``: a matplotlib ``Axes`` (default: a new
     figure); ``logy``: logarithmic ``y`` axis.  Returns the axes.
     """
     import matplotlib.pyplot as plt

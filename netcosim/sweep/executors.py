@@ -83,7 +83,10 @@ def _timeout_outcome(timeout: float) -> Outcome:
 
 def run_in_child(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: float) -> Outcome:
     """Run one task in a child process, killed after *timeout* seconds of running
-    (the child's start-up and the scenario's import are not counted)."""
+    (the child's start-up and the scenario's import are not counted): the scenario at
+    *ref* (a :class:`~netcosim.sweep.scenario.ScenarioRef`, imported in the child) with the
+    case *params* and the run's *seed*.  Returns its outcome, or an error or timeout
+    outcome."""
     payload = pickle.dumps((list(sys.path), ref, params, seed))
     proc = subprocess.Popen([sys.executable, "-m", "netcosim.sweep._child"], stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
@@ -142,7 +145,11 @@ class SweepExecutor:
     timeout: float | None = None
 
     def bind(self, fn: Callable, ref: ScenarioRef | None, timeout: float | None) -> None:
-        """Set the scenario the next sweep runs (called by ``run_sweep`` before :meth:`start`)."""
+        """Set the scenario the next sweep runs (called by ``run_sweep`` before :meth:`start`):
+        *fn*, the scenario function ``fn(**params, seed=...)``; *ref*, where it lives (a
+        :class:`~netcosim.sweep.scenario.ScenarioRef`, for runs in other processes; None for an
+        unimportable function run in this process); *timeout*, the limit (s) on one run's
+        wall time, None: none."""
         self.fn, self.ref, self.timeout = fn, ref, timeout
 
     def start(self) -> None:
@@ -152,11 +159,12 @@ class SweepExecutor:
         """Release what :meth:`start` acquired (called even if the sweep failed)."""
 
     def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
-        """Yield ``(index, outcome)`` for every task ``(index, params, seed)``, in any order."""
+        """Yield ``(index, outcome)`` for every task ``(index, params, seed)`` of *tasks*, in any order."""
         raise NotImplementedError(f"{type(self).__name__} must implement run(tasks)")
 
     def run_task(self, params: dict[str, Any], seed: int) -> Outcome:
-        """One run of the bound scenario in this thread (in a child process if there is a timeout)."""
+        """One run of the bound scenario with the case *params* (parameter name -> value) and the
+        run's *seed*, in this thread (in a child process if there is a timeout)."""
         if self.timeout is not None:
             assert self.ref is not None
             return run_in_child(self.ref, params, seed, self.timeout)
@@ -195,7 +203,7 @@ class SerialExecutor(SweepExecutor):
     in_process = True
 
     def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
-        """Yield ``(index, outcome)`` for each task, in order.
+        """Yield ``(index, outcome)`` for each task ``(index, params, seed)`` of *tasks*, in order.
 
         The objects alive before the first run are frozen (:func:`gc.freeze`) for the
         duration, so the collection after each run skips them and stays cheap."""
@@ -277,7 +285,7 @@ class PoolExecutor(SweepExecutor):
         self.workers = workers
 
     def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
-        """Yield ``(index, outcome)`` for each task as it finishes."""
+        """Yield ``(index, outcome)`` for each task ``(index, params, seed)`` of *tasks* as it finishes."""
         import multiprocessing
         from multiprocessing.connection import wait
 
@@ -382,7 +390,9 @@ LOCAL_CLUSTER_CONFIG = {
 
 def local_cluster(workers: int, cluster_class: Any = None) -> Any:
     """A ``LocalCluster`` of *workers* single-threaded worker processes, dashboard on a
-    free port, logs at ERROR, with :data:`LOCAL_CLUSTER_CONFIG` (the caller closes it)."""
+    free port, logs at ERROR, with :data:`LOCAL_CLUSTER_CONFIG` (the caller closes it).
+    ``cluster_class``: the cluster class to instantiate (default
+    ``dask.distributed.LocalCluster``)."""
     import logging
 
     import dask
@@ -396,7 +406,9 @@ def local_cluster(workers: int, cluster_class: Any = None) -> Any:
 class DaskExecutor(SweepExecutor):
     """Runs the tasks on a Dask cluster: a given ``Client`` (left open), a scheduler
     address, or a ``LocalCluster`` of *workers* single-threaded processes started and
-    closed here; ``executor="dask"``."""
+    closed here; ``executor="dask"``.  ``client``: a ``dask.distributed.Client``, used and left
+    open; else ``scheduler``: a scheduler address to connect to; else a local cluster of
+    ``workers`` processes (default: the CPU count)."""
 
     ref: ScenarioRef
 
@@ -439,7 +451,7 @@ class DaskExecutor(SweepExecutor):
         self._owned = []
 
     def run(self, tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
-        """Yield ``(index, outcome)`` for each task as it finishes."""
+        """Yield ``(index, outcome)`` for each task ``(index, params, seed)`` of *tasks* as it finishes."""
         from dask.distributed import as_completed
 
         futures = {self.client.submit(_dask_task, self.ref, params, seed, self.timeout, pure=False): index

@@ -32,7 +32,8 @@ def _column(values: list[Any]):
 
 
 def run_frame(records: list[dict[str, Any]], params: list[str]):
-    """The tidy run table of *records* (in the order given): parameter columns,
+    """The tidy run table of *records* (in the order given): parameter columns (*params*, the
+    parameter names, in order),
     ``seed_index``, ``seed``, the metrics (in order of first appearance), ``status``,
     ``error``, ``traceback``, ``wall_time``.
 
@@ -71,6 +72,10 @@ class SweepResult:
     sweep's metadata; ``path``: its directory (None for a sweep kept in memory);
     ``repaired``: the damaged files (:class:`~netcosim.sweep.store.Damage`) a sweep
     found in its directory and whose runs it ran again (empty if none).
+    ``params``: the parameter names (the run table's first columns); ``tables``: the
+    per-run tables of a sweep kept in memory, ``{(case, seed_index): {name: DataFrame}}``;
+    ``store``: the sweep's on-disk store, which holds them otherwise; ``keys``: the
+    ``(case, seed_index)`` of the runs in run-table order (the order of :meth:`table`).
     """
 
     def __init__(self, runs, params: list[str], meta: dict[str, Any], summary: dict[str, int],

@@ -44,8 +44,10 @@ class Outcome:
 
 
 def split_result(result: Any, params: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """``(metrics, tables)`` of a scenario's return value; raises ``TypeError`` /
-    ``ValueError`` naming the key and the type of anything that is neither."""
+    """``(metrics, tables)`` of a scenario's return value *result* (a dict of metric name ->
+    int, float, bool, str or None, and table name -> DataFrame); raises ``TypeError`` /
+    ``ValueError`` naming the key and the type of anything that is neither, or a metric
+    or column named as one of the case's *params* (parameter name -> value)."""
     import pandas as pd
 
     if not isinstance(result, dict):

@@ -118,7 +118,8 @@ def _warn_nan(records: list[dict[str, Any]], params) -> None:
 
 
 def validate_cases(fn: Callable, cases: list[dict[str, Any]]) -> None:
-    """Call the scenario's optional ``validate(params)`` attribute for every case, before
+    """Call the scenario *fn*'s optional ``validate(params)`` attribute for every case of
+    *cases* (dicts of parameter name -> value), before
     any run; raise one :class:`~netcosim.errors.ConfigurationError` listing every case
     it refused (it raises) with the reason.  A scenario without ``validate`` is not
     checked."""

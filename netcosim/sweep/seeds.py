@@ -24,12 +24,14 @@ __all__ = ["canonical", "run_seed", "seed_list"]
 
 
 def canonical(params: dict[str, Any]) -> str:
-    """The canonical text of a case: JSON with sorted keys and no spaces."""
+    """The canonical text of a case *params* (parameter name -> JSON-serialisable value, no
+    NaN): JSON with sorted keys and no spaces."""
     return json.dumps(params, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
 def run_seed(root_seed: int, params: dict[str, Any], seed_index: int) -> int:
-    """The seed (an integer in ``[0, 2**63)``) of run *seed_index* of the case *params*."""
+    """The seed (an integer in ``[0, 2**63)``) of run *seed_index* of the case *params*, derived
+    from the sweep's *root_seed* and the case's :func:`canonical` text (SHA-256)."""
     digest = hashlib.sha256(canonical(params).encode()).digest()
     entropy = [int(root_seed)] + [int.from_bytes(digest[i:i + 4], "little") for i in range(0, 32, 4)]
     state = np.random.SeedSequence(entropy, spawn_key=(int(seed_index),)).generate_state(2, np.uint32)

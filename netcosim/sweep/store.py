@@ -89,7 +89,8 @@ class Damage:
 
 
 def describe_key(meta: dict[str, Any] | None, key: tuple[int, int]) -> str:
-    """``case 1 {"a": 1} seed_index 0``: a run named by its case's parameters."""
+    """``case 1 {"a": 1} seed_index 0``: the run *key* ``(case, seed_index)`` named by its case's
+    parameters, read from the sweep metadata *meta* (without it, or its ``cases``: by index)."""
     c, s = key
     cases = (meta or {}).get("cases") or []
     params = f" {json.dumps(cases[c], sort_keys=True)}" if 0 <= c < len(cases) else ""
@@ -97,7 +98,8 @@ def describe_key(meta: dict[str, Any] | None, key: tuple[int, int]) -> str:
 
 
 def describe_damage(meta: dict[str, Any] | None, damage: list[Damage], limit: int = 20) -> list[str]:
-    """One line per damaged file: the file, why, and the runs it holds."""
+    """One line per damaged file of *damage* (:class:`Damage`), at most *limit* then a count: the
+    file, why, and the runs it holds (named by *meta*'s ``cases``, see :func:`describe_key`)."""
     lines = []
     for d in damage[:limit]:
         if len(d.keys) == 1:
@@ -116,7 +118,8 @@ class DamagedSweepError(NetcosimError, OSError):
     """Files of a sweep directory do not match their recorded SHA-256 (a flipped bit, a
     truncated or deleted file) or cannot be read.  ``damage``: the :class:`Damage` of
     each file; ``keys``: the ``(case, seed_index)`` of the runs they hold (``--resume``
-    or running the sweep again re-runs exactly those)."""
+    or running the sweep again re-runs exactly those).  ``root``: the sweep directory;
+    ``meta``: its metadata, whose ``cases`` name the runs in the message (None: by index)."""
 
     def __init__(self, root: Path, damage: list[Damage], meta: dict[str, Any] | None = None):
         self.root = root
@@ -251,7 +254,8 @@ class Lock:
 
 # --- column types -------------------------------------------------------------------
 def param_dtypes(cases: list[dict[str, Any]]) -> dict[str, str]:
-    """The column type of each parameter in every file of the sweep: ``float64`` if any
+    """The column type of each parameter of *cases* (the grid's dicts of parameter name ->
+    value, all with the same names) in every file of the sweep: ``float64`` if any
     value is a float (ints and floats mixed), ``int64`` / ``bool`` (``Int64`` /
     ``boolean``, pandas' nullable types, if a case has None), ``str``, or ``null`` (all None)."""
     out: dict[str, str] = {}
@@ -472,7 +476,8 @@ class Store:
         return out
 
     def write_run(self, case: int, seed_index: int, record: dict[str, Any], tables: dict[str, Any]) -> None:
-        """Store one finished run (replacing a previous version of it): each file to a
+        """Store one finished run, seed *seed_index* of case *case* (its run-table row *record*
+        and its per-run *tables*, name -> DataFrame), replacing a previous version of it: each file to a
         temporary name, their digests to the journal, then the tables renamed, then the
         row (which marks the run finished)."""
         import pandas as pd
@@ -519,7 +524,7 @@ class Store:
         return pd.read_parquet(path) if path.is_file() else None
 
     def write_runs(self, frame) -> None:
-        """Write the whole run table to ``runs.parquet`` (its digest recorded first).
+        """Write the whole run table *frame* to ``runs.parquet`` (its digest recorded first).
 
         A metric whose runs returned values of different kinds (a number in one run, a
         string in another) cannot be one Parquet column: it is written as text, with a
