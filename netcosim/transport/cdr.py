@@ -99,7 +99,8 @@ _U32 = 0xFFFFFFFF
 
 class CdrError(NetcosimError, ValueError):
     """A payload that is not a valid CDR ``Frame``; ``reason`` is one of ``"short"``,
-    ``"encapsulation"``, ``"version"``, ``"kind"``, ``"oversized"``, ``"length"``."""
+    ``"encapsulation"``, ``"version"``, ``"kind"``, ``"oversized"``, ``"length"``; ``detail``
+    says what was wrong, in the message."""
 
     def __init__(self, reason: str, detail: str):
         super().__init__(f"rejected CDR message ({reason}): {detail}")
@@ -109,6 +110,11 @@ class CdrError(NetcosimError, ValueError):
 def encode(kind: int, node: int, session: int, peer: int, ticks: int, seq: int,
            values: Sequence[float] = ()) -> bytes:
     """The CDR bytes of one message (see the module docstring for the layout).
+
+    The fields are those of :func:`netcosim.transport.wire.encode`: ``kind`` (``DATA``,
+    ``END`` or ``REFUSED``), ``node`` (network index, or ``LOCAL`` / ``BROADCAST``),
+    ``session`` and ``peer`` (64-bit ids), ``ticks`` (simulated time, ticks of 1 ps),
+    ``seq`` and ``values`` (a sequence of real numbers, sent as float64).
 
     ``seq`` is taken modulo 2**32; every other field out of its range (``ticks`` is the
     IDL's signed ``int64``: a negative value is stored as such and decodes unchanged, as

@@ -254,7 +254,8 @@ class RemoteProcess:
     def receive(self, timeout: float | None = None, *, _idle: bool = True) -> wire.Message | None:
         """The next request for this process, waiting up to *timeout* s (None: forever);
         None on timeout (``status`` becomes ``"idle"``) or once the run is over.  Invalid
-        and foreign messages are counted and skipped."""
+        and foreign messages are counted and skipped.  ``_idle`` (internal): False leaves
+        ``status`` as it is on a timeout (:meth:`serve` keeps waiting)."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while self.status == "running":
             left = None if deadline is None else max(0.0, deadline - time.monotonic())
@@ -301,7 +302,8 @@ class RemoteProcess:
 
     def info(self, timeout: float = 5.0) -> dict:
         """The run's parameters the simulation answers on ``netcosim/<run>/<node>/info``
-        (JSON: session, the network's name -> index table, period, deadline, schema)."""
+        (JSON: session, the network's name -> index table, period, deadline, schema),
+        waiting up to *timeout* s (:class:`TimeoutError` if no simulation answers)."""
         import json
         for reply in self.session.zenoh.get(self.keys["info"], timeout=timeout):
             ok = getattr(reply, "ok", None)
@@ -312,7 +314,10 @@ class RemoteProcess:
     def periodic(self, period: float, body: Callable[[int], bool | None], *, duration: float | None = None,
                  clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep) -> LoopStats:
-        """:func:`periodic` (``period`` in s) that also stops when the run is over."""
+        """:func:`periodic` (``period`` in s) that also stops when the run is over: ``body(k)``
+        is called at ``t0 + k * period`` until it returns True, the run is over or
+        *duration* s (None: no limit) have passed; ``clock`` (a monotonic time in s) and
+        ``sleep`` (s) are injectable for tests."""
         return periodic(period, body, duration=duration, clock=clock, sleep=sleep,
                         stop=lambda: self.status != "running")
 
@@ -339,7 +344,7 @@ class RemoteProcess:
 def add_arguments(parser: Any) -> None:
     """The options every remote program accepts (``netcosim hil`` prints them): ``--run``,
     ``--node``, ``--connect`` (repeatable), ``--session``, ``--lease``, ``--idle``,
-    ``--zenoh-config``, ``--encoding``."""
+    ``--zenoh-config``, ``--encoding``: added to *parser*, an :class:`argparse.ArgumentParser`."""
     parser.add_argument("--run", required=True, help="run id printed by the simulation side")
     parser.add_argument("--node", required=True, help="name of the remote node (or plant)")
     parser.add_argument("--connect", action="append", required=True, help="endpoint, e.g. tcp/127.0.0.1:7447")
@@ -352,13 +357,14 @@ def add_arguments(parser: Any) -> None:
 
 
 def connect(args: Any) -> RemoteProcess:
-    """The :class:`RemoteProcess` of parsed :func:`add_arguments` options."""
+    """The :class:`RemoteProcess` of *args*, the parsed :func:`add_arguments` options (an
+    :class:`argparse.Namespace`)."""
     return RemoteProcess(args.node, run=args.run, connect=args.connect, lease=args.lease, session=args.session,
                          config=args.zenoh_config, encoding=args.encoding)
 
 
 def finish(rp: RemoteProcess, extra: dict | None = None) -> int:
-    """End a remote program: print its counters (and *extra*) as JSON on the last line of
+    """End the remote program of *rp*: print its counters (and *extra*) as JSON on the last line of
     stdout, the reason on stderr when the run did not end normally; return the exit status.
 
     When the simulation is gone (``status == "gone"``) the process exits here, at once,
@@ -379,7 +385,8 @@ def finish(rp: RemoteProcess, extra: dict | None = None) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m netcosim.transport.client --run RUN --node NODE --connect ENDPOINT``: an
     echo process (answers every request with its own values, to its sender); prints its
-    counters as JSON when the run is over; exit status :attr:`RemoteProcess.exit_code`."""
+    counters as JSON when the run is over; exit status :attr:`RemoteProcess.exit_code`.
+    *argv*: the arguments (None: ``sys.argv[1:]``)."""
     import argparse
     p = argparse.ArgumentParser(prog="python -m netcosim.transport.client", description=main.__doc__)
     add_arguments(p)

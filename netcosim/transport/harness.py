@@ -37,7 +37,8 @@ def remote_command(program: Sequence[str], *, run: str, node: str, endpoints: Se
     leading ``python`` or ``python3`` is replaced by :data:`sys.executable`, the running
     interpreter) followed by ``--run RUN --node NODE [--session HEX] --lease LEASE``,
     ``--zenoh-config PATH`` and ``--encoding ENC`` if given (not ``ncsm``), and ``--connect E``
-    for each endpoint."""
+    for each endpoint of *endpoints* (the simulation's session's, e.g.
+    ``tcp/127.0.0.1:7447``); ``zenoh_config``: the path of a Zenoh configuration file."""
     program = list(program)
     if program and program[0] in ("python", "python3"):
         program[0] = sys.executable
@@ -173,7 +174,8 @@ def run_with_remotes(sim: Any, remotes: Sequence[Any], until: float, commands: S
     (:class:`TimeoutError` naming the nodes that were not).  ``before_run()``: called once
     all are connected.  ``signal_at=(t, sig)``: send signal *sig* (e.g.
     ``signal.SIGKILL``, ``signal.SIGSTOP``) to the first spawned process at simulated time
-    *t* (s), to exercise the loss policy; its counters are then not read.
+    *t* (s), to exercise the loss policy; its counters are then not read.  ``cwd``: the
+    spawned processes' working directory (None: this one's).
 
     A failure of ``sim.run`` does not propagate: the run is ended as usual (END sent,
     trace kept) and returned with ``failure`` set.
@@ -231,5 +233,5 @@ def run_with_remotes(sim: Any, remotes: Sequence[Any], until: float, commands: S
 
 
 def run_with_remote(sim: Any, remote: Any, until: float, command: Sequence[str], **options: Any) -> RemoteRun:
-    """:func:`run_with_remotes` with one remote and its command (*until* in s of simulated time)."""
+    """:func:`run_with_remotes` of *sim* with one remote and its command (*until* in s of simulated time)."""
     return run_with_remotes(sim, [remote], until, [command], **options)

@@ -101,7 +101,8 @@ class Lateness:
         return pd.DataFrame({"low": self.edges[:-1], "high": self.edges[1:], "events": self.counts})
 
     def plot(self, ax=None):
-        """Bar plot of the histogram on a logarithmic lateness axis; returns the axes."""
+        """Bar plot of the histogram on a logarithmic lateness axis (s), on the matplotlib axes
+        *ax* (None: a new figure); returns the axes."""
         import matplotlib.pyplot as plt
         if ax is None:
             _, ax = plt.subplots(figsize=(6, 3.5))

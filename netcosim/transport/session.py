@@ -106,7 +106,7 @@ class Session:
 
     ``zenoh``: the ``zenoh.Session``; ``endpoints``: the endpoints it really listens on
     (port 0 replaced by the port the OS chose; what a peer passes as ``connect``);
-    ``lease``: the lease (s) set on its links.
+    ``lease``: the lease (s) set on its links.  ``z``: the ``zenoh.Session``, kept as ``zenoh``.
     """
 
     def __init__(self, z: Any, endpoints: list[str], lease: float):
@@ -139,7 +139,7 @@ class Session:
             key_expr, lambda s: callback(s.kind == zenoh.SampleKind.PUT), history=True)
 
     def watch_keys(self, key_expr: str, callback: Callable[[str, bool], None]):
-        """Like :meth:`watch` for a key expression with wildcards: ``callback(key, alive)``
+        """Like :meth:`watch` for *key_expr*, a key expression with wildcards: ``callback(key, alive)``
         with the key of the token that appeared or disappeared."""
         zenoh = _zenoh()
         return self.zenoh.liveliness().declare_subscriber(

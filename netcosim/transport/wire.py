@@ -68,7 +68,8 @@ _I64 = 1 << 63
 
 class WireError(ValueError):
     """A message that is not a valid netcosim message; ``reason`` is one of
-    ``"short"``, ``"magic"``, ``"version"``, ``"kind"``, ``"oversized"``, ``"length"``."""
+    ``"short"``, ``"magic"``, ``"version"``, ``"kind"``, ``"oversized"``, ``"length"``; ``detail``
+    says what was wrong, in the message."""
 
     def __init__(self, reason: str, detail: str):
         super().__init__(f"rejected message ({reason}): {detail}")
@@ -91,7 +92,9 @@ class Message(NamedTuple):
 
 def check_fields(kind: int, node: int, session: int, peer: int, ticks: int, n: int) -> None:
     """Raise :class:`ValueError` naming the first field out of its range (``seq`` is
-    always taken modulo 2**32)."""
+    always taken modulo 2**32): ``kind`` one of :data:`KINDS`, ``node`` in [0, 65535],
+    ``session`` and ``peer`` in [0, 2**64 - 1], ``ticks`` a signed 64-bit integer, ``n``
+    (the number of values) at most :data:`MAX_VALUES`."""
     if kind not in KINDS:
         raise ValueError(f"message kind must be one of {KINDS}, got {kind!r}")
     if not 0 <= node <= _U16:
@@ -109,8 +112,12 @@ def encode(kind: int, node: int, session: int, peer: int, ticks: int, seq: int,
            values: Sequence[float] = ()) -> bytes:
     """The bytes of one message (see the module docstring for the layout).
 
+    ``kind``: :data:`DATA`, :data:`END` or :data:`REFUSED`; ``node``: the network index of
+    the destination (to the simulation) or source (from it), or :data:`LOCAL` /
+    :data:`BROADCAST`; ``session``: the run's session id; ``peer``: the remote process's
+    id; ``ticks``: simulated time (ticks of 1 ps); ``values``: the float64 payload.
     ``seq`` is taken modulo 2**32; every other field out of its range raises
-    :class:`ValueError` naming it.
+    :class:`ValueError` naming it (:func:`check_fields`).
     """
     n = len(values)
     check_fields(kind, node, session, peer, ticks, n)
@@ -139,6 +146,6 @@ def decode(data: bytes | bytearray | memoryview) -> Message:
 
 
 def finite(values: Sequence[float]) -> bool:
-    """True if every value is finite (no NaN, no infinity)."""
+    """True if every value of *values* is finite (no NaN, no infinity)."""
     isfinite = math.isfinite
     return all(isfinite(v) for v in values)
