@@ -198,7 +198,8 @@ class CoSimulationFMU(ContinuousSystem):
 
 class DoStepper:
     """The integrator of a :class:`CoSimulationFMU` plant: ``doStep`` to the exact instants
-    the plant is advanced to (the plant's default; bound to it when the plant is created)."""
+    the plant is advanced to (the plant's default; bound to it when the plant is created).
+    ``system``: the :class:`CoSimulationFMU` it steps."""
 
     reports_dense = True
 
@@ -215,7 +216,10 @@ class DoStepper:
         return self
 
     def integrate(self, rhs, t0, x0, t1, gs, dense=None):
-        """Step the FMU to *t1* (s) (through the instants of *dense*, reported); no guards."""
+        """Step the FMU from *t0* to *t1* (s) (through the instants of *dense*, reported) with the
+        plant's held input; no guards.  The integrator interface's *rhs* and *gs* are
+        ignored (the FMU has its own dynamics, guards are not supported) and *x0* gives the
+        state's size only; *t0* must be the FMU's own time (it cannot go back)."""
         fmu = self.system
         if t0 != fmu.time and not (t0 > fmu.time and t0 - fmu.time < fmu.min_step):
             raise FMUError(f"{fmu.file.label}: asked to advance from t={t0!r} s but the FMU is at "

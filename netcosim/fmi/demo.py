@@ -136,7 +136,8 @@ def build_fmu(model: str, fmi: int, directory, *, guid: str | None = None, fmi_v
 
     *guid*: the GUID/instantiation token written to the XML (a different one than the
     binary's makes instantiation fail); *fmi_version*: the fmiVersion attribute written
-    (e.g. ``"1.0"`` for a wrong-version FMU).  Returns the ``.fmu`` path."""
+    (e.g. ``"1.0"`` for a wrong-version FMU); *name*: the FMU's file and build folder name
+    (default ``<model><fmi>``, e.g. ``"servo2"``).  Returns the ``.fmu`` path."""
     import shutil
 
     import fmpy
@@ -198,7 +199,8 @@ SE_XML = """<?xml version="1.0" encoding="UTF-8"?>
 
 def build_se_fmu(directory) -> Path:
     """The FMI 3.0 Scheduled Execution FMU of ``fmus/fmi3_se.c``: clocks ``fast`` (5 ms) and
-    ``slow`` (8 ms), each partition counting its activations."""
+    ``slow`` (8 ms), each partition counting its activations, built with gcc in *directory*
+    (a folder ``se`` for the build, the FMU as ``se.fmu``); returns the FMU's path."""
     import fmpy
     work = Path(directory) / "se"
     binaries = work / "binaries" / "x86_64-linux"

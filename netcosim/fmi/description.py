@@ -45,7 +45,11 @@ class Variable:
     """One variable of an FMU's ``modelDescription.xml``: the signal metadata a plant exposes.
 
     ``unit`` is the unit string of the description (None when it gives none); ``start`` the
-    start value as a float (None when it has none, e.g. a calculated variable)."""
+    start value as a float (None when it has none, e.g. a calculated variable).  ``name``: the
+    FMI name; ``value_reference``: the FMI value reference; ``type``: e.g. ``"Real"``,
+    ``"Float64"``, ``"Integer"``, ``"Boolean"``; ``causality`` (``"input"``, ``"output"``,
+    ``"parameter"``, ``"local"``, ...) and ``variability`` (``"continuous"``, ``"tunable"``,
+    ...) as in the description; ``description``: its text, or None."""
 
     name: str
     value_reference: int
@@ -72,7 +76,9 @@ class FMUFile:
     """An FMU read from *path* (``.fmu``), its description checked, extracted for loading.
 
     ``fmi_version`` is 2 or 3; ``variables`` maps every variable name to its
-    :class:`Variable`; ``model_description`` is FMPy's own object.  Raises
+    :class:`Variable`; ``model_description`` is FMPy's own object.  ``kind``: the interface
+    used, ``"model exchange"``, ``"co-simulation"`` or ``"scheduled execution"`` (the FMU
+    must provide it).  Raises
     :class:`~netcosim.errors.FMUError` for a missing or unreadable file, a description
     FMPy rejects, or an FMI version other than 2.0 and 3.0.
     """
@@ -125,7 +131,8 @@ class FMUFile:
 
     # Variables -----------------------------------------------------------------
     def variable(self, name: str, role: str) -> Variable:
-        """The variable *name*, or an error naming the FMU, the name and the closest names."""
+        """The variable *name*, or an error naming the FMU, the name (as a *role*, e.g.
+        ``"parameter"``) and the closest names."""
         if not isinstance(name, str):
             raise ConfigurationError(f"{self.label}: {role} must be an FMI variable name (a string), got {name!r}")
         v = self.variables.get(name)
@@ -141,7 +148,8 @@ class FMUFile:
         return tuple(n for n, v in self.variables.items() if v.causality == causality)
 
     def real(self, names: Sequence[str], role: str) -> list[int]:
-        """The value references of *names*, each checked to be a real (Float64/Real) variable."""
+        """The value references of *names*, each checked to be a real (Float64/Real) variable;
+        *role* (e.g. ``"input"``) names their use in errors."""
         out = []
         for n in names:
             v = self.variable(n, role)
@@ -158,7 +166,8 @@ class FMUFile:
     # Instances -----------------------------------------------------------------
     def instantiate(self, instance_name: str, cls_name: str, **options):
         """Load the binary and instantiate it as FMPy class *cls_name* (``FMU2Model``, ...;
-        *options* go to its ``instantiate``)."""
+        *options* go to its ``instantiate``) under *instance_name* (the FMU's log and error
+        messages name it)."""
         import fmpy.fmi2
         import fmpy.fmi3
         module = fmpy.fmi2 if self.fmi_version == 2 else fmpy.fmi3
@@ -191,7 +200,8 @@ class FMUFile:
             raise FMUError(f"{self.label}: {what}{on} failed{where}: {exc}") from None
 
     def set_values(self, values: dict, role: str = "parameter") -> None:
-        """Set variables by name (before initialisation): reals, integers and booleans."""
+        """Set variables by name (before initialisation): reals, integers and booleans, from
+        *values* (``{FMI name: value}``); *role* (default ``"parameter"``) names them in errors."""
         fmu = self.instance
         for name, value in values.items():
             v = self.variable(name, role)

@@ -50,7 +50,7 @@ RX_OUTPUTS = {"rx_count": ("Integer", 0), "rx_seq": ("Integer", 0), "rx_src": ("
 
 
 def load_builder(spec: str):
-    """The function ``module:function`` (the network builder ``fn(sim) -> network``)."""
+    """The function *spec*, written ``module:function`` (the network builder ``fn(sim) -> network``)."""
     module, _, name = spec.partition(":")
     if not module or not name:
         raise ValueError(f"a network builder is 'package.module:function', got {spec!r}")

@@ -42,7 +42,8 @@ class ScheduledExecutionFMU:
     ``clocks`` maps each periodic input clock to its interval (s); ``shifts`` to its
     shift (s); ``activations`` lists every activation made, ``(clock, activation time,
     completion time)`` in s; :meth:`output` reads an output (or any Float64 variable).
-    *parameters*: ``{FMI name: value}`` set before initialisation.
+    *parameters*: ``{FMI name: value}`` set before initialisation; *start_time* (s): the
+    FMU's time at initialisation; *name*: the instance's name (default the model's).
     """
 
     def __init__(self, path: Any, *, parameters: dict | None = None, start_time: float = 0.0,
@@ -103,7 +104,9 @@ class ScheduledExecutionFMU:
 
     def activate(self, clock: str, activation_time: float, *, vr: int | None = None,
                  now: float | None = None) -> None:
-        """Run the partition of *clock* for the tick at *activation_time* (s)."""
+        """Run the partition of *clock* for the tick at *activation_time* (s).  ``vr``: the
+        clock's value reference (None: looked up by name); ``now`` (s): the completion time
+        recorded in :attr:`activations` (None: the activation time)."""
         vr = self._clock_vr[clock] if vr is None else vr
         self.file.call("fmi3ActivateModelPartition", self._fmu.activateModelPartition, vr, activation_time,
                        t=activation_time, names=[clock])

@@ -227,7 +227,8 @@ def build_layout(tables: dict, *, signals: Sequence | None = None, t_range=None,
     :func:`netcosim.view.tables.read_tables`).  ``signals``: ``"source.signal"`` names or
     ``(source, signal)`` pairs (default: the first 8 logged; ``[]``: no signal panel);
     ``t_range = (t0, t1)`` (s): the initial window (default: the whole run); ``width`` in
-    pixels; ``max_glyphs``, ``max_points``, ``bins``: the level of detail (:data:`DEFAULTS`)."""
+    pixels; ``title``: the heading shown above the timeline; ``max_glyphs``, ``max_points``,
+    ``bins``: the level of detail (:data:`DEFAULTS`)."""
     from bokeh.layouts import column
     from bokeh.models import CustomJS, Div, Range1d
     opts = dict(DEFAULTS)
@@ -280,7 +281,8 @@ def write_view(source: Any, path: str | os.PathLike | None = None, *, title: str
     """Write the interactive timeline of *source* to *path* (default ``view.html``); returns the path.
 
     *source*: a Trace, a Simulation, a dict of DataFrames or a directory of
-    ``Trace.to_parquet`` files (``prefix``: their name prefix); *options*: those of
+    ``Trace.to_parquet`` files (``prefix``: their name prefix); ``title``: the page's title
+    and heading (None: ``"netcosim run"``); *options*: those of
     :func:`build_layout`.  The file holds every row of the drawn tables and Bokeh's
     JavaScript (about 1.6 MB without data): it needs neither a server nor a network."""
     from bokeh.document import Document

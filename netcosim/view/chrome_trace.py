@@ -140,7 +140,8 @@ def chrome_trace_events(tables: dict) -> list[dict]:
 
 def write_chrome_trace(source: Any, path: str | os.PathLike, *, prefix: str = "") -> Path:
     """Write *source*'s trace (a Trace, a Simulation, a dict of DataFrames or a directory
-    of ``Trace.to_parquet`` files) as trace-event JSON to *path*; returns the path."""
+    of ``Trace.to_parquet`` files, whose names start with *prefix*) as trace-event JSON to
+    *path*; returns the path."""
     tables = read_tables(source, prefix=prefix)
     out = Path(path)
     if not out.parent.is_dir():
@@ -153,7 +154,7 @@ def write_chrome_trace(source: Any, path: str | os.PathLike, *, prefix: str = ""
 
 
 def check_chrome_trace(doc: dict | Iterable[dict]) -> int:
-    """Check trace events (a ``{"traceEvents": [...]}`` document or the list): every event
+    """Check the trace events of *doc* (a ``{"traceEvents": [...]}`` document or the list): every event
     has :data:`REQUIRED`, ``ts`` is a finite number, ``dur`` (complete events) is >= 0,
     and within each track ``(pid, tid)`` the timestamps never decrease.  Returns the
     number of events; raises :class:`ValueError` naming the first bad event."""

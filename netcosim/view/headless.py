@@ -52,7 +52,12 @@ class Page:
     """A view loaded in headless Chromium: ``errors`` (JavaScript errors and console
     errors, in order), ``load_time`` (s from navigation until the first level-of-detail
     update, or until Bokeh's document exists for a page without one), and methods to read
-    and move it.  Use as a context manager (closes the browser)."""
+    and move it.  Use as a context manager (closes the browser).
+
+    ``html``: the path of the view's HTML file; ``width``, ``height``: the viewport in
+    pixels; ``timeout`` (s): the limit on loading the page and on its first update;
+    ``wait_update``: wait for the first level-of-detail update (False: only for Bokeh's
+    document, for a page without the update callback)."""
 
     def __init__(self, html: str | os.PathLike, *, width: int = 1300, height: int = 1000, timeout: float = 120.0,
                  wait_update: bool = True):
@@ -83,7 +88,7 @@ class Page:
         return self.page.evaluate(DRAWN_JS)
 
     def wait_updates(self, n: int, timeout: float = 60.0) -> None:
-        """Wait until the level-of-detail callback has run *n* times in all."""
+        """Wait until the level-of-detail callback has run *n* times in all, at most *timeout* s."""
         self.page.wait_for_function(f"(window.__ncs_updates || 0) >= {n}", timeout=timeout * 1e3)
 
     def set_range(self, t0: float, t1: float) -> dict[str, Any]:

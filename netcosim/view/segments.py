@@ -69,7 +69,8 @@ def staircase(times: np.ndarray, levels: np.ndarray, t0: float, t1: float, floor
 
 
 def state_intervals(times: np.ndarray, states: np.ndarray, t_end: float):
-    """``(start, end, state)`` arrays of one row's state changes: each change at
+    """``(start, end, state)`` arrays of one row's state changes (*states*, the state entered
+    at each time of *times*): each change at
     ``times[i]`` (s) lasts until the next one, the last until *t_end* (s)."""
     ends = np.append(times[1:], t_end)
     return times, ends, states
@@ -83,7 +84,7 @@ def task_order(schedule: pd.DataFrame) -> list[str]:
 
 def task_segments(schedule: pd.DataFrame, jobs: pd.DataFrame | None = None,
                   t_end: float | None = None) -> pd.DataFrame:
-    """Every non-idle interval of every task: columns ``label`` (``"node.task"``),
+    """Every non-idle interval of every task of *schedule* (the ``schedule`` table): columns ``label`` (``"node.task"``),
     ``node``, ``task``, ``state`` (running / ready / blocked), ``start``, ``end`` (s),
     ``level`` (:data:`TASK_STATES`) and ``job`` (the job number of the ``jobs`` row whose
     ``[release, finish]`` holds the interval; -1 without *jobs* or none found).
@@ -188,7 +189,8 @@ def medium_busy(attempts: pd.DataFrame) -> pd.DataFrame:
 
 
 def frame_markers(frames: pd.DataFrame, t0: float, t1: float):
-    """The network plot's markers inside ``[t0, t1]`` (s): ``(lost, retransmissions)``:
+    """The network plot's markers inside ``[t0, t1]`` (s) of *frames* (the ``frames`` table):
+    ``(lost, retransmissions)``:
     the ``lost`` rows (time, node where lost, sender) and the ``attempt_start`` rows with
     ``attempt > 1`` (time, sender)."""
     fr = frames[(frames["time"] >= t0) & (frames["time"] <= t1)]
