@@ -134,7 +134,10 @@ class ExpectedCost:
 
     def reset(self, key: Hashable, A: Any, B: Any = None, inputs: tuple = (), R: Any = None) -> "ExpectedCost":
         """Advance to now and jump system *key*'s entries, ``x+ = A x + B u + e`` (e.g.
-        ``reset("act", 0)``: an actuator that outputs zero, "zero on loss")."""
+        ``reset("act", 0)``: an actuator that outputs zero, "zero on loss"): *A* on the
+        system's entries, *B* on u, the stacked outputs of the systems *inputs*, and *R*
+        the covariance of e (None: no noise), as
+        :meth:`Interconnection.reset_map <netcosim.lq.systems.Interconnection.reset_map>`."""
         self._advance(self._read(), "reset")
         self.propagator.reset(key, A, B, inputs, R)
         return self

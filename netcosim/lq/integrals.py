@@ -35,7 +35,10 @@ __all__ = ["IntervalMatrices", "interval_matrices"]
 
 @dataclass(frozen=True)
 class IntervalMatrices:
-    """The exact transition, noise and cost matrices of one interval length ``T`` (s)."""
+    """The exact transition, noise and cost matrices of one interval length ``T`` (s):
+    ``Phi`` = Phi(T), ``R`` = R(T) (noise covariance added), ``Q`` = Q(T) (cost of the
+    initial state) and ``J_noise`` = J_noise(T) (cost of the noise entering), as defined in
+    the module docstring."""
 
     T: float
     Phi: np.ndarray
@@ -45,7 +48,8 @@ class IntervalMatrices:
 
 
 def interval_matrices(A: np.ndarray, R_c: np.ndarray, Q_c: np.ndarray, T: float) -> IntervalMatrices:
-    """``Phi(T)``, ``R(T)``, ``Q(T)`` and ``J_noise(T)`` (see the module) for ``T >= 0``;
+    """``Phi(T)``, ``R(T)``, ``Q(T)`` and ``J_noise(T)`` (see the module) for ``T >= 0`` (s)
+    of ``dz = A z dt + dv`` with noise intensity *R_c* and cost rate ``z^T Q_c z`` (all n x n);
     the caller has checked the arguments.  T = 0 gives ``(I, 0, 0, 0)`` exactly."""
     n = A.shape[0]
     if T == 0.0 or n == 0:

@@ -194,12 +194,14 @@ def loss_cost(model: Interconnection, period: float, stages: Sequence[Stage], lo
     every *period* seconds, their messages lost by *loss*: a frame loss probability
     (Bernoulli), a Markov loss model (e.g. :class:`~netcosim.network.GilbertElliott`) or a
     mapping from link to those (hold on loss; see the module).  ``cost_rate`` is ``inf``
-    (``stable=False``) when the loop is not mean-square stable under that loss."""
+    (``stable=False``) when the loop is not mean-square stable under that loss.  ``delta``:
+    the timing model's time grain (s), None to find it (:func:`loss_model`)."""
     return loss_model(model, period, stages, loss, delta).cost()
 
 
 def loss_cost_curve(model: Interconnection, period: float, stages: Sequence[Stage], losses: Iterable[Any],
                     delta: float | None = None) -> np.ndarray:
     """:func:`loss_cost`'s ``cost_rate`` for each loss of *losses* (probabilities or loss
-    models; cost per second, ``inf`` where not mean-square stable)."""
+    models; cost per second, ``inf`` where not mean-square stable), with the same *model*,
+    *period* (s), *stages* and *delta* (s) for every one."""
     return np.array([loss_cost(model, period, stages, p, delta).cost_rate for p in losses])

@@ -36,7 +36,8 @@ def show(value: Any) -> str:
 
 
 def matrix(value: Any, what: str, shape: tuple[int | None, int | None] | None = None) -> np.ndarray:
-    """*value* as a finite 2-D float array; ``shape`` (None entries: any size) is checked."""
+    """*value* as a finite 2-D float array (a scalar: 1 x 1); ``shape`` (None entries: any size)
+    is checked; *what* names it in errors (e.g. ``"ContinuousSystem: B"``)."""
     if value is None or isinstance(value, (str, bytes, bool)):
         raise ConfigurationTypeError(f"{what} must be a real matrix, got {show(value)}")
     try:
@@ -59,7 +60,7 @@ def matrix(value: Any, what: str, shape: tuple[int | None, int | None] | None = 
 
 
 def square(value: Any, what: str, n: int | None = None) -> np.ndarray:
-    """A finite square matrix (``n`` x ``n`` if *n* is given)."""
+    """*value* as a finite square matrix (``n`` x ``n`` if *n* is given); *what* names it in errors."""
     a = matrix(value, what)
     if a.shape[0] != a.shape[1]:
         raise ConfigurationError(f"{what} must be square, got shape {a.shape[0]}x{a.shape[1]}: {show(value)}")
@@ -69,8 +70,8 @@ def square(value: Any, what: str, n: int | None = None) -> np.ndarray:
 
 
 def covariance(value: Any, what: str, n: int) -> np.ndarray:
-    """A symmetric positive semidefinite ``n`` x ``n`` matrix (a noise intensity or a cost
-    weight); None means zero.  Symmetry and the smallest eigenvalue are checked to
+    """*value* as a symmetric positive semidefinite ``n`` x ``n`` matrix (a noise intensity or a cost
+    weight); None means zero; *what* names it in errors.  Symmetry and the smallest eigenvalue are checked to
     :data:`PSD_TOLERANCE` times the largest entry; the result is symmetrised."""
     if value is None:
         return np.zeros((n, n))
@@ -88,7 +89,8 @@ def covariance(value: Any, what: str, n: int) -> np.ndarray:
 
 
 def vector(value: Any, what: str, n: int) -> np.ndarray:
-    """A finite vector of length *n* (a list, a 1-D array or an n x 1 column)."""
+    """*value* as a finite vector of length *n* (a list, a 1-D array or an n x 1 column); *what*
+    names it in errors."""
     if value is None or isinstance(value, (str, bytes, bool)):
         raise ConfigurationTypeError(f"{what} must be a real vector of length {n}, got {show(value)}")
     try:

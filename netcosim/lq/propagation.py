@@ -144,7 +144,9 @@ class Propagator:
 
     def reset(self, key: Hashable, A: Any, B: Any = None, inputs: tuple = (), R: Any = None) -> "Propagator":
         """Jump system *key*'s entries now: ``x+ = A x + B u + e`` (see
-        :meth:`Interconnection.reset_map <netcosim.lq.systems.Interconnection.reset_map>`)."""
+        :meth:`Interconnection.reset_map <netcosim.lq.systems.Interconnection.reset_map>`: *B*
+        acts on u, the stacked outputs of the systems *inputs*; *R* is the covariance of e,
+        None: no noise)."""
         E, W = self.model.reset_map(key, A, B, inputs, R)
         self._map(E, W)
         self._note(f"reset {key}")

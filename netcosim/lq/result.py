@@ -22,7 +22,8 @@ __all__ = ["CostTrace", "StationaryCost"]
 class CostTrace:
     """The expected cost J (accumulated since the start) and its rate dJ/dt at each
     recorded instant ``time`` (s), with the event that was recorded there (``"start"``,
-    ``"advance"``, ``"update <key>"``, ``"impulse"``, ``"jump"``)."""
+    ``"advance"``, ``"update <key>"``, ``"impulse"``, ``"jump"``): ``cost`` holds J,
+    ``cost_rate`` dJ/dt (cost per second), ``event`` the events, one per instant."""
 
     time: np.ndarray
     cost: np.ndarray

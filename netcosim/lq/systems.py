@@ -76,8 +76,9 @@ class ContinuousSystem:
 
     @classmethod
     def from_ss(cls, sys: Any, R_c: Any = None, Q_c: Any = None) -> "ContinuousSystem":
-        """From any object with ``A``, ``B``, ``C``, ``D`` attributes (a ``control.StateSpace``
-        of python-control, if installed; it is not imported here)."""
+        """From *sys*, any object with ``A``, ``B``, ``C``, ``D`` attributes (a ``control.StateSpace``
+        of python-control, if installed; it is not imported here); ``R_c`` (state noise
+        intensity) and ``Q_c`` (cost weight on [x; u]) as for the class."""
         try:
             return cls(sys.A, sys.B, sys.C, sys.D, R_c=R_c, Q_c=Q_c)
         except AttributeError:
@@ -126,15 +127,18 @@ class DiscreteSystem:
     @classmethod
     def gain(cls, D: Any, R_d: Any = None, Q_c: Any = None) -> "DiscreteSystem":
         """A static gain ``y = D u`` (no state): a sampler (``D = I``), a state feedback
-        (``D = -L``), an actuator's hold.  ``R_d`` (p x p): noise on y (measurement noise)."""
+        (``D = -L``), an actuator's hold.  ``R_d`` (p x p): noise on y (measurement noise);
+        ``Q_c`` (p x p, per second): cost weight on the held y."""
         d = matrix(D, f"{cls.__name__}.gain: D")
         p, r = d.shape
         return cls(np.zeros((0, 0)), np.zeros((0, r)), np.zeros((p, 0)), d, R_d=R_d, Q_c=Q_c)
 
     @classmethod
     def from_ss(cls, sys: Any, R_d: Any = None, Q_c: Any = None) -> "DiscreteSystem":
-        """From any object with ``A``, ``B``, ``C``, ``D`` attributes (e.g. a discrete-time
-        ``control.StateSpace``; its sampling time is not read -- the executions set it)."""
+        """From *sys*, any object with ``A``, ``B``, ``C``, ``D`` attributes (e.g. a discrete-time
+        ``control.StateSpace``; its sampling time is not read -- the executions set it), as
+        ``Phi``, ``Gamma``, ``C``, ``D``; ``R_d`` (noise on [x; y] per execution) and ``Q_c``
+        (cost weight on the held [x; y]) as for the class."""
         try:
             return cls(sys.A, sys.B, sys.C, sys.D, R_d=R_d, Q_c=Q_c)
         except AttributeError:
@@ -167,6 +171,8 @@ class TotalDynamics:
     ``A``, ``R_c``, ``Q_c``: ``dz = A z dt + dv``, ``E[dv dv^T] = R_c dt``, cost rate
     ``z^T Q_c z``.  ``updates[key] = (E, W)``: executing discrete system *key* maps
     ``z -> E z + e`` with ``E[e e^T] = W``.  ``slices[key]``: where a system's entries sit in z.
+    ``output_maps[key]``: the matrix that maps z to system *key*'s output (what its
+    successors read as input).
     """
 
     A: np.ndarray
