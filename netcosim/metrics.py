@@ -226,7 +226,8 @@ def samples(data: Any, signal: Any = None, *, what: str = "signal") -> tuple[np.
     ``"<source>.<signal>"``) or wide (index time; *signal* is a column).  Times are
     checked to be finite and sorted, values not to be NaN (naming the first NaN sample);
     a name not in the table raises :class:`netcosim.trace.UnknownSignalError` (a
-    ``KeyError``) listing the names that are.
+    ``KeyError``) listing the names that are.  *what* names the caller in errors (e.g.
+    ``"settling_time"``).
     """
     import pandas as pd
 
@@ -349,7 +350,8 @@ def ise(data: Any, signal: Any = None, *, reference: Any = None, start: float | 
         until: float | None = None, hold: str = "zoh") -> Cost:
     """Integral of the squared error ``ISE = integral of e(t)^2 dt`` over ``[start, until]`` (s).
 
-    Arguments as :func:`iae`; with ``hold="linear"`` each segment contributes exactly
+    Arguments as :func:`iae` (*data*, *signal*: the samples; ``reference``: a number or
+    ``r(t)``, the error ``r - y``, None: the signal itself); with ``hold="linear"`` each segment contributes exactly
     ``h (a^2 + a b + b^2) / 3``.  Result in (signal unit)^2 x s.
     """
     t, e, _, hold = _prepare(data, signal, reference, start, until, hold, "ise")
@@ -365,7 +367,9 @@ def itae(data: Any, signal: Any = None, *, reference: Any = None, start: float |
     """Integral of time-weighted absolute error ``ITAE = integral of (t - start) |e(t)| dt``
     over ``[start, until]`` (s).
 
-    Arguments as :func:`iae`.  The weight is the time since ``start`` (default the first
+    Arguments as :func:`iae` (*data*, *signal*: the samples; ``reference``: a number or
+    ``r(t)``, the error ``r - y``, None: the signal itself; ``hold``: ``"zoh"`` or
+    ``"linear"``, exact for the held or interpolated error).  The weight is the time since ``start`` (default the first
     sample), so a run logged from t = 0 gets the textbook ``integral of t |e| dt``.
     Result in (signal unit) x s^2.
     """
@@ -430,6 +434,7 @@ def quadratic_cost(data: Any, x: Any, u: Any = None, *, Q: Any = None, R: Any = 
                    start: float | None = None, until: float | None = None, hold: str = "zoh") -> Cost:
     """The quadratic cost ``J = integral of x'Qx + u'Ru + 2 x'Nu dt`` over ``[start, until]`` (s).
 
+    *data*: the sample times (s) or a signals table.
     Arrays: ``quadratic_cost(t, x, u, Q=..., R=...)`` with sample times *t* (s), *x* of
     shape (samples,) or (samples, n) and *u* (optional) of shape (samples,) or
     (samples, m) on the same instants.  Signals table: ``quadratic_cost(table, ["servo.x.x0",
@@ -497,7 +502,8 @@ def quadratic_cost(data: Any, x: Any, u: Any = None, *, Q: Any = None, R: Any = 
 def settling_time(data: Any, signal: Any = None, *, final: float | None = None, band: float = 0.02,
                   abs_band: float | None = None, start: float | None = None, hold: str = "zoh") -> Cost:
     """Time (s, counted from ``start``) after which the signal stays within the band
-    around its final value, up to the last sample.
+    around its final value, up to the last sample.  *data*, *signal*: the samples (times in
+    s), in any form of :func:`samples`.
 
     The band is ``|y(t) - final| <= band * |final - y(start)|`` (a fraction of the step
     from the value at ``start`` to ``final``; 2 % by default), or ``|y(t) - final| <=

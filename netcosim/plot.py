@@ -117,7 +117,7 @@ def time_window(times, t_range) -> tuple[float, float]:
 
 
 def check_table(df: pd.DataFrame, levels: dict[str, float]) -> None:
-    """Check the ``time`` and ``state`` columns of a schedule table before plotting it.
+    """Check the ``time`` and ``state`` columns of *df*, a schedule table, before plotting it.
 
     Raises :class:`~netcosim.errors.ConfigurationTypeError` if ``time`` does not hold
     numbers (e.g. strings), :class:`~netcosim.errors.ConfigurationError` if a time is
@@ -145,7 +145,9 @@ def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, o
 
     ``df`` has columns ``time`` (s), *label* and ``state``; ``levels`` maps each state
     to its offset above the row (both columns are checked by :func:`check_table`);
-    ``t_range`` is checked by :func:`time_window`.
+    ``t_range`` is checked by :func:`time_window`.  ``order``: the labels, top row first
+    (default: order of appearance); ``ax``: the axes to draw on (None: a new figure);
+    ``what`` names a row in the error for a label of *order* that *df* lacks (e.g. ``"task"``).
     Returns ``(ax, row_of, (t0, t1))``.
     """
     check_table(df, levels)
@@ -175,7 +177,7 @@ def plot_staircases(df: pd.DataFrame, label: str, levels: dict[str, float], *, o
 
 
 def save(ax, path) -> None:
-    """Save the axes' figure as PNG (if *path* is given) and close it (also if saving fails).
+    """Save the figure of *ax* (matplotlib axes) as PNG (if *path* is given) and close it (also if saving fails).
 
     A path that cannot be written raises :class:`PlotSaveError` (an ``OSError``) naming it."""
     if path is not None:
@@ -197,7 +199,8 @@ def plot_schedule(schedule: pd.DataFrame, *, tasks: Sequence[str] | None = None,
     = (t0, t1) in seconds restricts the window (``None`` for an open end, e.g. ``(0.5,
     None)`` is from 0.5 s to the end; see :func:`time_window` for the checks); ``node``
     keeps one node's tasks (:class:`~netcosim.errors.ConfigurationError` naming it if
-    the schedule has no such node); ``path`` saves a PNG.  Returns the axes.
+    the schedule has no such node); ``ax``: the matplotlib axes to draw on (None: a new
+    figure); ``title``: the axes' title (None: none); ``path`` saves a PNG.  Returns the axes.
 
     A *schedule* that is not a DataFrame with columns ``time``, ``node``, ``task`` and
     ``state``, or a *path* that cannot be an image file (:func:`check_image_path`), is
@@ -246,7 +249,10 @@ def plot_signals(signals: pd.DataFrame, columns: Sequence[tuple[str, str]], *, p
     """Plot selected ``(source, signal)`` pairs from the tidy signals table.
 
     *signals* must be a DataFrame with columns ``time``, ``source``, ``signal``, ``value``
-    and *path* an image file name (:func:`check_image_path`), both checked before drawing."""
+    and *path* an image file name (:func:`check_image_path`), both checked before drawing.
+    ``ax``: the matplotlib axes to draw on (None: a new figure); ``title``: the axes' title
+    (None: none); ``drawstyle``: matplotlib's line draw style (``"default"`` joins the
+    samples by straight lines, ``"steps-post"`` holds each until the next)."""
     check_columns(signals, ("time", "source", "signal", "value"), "signals")
     check_image_path(path)
     if ax is None:
