@@ -102,6 +102,16 @@ class Recorder:
     ``window`` mode measures (``None``: the table has no time and cannot be windowed),
     ``time_unit`` is ``"ticks"`` (integer picoseconds) or ``"s"``.  ``key`` names the
     columns that identify one signal, for decimation (``every``).
+
+    ``name``: the table's name in the trace; ``columns``: the stored columns' names;
+    ``categorical``: the columns reported as pandas categories; ``transform``: a function
+    turning the stored frame into the reported one (None: reported as stored);
+    ``clock``: returns the current simulation time (ticks), for the ``window`` mode
+    (None: the latest stored time stands for now); ``dtypes``: one column type per
+    column for the columnar store (None entries, or None: found from the values);
+    ``keeps_categories``: the transform gives the categorical columns back unchanged;
+    ``identity``: stored columns of objects coded by identity (see :meth:`Trace.table
+    <netcosim.trace.Trace.table>`).
     """
 
     __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index",
@@ -170,8 +180,12 @@ class Recorder:
     # -- configuration --------------------------------------------------------------
     def configure(self, mode: str = "keep", *, rows=None, seconds=None, every=1, path=None,
                   row_group=DEFAULT_ROW_GROUP, overwrite: bool = False, memory=DEFAULT_MEMORY) -> None:
-        """Set how this table stores rows (``seconds``: the window width in s); see
-        :meth:`Trace.configure`."""
+        """Set how this table stores rows: ``mode`` (``"keep"``, ``"off"``, ``"ring"``,
+        ``"window"``, ``"stream"``), ``rows`` (ring size), ``seconds`` (the window width in s),
+        ``every`` (decimation per signal), ``path`` and ``row_group`` (stream directory and
+        rows per file), ``overwrite`` (delete an earlier stream's files), ``memory`` (keep
+        mode's budget, bytes; None: no limit); see :meth:`Trace.configure
+        <netcosim.trace.Trace.configure>`."""
         w = f"trace table {self.name!r}"
         if not isinstance(mode, str) or mode not in MODES:
             raise ConfigurationError(f"{w}: unknown mode {mode!r}; choose one of {MODES}")

@@ -200,7 +200,9 @@ class Trace:
                       path: str | os.PathLike | None = None, row_group: int = DEFAULT_ROW_GROUP,
                       overwrite: bool = False, memory: int | None = DEFAULT_MEMORY) -> None:
         """Configure every table, and every table created later, like :meth:`configure`
-        (``seconds``: the window width in s).
+        (``seconds``: the window width in s; ``rows``: the ring's size in rows; ``row_group``:
+        rows per Parquet file in ``stream`` mode; ``overwrite``: delete part files an earlier
+        run left; ``memory``: ``keep`` mode's budget in bytes per table, None: no limit).
 
         In ``stream`` mode each table streams into its own directory ``path/<table>``.
         Tables that cannot honour the mode (``window`` on a table without a time
