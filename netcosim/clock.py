@@ -79,7 +79,9 @@ class Timer(simpy.events.Event):
     ``Timer.call(env, delay, fn, arg)``: the firing calls ``fn()``, or ``fn(arg)`` when
     *arg* is given (what :meth:`Simulation.call_at <netcosim.sim.Simulation.call_at>`
     returns).  ``cancel()`` empties the callback list: a cancelled timer stays in SimPy's
-    queue and fires into nothing.
+    queue and fires into nothing.  ``priority``: SimPy's event priority among events of
+    the same instant, smaller first (:data:`URGENT`, then :data:`NORMAL`, the default,
+    then the kernel's :data:`DISPATCH` and :data:`ARBITRATE`).
     """
 
     __slots__ = ("arg", "fn")
@@ -100,7 +102,8 @@ class Timer(simpy.events.Event):
 
     def rearm(self, at: int, callbacks: list, priority: int = NORMAL) -> None:
         """Schedule this timer again, after it fired, at absolute time *at* (ticks) with
-        *callbacks* (a periodic release re-uses one timer instead of making one per job)."""
+        *callbacks* (a periodic release re-uses one timer instead of making one per job),
+        at event *priority* (as for the class)."""
         self.callbacks = callbacks
         env = self.env
         queue: list = env._queue
@@ -109,7 +112,8 @@ class Timer(simpy.events.Event):
     @classmethod
     def call(cls, env: "Engine", delay: int, fn: Callable, arg: Any = _NOARG,
              priority: int = NORMAL) -> "Timer":
-        """A timer, *delay* ticks from now, whose firing calls ``fn()`` (or ``fn(arg)``)."""
+        """A timer on *env* (the simulation's SimPy environment), *delay* ticks from now, whose
+        firing calls ``fn()`` (or ``fn(arg)``); *priority* as for the class."""
         t = cls(env, delay, _call, arg, priority)
         t.fn = fn
         return t

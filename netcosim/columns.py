@@ -95,6 +95,10 @@ class ColumnStore:
     value that cannot be stored so, e.g. None, makes the chunk's column checked as
     usual; one that can, e.g. an ``int`` in a ``"float"`` column, reads back as the
     declared type).  ``None``: the type is found from the values.
+
+    *chunk_rows*: the rows per encoded chunk (default :data:`CHUNK_ROWS`); *memory*: the
+    bytes of encoded chunks held in memory before the older ones move to a temporary file
+    (None, default: no limit).
     """
 
     __slots__ = ("append", "extend", "ncols", "chunk_rows", "categorical", "dtypes", "memory", "spills",

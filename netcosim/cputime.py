@@ -75,7 +75,8 @@ def _seconds(value: Any, what: str) -> float:
 
 class Measurement:
     """Context manager returned by :meth:`CPUTimeModel.measure`; ``seconds`` is the CPU
-    time to charge once the block has exited (reading it earlier raises)."""
+    time to charge once the block has exited (reading it earlier raises).  ``model``: the
+    :class:`CPUTimeModel` that measures; ``phase``: the name the execution is timed as."""
 
     __slots__ = ("model", "phase", "_t0", "_seconds")
 

@@ -148,7 +148,9 @@ class RadioPower:
 
 
 def check_cpu_model(model: Any, what: str) -> Any:
-    """*model* if it has ``power(busy, speed)`` giving a finite power >= 0 at rest."""
+    """*model* if it has ``power(busy, speed)`` giving a finite power >= 0 (W) idle and busy at
+    speed 1, and a boolean ``per_core`` if any; *what* names its owner (e.g. ``"node 'cpu'"``)
+    in the error."""
     if not callable(getattr(model, "power", None)):
         raise ConfigurationTypeError(f"{what}: a power model needs power(busy, speed) -> W "
                                      f"(e.g. ConstantPower(0.01), DvsPower(...)), got {model!r}")
@@ -162,7 +164,8 @@ def check_cpu_model(model: Any, what: str) -> Any:
 
 
 def check_radio_model(model: Any, what: str) -> Any:
-    """*model* if it has ``power(state, tx_w)`` giving finite powers >= 0."""
+    """*model* if it has ``power(state, tx_w)`` giving finite powers >= 0 (W) in the states
+    ``"tx"``, ``"rx"`` and ``"listen"``; *what* names its owner in the error."""
     if not callable(getattr(model, "power", None)):
         raise ConfigurationTypeError(f"{what}: a radio power model needs power(state, tx_w) -> W "
                                      f"(e.g. RadioPower(), RadioPower.truetime()), got {model!r}")

@@ -49,7 +49,7 @@ class SpillFile:
         """Append one segment holding *groups* (each ``[rows, (codecs, buffer types),
         [(n, columns), ...]]``: consecutive chunks of the same codecs and buffer types) and
         return ``(rows, ref)``; *ref* is ``(offset, length, codec sets per column, header
-        length)``."""
+        length)``.  *ncols*: the number of columns of the rows."""
         f = self._f
         first, second = itemgetter(0), itemgetter(1)
         merged: list[tuple[int, tuple, list]] = []   # (rows, layout, [(n, columns), ...])
@@ -125,8 +125,8 @@ class SpillFile:
 
 
 def buffer_type(codec: str, v) -> str:
-    """The type of an encoded column's buffer: an array's typecode, ``""`` for bytes
-    (or no buffer, codec ``none``); of the values for a tagged codec."""
+    """The type of an encoded column's buffer *v* (encoded with *codec*): an array's typecode,
+    ``""`` for bytes (or no buffer, codec ``none``); of the values for a tagged codec."""
     if codec in TAGGED:
         return v[1].typecode
     return v.typecode if type(v) is array else ""

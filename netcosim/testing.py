@@ -75,6 +75,9 @@ def assert_schedule(schedule: Any, expected: Mapping[str, Sequence[tuple[float, 
                     atol: float = 1e-12) -> None:
     """Assert that each task of *expected* ran exactly in the given intervals (s).
 
+    *schedule*: the ``schedule`` trace (``sim.trace.schedule()``); *node* restricts it to
+    one node (see :func:`running_intervals`).
+
     Only the tasks named in *expected* are checked (a task expected never to run is
     given ``[]``).  With ``t_range=(t0, t1)`` both sides are clipped to that window, so
     a timeline can be written for the first hyperperiod of a longer run.  Interval ends

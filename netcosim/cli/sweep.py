@@ -23,8 +23,9 @@ def grid_value(text: str) -> int | float | bool | str:
 
 
 def parse_grid(items: list[str]) -> dict[str, list]:
-    """``{"loss": [0, 0.1]}`` from ``["loss=0,0.1"]``; raises :class:`UsageError` naming a
-    malformed item or a parameter given twice."""
+    """``{"loss": [0, 0.1]}`` from ``["loss=0,0.1"]``: *items* are the ``--grid`` options,
+    each ``NAME=VALUE[,VALUE...]`` (values read by :func:`grid_value`); raises
+    :class:`UsageError` naming a malformed item or a parameter given twice."""
     grid: dict[str, list] = {}
     for item in items:
         name, sep, values = item.partition("=")
