@@ -37,6 +37,9 @@ import netcosim
 import netcosim.controllers
 import netcosim.plants
 
+#: the user-facing packages installed into netcosim's namespace from other folders (rule 5)
+_USER_PACKAGES = (netcosim.plants, netcosim.controllers)
+
 _UNIT_PARAM = re.compile(r"^(period|deadline|delay|offset|times?|until|t|seconds|at|\w+_s|\w+_time|\w*rate"
                          r"|\w+_dbm|\w+_db|\w*bits)$")
 _UNITS = re.compile(r"(?<![\w.'’])(s|seconds?|ticks?|bit/s|Hz|dB|dBm|W|m|bits?)(?![\w/])")
@@ -122,9 +125,11 @@ def test_unit_rule_reads_units_as_words():
 # ------------------------------------------------------------------ summary lines and parameters
 def test_every_docstring_opens_with_a_summary_sentence():
     """The first paragraph of every public docstring is a sentence (it ends with a stop, a
-    colon or a closing bracket): what autosummary shows in the API reference's tables."""
+    colon or a closing bracket): what autosummary shows in the API reference's tables.  The
+    plants' and controllers' too."""
     bad = []
-    for qual, obj, _owner in _public_objects():
+    everything = [item for package in (netcosim, *_USER_PACKAGES) for item in _public_objects(package)]
+    for qual, obj, _owner in everything:
         if qual.endswith(".__init__"):
             continue
         first = (inspect.getdoc(obj) or "").split("\n\n")[0]
@@ -176,7 +181,6 @@ def test_parameters_are_documented():
 
 
 # ------------------------------------------------------------------ the plants and controllers
-_USER_PACKAGES = (netcosim.plants, netcosim.controllers)
 _USER_GAPS = Path(__file__).with_name("docstring_gaps_plants_controllers.txt")
 
 
