@@ -55,7 +55,7 @@ def real(value: Any, what: str, *, lo: float | None = None, hi: float | None = N
 
     ``lo``/``hi``: bounds (None = unbounded), exclusive when ``lo_open``/``hi_open``.
     NaN is always rejected, infinities unless ``allow_inf`` (then only the bounds limit
-    them).  *what* names it in the error (``"<what> must be <kind>, got <value!r>"``), ``kind`` describing what is expected; ``type_error``: the class
+    them).  *what* names it in the error, ``kind`` describing what is expected; ``type_error``: the class
     raised for a value that is not a real number, ``value_error`` for a number that fails
     these rules.
     """
@@ -73,28 +73,28 @@ def real(value: Any, what: str, *, lo: float | None = None, hi: float | None = N
 
 
 def finite(value: Any, what: str, unit: str = "", **kw) -> float:
-    """*value* as a finite real number of any sign (e.g. a power in dBm, a priority); *what* names it in the error (``"<what> must be <kind>, got <value!r>"``),
+    """*value* as a finite real number of any sign (e.g. a power in dBm, a priority); *what* names it in the error,
     ``unit`` (e.g. ``"dBm"``) in the default ``kind``; other keywords as :func:`real`."""
     kw.setdefault("kind", f"a finite number{' of ' + unit if unit else ''}")
     return real(value, what, **kw)
 
 
 def positive(value: Any, what: str, **kw) -> float:
-    """*value* as a finite real number > 0 (rates, distances, frequencies, gains); *what* names it in the error (``"<what> must be <kind>, got <value!r>"``);
+    """*value* as a finite real number > 0 (rates, distances, frequencies, gains); *what* names it in the error;
     other keywords as :func:`real`."""
     kw.setdefault("kind", "a positive finite number")
     return real(value, what, lo=0.0, lo_open=True, **kw)
 
 
 def non_negative(value: Any, what: str, **kw) -> float:
-    """*value* as a finite real number >= 0 (losses, weights, thresholds); *what* names it in the error (``"<what> must be <kind>, got <value!r>"``);
+    """*value* as a finite real number >= 0 (losses, weights, thresholds); *what* names it in the error;
     other keywords as :func:`real`."""
     kw.setdefault("kind", "a non-negative finite number")
     return real(value, what, lo=0.0, **kw)
 
 
 def probability(value: Any, what: str, **kw) -> float:
-    """*value* as a probability in [0, 1]; *what* names it in the error (``"<what> must be <kind>, got <value!r>"``); other keywords as :func:`real`."""
+    """*value* as a probability in [0, 1]; *what* names it in the error; other keywords as :func:`real`."""
     kw.setdefault("kind", "a probability in [0, 1]")
     return real(value, what, lo=0.0, hi=1.0, **kw)
 
@@ -109,7 +109,7 @@ def integer(value: Any, what: str, *, lo: int | None = None, hi: int | None = No
     ``integral_floats``: also accept a real number with no fractional part (``64.0``).
     A non-integral real number (``2.5``) raises ``fraction_error``; anything else that
     is not an integer raises ``type_error``.  ``kind`` defaults to "an integer"
-    plus the range.  *what* names it in the error (``"<what> must be <kind>, got <value!r>"``).
+    plus the range.  *what* names it in the error.
     """
     if kind is None:
         kind = "an integer" + ("" if lo is None and hi is None else
@@ -127,7 +127,7 @@ def integer(value: Any, what: str, *, lo: int | None = None, hi: int | None = No
 def count(value: Any, what: str, *, minimum: int = 0, maximum: int | None = None) -> int:
     """*value* as an integer count (attempts, retries, window sizes, exponents) in
     ``[minimum, maximum]`` (None: no maximum); integral floats are not accepted (a count of
-    2.5 is a bug).  *what* names it in the error (``"<what> must be <kind>, got <value!r>"``)."""
+    2.5 is a bug).  *what* names it in the error."""
     return integer(value, what, lo=minimum, hi=maximum)
 
 
@@ -139,7 +139,7 @@ MAX_BITS = 2**53
 
 def bits(value: Any, what: str, *, allow_zero: bool = True) -> int:
     """*value* as a number of bits: an integer >= 0 (> 0 unless ``allow_zero``) and at most
-    :data:`MAX_BITS`.  Integral floats (``64.0``) are accepted.  *what* names it in the error (``"<what> must be <kind>, got <value!r>"``)."""
+    :data:`MAX_BITS`.  Integral floats (``64.0``) are accepted.  *what* names it in the error."""
     kind = "a non-negative integer number of bits" if allow_zero else "a positive integer number of bits"
     n = integer(value, what, lo=0 if allow_zero else 1, integral_floats=True, kind=kind)
     if n > MAX_BITS:
@@ -151,7 +151,7 @@ def duration(value: Any, what: str, *, positive: bool = False,
              kind: str = "a positive number of seconds") -> int:
     """*value*, a duration in seconds, as integer ticks (:func:`~netcosim.timebase.to_ticks`:
     finite, >= 0, and 0 or at least 1 ps); ``positive`` also rejects 0 (the message
-    then uses ``kind``).  *what* names it in the error (``"<what> must be <kind>, got <value!r>"``)."""
+    then uses ``kind``).  *what* names it in the error."""
     ticks = to_ticks(value, what)
     if positive and ticks <= 0:
         raise _fail(ConfigurationError, what, kind, value)
@@ -159,7 +159,7 @@ def duration(value: Any, what: str, *, positive: bool = False,
 
 
 def name(value: Any, what: str, *, type_error: type[Exception] = ConfigurationTypeError) -> str:
-    """*value* if it is a non-empty string (a component, table or phase name); *what* names it in the error (``"<what> must be <kind>, got <value!r>"``);
+    """*value* if it is a non-empty string (a component, table or phase name); *what* names it in the error;
     ``type_error``: the class raised otherwise."""
     if not isinstance(value, str) or not value:
         raise _fail(type_error, what, "a non-empty string", value)
@@ -168,14 +168,14 @@ def name(value: Any, what: str, *, type_error: type[Exception] = ConfigurationTy
 
 def path(value: Any, what: str, *, kind: str = "a path (str or os.PathLike)") -> str | os.PathLike:
     """*value* if it is a non-empty file-system path (``str`` or ``os.PathLike``), returned
-    unchanged; *what* names it in the error (``"<what> must be <kind>, got <value!r>"``), ``kind`` describing what is expected (e.g. ``"a directory path"``)."""
+    unchanged; *what* names it in the error, ``kind`` describing what is expected (e.g. ``"a directory path"``)."""
     if isinstance(value, bool) or not isinstance(value, (str, os.PathLike)) or not os.fspath(value):
         raise _fail(ConfigurationTypeError, what, kind, value)
     return value
 
 
 def boolean(value: Any, what: str) -> bool:
-    """*value* if it is ``True`` or ``False`` exactly (not 0, 1 or ``"yes"``); *what* names it in the error (``"<what> must be <kind>, got <value!r>"``)."""
+    """*value* if it is ``True`` or ``False`` exactly (not 0, 1 or ``"yes"``); *what* names it in the error."""
     if not isinstance(value, bool):
         raise _fail(ConfigurationTypeError, what, "True or False", value)
     return value
@@ -184,7 +184,7 @@ def boolean(value: Any, what: str) -> bool:
 def choice(value: Any, what: str, options: Iterable[Any], *, kind: str | None = None,
            error: type[Exception] = ConfigurationError) -> Any:
     """*value* if it is one of *options*; the message lists them (``'a', 'b' or 'c'``)
-    unless ``kind`` says it otherwise.  *what* names it in the error (``"<what> must be <kind>, got <value!r>"``); ``error``: the class raised
+    unless ``kind`` says it otherwise.  *what* names it in the error; ``error``: the class raised
     (default :class:`~netcosim.errors.ConfigurationError`)."""
     options = tuple(options)
     if kind is None:
@@ -201,7 +201,7 @@ def choice(value: Any, what: str, options: Iterable[Any], *, kind: str | None = 
 
 def callable_(value: Any, what: str, *, kind: str = "callable",
               type_error: type[Exception] = ConfigurationTypeError) -> Callable:
-    """*value* if it is callable; *what* names it in the error (``"<what> must be <kind>, got <value!r>"``), ``kind`` describing what is expected (e.g.
+    """*value* if it is callable; *what* names it in the error, ``kind`` describing what is expected (e.g.
     ``"a callable body(ctx)"``); ``type_error``: the class raised otherwise."""
     if not callable(value):
         raise _fail(type_error, what, kind, value)

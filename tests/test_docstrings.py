@@ -133,6 +133,8 @@ def test_every_docstring_opens_with_a_summary_sentence():
         if qual.endswith(".__init__"):
             continue
         first = (inspect.getdoc(obj) or "").split("\n\n")[0]
+        if not first.strip():           # no docstring at all: rule 1's (or, for plants and controllers, listed)
+            continue
         if not re.search(r"[.:;?!)]\s*$|[.:;?!]\s", first):
             bad.append(f"{qual}: {first[:60]!r}")
     assert not bad, f"{len(bad)} docstrings without a summary sentence:\n" + "\n".join(bad)
