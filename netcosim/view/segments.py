@@ -85,8 +85,8 @@ def task_order(schedule: pd.DataFrame) -> list[str]:
 def task_segments(schedule: pd.DataFrame, jobs: pd.DataFrame | None = None,
                   t_end: float | None = None) -> pd.DataFrame:
     """Every non-idle interval of every task of *schedule* (the ``schedule`` table): columns
-    ``label`` (``"node.task"``),
-    ``node``, ``task``, ``state`` (running / ready / blocked), ``start``, ``end`` (s),
+    ``label`` (``"node.task"``), ``node``, ``task``, ``state`` (running / ready / blocked),
+    ``start``, ``end`` (s),
     ``level`` (:data:`TASK_STATES`) and ``job`` (the job number of the ``jobs`` row whose
     ``[release, finish]`` holds the interval; -1 without *jobs* or none found).
 
