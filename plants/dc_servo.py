@@ -52,4 +52,6 @@ class DCServo(ContinuousSystem):
         return x[:1]
 
     def jac(self, t, x, u, params):
+        """The Jacobian ``df/dx`` (:meth:`f` is linear): the constant ``A``, whatever the time *t*
+        (s), state *x*, input *u* and *params*; what the implicit ``SolveIVP`` methods call."""
         return self.A

@@ -39,4 +39,6 @@ class FirstOrder(ContinuousSystem):
         return x[:1]
 
     def jac(self, t, x, u, params):
+        """The Jacobian ``df/dx`` (:meth:`f` is linear): the constant ``A``, whatever the time *t*
+        (s), state *x*, input *u* and *params*; what the implicit ``SolveIVP`` methods call."""
         return self.A

@@ -68,7 +68,8 @@ def thesis_flycrane(cable_length: float = 1.5, edge: float = 1.0, robot_mass: fl
     ``p_i^Vi = (0, l_C + l sin β cos α_i, l sin β sin α_i)`` with ``cos β = edge/(2l)``.
     Masses: robot 1.03 kg, platform 0.338 kg (§3.6), thin-plate inertia.
     ``q_nominal``: α_i = 75°, q_V = ½(1, 1, 1, 0, 0, 0) (the reference of §3.5).
-    n = m = 9.
+    n = m = 9.  ``cable_length`` (m), ``edge`` (m), ``robot_mass`` (kg, each robot),
+    ``platform_mass`` (kg) and ``g`` (gravity, m/s²) override those values.
     """
     V = regular_polygon(3, edge)
     atts = [TwoCable(V[i], V[(i + 1) % 3], cable_length) for i in range(3)]
@@ -96,6 +97,8 @@ def four_robot_nonsquare(cable_length: float = 1.5, edge: float = 1.0, robot_mas
     The thesis gives neither the platform nor the cables: a 1 m square plate (the
     Fly-crane's edge, 0.78 kg at the same areal density) and 1.5 m cables (as §3.5).
     ``q_nominal``: q_i = 80°, q_V = 0 (the initial configuration of §4.6.1).
+    ``cable_length`` (m), ``edge`` (the platform's side, m), ``robot_mass`` (kg, each
+    robot) and ``g`` (gravity, m/s²) set the system's geometry and masses.
     """
     V = regular_polygon(4, edge)
     atts = [TwoCable(V[i], V[(i + 1) % 4], cable_length) for i in range(4)]
@@ -112,6 +115,8 @@ def two_cable_polygon(n_robots: int, cable_length: float = 1.5, edge: float = 1.
     Fly-crane (3 robots, square, n = m = 9; the platform mass is then the LAAS 0.338 kg)
     and of the ch. 4 system (4 robots: :func:`four_robot_nonsquare`), rectangular for
     4 or more robots (n = 3N > m = N + 6).  ``q_nominal``: cable angles 80 deg, q_V = 0.
+    ``cable_length`` (m), ``edge`` (the platform's side, m), ``robot_mass`` (kg, each
+    robot) and ``g`` (gravity, m/s²) set the system's geometry and masses.
     """
     k = int(n_robots)
     if k != n_robots or k < 3:
@@ -127,7 +132,10 @@ def two_cable_polygon(n_robots: int, cable_length: float = 1.5, edge: float = 1.
 def square_family(n1c: int, n2c: int, cable_length: float = 1.5, edge: float = 1.0,
                   robot_mass: float = ROBOT_MASS, g: float = 9.81) -> MultiRobotSystem:
     """The square systems of §3.2.2 (Fig. 3.1): N_1c one-cable and N_2c two-cable robots
-    with 3N = 6 + 2 N_1c + N_2c, i.e. (N_1c, N_2c) ∈ {(0,3), (2,2), (4,1), (6,0)}.
+    with 3N = 6 + 2 N_1c + N_2c, i.e. (N_1c, N_2c) ∈ {(0,3), (2,2), (4,1), (6,0)}
+    (*n1c* = N_1c, *n2c* = N_2c).
+    ``cable_length`` (m), ``edge`` (the platform's side, m), ``robot_mass`` (kg, each
+    robot) and ``g`` (gravity, m/s²) set the system's geometry and masses.
 
     The thesis draws them without dimensions; the layouts chosen here (edge 1 m,
     cables 1.5 m, plates at the Fly-crane's areal density):

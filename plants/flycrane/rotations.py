@@ -43,12 +43,14 @@ def rot_2d(a):
 
 
 def euler_zyx(phi, theta, psi):
-    """``R_V^O = R_z(φ) R_y(θ) R_x(ψ)`` of (B.1): maps platform-frame vectors to the world."""
+    """``R_V^O = R_z(φ) R_y(θ) R_x(ψ)`` of (B.1): maps platform-frame vectors to the world; the
+    angles *phi* (φ, about z), *theta* (θ, about y) and *psi* (ψ, about x) in rad."""
     return rot_z(phi) @ rot_y(theta) @ rot_x(psi)
 
 
 def body_rate_matrix(theta, psi):
-    """``E`` with ``ω_V = E(θ, ψ) [φ̇, θ̇, ψ̇]ᵀ``: the angular velocity of F_V in F_V.
+    """``E`` with ``ω_V = E(θ, ψ) [φ̇, θ̇, ψ̇]ᵀ``: the angular velocity of F_V in F_V (*theta* = θ,
+    *psi* = ψ, rad).
 
     For R = R_z(φ) R_y(θ) R_x(ψ): ω = R_xᵀ R_yᵀ e_z φ̇ + R_xᵀ e_y θ̇ + e_x ψ̇, i.e.
 
@@ -69,5 +71,6 @@ def skew(w):
 
 
 def vee(W):
-    """Inverse of :func:`skew` (reads the antisymmetric part's lower entries)."""
+    """Inverse of :func:`skew`: the vector w with ``skew(w) = W`` for a 3 x 3 antisymmetric *W*
+    (reads the antisymmetric part's lower entries)."""
     return ca.vertcat(W[2, 1], W[0, 2], W[1, 0])
