@@ -65,14 +65,15 @@ class KinematicSystem(Protocol):
         """Robot positions ``p = h(q)`` (m, rad), shape ``(n,)``."""
 
     def jacobian(self, q) -> np.ndarray:
-        """``A_q = dh/dq``, shape ``(n, m)``."""
+        """``A_q = dh/dq`` at the configuration *q* (shape ``(m,)``; rad and m), shape ``(n, m)``."""
 
     def pinv(self, q) -> np.ndarray:
-        """``A_q^+``, shape ``(m, n)``; raises :class:`SingularConfigurationError` by the rank rule."""
+        """``A_q^+`` at the configuration *q*, shape ``(m, n)``; raises
+        :class:`SingularConfigurationError` by the rank rule."""
 
 
 def conditioning(singular_values, rtol: float = SINGULAR_RTOL) -> tuple[int, float, float, bool]:
-    """``(rank, sigma_min, cond, singular)`` of a matrix from its singular values (any order).
+    """``(rank, sigma_min, cond, singular)`` of a matrix from its *singular_values* (any order).
 
     ``rank`` counts the singular values above ``rtol * sigma_max``; ``cond =
     sigma_max / sigma_min`` (inf when ``sigma_min = 0``); ``singular`` is true when the
@@ -89,8 +90,9 @@ def conditioning(singular_values, rtol: float = SINGULAR_RTOL) -> tuple[int, flo
 
 
 def check_singular_values(singular_values, at: str, rtol: float = SINGULAR_RTOL) -> None:
-    """Raise :class:`SingularConfigurationError` if the rule of
-    :data:`SINGULAR_RTOL` calls the matrix singular; *at* names where (``"q = [...]"``)."""
+    """Raise :class:`SingularConfigurationError` if the rule of :data:`SINGULAR_RTOL` (with the
+    relative tolerance *rtol*) calls the matrix of *singular_values* (any order)
+    singular; *at* names where (``"q = [...]"``) -- see :func:`conditioning`."""
     rank, smin, cond, singular = conditioning(singular_values, rtol)
     if singular:
         k = np.asarray(singular_values).size
@@ -128,7 +130,7 @@ def as_vector(x: Any, size: int, what: str) -> np.ndarray:
 
 
 def jacobian(system: Any, q: np.ndarray) -> np.ndarray:
-    """``A_q`` of *system* as a float array, checked: shape ``(n, m)`` (``ValueError``)
+    """``A_q`` of *system* at the configuration *q* as a float array, checked: shape ``(n, m)`` (``ValueError``)
     and finite (:class:`SingularConfigurationError` otherwise, e.g. at a chart singularity)."""
     A = np.asarray(system.jacobian(q), dtype=float)
     if A.shape != (system.n, system.m):
@@ -168,12 +170,14 @@ def _rounded(q) -> str:
 
 
 def pinv(system: Any, q: Any) -> np.ndarray:
-    """``A_q^+`` (shape ``(m, n)``) of any kinematic system by :func:`pinv_solve`."""
+    """``A_q^+`` (shape ``(m, n)``) of any kinematic *system* at the configuration *q*, by
+    :func:`pinv_solve`."""
     return pinv_solve(jacobian(system, q), np.eye(system.n), q, rank_rtol(system))
 
 
 def configuration_rate(system: Any, q: Any, u: Any) -> np.ndarray:
-    """``q_dot = A_q^+ u`` (3.7)/(4.6)/(4.13) in rad/s and m/s, for robot velocities u (m/s)."""
+    """``q_dot = A_q^+ u`` (3.7)/(4.6)/(4.13) in rad/s and m/s of the kinematic *system* at the
+    configuration *q* (shape ``(m,)``), for robot velocities u (m/s, shape ``(n,)``)."""
     check_system(system)
     q = as_vector(q, system.m, "q")
     u = as_vector(u, system.n, "u")
@@ -181,7 +185,8 @@ def configuration_rate(system: Any, q: Any, u: Any) -> np.ndarray:
 
 
 def project(system: Any, q: Any, u: Any) -> np.ndarray:
-    """``Pi_q u = A_q A_q^+ u`` (m/s): the closest feasible robot velocity to u (4.4)."""
+    """``Pi_q u = A_q A_q^+ u`` (m/s): the closest feasible robot velocity to u (4.4), for the
+    kinematic *system* at the configuration *q*."""
     q = as_vector(q, system.m, "q")
     A = jacobian(system, q)
     return A @ pinv_solve(A, as_vector(u, system.n, "u"), q, rank_rtol(system))

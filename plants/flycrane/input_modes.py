@@ -113,7 +113,13 @@ class _DynamicPlant(_FlyCranePlant):
 
 class ForcePlant(_DynamicPlant):
     """(4.10) with the robot forces F (n, world frame, N) as input:
-    ``M q̈ + C q̇ + g = A_qᵀ F``.  Gravity acts; F = 0 is free fall."""
+    ``M q̈ + C q̇ + g = A_qᵀ F``.  Gravity acts; F = 0 is free fall.
+
+    ``system``: the :class:`~netcosim.plants.flycrane.kinematics.MultiRobotSystem` (with mass
+    properties); ``noise_std``: the standard deviation of the measured copy of q (rad/m,
+    a scalar or one per coordinate, >= 0; None: no measured outputs); ``rng``: the
+    ``numpy.random.Generator`` that noise is drawn from (required with ``noise_std``,
+    e.g. ``sim.rng("name")``); ``name``: the plant's name."""
 
     def __init__(self, system: MultiRobotSystem, *, noise_std=None, rng=None, name=None):
         super().__init__(system, tuple(f"F.{c}" for c in system.position_names), noise_std=noise_std,
@@ -130,7 +136,12 @@ class VelocityTrackingPlant(_DynamicPlant):
     """(4.10) under ``F = -α (A_q q̇ - u) + F_g(q)`` (4.11), ``F_g = A_q (A_qᵀA_q)^{-1} g(q)``.
 
     ``alpha`` [N·s/m] > 0 is the velocity-tracking gain; ``u`` (n, m/s) the desired
-    robot velocities.  ``gravity_compensation=False`` drops F_g."""
+    robot velocities.  ``gravity_compensation=False`` drops F_g.
+    ``system``: the :class:`~netcosim.plants.flycrane.kinematics.MultiRobotSystem` (with mass
+    properties); ``noise_std``: the standard deviation of the measured copy of q (rad/m,
+    a scalar or one per coordinate, >= 0; None: no measured outputs); ``rng``: the
+    ``numpy.random.Generator`` that noise is drawn from (required with ``noise_std``,
+    e.g. ``sim.rng("name")``); ``name``: the plant's name."""
 
     def __init__(self, system: MultiRobotSystem, alpha: float, *, gravity_compensation: bool = True,
                  noise_std=None, rng=None, name=None):

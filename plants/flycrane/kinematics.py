@@ -45,7 +45,8 @@ class ConfigurationDomainError(ValueError):
 def plate_inertia(vertices, mass: float) -> np.ndarray:
     """Inertia [kg·m²] of a thin homogeneous polygonal plate about its centroid.
 
-    *vertices*: (k, 2) polygon in the plate plane (z = 0), any orientation; the
+    *vertices*: (k, 2) polygon in the plate plane (z = 0, m), any orientation; *mass*: the
+    plate's mass (kg, > 0); the
     result is 3×3 in the same axes.  Computed with the standard second moments of
     area of a polygon (shoelace sums), shifted to the centroid.
     """
@@ -112,6 +113,7 @@ class MultiRobotSystem:
     pivot: ``"spatial"`` (q_V in R^6, Euler angles of (B.1)) or ``"planar"`` (R^3).
     mass: :class:`MassProperties` for the dynamics (spatial cable systems only).
     q_nominal: a valid, non-singular reference configuration (rad/m), checked.
+    name: the system's name (in messages; default ``"multi_robot"``).
     singular_tol: relative rank tolerance: configurations where the smallest singular
         value of ``A_q`` is at most ``singular_tol`` times the largest are singular
         (default :data:`SINGULAR_RTOL` = 1e-8, the project's one rule; in [0, 1)).
@@ -216,7 +218,7 @@ class MultiRobotSystem:
 
     def check_configuration(self, q, what: str = "q") -> np.ndarray:
         """Return *q* as an array, or raise :class:`ConfigurationDomainError` /
-        :class:`SingularConfigurationError` naming the value."""
+        :class:`SingularConfigurationError` naming the value as *what* (e.g. ``"q_nominal"``)."""
         q = self._q(q, what)
         msg = self.domain_error(q)
         if msg:
@@ -235,11 +237,11 @@ class MultiRobotSystem:
         return self._A_eval(self._q(q))[0]
 
     def singular_values(self, q) -> np.ndarray:
-        """Singular values of ``A_q``, descending."""
+        """Singular values of ``A_q`` at the configuration *q*, descending."""
         return np.linalg.svd(self.jacobian(q), compute_uv=False)
 
     def singularity_measure(self, q) -> float:
-        """Smallest singular value of ``A_q`` (the min(n, m)-th); 0 at singularities."""
+        """Smallest singular value of ``A_q`` at the configuration *q* (the min(n, m)-th); 0 at singularities."""
         return float(self.singular_values(q)[-1])
 
     def pinv(self, q) -> np.ndarray:
@@ -266,7 +268,7 @@ class MultiRobotSystem:
         return float(np.sign(np.linalg.det(A)) * s[-1] / s[0])
 
     def projector(self, q) -> np.ndarray:
-        """Orthogonal projector ``Π_q = A_q A_q^†`` onto Im A_q (4.4), shape (n, n)."""
+        """Orthogonal projector ``Π_q = A_q A_q^†`` onto Im A_q (4.4) at the configuration *q*, shape (n, n)."""
         return self.jacobian(q) @ self.pinv(q)
 
     def configuration_rate(self, q, u) -> np.ndarray:
@@ -303,14 +305,16 @@ class MultiRobotSystem:
         return self._q(q)
 
     def q_to_edge(self, q) -> np.ndarray:
-        """Inverse of :meth:`q_from` on the flat vector: angles in degrees, lengths in m."""
+        """Inverse of :meth:`q_from` on the flat vector *q* (rad/m): angles in degrees, lengths in m."""
         q = self._q(q)
         return np.array([math.degrees(v) if ang else v for v, ang in zip(q, self.coordinate_is_angle)])
 
     # -- sampling ------------------------------------------------------------------
     def random_configurations(self, rng: np.random.Generator, k: int, spread: float = 0.2,
                               min_singular: float = 1e-3) -> np.ndarray:
-        """*k* valid non-singular configurations ``q_nominal + U(-spread, spread)`` (rad/m)."""
+        """*k* valid non-singular configurations ``q_nominal + U(-spread, spread)`` (rad/m), drawn
+        from *rng* (a ``numpy.random.Generator``); a draw is kept when it lies in the domain and
+        the smallest singular value of ``A_q`` exceeds *min_singular*."""
         if self.q_nominal is None:
             raise ValueError(f"{self.name} has no q_nominal to sample around")
         out = []
