@@ -66,6 +66,8 @@ def ddphi_ddtheta(phi, dphi, theta, f_R, tau_R, p: TetheredUAVParams, f_ext=None
 
     ``f_ext = (F_x, F_z)`` [N] is an optional external force on the CoM in world axes
     (wind, lander reaction); its moment about the CoM is zero, so ϑ̈ is unaffected.
+    *phi* (φ, rad), *dphi* (φ̇, rad/s), *theta* (ϑ, rad), *f_R* (thrust, N), *tau_R*
+    (torque, N·m); *p*: the :class:`TetheredUAVParams`.
     """
     ddphi = p.a1 * ca.cos(phi) + p.a2 * ca.cos(phi + theta) * f_R
     if f_ext is not None:
@@ -78,14 +80,16 @@ def smooth_dynamics(x, u, p: TetheredUAVParams, f_ext=None):
     """Right-hand side of (2.5).
 
     ``x = [φ, φ̇, ϑ, ϑ̇, f_R, τ_R]`` (rad, rad/s, rad, rad/s, N, N·m),
-    ``u = [ḟ_R, τ̇_R]`` (N/s, N·m/s).  Returns ẋ (CasADi column or numpy array).
+    ``u = [ḟ_R, τ̇_R]`` (N/s, N·m/s); *p*: the :class:`TetheredUAVParams`; *f_ext*: an external force
+    ``(F_x, F_z)`` [N] on the CoM, or None.  Returns ẋ (CasADi column or numpy array).
     """
     ddphi, ddtheta = ddphi_ddtheta(x[0], x[1], x[2], x[4], x[5], p, f_ext)
     return _stack([x[1], ddphi, x[3], ddtheta, u[0], u[1]])
 
 
 def force_dynamics(x, u, p: TetheredUAVParams, f_ext=None):
-    """Right-hand side of (2.3): ``x = [φ, φ̇, ϑ, ϑ̇]``, ``u = [f_R, τ_R]`` (N, N·m)."""
+    """Right-hand side of (2.3): ``x = [φ, φ̇, ϑ, ϑ̇]``, ``u = [f_R, τ_R]`` (N, N·m); *p*: the :class:`TetheredUAVParams`;
+    *f_ext*: an external force ``(F_x, F_z)`` [N] on the CoM, or None (:func:`ddphi_ddtheta`)."""
     ddphi, ddtheta = ddphi_ddtheta(x[0], x[1], x[2], u[0], u[1], p, f_ext)
     return _stack([x[1], ddphi, x[3], ddtheta])
 
@@ -94,7 +98,9 @@ def cable_stress(phi, dphi, theta, f_R, p: TetheredUAVParams, f_ext=None):
     """Cable stress f_L [N] of (2.4), positive when the cable pulls (taut).
 
     f_L = φ̇²/a_2 + (a_1/a_2) sin φ + sin(φ + ϑ) f_R, plus the radial component
-    ``cos φ F_x + sin φ F_z`` of an optional external force on the CoM.
+    ``cos φ F_x + sin φ F_z`` of an optional external force on the CoM.  *phi* (φ, rad),
+    *dphi* (φ̇, rad/s), *theta* (ϑ, rad), *f_R* (thrust, N); *p*: the :class:`TetheredUAVParams`; *f_ext*:
+    ``(F_x, F_z)`` [N] in world axes, or None.
     """
     f_L = dphi ** 2 / p.a2 + (p.a1 / p.a2) * ca.sin(phi) + ca.sin(phi + theta) * f_R
     if f_ext is not None:
@@ -104,19 +110,21 @@ def cable_stress(phi, dphi, theta, f_R, p: TetheredUAVParams, f_ext=None):
 
 def propeller_ground_distances(phi, theta, alpha, p: TetheredUAVParams):
     """(d_PG1, d_PG2) [m] of (2.7): ``a - b`` and ``a + b`` with a = l sin(φ + α),
-    b = d sin(ϑ - α).  Distances of propellers 1 and 2 from the slope of angle α."""
+    b = d sin(ϑ - α).  Distances of propellers 1 and 2 from the slope of angle α (*alpha*,
+    rad), for *phi* (φ) and *theta* (ϑ) in rad; *p*: the :class:`TetheredUAVParams`."""
     a = p.l * ca.sin(phi + alpha)
     b = p.d * ca.sin(theta - alpha)
     return a - b, a + b
 
 
 def input_map(f1, f2, p: TetheredUAVParams):
-    """(f_R, τ_R) from the propeller thrusts (f_1, f_2) [N], eq. (2.1)."""
+    """(f_R, τ_R) from the propeller thrusts (*f1*, *f2*) [N], eq. (2.1); *p*: the :class:`TetheredUAVParams` (its ``d``)."""
     return f1 + f2, p.d * (f2 - f1)
 
 
 def propeller_forces(f_R, tau_R, p: TetheredUAVParams):
-    """Inverse of (2.1): (f_1, f_2) = ((f_R - τ_R/d)/2, (f_R + τ_R/d)/2) [N]."""
+    """Inverse of (2.1): (f_1, f_2) = ((f_R - τ_R/d)/2, (f_R + τ_R/d)/2) [N] for the thrust *f_R*
+    [N] and torque *tau_R* [N·m]; *p*: the :class:`TetheredUAVParams` (its ``d``)."""
     return 0.5 * (f_R - tau_R / p.d), 0.5 * (f_R + tau_R / p.d)
 
 
@@ -128,7 +136,8 @@ def lander_reaction(phi, dphi, p: TetheredUAVParams, alpha=None):
     made where (2.17) is loose: the damping multiplies the CoM velocity normal to the
     slope ż (the thesis writes ξ φ̇; near contact ż ≈ l φ̇), and the force is clipped
     at zero because a lander can push but not pull.  It acts at the CoM (the
-    simplification of §2.3.1), so it exerts no moment on the attitude.
+    simplification of §2.3.1), so it exerts no moment on the attitude.  *phi* (φ, rad),
+    *dphi* (φ̇, rad/s); *p*: the :class:`TetheredUAVParams`; *alpha*: the slope [rad], None: ``p.alpha``.
     """
     alpha = p.alpha if alpha is None else alpha
     z = p.l * ca.sin(phi + alpha)
@@ -195,7 +204,8 @@ def wind(t: float, params: TetheredUAVParams | None = None) -> np.ndarray:
 
 
 def wind_disturbance(params: TetheredUAVParams | None = None):
-    """``d(t)`` callable for :meth:`netcosim.sim.Simulation.plant` (``disturbance=``)."""
+    """``d(t)`` callable for :meth:`netcosim.sim.Simulation.plant` (``disturbance=``): the wind
+    of *params* (a :class:`TetheredUAVParams`; None: the defaults), t in s."""
     p = TetheredUAVParams() if params is None else _check_params(params, "wind_disturbance: params")
     return lambda t: wind(t, p)
 
@@ -207,7 +217,8 @@ def wind_disturbance(params: TetheredUAVParams | None = None):
 class TetheredUAVModel:
     """Symbols, expressions and CasADi ``Function`` objects of one parameter set.
 
-    Obtain it with :func:`casadi_model` (cached).  Symbols (SX): ``x`` (6, smooth
+    Obtain it with :func:`casadi_model` (cached), for the parameters *params* (a
+    :class:`TetheredUAVParams`).  Symbols (SX): ``x`` (6, smooth
     state), ``u`` (2, rates), ``x4`` (4, force-model state), ``u_force`` (2, [f_R,
     τ_R]), ``d`` (2, external force on the CoM), ``alpha_sym`` (slope).  Expressions:
     ``xdot_smooth`` (2.5), ``xdot_force`` (2.3), ``f_L`` (2.4, on ``x``), ``d_pg``

@@ -24,6 +24,17 @@ class TetheredUAVParams:
     0 ≤ f_L ≤ 10 N), the slope of §2.6.2 (ϑ* = 30° = -φ*) and the structure of the
     simulation non-idealities (§2.6.1).  Everything else is chosen here for a ~1 kg
     vehicle; the reason for each value is next to it.
+
+    Fields: ``m_B`` vehicle mass [kg]; ``J_B`` inertia about y_B [kg·m²]; ``l`` cable
+    length [m]; ``d`` propeller-CoM distance [m]; ``g`` gravity [m/s²]; ``alpha`` slope
+    of the landing plane [rad, in (-π/2, π/2)]; ``f_R_max`` thrust [N], ``tau_R_max``
+    torque [N·m] and ``f_L_max`` cable stress [N] bounds of Table 2.1; ``lander_height``
+    h [m, < l], ``k_el`` stiffness [N/m] and ``xi`` damping [N·s/m] of the landers
+    (2.17); the wind of §2.6.1: a 1 - cosine pulse of ``wind_pulse_amplitude`` [N]
+    lasting ``wind_pulse_duration`` [s] from t = 0, and a sinusoid of
+    ``wind_sine_amplitude`` [N] at ``wind_sine_frequency`` [Hz] from
+    ``wind_sine_start`` [s].  Lengths, masses, the thrust bounds and g are positive,
+    the lander and wind timing non-negative.
     """
 
     #: Vehicle mass [kg]: a ~1 kg quadrotor.  Hover needs 9.81 N, 65 % of the 15 N
