@@ -118,7 +118,8 @@ def propeller_ground_distances(phi, theta, alpha, p: TetheredUAVParams):
 
 
 def input_map(f1, f2, p: TetheredUAVParams):
-    """(f_R, τ_R) from the propeller thrusts (*f1*, *f2*) [N], eq. (2.1); *p*: the :class:`TetheredUAVParams` (its ``d``)."""
+    """(f_R, τ_R) from the propeller thrusts (*f1*, *f2*) [N], eq. (2.1); *p*: the
+    :class:`TetheredUAVParams` (its ``d``)."""
     return f1 + f2, p.d * (f2 - f1)
 
 
