@@ -88,7 +88,9 @@ class TwoCable:
     ``r`` with ``s = (l_a² - l_b² + L²) / (2L)``, ``r = sqrt(l_a² - s²)``, ``L = |b - a|``;
     for equal cables ``r = l sin β`` with ``cos β = L / (2 l)``, the β of B.1.1.
     Raises :class:`GeometryError` if the cables cannot both be taut (triangle
-    inequality fails or is degenerate).
+    inequality fails or is degenerate).  ``l_b`` defaults to ``l_a``; ``outward`` (a
+    pivot-frame direction, None: away from the pivot origin) picks the side ``q_i = 0``
+    points to, where the pivot's geometry leaves it ambiguous.
     """
 
     a: tuple
@@ -135,32 +137,39 @@ class TwoCable:
 
     @property
     def anchors(self):
+        """The anchors ``(a, b)`` (pivot frame, m) as arrays."""
         return (np.asarray(self.a), np.asarray(self.b))
 
     @property
     def lengths(self):
+        """The cable lengths ``(l_a, l_b)`` [m]."""
         return (self.l_a, self.l_b)
 
     coord_names = ("alpha",)
     coord_is_angle = (True,)
 
     def local(self, q_i):
-        """Robot position in the pivot frame [m] (CasADi column)."""
+        """Robot position in the pivot frame [m] (CasADi column) at the angle ``q_i[0]`` [rad]."""
         q = q_i[0]
         return ca.DM(self._c) + self._r * (ca.cos(q) * ca.DM(self._e_out) + ca.sin(q) * ca.DM(self._e_up))
 
     def position(self, q_i, p_V, R):
-        """World position ``p_V + R (c + r (cos q e_out + sin q e_up))`` [m]."""
+        """World position ``p_V + R (c + r (cos q e_out + sin q e_up))`` [m] for the robot's
+        angle ``q = q_i[0]`` [rad], the pivot position *p_V* [m] and rotation *R* (world
+        from pivot frame)."""
         return p_V + R @ self.local(q_i)
 
     def domain_error(self, q_i) -> str | None:
+        """Why the coordinates *q_i* lie outside the chart's domain, or None: every angle is
+        valid for two cables."""
         return None
 
 
 @dataclass(frozen=True)
 class OneCable:
     """A robot on one cable of length ``l`` [m] from anchor ``a`` (pivot frame, m).
-    Two coordinates ``(q_i1, q_i2)`` [rad], see the module docstring."""
+    Two coordinates ``(q_i1, q_i2)`` [rad], see the module docstring.  ``outward`` (a
+    pivot-frame direction, None: the horizontal direction of ``a``) sets ``e_out``."""
 
     a: tuple
     l: float
@@ -183,22 +192,29 @@ class OneCable:
 
     @property
     def anchors(self):
+        """The anchor ``(a,)`` (pivot frame, m) as an array."""
         return (np.asarray(self.a),)
 
     @property
     def lengths(self):
+        """The cable length ``(l,)`` [m]."""
         return (self.l,)
 
     def local(self, q_i):
+        """Robot position in the pivot frame [m] (CasADi column) at the angles
+        ``q_i = (q_i1, q_i2)`` [rad]."""
         q1, q2 = q_i[0], q_i[1]
         d = ca.cos(q2) * (ca.cos(q1) * ca.DM(self._e_out) + ca.sin(q1) * ca.DM(self._e_up)) \
             + ca.sin(q2) * ca.DM(self._e_side)
         return ca.DM(self.a) + self.l * d
 
     def position(self, q_i, p_V, R):
+        """World position ``p_V + R local(q_i)`` [m] for the robot's angles *q_i* [rad], the
+        pivot position *p_V* [m] and rotation *R* (world from pivot frame)."""
         return p_V + R @ self.local(q_i)
 
     def domain_error(self, q_i) -> str | None:
+        """Why the angles *q_i* lie outside the chart's domain (``|q_i2| = π/2``), or None."""
         if abs(math.cos(float(q_i[1]))) < 1e-9:
             return f"one-cable chart is singular at gamma = {float(q_i[1])!r} rad (|gamma| = pi/2)"
         return None
@@ -216,6 +232,7 @@ class PlanarAgent:
 
     @property
     def n_i(self) -> int:
+        """Coordinates of the agent: 3 ``(x_i, y_i, φ_i)`` with the bearing, else 2."""
         return 3 if self.with_bearing else 2
 
     coord_names = ("d", "phi")
@@ -224,11 +241,14 @@ class PlanarAgent:
     lengths = ()
 
     def position(self, q_i, p_V, R):
+        """The agent's coordinates for ``q_i = (d_i [m], φ_i [rad])``, the pivot position *p_V*
+        [m, 2-D] and rotation *R* (2 x 2, world from pivot frame)."""
         d, ph = q_i[0], q_i[1]
         xy = p_V + R @ ca.vertcat(d * ca.cos(ph), d * ca.sin(ph))
         return ca.vertcat(xy, ph) if self.with_bearing else xy
 
     def domain_error(self, q_i) -> str | None:
+        """Why *q_i* lies outside the domain (a distance ``d_i <= 0``), or None."""
         if float(q_i[0]) <= 0:
             return f"formation distance d must be positive, got {float(q_i[0])!r} m"
         return None
