@@ -65,11 +65,12 @@ class CableBreak:
 
     @property
     def label(self) -> str:
+        """Short name of the cable, ``r<robot>a`` or ``r<robot>b`` (robots numbered from 1)."""
         return f"r{self.robot + 1}{'ab'[self.cable]}"
 
 
 def cables(system: MultiRobotSystem) -> list[tuple[int, int]]:
-    """``(robot, cable)`` of every cable, in attachment order (the order of the tensions)."""
+    """``(robot, cable)`` of every cable of *system*, in attachment order (the order of the tensions)."""
     return [(i, c) for i, a in enumerate(system.attachments) for c in range(len(a.anchors))]
 
 
@@ -143,7 +144,7 @@ def configuration_after_break(before: MultiRobotSystem, after: MultiRobotSystem,
 
 
 def platform_rotation(system: MultiRobotSystem, q) -> np.ndarray:
-    """The platform's rotation matrix ``R_V^O`` (B.1) at configuration *q* (3 x 3)."""
+    """The platform's rotation matrix ``R_V^O`` (B.1) of *system* at configuration *q* (3 x 3)."""
     import casadi as ca
     if not hasattr(system, "_R_fun"):
         system._R_fun = ca.Function(f"{system.name}_R", [system.q_sym], [system.R_expr])
@@ -156,7 +157,7 @@ def state_after_break(before: MultiRobotSystem, after: MultiRobotSystem, x) -> n
     Positions and velocities of all robots and the platform pose and its rates are
     continuous across the break; the broken robot's two new angle rates solve its own
     rows ``p_dot_i = A_i q_dot_i + A_iV q_dot_V`` (exact: the motion before the break
-    is a motion the post-break system can make)."""
+    is a motion the post-break system can make).  *x*: the state ``(q, q_dot)`` of *before*."""
     x = np.asarray(x, dtype=float)
     m0 = before.m
     q, qd = x[:m0], x[m0:]
@@ -173,8 +174,8 @@ def state_after_break(before: MultiRobotSystem, after: MultiRobotSystem, x) -> n
 
 def platform_wrench_matrix(system: MultiRobotSystem, q) -> np.ndarray:
     """``W`` (6 x k): column c is the wrench ``[u_c; r_c x u_c]`` (per newton of tension)
-    that cable c applies to the platform about its CoM, world frame (k cables in
-    attachment order)."""
+    that cable c applies to the platform about its CoM, world frame (k cables of *system*
+    in attachment order), at configuration *q*."""
     q = system._q(q)
     p = system.h(q)
     qV = q[list(system.pivot_cols)]
@@ -211,11 +212,12 @@ class StaticBalance:
 
     @property
     def holds(self) -> bool:
+        """True when the cables hold the platform with every tension above ``tol`` [N]."""
         return bool(self.feasible and self.margin > self.tol)
 
 
 def static_balance(system: MultiRobotSystem, q, *, tol: float = 1e-9) -> StaticBalance:
-    """Can the cables hold the platform at rest in configuration *q*?  The linear
+    """Can the cables of *system* hold the platform at rest in configuration *q*?  The linear
     programme ``max s`` s.t. ``W t = w_g``, ``t_c >= s`` (module docstring); *tol*
     [N, N m] decides feasibility of ``W t = w_g`` and positivity of the margin."""
     W = platform_wrench_matrix(system, q)
@@ -282,13 +284,13 @@ class PostBreakDynamics:
         return q, qd, qdd, F, A
 
     def f(self, t, x, u):
-        """``x_dot = (q_dot, q_ddot)``."""
+        """``x_dot = (q_dot, q_ddot)`` at the state *x* ``(q, q_dot)`` under the robot velocities *u* (n, m/s) (time-invariant: *t* [s] is not read)."""
         q, qd, qdd, _, _ = self._parts(x, u)
         return np.concatenate([qd, qdd])
 
     def tensions(self, x, u) -> np.ndarray:
         """Cable tensions [N] (positive = taut), one per remaining cable, under the
-        minimum-norm force allocation above."""
+        minimum-norm force allocation above, at the state *x* ``(q, q_dot)`` under the robot velocities *u* (n, m/s)."""
         q, qd, qdd, F, _ = self._parts(x, u)
         return self.model.tensions_eval(q, qd, qdd, F)[0]
 
@@ -308,7 +310,8 @@ class PostBreakDynamics:
         motion, only how the load is shared; ``|lambda_j| <=``
         :attr:`internal_force_bound`), and those tensions (among the best allocations,
         the one with the largest total tension).  Equals the smallest minimum-norm
-        tension when ``A_q^T`` has no null space (``n <= m``)."""
+        tension when ``A_q^T`` has no null space (``n <= m``).  *u*: the robot velocities
+        (n, m/s) of the velocity-tracking law."""
         t0, Tm = self._internal(x, u)
         r = Tm.shape[1]
         if r == 0:
@@ -328,7 +331,8 @@ class PostBreakDynamics:
 
     def bottleneck(self, x, u, tol: float = 1e-9) -> tuple[int, ...]:
         """Indices of the cables that stay at the smallest tension in *every* best
-        allocation of :meth:`best_min_tension` (the ones that go slack first)."""
+        allocation of :meth:`best_min_tension` (the ones that go slack first), at the state *x* ``(q, q_dot)`` under the robot velocities *u* (n, m/s); a
+        tension within *tol* [N] of the best counts as the smallest."""
         best, _ = self.best_min_tension(x, u)
         t0, Tm = self._internal(x, u)
         r = Tm.shape[1]

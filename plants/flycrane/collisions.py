@@ -88,6 +88,7 @@ class ClosestApproach:
 
     @property
     def below_safety(self) -> bool:
+        """``distance - chord_error < safety_distance``: the robots may have touched."""
         return bool(self.distance - self.chord_error < self.safety_distance)
 
     def as_row(self) -> dict:
@@ -128,7 +129,9 @@ def min_pairwise_distance(times, positions, *, safety_distance: float = SAFETY_D
 
     ``chord_error``: the bound [m] to report (0 for an exactly piecewise-linear path,
     e.g. the kinematic square model sampled at its samples); ``None`` estimates it
-    with :func:`chord_error_bound` (dense output of a curved path).
+    with :func:`chord_error_bound` (dense output of a curved path).  ``safety_distance``
+    [m]: the centre-to-centre distance below which two robots may touch (default
+    :data:`SAFETY_DISTANCE`, two :data:`ROBOT_RADIUS`).
     """
     t = np.asarray(times, dtype=float).reshape(-1)
     P = np.asarray(positions, dtype=float)

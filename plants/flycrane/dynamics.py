@@ -50,6 +50,9 @@ class LagrangianModel:
     * ``robot_accel_fun(q, qd, qdd) -> p̈`` (n) and ``tensions_fun(q, qd, qdd, F) -> t``
       (one per cable, in attachment order) with ``tension_residual_fun`` the part of the
       robots' force balance the cables cannot carry (zero for a consistent motion).
+
+    ``system``: a spatial :class:`MultiRobotSystem` with mass properties (``ValueError``
+    otherwise).
     """
 
     def __init__(self, system):
@@ -138,7 +141,7 @@ class LagrangianModel:
         return self.M_eval(self.system._q(q))[0]
 
     def coriolis(self, q, qd) -> np.ndarray:
-        """``C(q, q̇) q̇`` (m,)."""
+        """``C(q, q̇) q̇`` (m,) at the configuration *q* (m,) [rad/m] and velocity *qd* (q̇, m,)."""
         return self.Cqd_eval(self.system._q(q), qd)[0]
 
     def gravity(self, q) -> np.ndarray:
@@ -150,18 +153,22 @@ class LagrangianModel:
         return self.gravity_compensation_eval(self.system._q(q))[0]
 
     def energy(self, q, qd) -> tuple[float, float]:
-        """(kinetic, potential) energy [J]."""
+        """(kinetic, potential) energy [J] at the configuration *q* (m,) [rad/m] and velocity *qd* (q̇, m,)."""
         K, U = self.energy_eval(self.system._q(q), qd)
         return float(K[0]), float(U[0])
 
     def accelerations(self, q, qd, F) -> np.ndarray:
-        """q̈ of (4.10) for robot forces F (n,) [N]."""
+        """q̈ of (4.10) for robot forces F (n,) [N] at the configuration *q* (m,) [rad/m] and velocity *qd* (q̇, m,)."""
         return self.forward_eval(self.system._q(q), qd, F)[0]
 
     def tensions(self, q, qd, qdd, F) -> np.ndarray:
-        """Cable tensions [N] (positive = taut), one per cable in attachment order."""
+        """Cable tensions [N] (positive = taut), one per cable in attachment order, for the
+        motion *q*, *qd*, *qdd* (configuration, its first and second derivatives) under the
+        robot forces *F* (n,) [N]."""
         return self.tensions_eval(self.system._q(q), qd, qdd, F)[0]
 
     def tension_residual(self, q, qd, qdd, F) -> np.ndarray:
-        """Force on each robot the cables cannot carry (3 per robot) [N]; ~0 when consistent."""
+        """Force on each robot the cables cannot carry (3 per robot) [N]; ~0 when consistent:
+        for the motion *q*, *qd*, *qdd* (configuration, its first and second derivatives)
+        under the robot forces *F* (n,) [N]."""
         return self.tension_residual_eval(self.system._q(q), qd, qdd, F)[0]
