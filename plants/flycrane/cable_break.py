@@ -333,7 +333,8 @@ class PostBreakDynamics:
     def bottleneck(self, x, u, tol: float = 1e-9) -> tuple[int, ...]:
         """Indices of the cables that stay at the smallest tension in *every* best
         allocation of :meth:`best_min_tension` (the ones that go slack first), at the state
-        *x* ``(q, q_dot)`` under the robot velocities *u* (n, m/s); a tension within *tol* [N] of the best counts as the smallest."""
+        *x* ``(q, q_dot)`` under the robot velocities *u* (n, m/s); a tension within *tol* [N]
+        of the best counts as the smallest."""
         best, _ = self.best_min_tension(x, u)
         t0, Tm = self._internal(x, u)
         r = Tm.shape[1]
