@@ -41,7 +41,8 @@ class BufferedFunction:
 
     Inputs must be dense (any array-like of the right size, copied in); outputs are
     returned as fresh arrays: shape ``(k,)`` for column vectors, ``(rows, cols)``
-    otherwise, with sparse outputs scattered into dense zeros.
+    otherwise, with sparse outputs scattered into dense zeros.  ``fun``: the CasADi
+    ``Function`` (every input dense).
     """
 
     def __init__(self, fun: ca.Function):
@@ -92,7 +93,8 @@ class BufferedFunction:
 
 class FunctionBuffers:
     """Preallocated arrays of a Function with dense outputs: fill ``args[i][:]``, call
-    ``eval()``, read ``res[j]`` (the nonzeros, column-major; overwritten by the next call)."""
+    ``eval()``, read ``res[j]`` (the nonzeros, column-major; overwritten by the next call).
+    ``fun``: the CasADi ``Function`` (every output dense)."""
 
     def __init__(self, fun: ca.Function):
         self.args = [np.zeros(fun.nnz_in(i)) for i in range(fun.n_in())]
@@ -117,7 +119,8 @@ _warned = False
 
 
 def warn_uncompiled(reason: str, stacklevel: int = 3) -> None:
-    """Issue the process's one :class:`CompiledCodeWarning`, naming *reason*."""
+    """Issue the process's one :class:`CompiledCodeWarning`, naming *reason*; *stacklevel* as
+    :func:`warnings.warn`'s, counted from this function's caller (default 3: its caller's caller)."""
     global _warned
     if not _warned:
         _warned = True
