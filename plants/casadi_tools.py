@@ -119,8 +119,9 @@ _warned = False
 
 
 def warn_uncompiled(reason: str, stacklevel: int = 3) -> None:
-    """Issue the process's one :class:`CompiledCodeWarning`, naming *reason*; *stacklevel* as
-    :func:`warnings.warn`'s, counted from this function's caller (default 3: its caller's caller)."""
+    """Issue the process's one :class:`CompiledCodeWarning`, naming *reason*; *stacklevel*: the
+    frame the warning points to, 1 being this function's caller (as :func:`warnings.warn`
+    counts from its own caller)."""
     global _warned
     if not _warned:
         _warned = True
