@@ -73,7 +73,11 @@ class AODVParams:
 @dataclass
 class Route:
     """A routing-table entry: next hop, hop count, destination sequence number, expiry time
-    (s), precursors (neighbours that route through this node to the destination), valid."""
+    (s), precursors (neighbours that route through this node to the destination), valid.
+
+    ``next_hop``: the node id the messages for the destination go to; ``hops``: the hop
+    count to the destination; ``seq``: the destination's sequence number the route was
+    learnt with; ``expires``: the simulation time [s] after which the route is stale."""
 
     next_hop: int
     hops: int
@@ -134,7 +138,8 @@ class AODVRouter:
 
     # -- application side
     def submit(self, dest: int, data: Any, size_bits: int) -> None:
-        """Hand a data message for node *dest* to the routing layer (from a task of this node)."""
+        """Hand a data message *data* for node *dest* to the routing layer (from a task of this node);
+        *size_bits*: its size on the network [bits]."""
         self.outbox.append({"type": "data", "src": self.id, "dest": int(dest), "data": data,
                             "size": int(size_bits), "path": [self.id]})
         self._send_task.release()

@@ -25,6 +25,13 @@ from netcosim.errors import ConfigurationError
 class PID:
     """State and parameters of one PID loop. Call :meth:`compute` once per sample.
 
+    ``h``: the sampling period [s]; ``K``: the proportional gain (control units per
+    measurement unit); ``Ti``: the integral time [s]; ``Td``: the derivative time [s]
+    (>= 0; 0: no derivative action); ``beta``: the set-point weight of the proportional
+    part; ``N``: the derivative filter's bound on the derivative gain (the filter's time
+    constant is ``Td / N``).  All finite; ``h``, ``K``, ``Ti``, ``N`` positive.  The law:
+    the module docstring.
+
     Examples
     --------
     The first sample from rest: only the proportional part acts, ``K * beta * r``.

@@ -47,7 +47,7 @@ class SingularityError(ArithmeticError):
 
 @dataclass(frozen=True)
 class PIDGains:
-    """PID gains of one double integrator: K_P [1/s²], K_D [1/s], K_I [1/s³]."""
+    """PID gains of one double integrator: ``kp`` = K_P [1/s²], ``kd`` = K_D [1/s], ``ki`` = K_I [1/s³]."""
 
     kp: float
     kd: float
