@@ -38,7 +38,16 @@ __all__ = ["LandingConfig", "landing_ocp", "landing_nmpc", "sigmoid", "initial_s
 class LandingConfig:
     """Tuning of the landing NMPC (Table 2.2, §2.3.2, §2.4.1).
 
-    Weights are the ``w_j`` of ``||η^j||²_{w_j} = w_j (η^j)²``.
+    Weights are the ``w_j`` of ``||η^j||²_{w_j} = w_j (η^j)²`` (non-negative; ``k_s`` positive).
+
+    Fields: ``k_fR``, ``k_tauR`` weights of ḟ_R [(N/s)⁻²] and τ̇_R [(N·m/s)⁻²];
+    ``k_theta`` of h(φ)(ϑ - ϑ*) [rad⁻²]; ``k_dphi``, ``k_dtheta`` of h(φ)φ̇ and h(φ)ϑ̇
+    [(rad/s)⁻²]; ``k_s`` of the slack variables of (2.8) [m⁻²]; ``k_dphi_target``,
+    ``k_dtheta_target`` of φ - φ* and ϑ - ϑ* [rad⁻²]; ``terminal_factor``: multiplier of
+    the stage weights for the terminal residual; ``gamma`` [1/rad] and ``phi_lim`` [rad]:
+    the sigmoid (2.11); ``input_range``: the fraction, in (0, 1], of the Table 2.1 thrust
+    and torque ranges the NMPC plans with (centred); the horizon: ``N`` intervals of
+    ``Ts`` seconds, ``rk4_steps`` RK4 steps per interval.
     """
 
     #: k_fR, k_τR: weights of ḟ_R [(N/s)⁻²] and τ̇_R [(N·m/s)⁻²].
@@ -78,17 +87,22 @@ class LandingConfig:
 
     @property
     def stage_weights(self) -> np.ndarray:
+        """The stage weights in residual order: k_fR, k_tauR, k_theta, k_dphi, k_dtheta,
+        k_dphi_target, k_dtheta_target."""
         return np.array([self.k_fR, self.k_tauR, self.k_theta, self.k_dphi, self.k_dtheta,
                          self.k_dphi_target, self.k_dtheta_target])
 
     @property
     def terminal_weights(self) -> np.ndarray:
+        """``terminal_factor`` times the weights k_theta, k_dphi, k_dtheta, k_dphi_target,
+        k_dtheta_target (the terminal residual's)."""
         return self.terminal_factor * np.array([self.k_theta, self.k_dphi, self.k_dtheta,
                                                 self.k_dphi_target, self.k_dtheta_target])
 
 
 def sigmoid(phi, gamma: float = 19.0, phi_lim: float = -0.24):
-    """h(φ) of (2.11): 1 / (1 + exp(γ (φ - φ_lim))); works on floats and CasADi symbols."""
+    """h(φ) of (2.11): 1 / (1 + exp(γ (φ - φ_lim))) of *phi* (φ, rad), with the steepness *gamma*
+    (γ, 1/rad) and half point *phi_lim* (φ_lim, rad); works on floats and CasADi symbols."""
     return 1.0 / (1.0 + ca.exp(gamma * (phi - phi_lim)))
 
 
@@ -125,14 +139,17 @@ def landing_ocp(params: TetheredUAVParams | None = None, config: LandingConfig |
 
 
 def initial_state(phi: float = 0.0, theta: float = 0.0, params: TetheredUAVParams | None = None) -> np.ndarray:
-    """Hovering state at (φ, ϑ) [rad]: zero rates, hover thrust, zero torque."""
+    """Hovering state at (*phi*, *theta*) = (φ, ϑ) [rad]: zero rates, hover thrust, zero torque,
+    for the vehicle *params* (None: the default :class:`TetheredUAVParams`)."""
     params = TetheredUAVParams() if params is None else params
     return np.array([phi, 0.0, theta, 0.0, hover_thrust(phi, theta, params), 0.0])
 
 
 def landing_nmpc(params: TetheredUAVParams | None = None, config: LandingConfig | None = None,
                  x0=None, **kw) -> RTINMPC:
-    """An :class:`RTINMPC` of :func:`landing_ocp`, initialized at *x0* (default: hover at 0, 0)."""
+    """An :class:`RTINMPC` of :func:`landing_ocp` for the vehicle *params* and tuning *config*
+    (None: the defaults), initialized at *x0* (default: hover at 0, 0); *kw* go to
+    :class:`RTINMPC`."""
     ocp = landing_ocp(params, config)
     x0 = initial_state(params=params) if x0 is None else x0
     return RTINMPC(ocp, x_guess=x0, **kw)
