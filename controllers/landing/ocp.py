@@ -87,7 +87,7 @@ class LandingConfig:
 
     @property
     def stage_weights(self) -> np.ndarray:
-        """The stage weights in residual order: k_fR, k_tauR, k_theta, k_dphi, k_dtheta,
+        """The stage weights as an array, in this order: k_fR, k_tauR, k_theta, k_dphi, k_dtheta,
         k_dphi_target, k_dtheta_target."""
         return np.array([self.k_fR, self.k_tauR, self.k_theta, self.k_dphi, self.k_dtheta,
                          self.k_dphi_target, self.k_dtheta_target])
