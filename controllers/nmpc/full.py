@@ -55,6 +55,8 @@ class IpoptOCP:
 
     Same variables, constraints and objective as the RTI; exact Hessian of the
     Lagrangian.  Warm-started from the previous solution when called repeatedly.
+    ``rti``: the :class:`RTINMPC` whose NLP is solved; ``options``: CasADi ``nlpsol``
+    options merged over the defaults (IPOPT quiet, tol 1e-10, at most 500 iterations).
     """
 
     def __init__(self, rti: _Iterate, options: dict | None = None):
@@ -69,6 +71,11 @@ class IpoptOCP:
         self._w = None
 
     def solve(self, x0, p=None, w_init=None) -> FullSolution:
+        """Solve the NLP from the measured state *x0* (fixed as the first node); *p*: the OCP's
+        parameter vector (None: the current one);
+        *w_init*: the initial guess of the stacked variables (None: the previous solution,
+        else the RTI's current trajectory).  The solution is kept as the next warm start
+        only when IPOPT succeeds."""
         rti, tr = self.rti, self.rti.tr
         x0 = rti._check_x(x0)
         p = rti._p if p is None else rti._check_p(p)

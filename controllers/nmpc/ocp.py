@@ -144,7 +144,8 @@ def _check_discretization(N, Ts, rk4_steps) -> None:
 
 def rk4_discretize(x: ca.SX, u: ca.SX, p: ca.SX, xdot: ca.SX, Ts: float, steps: int = 1,
                    name: str = "F") -> ca.Function:
-    """``F(x, u, p)``: *steps* classical RK4 steps of ``xdot`` over *Ts* seconds (ZOH on u)."""
+    """``F(x, u, p)``: *steps* classical RK4 steps of ``xdot`` over *Ts* seconds (ZOH on u), a
+    CasADi ``Function`` called *name*."""
     f = ca.Function("f", [x, u, p], [xdot])
     h = Ts / steps
     xk = x

@@ -47,7 +47,8 @@ class RTIStep:
     planned state trajectory (N+1, nx); ``status``: the QP solver's return status as
     text (a solver's bare status number is named, e.g. HPIPM's 2 is ``"minimum step
     length reached (hpipm status 2)"``); ``fallback``: True when the QP failed and the
-    shifted previous plan was used instead; ``qp_iter``: QP solver iterations;
+    shifted previous plan was used instead; ``success``: the QP solve succeeded (``not
+    fallback``); ``qp_iter``: QP solver iterations;
     ``step_norm``: max-norm of the SQP step; ``t_feedback`` / ``t_prepare``: wall-clock
     seconds of the two phases (``t_prepare`` refers to the preparation done *after* this
     feedback, for the next sample).
@@ -66,6 +67,7 @@ class RTIStep:
 
     @property
     def t_total(self) -> float:
+        """``t_feedback + t_prepare`` [s]: the wall-clock time of the whole iteration."""
         return self.t_feedback + self.t_prepare
 
 
@@ -186,7 +188,8 @@ class RTINMPC:
         return a
 
     def reset(self, x0, u_guess=None, p=None) -> None:
-        """Restart from the guess ``x_k = x0`` for all k and ``u_k = u_guess`` (default 0)."""
+        """Restart from the guess ``x_k = x0`` for all k and ``u_k = u_guess`` (default 0); *p*:
+        the OCP's parameter vector (None: the current one)."""
         o = self.ocp
         x0 = self._check_x(x0)
         u = np.zeros(o.nu) if u_guess is None else np.asarray(u_guess, dtype=float).reshape(-1)
@@ -200,7 +203,9 @@ class RTINMPC:
         self.prepare()
 
     def set_trajectory(self, X, U, S=None, SN=None, p=None) -> None:
-        """Set the linearization point (e.g. a converged solution) and prepare."""
+        """Set the linearization point (e.g. a converged solution) and prepare: states *X*
+        (N+1, nx), inputs *U* (N, nu), slacks *S* (N, ns) and *SN* (nsN,) (None: zeros);
+        *p*: the OCP's parameter vector (None: the current one)."""
         o, tr = self.ocp, self.tr
         X = np.asarray(X, dtype=float).reshape(o.N + 1, o.nx)
         U = np.asarray(U, dtype=float).reshape(o.N, o.nu)
@@ -223,15 +228,18 @@ class RTINMPC:
 
     @property
     def S(self) -> np.ndarray:
+        """Current slack variables of the soft stage constraints, shape (N, ns)."""
         return self._w[self.tr.isg].copy() if self.tr.ns else np.zeros((self.ocp.N, 0))
 
     @property
     def p(self) -> np.ndarray:
+        """The OCP's current parameter vector (a copy)."""
         return self._p.copy()
 
     # -- phases ---------------------------------------------------------------------------
     def prepare(self, p=None) -> float:
-        """Linearize around the current trajectory; returns wall-clock seconds taken."""
+        """Linearize around the current trajectory (with the parameters *p*, None: the current
+        ones); returns wall-clock seconds taken."""
         t0 = time.perf_counter()
         if p is not None:
             self._p = self._check_p(p)
@@ -354,14 +362,17 @@ class RTINMPC:
         self._w = tr.pack(Xs, Us, Ss, SN)
 
     def step(self, x0, p=None) -> RTIStep:
-        """One sample: :meth:`feedback` with *x0*, then :meth:`preparation` for the next."""
+        """One sample: :meth:`feedback` with *x0* (and *p*, None: the current parameters), then
+        :meth:`preparation` for the next."""
         self.feedback(x0, p)
         self.preparation()
         return self.last
 
     # -- converged solves --------------------------------------------------------------------
     def cost(self, X=None, U=None, S=None, SN=None) -> float:
-        """Objective value at the given (default: current) trajectory."""
+        """Objective value at the given (default: current) trajectory: states *X* (N+1, nx),
+        inputs *U* (N, nu), stage slacks *S* (N, ns) and terminal slacks *SN* (nsN,)
+        (slacks default to zero when *X* is given)."""
         tr = self.tr
         w = self._w if X is None else tr.pack(np.asarray(X), np.asarray(U),
                                               np.zeros((self.ocp.N, tr.ns)) if S is None else np.asarray(S),
@@ -371,7 +382,8 @@ class RTINMPC:
     def solve_sqp(self, x0, p=None, *, tol: float = 1e-9, max_iter: int = 100) -> FullSolution:
         """Full Gauss–Newton SQP from the current trajectory until ``|dw|_inf < tol``.
 
-        Leaves the converged trajectory as the controller's linearization point.
+        Leaves the converged trajectory as the controller's linearization point.  *x0*: the
+        measured state; *p*: the OCP's parameter vector (None: the current one); *max_iter*: the iteration limit.
         """
         t0 = time.perf_counter()
         x0 = self._check_x(x0)
@@ -394,5 +406,6 @@ class RTINMPC:
                             "sqp", time.perf_counter() - t0)
 
     def ipopt_solver(self, options: dict | None = None) -> "IpoptOCP":
-        """An IPOPT solver of the same NLP (exact Hessian), for comparisons."""
+        """An IPOPT solver of the same NLP (exact Hessian), for comparisons; *options* as for
+        :class:`~netcosim.controllers.nmpc.full.IpoptOCP`."""
         return IpoptOCP(self, options)
