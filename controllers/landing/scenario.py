@@ -43,7 +43,9 @@ _CHOICES = {"nmpc_init": ("measured", "reference"), "topology": TOPOLOGIES,
 @dataclass(frozen=True, eq=False)
 class LandingScenario:
     """One landing run of §2.6.2, validated; see :func:`~netcosim.controllers.landing.run_landing`
-    for the meaning of each field.
+    for the meaning of each field (``controller``, ``wind``, ``duration``, ``nmpc_period``,
+    ``fl_period``, ``integrator_dt``, ``log_interval``, ``seed``, ``topology``, ``network``,
+    ``ref_knots``, ``reset_tol`` and the others).
 
     Defaults left as ``None`` are filled in when the scenario is built: ``params`` →
     :data:`SIM_PARAMS`, ``config`` → ``LandingConfig()``, ``timing`` →

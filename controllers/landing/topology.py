@@ -128,6 +128,15 @@ def run_landing(controller: str = "2lc", *, wind: bool = False, duration: float 
     Builds a :class:`~netcosim.controllers.landing.LandingScenario` of the arguments and runs
     it (:func:`simulate_landing`).
 
+    ``wind``: apply the wind of §2.6.1 to the plant; ``duration``: simulated time [s];
+    ``config``: the NMPC's :class:`~netcosim.controllers.landing.ocp.LandingConfig`
+    (default ``LandingConfig()``); ``timing``: the tasks' CPU times, a
+    :class:`~netcosim.controllers.landing.timing.LandingTiming` (default: ideal, zero);
+    ``nmpc_period`` and ``fl_period``: the NMPC's and the low-level loop's periods [s];
+    ``integrator_dt``: the plant's RK4 step [s]; ``log_interval``: the plant's signal
+    logging interval [s]; ``seed``: the simulation's seed; ``nmpc_kw``: keyword
+    arguments of the NMPC (:class:`~netcosim.controllers.nmpc.rti.RTINMPC`).
+
     ``params``: simulation-model parameters (default :data:`SIM_PARAMS`); the NMPC and
     the low-level controller use the same physical parameters (the model mismatch is
     the landers and the wind, which the controllers do not model).  ``x0``: initial
