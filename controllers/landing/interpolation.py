@@ -26,7 +26,9 @@ __all__ = ["C2Interpolator", "quintic_coefficients"]
 
 def quintic_coefficients(T: float, p0, v0, a0, p1, v1, a1) -> np.ndarray:
     """Coefficients ``c[0..5]`` (rows) of ``q(s) = Σ c_i s^i`` on ``s ∈ [0, T]`` matching
-    position, velocity and acceleration at both ends (element-wise for arrays)."""
+    position, velocity and acceleration at both ends (element-wise for arrays): *p0*, *v0*,
+    *a0* at s = 0 and *p1*, *v1*, *a1* at s = *T* (T > 0, in the time unit of the
+    velocities and accelerations, s for the landing's references)."""
     validate.positive(T, "segment duration", kind="positive")
     p0, v0, a0, p1, v1, a1 = (np.asarray(a, dtype=float) for a in (p0, v0, a0, p1, v1, a1))
     c0, c1, c2 = p0, v0, 0.5 * a0

@@ -27,7 +27,7 @@ REFERENCE_COLUMNS = ["time", "phi_ref", "theta_ref", "dphi_ref", "dtheta_ref", "
 def plant_signals(sim: Simulation, plant_name: str, wind_on: bool, params) -> pd.DataFrame:
     """The logged outputs ``y.*`` of plant *plant_name* as a wide table (column ``time``
     then one column per output, prefix dropped) plus the wind force ``wind`` [N]
-    (zero when *wind_on* is false)."""
+    (zero when *wind_on* is false) of the vehicle *params*, from *sim*'s signals trace."""
     df = sim.trace.signals()
     df = df[df["source"] == plant_name]
     df = df[df["signal"].astype(str).str.startswith("y.")]
@@ -54,7 +54,11 @@ class LandingRun:
     (:meth:`netcosim.cputime.CPUTimeModel.record`: replay it with
     :class:`~netcosim.cputime.RecordedCPUTime` to reproduce the run);
     ``reproducible``: False when the CPU times were measured on the wall clock;
-    ``scenario``: the :class:`~netcosim.controllers.landing.LandingScenario` that was run.
+    ``scenario``: the :class:`~netcosim.controllers.landing.LandingScenario` that was run;
+    ``controller``: ``"nmpc"`` or ``"2lc"``; ``wind``: whether the wind acted; ``nmpc``:
+    the :class:`~netcosim.controllers.nmpc.rti.RTINMPC` used; ``fl``: the low-level
+    feedback-linearization controller (2LC; None otherwise); ``meta``: the run's
+    parameters, tuning, timing, topology, ``nmpc_init`` and NMPC re-initialisation count.
     The ``t_feedback``/``t_prepare`` columns of ``steps`` are the solver's own
     wall-clock diagnostics; only ``c_feedback``/``c_prepare`` enter the simulation.
     """

@@ -51,8 +51,10 @@ __all__ = ["LandingLoop", "nmpc_task", "ground_nmpc_task", "sensor_task", "fl_ta
 class LandingLoop:
     """The controller state the tasks of one landing run share.
 
-    Built from a validated :class:`~netcosim.controllers.landing.LandingScenario`, the plant's
-    input and output ports and the initial state ``xs0 = [φ, φ̇, ϑ, ϑ̇, f_R, τ_R]``.
+    Built from a validated :class:`~netcosim.controllers.landing.LandingScenario` (*scenario*),
+    the plant's input and output ports (*in_port*: where ``(f_R, τ_R)`` is written,
+    *out_port*: where ``[φ, φ̇, ϑ, ϑ̇]`` is read) and the initial state
+    ``xs0 = [φ, φ̇, ϑ, ϑ̇, f_R, τ_R]``.
     ``steps``: one dict per NMPC job; ``ref_rows``: one tuple per low-level job
     (:data:`~netcosim.controllers.landing.result.REFERENCE_COLUMNS`); ``init_log``: ``(time,
     "reference" | "measured")`` per NMPC initialization of the 2LC.
@@ -79,8 +81,9 @@ class LandingLoop:
     # -- the NMPC job -------------------------------------------------------
 
     def nmpc_job(self, ctx, y, t_s: float, send=None):
-        """One NMPC job on the measurement *y* sampled at *t_s* [s]; *send* ships the
-        2LC's target to another node (default: apply it here)."""
+        """One NMPC job (a generator run by the task whose context is *ctx*) on the measurement
+        *y* sampled at *t_s* [s]; *send* ships the 2LC's target to another node (default:
+        apply it here)."""
         x = self._nmpc_state(y)
         with self.cpu_model.measure("feedback") as m:
             r = self.nmpc.feedback(x)
@@ -136,8 +139,8 @@ class LandingLoop:
         return np.array([pos[0], vel[0], pos[1], vel[1]])
 
     def initial_measurement(self, y, t: float) -> np.ndarray:
-        """The state the NMPC starts from at *t* [s] (see ``nmpc_init`` of
-        :func:`~netcosim.controllers.landing.run_landing`)."""
+        """The state the NMPC starts from at *t* [s] given the measured ``[φ, φ̇, ϑ, ϑ̇]`` *y*
+        (see ``nmpc_init`` of :func:`~netcosim.controllers.landing.run_landing`)."""
         y = np.array(y, dtype=float)
         if self.scenario.nmpc_init == "measured":
             return y
@@ -179,7 +182,8 @@ class LandingLoop:
 
     def fl_job(self, ctx):
         """One 500 Hz job: reference at the sampling instant (acceleration ``ff_lead``
-        seconds later), feedback linearization, command ``(f_R, τ_R)`` to the plant."""
+        seconds later), feedback linearization, command ``(f_R, τ_R)`` to the plant; a
+        generator run by the task whose context is *ctx*."""
         y = ctx.read(self.out_port)
         u = self.low_level_command(ctx.now, y)
         yield ctx.execute(self.scenario.timing.fl_exec)
@@ -195,7 +199,8 @@ class LandingLoop:
 # ---------------------------------------------------------------------------
 
 def nmpc_task(loop: LandingLoop):
-    """The NMPC next to the plant: reads it, (2LC) picks the initial state, runs a job."""
+    """The NMPC next to the plant: reads it, (2LC) picks the initial state, runs a job.
+    *loop*: the :class:`LandingLoop` it works on; returns the task body ``body(ctx)``."""
     two_layer = loop.scenario.controller == "2lc"
 
     def body(ctx):
@@ -208,7 +213,8 @@ def nmpc_task(loop: LandingLoop):
 
 def ground_nmpc_task(loop: LandingLoop, iface, peer: str = "onboard"):
     """The NMPC on a remote node, released by each measurement arriving at *iface*:
-    runs on the newest one and sends the target to node *peer* (64 bits per value)."""
+    runs on the newest one and sends the target to node *peer* (64 bits per value).
+    *loop*: the :class:`LandingLoop` it works on; returns the task body ``body(ctx)``."""
     bits = 64 * (1 + 7 * loop.scenario.ref_knots)
 
     def body(ctx):
@@ -225,7 +231,8 @@ def ground_nmpc_task(loop: LandingLoop, iface, peer: str = "onboard"):
 
 def sensor_task(loop: LandingLoop, peer: str = "ground"):
     """Samples ``[φ, φ̇, ϑ, ϑ̇]`` (or the reference state, see ``nmpc_init``), charges
-    ``fl_exec`` and sends ``(t_s, y)`` to node *peer* (64 bits per value)."""
+    ``fl_exec`` and sends ``(t_s, y)`` to node *peer* (64 bits per value).
+    *loop*: the :class:`LandingLoop` it works on; returns the task body ``body(ctx)``."""
     def body(ctx):
         y = ctx.read(loop.out_port)
         t_s = ctx.now
@@ -236,7 +243,8 @@ def sensor_task(loop: LandingLoop, peer: str = "ground"):
 
 
 def fl_task(loop: LandingLoop):
-    """The 500 Hz low-level task of the 2LC (:meth:`LandingLoop.fl_job`)."""
+    """The 500 Hz low-level task of the 2LC (:meth:`LandingLoop.fl_job`).
+    *loop*: the :class:`LandingLoop` it works on; returns the task body ``body(ctx)``."""
     def body(ctx):
         yield from loop.fl_job(ctx)
     return body

@@ -35,12 +35,12 @@ GROUND_PRIORITY, ONBOARD_PRIORITY = 1, 2
 
 
 def wire_single_node(sim: Simulation, onboard, loop: LandingLoop) -> None:
-    """Every task on *onboard*: the 100 Hz NMPC at priority 2."""
+    """Every task on *onboard* (a node of *sim*): the 100 Hz NMPC of *loop* at priority 2."""
     onboard.periodic(nmpc_task(loop), period=loop.scenario.nmpc_period, priority=2, name="nmpc")
 
 
 def wire_two_nodes(sim: Simulation, onboard, loop: LandingLoop) -> None:
-    """The NMPC on node ``ground``, released by each measurement a 100 Hz sensor task
+    """The NMPC of *loop* on node ``ground``, released by each measurement a 100 Hz sensor task
     (priority 2) on *onboard* sends it; the target it sends back updates the
     interpolator on delivery.  Network: ``scenario.network(sim)`` or an ideal
     1 Mbit/s link without propagation delay."""
@@ -97,7 +97,7 @@ def build_landing(scenario: LandingScenario, *, low_level: bool = True, system=N
 
 def landing_result(sim: Simulation, loop: LandingLoop) -> LandingRun:
     """The :class:`~netcosim.controllers.landing.LandingRun` of a simulation built by
-    :func:`build_landing` (after ``sim.run``)."""
+    :func:`build_landing` (after ``sim.run``), from *sim*'s traces and *loop*'s records."""
     sc = loop.scenario
     return LandingRun(controller=sc.controller, wind=sc.wind, signals=plant_signals(sim, "uav", sc.wind, sc.params),
                       steps=pd.DataFrame(loop.steps), reference=loop.reference_table(), jobs=sim.trace.jobs(),
