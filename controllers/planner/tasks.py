@@ -67,7 +67,8 @@ __all__ = ["KinematicVelocityPlant", "KinematicModel", "VelocityTrackingModel", 
 
 
 def ideal_network(sim, name: str = "planner_net"):
-    """A contention-free link whose transmissions take zero ticks (1e18 bit/s, no delay)."""
+    """A contention-free link whose transmissions take zero ticks (1e18 bit/s, no delay), in
+    *sim*, called *name*."""
     from netcosim.network.ideal import IdealLink
     return IdealLink(sim, name, data_rate=1e18, delay=0.0)
 
@@ -254,7 +255,9 @@ class _Robot:
 def add_planner_task(pivot, sh: _Shared, q_port) -> Any:
     """Centralized (3.6)/(5.3): every T the pivot reads q, computes the gain and
     ``u_h = -k A_{q_h} K_bar (q_h - q_r(hT))`` and sends ``u_i`` (and, for the (5.14)
-    feed-forward, A_{q_h}'s rows) to robot i."""
+    feed-forward, A_{q_h}'s rows) to robot i.  *pivot*: the pivot node; *sh*: the deployment's shared state (system,
+    structure, configuration, records);
+    *q_port*: the plant's output port of q."""
     cfg, system, st = sh.config, sh.system, sh.structure
     m = system.m
 
@@ -282,7 +285,9 @@ def add_planner_task(pivot, sh: _Shared, q_port) -> Any:
 
 
 def add_pose_task(pivot, sh: _Shared, qV_port) -> Any:
-    """Sparse (3.5)/(5.2): every T the pivot reads its pose q_V and sends it to every robot."""
+    """Sparse (3.5)/(5.2): every T the pivot reads its pose q_V and sends it to every robot.
+    *pivot*: the pivot node; *sh*: the deployment's shared state (system, structure, configuration, records);
+    *qV_port*: the plant's output port of q_V."""
     cfg = sh.config
 
     def pose(ctx):
@@ -356,7 +361,9 @@ def add_command_task(sh: _Shared, robot: _Robot, feedback) -> Any:
 
 
 def add_actuation_task(sh: _Shared, robot: _Robot) -> Any:
-    """Every ``ff_period`` s: the held feedback plus the feed-forward at the current time."""
+    """Every ``ff_period`` s: the held feedback plus the feed-forward at the current time, on
+    *robot* (its node and command state); *sh*: the deployment's shared state (system, structure, configuration,
+    records)."""
 
     def actuation(ctx):
         if robot.have and not robot.zeroed:
@@ -367,7 +374,8 @@ def add_actuation_task(sh: _Shared, robot: _Robot) -> Any:
 
 def add_watchdog_task(sh: _Shared, robot: _Robot) -> Any:
     """Every ``watchdog_period`` s: zero the command once the last one is older than the
-    timeout (decided at the release instant, written after ``exec_watchdog``)."""
+    timeout (decided at the release instant, written after ``exec_watchdog``), on *robot*
+    (its node and command state); *sh*: the deployment's shared state (system, structure, configuration, records)."""
     cfg = sh.config
 
     def watchdog(ctx):
@@ -403,13 +411,21 @@ def _add_robot(sim, net, plant, sh: _Shared, i: int, feedback, reads_q_i: bool) 
 # ---------------------------------------------------------------- wiring, one per architecture
 
 def wire_centralized(sim, plant, pivot, net, sh: _Shared) -> list:
-    """The pivot runs the whole planner on q; the robots apply what they receive."""
+    """The pivot runs the whole planner on q; the robots apply what they receive.  *sim*: the simulation; *plant*:
+    the plant instance; *pivot*: the pivot node; *net*: the
+    network the nodes attach to; *sh*: the deployment's shared state (system, structure,
+    configuration, records).  Returns the robots' states (node, ports, held command), one
+    per robot."""
     add_planner_task(pivot, sh, plant.output(list(range(sh.system.m))))
     return [_add_robot(sim, net, plant, sh, i, _received_feedback, False) for i in range(sh.structure.N)]
 
 
 def wire_sparse(sim, plant, pivot, net, sh: _Shared) -> list:
-    """The pivot broadcasts q_V; each robot computes its own command from (q_i, q_V)."""
+    """The pivot broadcasts q_V; each robot computes its own command from (q_i, q_V).  *sim*: the simulation;
+    *plant*: the plant instance; *pivot*: the pivot node; *net*: the
+    network the nodes attach to; *sh*: the deployment's shared state (system, structure,
+    configuration, records).  Returns the robots' states (node, ports, held command), one
+    per robot."""
     add_pose_task(pivot, sh, plant.output(list(sh.structure.pivot)))
     return [_add_robot(sim, net, plant, sh, i, _sparse_feedback, True) for i in range(sh.structure.N)]
 
@@ -429,7 +445,8 @@ def deploy(sim, system: Any, q0: Any, config: DeploymentConfig, *, network: Any 
     """Build, inside *sim*, the plant ``config.plant`` (default ``q_dot = A_q^+ u``) from *q0*
     (rad, m; a dynamic plant starts at rest), node ``pivot``
     and nodes ``robot1..robotN`` on *network* (default :func:`ideal_network`) and their
-    tasks, wired for ``config.architecture`` (see the module docstring).
+    tasks, wired for ``config.architecture`` (see the module docstring).  *system*: the
+    kinematic system; *config*: the :class:`DeploymentConfig`.
 
     ``structure``: the :class:`StarStructure` (default :meth:`StarStructure.for_system`);
     ``integrator``: plant integrator (default ``config.plant.integrator()``).
@@ -456,7 +473,11 @@ def deploy_planner(sim, system: Any, q0: Any, T: float, law: PlannerLaw, *, arch
                    structure: StarStructure | None = None, integrator: Any = None, plant_name: str = "plant",
                    log_interval: float | None = None, guarantee: Any = None) -> Deployment:
     """:func:`deploy` with the :class:`DeploymentConfig` given as keyword arguments (the
-    original signature): ``T`` in s, ``q0`` in rad and m; see :class:`DeploymentConfig`."""
+    original signature): ``T`` in s, ``q0`` in rad and m; ``law``, ``architecture``,
+    ``exec_pivot``, ``exec_robot``, ``size_bits``, ``on_loss``, ``watchdog_period``,
+    ``watchdog_timeout``, ``plant_name``, ``log_interval`` and ``guarantee`` as the
+    fields of :class:`DeploymentConfig`; *sim*, *system*, ``network``, ``structure`` and
+    ``integrator`` as for :func:`deploy`."""
     check_system(system)
     config = DeploymentConfig(T, law, architecture=architecture, exec_pivot=exec_pivot, exec_robot=exec_robot,
                               size_bits=size_bits, on_loss=on_loss, watchdog_period=watchdog_period,
