@@ -255,9 +255,9 @@ class _Robot:
 def add_planner_task(pivot, sh: _Shared, q_port) -> Any:
     """Centralized (3.6)/(5.3): every T the pivot reads q, computes the gain and
     ``u_h = -k A_{q_h} K_bar (q_h - q_r(hT))`` and sends ``u_i`` (and, for the (5.14)
-    feed-forward, A_{q_h}'s rows) to robot i.  *pivot*: the pivot node; *sh*: the deployment's shared state (system,
-    structure, configuration, records);
-    *q_port*: the plant's output port of q."""
+    feed-forward, A_{q_h}'s rows) to robot i.  *pivot*: the pivot node; *sh*: the
+    deployment's shared state (system, structure, configuration, records); *q_port*: the
+    plant's output port of q."""
     cfg, system, st = sh.config, sh.system, sh.structure
     m = system.m
 
@@ -286,8 +286,8 @@ def add_planner_task(pivot, sh: _Shared, q_port) -> Any:
 
 def add_pose_task(pivot, sh: _Shared, qV_port) -> Any:
     """Sparse (3.5)/(5.2): every T the pivot reads its pose q_V and sends it to every robot.
-    *pivot*: the pivot node; *sh*: the deployment's shared state (system, structure, configuration, records);
-    *qV_port*: the plant's output port of q_V."""
+    *pivot*: the pivot node; *sh*: the deployment's shared state (system, structure,
+    configuration, records); *qV_port*: the plant's output port of q_V."""
     cfg = sh.config
 
     def pose(ctx):
@@ -362,8 +362,8 @@ def add_command_task(sh: _Shared, robot: _Robot, feedback) -> Any:
 
 def add_actuation_task(sh: _Shared, robot: _Robot) -> Any:
     """Every ``ff_period`` s: the held feedback plus the feed-forward at the current time, on
-    *robot* (its node and command state); *sh*: the deployment's shared state (system, structure, configuration,
-    records)."""
+    *robot* (its node and command state); *sh*: the deployment's shared state (system,
+    structure, configuration, records)."""
 
     def actuation(ctx):
         if robot.have and not robot.zeroed:
@@ -375,7 +375,8 @@ def add_actuation_task(sh: _Shared, robot: _Robot) -> Any:
 def add_watchdog_task(sh: _Shared, robot: _Robot) -> Any:
     """Every ``watchdog_period`` s: zero the command once the last one is older than the
     timeout (decided at the release instant, written after ``exec_watchdog``), on *robot*
-    (its node and command state); *sh*: the deployment's shared state (system, structure, configuration, records)."""
+    (its node and command state); *sh*: the deployment's shared state (system, structure,
+    configuration, records)."""
     cfg = sh.config
 
     def watchdog(ctx):
@@ -411,9 +412,9 @@ def _add_robot(sim, net, plant, sh: _Shared, i: int, feedback, reads_q_i: bool) 
 # ---------------------------------------------------------------- wiring, one per architecture
 
 def wire_centralized(sim, plant, pivot, net, sh: _Shared) -> list:
-    """The pivot runs the whole planner on q; the robots apply what they receive.  *sim*: the simulation; *plant*:
-    the plant instance; *pivot*: the pivot node; *net*: the
-    network the nodes attach to; *sh*: the deployment's shared state (system, structure,
+    """The pivot runs the whole planner on q; the robots apply what they receive.  *sim*: the
+    simulation; *plant*: the plant instance; *pivot*: the pivot node; *net*: the network the
+    nodes attach to; *sh*: the deployment's shared state (system, structure,
     configuration, records).  Returns the robots' states (node, ports, held command), one
     per robot."""
     add_planner_task(pivot, sh, plant.output(list(range(sh.system.m))))
@@ -421,9 +422,9 @@ def wire_centralized(sim, plant, pivot, net, sh: _Shared) -> list:
 
 
 def wire_sparse(sim, plant, pivot, net, sh: _Shared) -> list:
-    """The pivot broadcasts q_V; each robot computes its own command from (q_i, q_V).  *sim*: the simulation;
-    *plant*: the plant instance; *pivot*: the pivot node; *net*: the
-    network the nodes attach to; *sh*: the deployment's shared state (system, structure,
+    """The pivot broadcasts q_V; each robot computes its own command from (q_i, q_V).  *sim*:
+    the simulation; *plant*: the plant instance; *pivot*: the pivot node; *net*: the network
+    the nodes attach to; *sh*: the deployment's shared state (system, structure,
     configuration, records).  Returns the robots' states (node, ports, held command), one
     per robot."""
     add_pose_task(pivot, sh, plant.output(list(sh.structure.pivot)))
