@@ -38,7 +38,8 @@ RANK_RTOL = SINGULAR_RTOL
 
 
 def check_period(T: float, what: str = "sampling period T") -> float:
-    """Return ``float(T)`` or raise ``ValueError`` if T is not a finite positive number (s)."""
+    """Return ``float(T)`` or raise ``ValueError`` if T is not a finite positive number (s);
+    *what* names it in the error."""
     return validate.positive(T, what, kind="a finite positive number of seconds", type_error=ConfigurationError)
 
 
@@ -67,7 +68,8 @@ def check_gain_matrix(K: Any, m: int | None = None) -> np.ndarray:
 
 
 def diag_gain(kbar: Any, m: int) -> np.ndarray:
-    """The diagonal of ``K_bar`` (4.14) as a length-m vector of positive gains."""
+    """The diagonal of ``K_bar`` (4.14) as a length-m vector of positive gains, from *kbar*: None
+    (ones), a scalar, a length-m vector or a diagonal m x m matrix."""
     if kbar is None:
         return np.ones(m)
     k = np.asarray(kbar, dtype=float)
@@ -86,7 +88,9 @@ def integrate_kinematics(system: Any, q0: Any, u: Callable[[float], np.ndarray] 
                          t0: float, t1: float, *, rtol: float = 1e-12, atol: float = 1e-13,
                          method: str = "DOP853", dense: bool = False):
     """Integrate ``q_dot = A_q^+ u(t)`` from t0 to t1 (s); returns ``q(t1)`` (and the
-    ``OdeSolution`` when ``dense``).  ``u`` is a constant vector or a callable of t."""
+    ``OdeSolution`` when ``dense``).  ``u`` is a constant vector or a callable of t.
+    *system*: the kinematic system; *q0*: the initial configuration; *method*, *rtol*,
+    *atol*: :func:`scipy.integrate.solve_ivp`'s."""
     q0 = as_vector(q0, system.m, "q0")
     rank_tol = rank_rtol(system)
     if callable(u):

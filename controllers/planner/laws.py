@@ -42,6 +42,7 @@ def planner_velocity(system: Any, q: Any, q_ref: Any, K: Any = 1.0) -> np.ndarra
     """Centralized local planner ``u = -A_q K (q - q_r)`` (3.8)/(4.14), in m/s.
 
     ``K``: scalar, diagonal vector or matrix; validated with :func:`check_gain_matrix`.
+    *system*: the kinematic system; *q_ref*: the reference configuration q_r (rad, m); *q*: the configuration.
     """
     check_system(system)
     m = system.m
@@ -61,6 +62,9 @@ def robot_velocity(system: Any, structure: StarStructure, i: int, q_i: Any, q_V:
     block diagonal with diagonal blocks, as in Sec. 4.4).  Robot *i*'s rows of ``A_q``
     are evaluated at a configuration that holds ``(q_i, q_V)`` and the reference values
     elsewhere -- they do not depend on the other robots' coordinates (3.3).
+    *system*: the kinematic system; *q_ref*: the reference configuration q_r (rad, m);
+    *structure*: the :class:`StarStructure` saying which coordinates are
+    robot *i*'s and which the pivot's.
     """
     check_system(system)
     m = system.m
@@ -97,7 +101,9 @@ class OfflineGain:
 
 @dataclass(frozen=True)
 class OnlineGain:
-    """The online gain ``k_h = tau_o(e_h) / T`` recomputed at every sample (3.26)/(4.30)."""
+    """The online gain ``k_h = tau_o(e_h) / T`` recomputed at every sample (3.26)/(4.30);
+    ``tau_max``: the bound on tau_o passed to :func:`~netcosim.controllers.planner.flow.online_gain`
+    (None: none)."""
 
     tau_max: float | None = None
 
@@ -107,7 +113,9 @@ class OnlineGain:
 
 
 def sampled_velocity(system: Any, q_h: Any, q_ref: Any, k: float, kbar: Any = None) -> np.ndarray:
-    """``u_h = -k A_{q_h} K_bar (q_h - q_r)``, held on ``[hT, (h+1)T)`` (Sec. 3.4/4.5), m/s."""
+    """``u_h = -k A_{q_h} K_bar (q_h - q_r)``, held on ``[hT, (h+1)T)`` (Sec. 3.4/4.5), m/s.
+    *system*: the kinematic system; *q_ref*: the reference configuration q_r (rad, m);
+    *kbar*: the diagonal of K_bar (None: ones; see :func:`diag_gain`)."""
     m = system.m
     q_h = as_vector(q_h, m, "q_h")
     kd = diag_gain(kbar, m)
@@ -118,6 +126,9 @@ def simulate_sampled(system: Any, q0: Any, q_ref: Any, T: float, gain: Any, *, k
                      norm: Any = None, n_samples: int = 50, tol: float = 0.0,
                      plant: Callable[..., np.ndarray] | None = None, guarantee: Any = None):
     """Run the sampled planner (3.11)/(4.16) against the kinematic model.
+
+    *system*: the kinematic system; *q_ref*: the reference configuration q_r (rad, m);
+    *kbar*: the diagonal of K_bar (None: ones).
 
     ``gain``: :class:`OfflineGain` or :class:`OnlineGain`.  At each sample ``h`` the gain
     ``k_h`` and ``u_h = -k_h A_{q_h} K_bar e_h`` are computed, then the plant
