@@ -115,7 +115,8 @@ class OnlineGain:
 def sampled_velocity(system: Any, q_h: Any, q_ref: Any, k: float, kbar: Any = None) -> np.ndarray:
     """``u_h = -k A_{q_h} K_bar (q_h - q_r)``, held on ``[hT, (h+1)T)`` (Sec. 3.4/4.5), m/s.
     *system*: the kinematic system; *q_ref*: the reference configuration q_r (rad, m);
-    *kbar*: the diagonal of K_bar (None: ones; see :func:`diag_gain`)."""
+    *kbar*: the diagonal of K_bar (None: ones; see
+    :func:`~netcosim.controllers.planner.kinematics.diag_gain`)."""
     m = system.m
     q_h = as_vector(q_h, m, "q_h")
     kd = diag_gain(kbar, m)
