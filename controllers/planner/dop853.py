@@ -142,7 +142,9 @@ def integrate_until_return(stages, y0, t_bound, rtol, atol, fn):
     """Integrate from ``tau = 0`` with DOP853 until ``fn.event(y)`` rises through zero at
     the end of a step, or until ``t_bound``.
 
-    Returns ``(DenseFlow, tau_s)`` (``tau_s = inf`` without event).  The event is located
+    *stages*: the stages object (module docstring); *y0*: the initial state; *rtol*, *atol*:
+    the step-size control's relative and absolute tolerances.  Returns ``(DenseFlow,
+    tau_s)`` (``tau_s = inf`` without event).  The event is located
     on the dense output of the step where it occurs by :func:`root_increasing` on
     ``fn.event_slope`` (value and slope from the rows of :meth:`DenseFlow.derivatives`),
     to :data:`EVENT_XTOL` (SciPy's ``solve_ivp`` uses Brent's method there, to 4 ulp).
@@ -170,7 +172,8 @@ def root_increasing(fun, lo, hi, xtol, maxiter=200):
 
     Newton's method safeguarded by the bracket: a step that leaves the bracket, or does
     not halve the previous step, is replaced by bisection.  Returns once a Newton step
-    or the bracket is below ``xtol * max(1, |x|)``.
+    or the bracket is below ``xtol * max(1, |x|)``, or after *maxiter* iterations (the last
+    iterate).
     """
     x = 0.5 * (lo + hi)
     dx_old = hi - lo

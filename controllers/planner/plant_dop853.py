@@ -189,7 +189,10 @@ class CompiledDOP853:
         return _BoundDOP853(self, plant, _functions(F, self.compiled), pack, hooks)
 
     def integrate(self, rhs, t0, x0, t1, gs, jac=None, dense=None):
-        """Unbound use (no plant): ``SolveIVP(method="DOP853")`` with these tolerances."""
+        """Unbound use (no plant): ``SolveIVP(method="DOP853")`` with these tolerances, with the
+        integrator interface's arguments (*rhs*, *t0*, *x0*, *t1* [s], guards *gs*, *dense*;
+        :meth:`SolveIVP.integrate <netcosim.plant.solve_ivp.SolveIVP.integrate>`); *jac* is
+        not used (DOP853 is explicit)."""
         return _HookedSolveIVP(self, self).integrate(rhs, t0, x0, t1, gs, dense=dense)
 
 
