@@ -45,7 +45,8 @@ def sampled_clearance(system: Any, samples, T: float, *, per_period: int = 16,
     """Closest robot–robot approach of one sampled kinematic run (*samples*: the
     DataFrame of one :func:`simulate_sampled` run, rows in time order; *T* [s] its
     period).  Straight segments in closed form for a square system, dense
-    re-integration (*per_period* points per period) otherwise."""
+    re-integration (*per_period* points per period) otherwise.  ``safety_distance`` [m]:
+    the centre-to-centre distance below which two robots may touch."""
     T = check_period(T)
     if int(per_period) != per_period or per_period < 2:
         raise ValueError(f"per_period must be an integer >= 2, got {per_period!r}")
@@ -71,7 +72,8 @@ def sampled_clearance(system: Any, samples, T: float, *, per_period: int = 16,
 
 def trajectory_clearance(system: Any, t, q, *, safety_distance: float = SAFETY_DISTANCE) -> ClosestApproach:
     """Closest robot–robot approach along the configuration series *q* (``(K, m)``) at
-    the times *t* [s] (a dense grid of a dynamic run)."""
+    the times *t* [s] (a dense grid of a dynamic run) of the kinematic *system*;
+    ``safety_distance`` [m]: the centre-to-centre distance below which two robots may touch."""
     q = np.asarray(q, dtype=float)
     P = np.array([system.h(qk) for qk in q])
     return min_pairwise_distance(np.asarray(t, dtype=float), P, safety_distance=safety_distance,

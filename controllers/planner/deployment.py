@@ -44,7 +44,8 @@ class _Fields:
 class PlannerRecord(_Fields):
     """One sample of the centralized planner: ``q`` read at the nominal sample time ``t``
     = hT (s), gain ``k`` (1/s), feedback ``u`` (m/s, all robots); ``t_done`` (s): when
-    the commands left."""
+    the commands left; ``node``: the name of the node that computed it; ``h``: the sample
+    index."""
 
     node: str
     h: int
@@ -58,7 +59,8 @@ class PlannerRecord(_Fields):
 @dataclass(frozen=True)
 class PoseRecord(_Fields):
     """One sample of the sparse architecture's pivot: its pose ``q_V`` read at ``t`` = hT (s)
-    and sent to every robot at ``t_done`` (s)."""
+    and sent to every robot at ``t_done`` (s); ``node``: the pivot node's name; ``h``: the
+    sample index."""
 
     node: str
     h: int
@@ -72,7 +74,8 @@ class CommandRecord(_Fields):
     """Robot ``robot`` (0-based) applying the feedback ``u_i`` (m/s) of sample h (nominal
     time ``t`` = hT, s) at ``t_done`` (s).  In the sparse architecture the robot read its
     own ``q_i`` and used the offline gain ``k`` (1/s); in the centralized one it received
-    ``u_i`` and ``q_i`` is empty, ``k`` NaN."""
+    ``u_i`` and ``q_i`` is empty, ``k`` NaN.  ``node``: the name of the node that computed
+    it; ``h``: the sample index."""
 
     node: str
     robot: int
@@ -146,7 +149,9 @@ class _Sample:
 class Deployment:
     """What :func:`~netcosim.controllers.planner.tasks.deploy` built: the plant, nodes, network and
     the records of every computation (:class:`PlannerRecord`, :class:`PoseRecord`,
-    :class:`CommandRecord`, in the order they completed)."""
+    :class:`CommandRecord`, in the order they completed): ``sim``, ``plant``, the ``pivot``
+    node and the ``robots``' nodes, the ``network``, the ``architecture`` (``"sparse"`` or
+    ``"centralized"``), the planner ``law`` and the :class:`StarStructure` ``structure``."""
 
     sim: Any
     plant: Any
@@ -181,5 +186,5 @@ class Deployment:
         return self.to_pandas()
 
     def plot(self, axes=None):
-        """:meth:`PlannerResponse.plot` of :meth:`response`."""
+        """:meth:`PlannerResponse.plot` of :meth:`response` (on *axes*, None: new ones)."""
         return self.response().plot(axes)

@@ -32,7 +32,7 @@ class WeightedNorm:
 
     @classmethod
     def of(cls, norm: "WeightedNorm | float | str | None") -> "WeightedNorm":
-        """Coerce ``None`` / ``2`` / ``"inf"`` / ``math.inf`` / a WeightedNorm."""
+        """Coerce *norm*: ``None`` / ``2`` / ``"inf"`` / ``math.inf`` / a WeightedNorm."""
         if norm is None:
             return cls()
         if isinstance(norm, WeightedNorm):
@@ -47,6 +47,7 @@ class WeightedNorm:
         raise ValueError(f"unknown norm {norm!r}; use 2, 'inf' or a WeightedNorm")
 
     def w(self, m: int) -> np.ndarray:
+        """The weights as a length-*m* array (ones without weights; ``ValueError`` for another length)."""
         if self.weights is None:
             return np.ones(m)
         if len(self.weights) != m:
@@ -69,7 +70,8 @@ class WeightedNorm:
         return np.max(np.abs(X), axis=1)
 
     def sample_ball(self, rng: np.random.Generator, m: int, radius: float, size: int) -> np.ndarray:
-        """*size* points drawn uniformly in ``{e : ||e|| < radius}`` (shape ``(size, m)``)."""
+        """*size* points drawn uniformly in ``{e : ||e|| < radius}`` (shape ``(size, m)``) from
+        *rng* (a ``numpy.random.Generator``)."""
         if self.p == 2:
             x = rng.standard_normal((size, m))
             x /= np.linalg.norm(x, axis=1, keepdims=True)

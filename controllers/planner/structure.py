@@ -47,15 +47,18 @@ class StarStructure:
 
     @property
     def n(self) -> int:
+        """The length of ``p`` (all robots' entries)."""
         return sum(len(r) for r in self.rows)
 
     @property
     def m(self) -> int:
+        """The length of ``q`` (every robot's ``q_i`` and the pivot's ``q_V``)."""
         return sum(len(c) for c in self.cols) + len(self.pivot)
 
     @classmethod
     def uniform(cls, N: int, n_i: int = 3, m_i: int = 1, m_V: int = 6) -> "StarStructure":
-        """``p = [p_1..p_N]`` with ``n_i`` entries each, ``q = [q_1..q_N, q_V]`` (Fly-crane layout)."""
+        """``p = [p_1..p_N]`` with ``n_i`` entries each, ``q = [q_1..q_N, q_V]`` (Fly-crane layout):
+        *N* robots (>= 1) of ``m_i`` coordinates each (>= 0) and a pivot of ``m_V`` (>= 1)."""
         if N < 1 or n_i < 1 or m_i < 0 or m_V < 1:
             raise ValueError(f"invalid structure N={N}, n_i={n_i}, m_i={m_i}, m_V={m_V}")
         rows = tuple(tuple(range(i * n_i, (i + 1) * n_i)) for i in range(N))
