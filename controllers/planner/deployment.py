@@ -112,7 +112,8 @@ class PlannerResponse:
         return pd.DataFrame(rows, columns=["h", "t", "k"] + [f"q{i}" for i in range(m)] + [f"u{i}" for i in range(n)])
 
     def plot(self, axes=None):
-        """Plot q and u (stairs, held over each period) against t (s); returns the two axes."""
+        """Plot q and u (stairs, held over each period) against t (s) on *axes*, a pair of matplotlib
+        axes (None: a new figure); returns the two axes."""
         import matplotlib.pyplot as plt
 
         if axes is None:
