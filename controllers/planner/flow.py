@@ -298,6 +298,9 @@ def solve_auxiliary_flow(system: Any, q_ref: Any, e_h: Any, *, kbar: Any = None,
                          atol_rel: float = FLOW_ATOL_REL, n_grid: int = 64) -> AuxiliaryFlow:
     """Integrate ``e'_dot = -A^+_{q_r + e'} A_{q_r + e_h} K_bar e_h``, ``e'(0) = e_h``.
 
+    *system*: the kinematic system; *q_ref*: q_r (rad, m); *kbar*: the diagonal of K_bar
+    (None: ones).
+
     This is (3.12) for square systems with ``K_bar = I`` and (4.17) in general.  The
     integration (DOP853 with SciPy's step-size control, ``rtol``,
     ``atol = atol_rel * ||e_h||_2``, dense output on every step) stops at the first return
@@ -376,7 +379,13 @@ def _regular_along(system, q_ref, ys) -> bool:
 
 def online_gain(system: Any, q: Any, q_ref: Any, T: float, *, kbar: Any = None, norm: Any = None,
                 **flow_kw) -> tuple[float, AuxiliaryFlow]:
-    """Online gain ``k_h = tau_o(e_h) / T`` (3.26)/(4.30), in 1/s, and the flow used."""
+    """Online gain ``k_h = tau_o(e_h) / T`` (3.26)/(4.30), in 1/s, and the flow used, at the
+    configuration *q* with the period *T* [s]: the flow of :func:`solve_auxiliary_flow`
+    from ``e_h = q - q_ref``.  *system*: the kinematic system; *q_ref*: the reference
+    configuration q_r (rad, m); *kbar*: the diagonal of K_bar (None: ones); *norm*: the
+    :class:`~netcosim.controllers.planner.norms.WeightedNorm` (or what
+    :meth:`~netcosim.controllers.planner.norms.WeightedNorm.of` accepts); other keywords
+    go to :func:`solve_auxiliary_flow`."""
     T = check_period(T)
     q = as_vector(q, system.m, "q")
     q_ref = as_vector(q_ref, system.m, "q_ref")

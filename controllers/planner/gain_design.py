@@ -89,7 +89,8 @@ def offline_gain(mu: float, T: float) -> float:
 # ---------------------------------------------------------------------------
 
 def g_nonsquare(tau: Any, mu: float, kbar: Any, d: Any = None, *, form: str = "induced"):
-    """``g(tau; mu) = ||I - tau K_bar|| + mu tau^2`` for diagonal ``K_bar`` (4.28)-(4.29).
+    """``g(tau; mu) = ||I - tau K_bar|| + mu tau^2`` for diagonal ``K_bar`` (4.28)-(4.29), its
+    diagonal given as *kbar*.
 
     ``form="induced"`` (default) uses the matrix norm induced by the weighted 2- or
     inf-norm, which for a diagonal matrix is ``max_i |1 - tau k_i|`` whatever the
@@ -119,7 +120,9 @@ def g_nonsquare(tau: Any, mu: float, kbar: Any, d: Any = None, *, form: str = "i
 
 @dataclass(frozen=True)
 class GainDesign:
-    """Result of the offline design: ``tau_s_bar``, ``tau_o_bar``, ``rho`` for a ``mu``."""
+    """Result of the offline design: ``tau_s_bar``, ``tau_o_bar``, ``rho`` for a ``mu``
+    (fields ``mu``, ``tau_s`` = tau_s_bar, ``tau_o`` = tau_o_bar, ``rho``; the taus are
+    dimensionless, ``k T``)."""
 
     mu: float
     tau_s: float
@@ -143,7 +146,9 @@ DESIGN_XTOL = 1e-12
 
 
 def design_nonsquare(mu: float, kbar: Any, d: Any = None, *, form: str = "induced") -> GainDesign:
-    """``tau_s_bar``, ``tau_o_bar``, ``rho`` from ``g`` of (4.29) (Sec. 4.5.1).
+    """``tau_s_bar``, ``tau_o_bar``, ``rho`` from ``g`` of (4.29) (Sec. 4.5.1), for the estimate
+    *mu* of mu*, the diagonal *kbar* of K_bar and the weights *d* and *form* of
+    :func:`g_nonsquare`.
 
     ``g`` is convex in tau with ``g(0) <= 1`` and ``g'(0) < 0``; ``tau_o_bar`` is found by
     bounded Brent minimisation on ``[0, 2/min k]`` (xatol :data:`DESIGN_XTOL`) and
@@ -189,7 +194,8 @@ def design_nonsquare(mu: float, kbar: Any, d: Any = None, *, form: str = "induce
 
 
 def design(mu: float) -> GainDesign:
-    """Closed-form design for square systems with ``K_bar = I`` (Propositions 3.4.3-3.4.4)."""
+    """Closed-form design for square systems with ``K_bar = I`` (Propositions 3.4.3-3.4.4), for
+    the estimate *mu* of mu* (> 0)."""
     return GainDesign(_check_mu(mu), tau_s_bar(mu), tau_o_bar(mu), rho(mu))
 
 
@@ -203,7 +209,9 @@ class MuEstimate:
 
     ``samples``: the sampled errors ``e_h`` (rows); ``mu_i``: each sample's
     ``max_tau ||d'(tau, e_h)|| / (tau^2 ||e_h||)``; ``tau_s``: each sample's return time
-    (``inf`` if the flow did not return before ``tau_max``).
+    (``inf`` if the flow did not return before ``tau_max``); ``radius``: the radius of
+    the ball sampled; ``norm``: the :class:`~netcosim.controllers.planner.norms.WeightedNorm`
+    it is measured in.
     """
 
     mu_hat: float
@@ -222,6 +230,11 @@ def estimate_mu(system: Any, q_ref: Any, radius: float, n_samples: int = 200, *,
                 norm: Any = None, seed: int | np.random.Generator = 0, n_tau: int = 100,
                 tau_max: float | None = None, include_boundary: bool = True) -> MuEstimate:
     """Monte-Carlo estimate ``mu_hat*`` (3.19)/(4.27) over the ball ``||e|| < radius``.
+
+    *system*: the kinematic system; *q_ref*: the reference configuration (rad, m) the
+    errors are taken around; *kbar*: the diagonal of K_bar (None: ones); *seed*: a seed or
+    a ``numpy.random.Generator`` for the draws; *tau_max*: the flows' horizon (None: the
+    default of :func:`~netcosim.controllers.planner.flow.solve_auxiliary_flow`).
 
     For each of ``n_samples`` errors ``e_h`` drawn uniformly in the (weighted) ball, the
     auxiliary flow is integrated until the norm returns to ``||e_h||`` (event detection,

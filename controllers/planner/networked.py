@@ -262,6 +262,7 @@ class GridRecorder(SolveIVP):
                 self.rows[k] = (xk[: self.m].copy(), u)
 
     def start(self, plant) -> None:
+        """Record from the built *plant* (its instance), starting with its state and input now."""
         self.plant = plant
         self.rows[0] = (plant.x[: self.m].copy(), plant.u.copy())
 
@@ -376,6 +377,9 @@ class FlyCraneRun:
 
     @classmethod
     def collect(cls, config, sim, dep: Deployment, recorder: GridRecorder, failure) -> "FlyCraneRun":
+        """The run of *config* (its :class:`FlyCraneNetworkConfig`) after *sim* ran: from the
+        deployment *dep*, the *recorder* that sampled the plant and *failure* (None, or the
+        error that stopped the plant)."""
         import pandas as pd
 
         from .deployment import CommandRecord, PlannerRecord
