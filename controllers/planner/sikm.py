@@ -73,7 +73,8 @@ class SIKMParams:
 
 
 def z(k, tau, p: SIKMParams):
-    """``z(k, tau) = |1 - k tau| + alpha tau + tau^2 (k^2 mu + k gamma1 + gamma2)`` (5.20)."""
+    """``z(k, tau) = |1 - k tau| + alpha tau + tau^2 (k^2 mu + k gamma1 + gamma2)`` (5.20).
+    *p*: the bound's parameters θ (:class:`SIKMParams`)."""
     k = np.asarray(k, dtype=float)
     tau = np.asarray(tau, dtype=float)
     out = np.abs(1.0 - k * tau) + p.alpha * tau + tau * tau * p.Q(k)
@@ -82,7 +83,7 @@ def z(k, tau, p: SIKMParams):
 
 def k_bar(p: SIKMParams) -> float:
     """``k_bar`` of Prop. 5.4.2 (``mu < 1``): above it the stability bound is ``tau_s2``.
-    ``inf`` for ``mu >= 1``."""
+    ``inf`` for ``mu >= 1``.  *p*: the bound's parameters θ (:class:`SIKMParams`)."""
     if p.mu >= 1.0:
         return math.inf
     a = p.alpha + p.gamma1
@@ -91,7 +92,7 @@ def k_bar(p: SIKMParams) -> float:
 
 def k_barbar(p: SIKMParams) -> float:
     """``k_barbar`` of Prop. 5.4.3 (``mu < 1/2``): above it ``tau_o(k) = 1/k``.
-    ``inf`` for ``mu >= 1/2``."""
+    ``inf`` for ``mu >= 1/2``.  *p*: the bound's parameters θ (:class:`SIKMParams`)."""
     if p.mu >= 0.5:
         return math.inf
     a = p.alpha + 2.0 * p.gamma1
@@ -113,6 +114,7 @@ def tau_s(k: float, p: SIKMParams) -> float:
     ``(k - alpha) / Q(k)`` for ``alpha < k < k_bar`` (all ``k > alpha`` if ``mu >= 1``);
     ``(-(alpha + k) + sqrt((alpha + k)^2 + 8 Q(k))) / (2 Q(k))`` for ``k > k_bar``;
     0 for ``k <= alpha`` (no decrease possible).  ``inf`` when ``Q(k) = 0``.
+    *p*: the bound's parameters θ (:class:`SIKMParams`).
     """
     k = float(k)
     if k <= p.alpha:
@@ -124,7 +126,8 @@ def tau_s(k: float, p: SIKMParams) -> float:
 
 def tau_o(k: float, p: SIKMParams) -> float:
     """Optimal time for a gain, Prop. 5.4.3: ``(k - alpha) / (2 Q(k))`` for
-    ``alpha < k < k_barbar`` (all ``k > alpha`` if ``mu >= 1/2``), ``1/k`` beyond."""
+    ``alpha < k < k_barbar`` (all ``k > alpha`` if ``mu >= 1/2``), ``1/k`` beyond.
+    *p*: the bound's parameters θ (:class:`SIKMParams`)."""
     k = float(k)
     if k <= p.alpha:
         raise ValueError(f"gain k={k!r} 1/s must exceed alpha={p.alpha} for any decrease (Prop. 5.4.2)")
@@ -135,7 +138,8 @@ def tau_o(k: float, p: SIKMParams) -> float:
 
 def rho_of_k(k: float, p: SIKMParams) -> float:
     """Convergence rate ``rho_o(k) = z(k, tau_o(k))`` of Prop. 5.4.3 (closed form):
-    ``1 - (alpha - k)^2 / (4 Q(k))`` below ``k_barbar``, ``mu + (alpha + gamma1)/k + gamma2/k^2`` above."""
+    ``1 - (alpha - k)^2 / (4 Q(k))`` below ``k_barbar``, ``mu + (alpha + gamma1)/k + gamma2/k^2`` above.
+    *p*: the bound's parameters θ (:class:`SIKMParams`)."""
     k = float(k)
     if k <= p.alpha:
         raise ValueError(f"gain k={k!r} 1/s must exceed alpha={p.alpha} (Prop. 5.4.2)")
@@ -147,7 +151,7 @@ def rho_of_k(k: float, p: SIKMParams) -> float:
 def k_o(tau: float, p: SIKMParams) -> float:
     """Optimal gain for a period, Prop. 5.4.4: ``1/tau`` for ``tau < (1 - 2 mu)/gamma1``
     (``mu < 1/2``), ``(1 - tau gamma1) / (2 tau mu)`` up to ``1/gamma1``.  Raises beyond
-    ``1/gamma1`` (no positive minimiser)."""
+    ``1/gamma1`` (no positive minimiser).  *p*: the bound's parameters θ (:class:`SIKMParams`)."""
     tau = check_period(tau, "period tau")
     g1, mu = p.gamma1, p.mu
     t_mk = (1.0 - 2.0 * mu) / g1 if g1 > 0 else (math.inf if mu < 0.5 else -math.inf)
@@ -164,7 +168,7 @@ def rho_of_tau(tau: float, p: SIKMParams) -> float:
     """``rho_o(tau) = z(k_o(tau), tau)`` of Prop. 5.4.4 (closed forms
     ``gamma2 tau^2 + (alpha + gamma1) tau + mu`` on the ``k = 1/tau`` branch and
     ``((4 gamma2 mu - gamma1^2) tau^2 + 2 (gamma1 + 2 alpha mu) tau + 4 mu - 1) / (4 mu)``
-    on the other)."""
+    on the other).  *p*: the bound's parameters θ (:class:`SIKMParams`)."""
     tau = check_period(tau, "period tau")
     k = k_o(tau, p)
     if abs(k * tau - 1.0) < 1e-15:
@@ -179,6 +183,7 @@ def tau_critical(p: SIKMParams) -> float:
     ``tau_s1`` is unimodal with maximiser ``k* = alpha + sqrt(alpha^2 + (gamma2 + alpha
     gamma1)/mu)``; ``tau_s2`` decreases in k.  Hence ``tau_CR = tau_s1(k*)`` if
     ``k* < k_bar`` (always when ``mu >= 1``) and ``1 / k_bar`` otherwise.
+    *p*: the bound's parameters θ (:class:`SIKMParams`).
     """
     kb = k_bar(p)
     if p.mu > 0:
@@ -191,13 +196,15 @@ def tau_critical(p: SIKMParams) -> float:
 
 
 def in_stability_set(k: float, T: float, p: SIKMParams) -> bool:
-    """``(k, T)`` in the set ``U`` of Prop. 5.4.2, i.e. ``z(k, T) < 1`` with ``k > alpha``."""
+    """``(k, T)`` in the set ``U`` of Prop. 5.4.2, i.e. ``z(k, T) < 1`` with ``k > alpha``.
+    *p*: the bound's parameters θ (:class:`SIKMParams`)."""
     T = check_period(T)
     return float(k) > p.alpha and T < tau_s(k, p)
 
 
 def check_offline_gain(k: float, T: float, p: SIKMParams) -> None:
-    """Raise ``ValueError`` naming k and T unless ``(k, T)`` is in the stability set."""
+    """Raise ``ValueError`` naming k and T unless ``(k, T)`` is in the stability set.
+    *p*: the bound's parameters θ (:class:`SIKMParams`)."""
     if not in_stability_set(k, T, p):
         raise ValueError(f"(k={k!r} 1/s, T={T!r} s) is outside the stability set of Prop. 5.4.2 "
                          f"(need k > alpha={p.alpha:.6g} and T < tau_s(k)={tau_s(k, p):.6g} s)")
@@ -208,6 +215,7 @@ def optimal_offline_gain(T: float, p: SIKMParams, *, require_stable: bool = True
 
     With ``require_stable`` (default) raises ``ValueError`` naming T and ``tau_CR`` when
     ``rho_o(T) >= 1``, i.e. T lies outside the stability set for every gain.
+    *p*: the bound's parameters θ (:class:`SIKMParams`).
     """
     T = check_period(T)
     try:
