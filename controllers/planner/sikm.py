@@ -69,6 +69,7 @@ class SIKMParams:
         return k * k * self.mu + k * self.gamma1 + self.gamma2
 
     def as_array(self) -> np.ndarray:
+        """``[mu, alpha, gamma1, gamma2]`` as an array."""
         return np.array([self.mu, self.alpha, self.gamma1, self.gamma2])
 
 
@@ -280,7 +281,10 @@ def estimate_parameters(k: Any, T: Any, e_h: Any, e_next: Any, *, solver: str = 
 def bootstrap_parameters(k: Any, T: Any, e_h: Any, e_next: Any, *, n_boot: int = 500, seed: int = 0,
                          solver: str = "daqp"):
     """The QP (5.27) fitted on ``n_boot`` bootstrap resamples of the samples (drawn with
-    replacement, as many as given; numpy generator seeded by ``seed``).
+    replacement, as many as given; numpy generator seeded by ``seed``): the one-period
+    samples *k* (1/s), *T* (s), *e_h* = ``||e_h||`` and *e_next* = ``||e_{h+1}||`` (equal-length
+    sequences, the columns of :func:`collect_interval_samples`); *solver*: the CasADi QP
+    plugin.
 
     Returns a DataFrame, one row per resample: ``mu, alpha, gamma1, gamma2`` and
     ``tau_CR`` (s, :func:`tau_critical`).  Its quantiles give the percentile confidence
@@ -306,7 +310,8 @@ def bootstrap_parameters(k: Any, T: Any, e_h: Any, e_next: Any, *, n_boot: int =
 # ---------------------------------------------------------------------------
 
 class Trajectory:
-    """A reference ``(q_r(t), q_r_dot(t))`` from two callables of t (s)."""
+    """A reference ``(q_r(t), q_r_dot(t))`` from two callables of t (s): *q* gives q_r(t) (rad,
+    m), *qdot* its rate."""
 
     def __init__(self, q: Callable[[float], np.ndarray], qdot: Callable[[float], np.ndarray]):
         self.q, self.qdot = q, qdot
@@ -324,7 +329,8 @@ def sikm_velocity(system: Any, q_h: Any, qr_h: Any, k: float, qr_t: Any = None, 
 
     ``q_h``: last sample ``q(hT)``; ``qr_h``: ``q_r(hT)``; ``qr_t``, ``qrdot_t``: the
     reference and its rate at the current time ``hT + tau``; ``feedforward``:
-    "reference" (5.15), "sample" (5.14) or "none" (5.13).
+    "reference" (5.15), "sample" (5.14) or "none" (5.13).  *system*: the kinematic
+    system; *k*: the gain (1/s).
     """
     m = system.m
     q_h = as_vector(q_h, m, "q_h")
@@ -342,7 +348,9 @@ def sikm_velocity(system: Any, q_h: Any, qr_h: Any, k: float, qr_t: Any = None, 
 
 @dataclass(frozen=True)
 class Strategy:
-    """A tracking strategy of Table 5.1: ``gain`` in {"online", "offline"} and a feed-forward."""
+    """A tracking strategy of Table 5.1: ``gain`` in {"online", "offline"} and a ``feedforward``
+    (``"reference"``, ``"sample"`` or ``"none"``, see :func:`sikm_velocity`); ``label``: its
+    name in tables and plots."""
 
     gain: str
     feedforward: str
@@ -393,7 +401,9 @@ def simulate_tracking(system: Any, trajectory: Trajectory, q0: Any, T: float, du
     ``params`` is given it must lie in the stability set of Prop. 5.4.2) or the online
     ``tau_o(e_h)/T`` (5.12) computed on the point-stabilization flow towards ``q_r(hT)``.
     The plant is integrated with DOP853 (``rtol``, ``atol``) between samples with the
-    time-varying ``u(t)`` of the chosen feed-forward.
+    time-varying ``u(t)`` of the chosen feed-forward.  *system*: the kinematic system;
+    *trajectory*: the :class:`Trajectory` to track; *q0*: the initial configuration;
+    *duration*: the simulated time [s].
 
     Returns ``(samples, dense)`` DataFrames: ``samples`` has ``h, t, k, err`` (Euclidean
     ``||e(hT)||``) and ``q*``; ``dense`` has ``t, err`` and ``q*``, ``qr*`` on ``n_dense``
@@ -446,7 +456,9 @@ def collect_interval_samples(system: Any, trajectory: Trajectory, pairs, starts,
     For every gain/period pair in ``pairs`` and start time in ``starts`` (s), ``n_per``
     initial errors are drawn uniformly in the Euclidean ball of ``radius`` around
     ``q_r(t0)``; the law (5.15) (or ``feedforward``) is applied for one period T.
-    Returns a DataFrame with columns ``k, T, t0, e_h, e_next``.
+    Returns a DataFrame with columns ``k, T, t0, e_h, e_next``.  *system*: the kinematic
+    system; *trajectory*: the :class:`Trajectory`; *seed*: a seed or a
+    ``numpy.random.Generator`` for the draws.
     """
     import pandas as pd
 
