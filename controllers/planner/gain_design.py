@@ -223,6 +223,7 @@ class MuEstimate:
 
     @property
     def n(self) -> int:
+        """The number of sampled errors."""
         return int(self.samples.shape[0])
 
 

@@ -190,7 +190,8 @@ class FlyCraneNetworkConfig:
 
 
 def setting(config: FlyCraneNetworkConfig):
-    """``(system, q0, q_ref)`` of the configuration (rad, m)."""
+    """``(system, q0, q_ref)`` of the configuration *config* (a :class:`FlyCraneNetworkConfig`;
+    rad, m)."""
     sys_ = _system()
     q0 = sys_.q_from([config.q0_deg] * 4, [0] * 6)
     q_ref = sys_.q_from([config.qr_deg] * 4, [0] * 6)
@@ -267,6 +268,7 @@ class GridRecorder(SolveIVP):
         self.rows[0] = (plant.x[: self.m].copy(), plant.u.copy())
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(t, q, u)`` on the ``dt`` grid: times (K,) [s], q (K, m) and the held u (K, n)."""
         ks = sorted(self.rows)
         t = np.array([k * self.dt for k in ks])
         q = np.array([self.rows[k][0] for k in ks]).reshape(len(ks), self.m)

@@ -64,11 +64,11 @@ class KinematicModel:
     """``q_dot = A_q^+ u`` (4.6): state and outputs q (rad, m), inputs u (m/s)."""
 
     def build(self, system: Any, name: str) -> KinematicVelocityPlant:
-        """The plant for *system* (any kinematic system with ``n``, ``m``, ``jacobian``)."""
+        """The plant for *system* (any kinematic system with ``n``, ``m``, ``jacobian``), named *name*."""
         return KinematicVelocityPlant(system, name)
 
     def initial_state(self, plant: Any, q0: np.ndarray) -> np.ndarray:
-        """The state is q itself: ``q0`` (rad, m)."""
+        """The state is q itself: ``q0`` (rad, m), whatever the *plant*."""
         return q0
 
     def integrator(self) -> SolveIVP:
@@ -122,7 +122,7 @@ class VelocityTrackingModel:
         validate.choice(self.method, "VelocityTrackingModel method", VELOCITY_TRACKING_METHODS)
 
     def build(self, system: Any, name: str):
-        """A :class:`netcosim.plants.flycrane.input_modes.VelocityTrackingPlant` named *name*
+        """A :class:`netcosim.plants.flycrane.input_modes.VelocityTrackingPlant` of *system* named *name*
         (outputs ``q.*`` first, inputs ``u.*`` in robot order)."""
         cls = _CompiledVelocityTracking if self.compiled and self.gravity_compensation else VelocityTrackingPlant
         plant = cls(system, self.alpha, gravity_compensation=self.gravity_compensation, name=name)
@@ -131,7 +131,8 @@ class VelocityTrackingModel:
         return plant
 
     def initial_state(self, plant: Any, q0: np.ndarray) -> np.ndarray:
-        """``(q0, 0)``: the system starts at rest at ``q0`` (checked for singularity)."""
+        """``(q0, 0)``: the system starts at rest at ``q0`` (checked for singularity by the built
+        *plant*)."""
         return plant.initial_state(q0)
 
     def integrator(self) -> Any:

@@ -105,6 +105,8 @@ class PlannerLaw:
             check_period(self.ff_period if self.ff_period is not None else math.nan, "feed-forward period ff_period")
 
     def reference(self, t: float) -> np.ndarray:
+        """The reference configuration q_r at time *t* [s] (rad, m): the trajectory's, or the
+        constant ``q_ref``."""
         if self.trajectory is not None:
             return self.trajectory(t)[0]
         return np.asarray(self.q_ref, dtype=float)
