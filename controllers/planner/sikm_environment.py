@@ -78,7 +78,7 @@ class RealisticEnvironment:
 
     # -- building blocks --------------------------------------------------------------
     def plant(self, system: Any):
-        """The velocity-tracking dynamic plant (no events; compiled when a C compiler exists)."""
+        """The velocity-tracking dynamic plant of *system* (no events; compiled when a C compiler exists)."""
         from .plant_models import VelocityTrackingModel
         return VelocityTrackingModel(self.alpha, rtol=self.rtol, atol=self.atol).build(system, system.name)
 
@@ -118,7 +118,8 @@ class RealisticEnvironment:
         """Run a Table 5.1 strategy for ``duration`` s with period T (s) from ``q0`` at rest.
 
         Every T the controller reads the estimate ``q_hat(hT)`` (UKF, or the raw MoCap
-        sample without filter) and picks the gain: ``k_off`` (1/s, checked against the
+        sample without filter) and picks the gain (*system*: the Fly-crane system, *trajectory*:
+        the reference to track): ``k_off`` (1/s, checked against the
         stability set of ``params`` when given) or the online ``tau_o(e_h)/T`` (5.12) on
         ``q_hat``.  ``seed`` seeds the MoCap noise.
 
@@ -194,6 +195,8 @@ class RealisticEnvironment:
         has); "both" returns the true norms as ``e_h``, ``e_next`` and the MoCap ones as
         ``e_h_mocap``, ``e_next_mocap`` from the same runs (the noise draws, hence the
         runs, are the same for every choice).  T must be a multiple of ``1/mocap_rate``.
+        *system*, *trajectory*, *pairs* (gain/period pairs, 1/s and s), *starts* (s),
+        *radius*, *n_per* and *feedforward* as for ``collect_interval_samples``.
         """
         import pandas as pd
 
