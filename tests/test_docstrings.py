@@ -19,10 +19,7 @@
    ``__init__``, the class's; for an override, also the overridden method's), without
    exception in ``netcosim`` proper (the gaps listed when the rule came are all documented).
 5. The user-facing plants and controllers (``netcosim.plants``, ``netcosim.controllers``:
-   the repository's ``plants/`` and ``controllers/``) follow rules 1 and 4 too; the gaps
-   found when they came under the rule are listed in
-   ``docstring_gaps_plants_controllers.txt`` (``qual`` for an object without a
-   docstring, ``qual(param)`` for an unnamed parameter), a list that only shrinks.
+   the repository's ``plants/`` and ``controllers/``) follow rules 1, 3 and 4 too.
 """
 
 from __future__ import annotations
@@ -31,7 +28,6 @@ import importlib
 import inspect
 import pkgutil
 import re
-from pathlib import Path
 
 import netcosim
 import netcosim.controllers
@@ -183,9 +179,6 @@ def test_parameters_are_documented():
 
 
 # ------------------------------------------------------------------ the plants and controllers
-_USER_GAPS = Path(__file__).with_name("docstring_gaps_plants_controllers.txt")
-
-
 def _user_gaps() -> set[str]:
     """Objects without a docstring (``qual``) and unnamed parameters (``qual(param)``) of
     the plants and controllers."""
@@ -197,19 +190,11 @@ def _user_gaps() -> set[str]:
     return found
 
 
-def test_plants_and_controllers_gaps_only_shrink():
-    """The plants' and controllers' public objects have docstrings naming every parameter,
-    but for the gaps listed in docstring_gaps_plants_controllers.txt when the rule came;
-    the list may only shrink (a documented entry must be deleted from it)."""
-    known = {line.strip() for line in _USER_GAPS.read_text().splitlines()
-             if line.strip() and not line.startswith("#")}
-    gaps = _user_gaps()
-    new = sorted(gaps - known)
-    assert not new, (f"{len(new)} plant/controller objects without a docstring or parameters not named in "
-                     f"it:\n" + "\n".join(new))
-    fixed = sorted(known - gaps)
-    assert not fixed, (f"{len(fixed)} listed gaps are documented now (or gone): delete their lines from "
-                       f"{_USER_GAPS.name}:\n" + "\n".join(fixed))
+def test_plants_and_controllers_are_documented():
+    """The plants' and controllers' public objects have docstrings naming every parameter."""
+    gaps = sorted(_user_gaps())
+    assert not gaps, (f"{len(gaps)} plant/controller objects without a docstring or parameters not named in "
+                      f"it:\n" + "\n".join(gaps))
 
 
 def test_the_meta_test_sees_the_plants_and_controllers():
