@@ -133,13 +133,10 @@ class BaseRemote:
 
     ``period`` (s): the period of the requests; ``deadline`` (s of simulated time, default
     the period): a reply must be injected before it; ``max_outstanding`` (default
-    ``ceil(deadline / period) + 1``); ``stale_after`` (s, default 100 deadlines); ``sim``,
-    ``name`` (the node's or plant's name, the ``<node>`` of its keys ``netcosim/<run>/<node>/``),
-    ``session``, ``run``, ``loss_policy`` (one of :data:`LOSS_POLICIES` or a callable
-    ``fn(remote, why)``), ``abort_on`` (a collection of drop reasons and loss events),
-    ``schema``, ``encoding`` and ``clock_options`` (the :class:`RealtimeClock`'s keyword
-    arguments, used when *sim* has no clock yet) as documented for
-    :class:`~netcosim.transport.remote.RemoteNode`.
+    ``ceil(deadline / period) + 1``); ``stale_after`` (s, default 100 deadlines); ``name``:
+    the ``<node>`` of its keys; ``clock_options``: the :class:`RealtimeClock`'s keywords;
+    ``sim``, ``session``, ``run``, ``loss_policy``, ``abort_on``, ``schema``, ``encoding``
+    as documented for :class:`~netcosim.transport.remote.RemoteNode`.
     """
 
     def __init__(self, sim: Any, name: str, session: Session, run: str, *, period: float | None,
@@ -541,8 +538,7 @@ class BaseRemote:
         """After the run and :meth:`finish`, once the process is ending: count the valid
         replies that arrived after the run (``after_end``; replies in flight at the stop
         time, or scheduled after it by a lagging simulation); :func:`drain` for this
-        remote alone (waiting at most *timeout* s in all, or *quiet* s without a message
-        once the process is gone).  Returns ``after_end``."""
+        remote alone (*timeout*, *quiet*: s, as there).  Returns ``after_end``."""
         drain([self], timeout, quiet)
         return self.after_end
 
