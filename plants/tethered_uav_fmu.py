@@ -90,7 +90,8 @@ def build_uav_fmu(directory, params: TetheredUAVParams | None = None, *, inputs:
     *params*: the :class:`~netcosim.plants.tethered_uav.TetheredUAVParams` (None: the defaults);
     *inputs*: ``"rates"`` (the smooth-input model (2.5)) or ``"forces"`` (the model (2.3)),
     as for :class:`~netcosim.plants.tethered_uav.TetheredUAV`; *landers*: include the lander
-    reaction (2.17); *wind*: include the wind of §2.6.1 as a function of time; *name*: the FMU's name, as for ``build_casadi_fmu`` (default
+    reaction (2.17); *wind*: include the wind of §2.6.1 as a function of time; *name*: the
+    FMU's name, as for ``build_casadi_fmu`` (default
     ``tethered_uav_<inputs><fmi>``)."""
     from netcosim.fmi.casadi_fmu import build_casadi_fmu
     spec = uav_fmu_functions(params, inputs=inputs, landers=landers, wind=wind)
