@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+from lq_reference import period_map  # noqa: E402  (tests/ is on the path)
 
 from netcosim import Simulation, lq
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
@@ -223,16 +224,7 @@ def _mjls_cost(p: float) -> float:
     rhs = np.zeros(N * N)
     parts = {}
     for m, seq in steps.items():
-        F, W, G, c = np.eye(N), np.zeros((N, N)), np.zeros((N, N)), 0.0
-        for kind, v in seq:
-            if kind == "x":
-                E, V = model.update_of(v)
-            else:
-                M = interval_matrices(d.A, d.R_c, d.Q_c, v)
-                G += F.T @ M.Q @ F
-                c += float(np.sum(M.Q * W)) + M.J_noise
-                E, V = M.Phi, M.R
-            F, W = E @ F, E @ W @ E.T + V
+        F, W, G, c = period_map(model, seq)
         parts[m] = (G, c)
         lhs -= pi[m] * np.kron(F, F)
         rhs += pi[m] * W.reshape(-1)

@@ -11,11 +11,11 @@ import itertools
 
 import numpy as np
 import pytest
+from lq_reference import period_map  # noqa: E402  (tests/ is on the path)
 
 from netcosim import Bernoulli, GilbertElliott, TraceLoss, lq
 from netcosim.errors import ConfigurationError, ConfigurationTypeError
 from netcosim.experiments import expected_cost_loss as ecl
-from netcosim.lq.integrals import interval_matrices
 from netcosim.network import AnyLoss
 
 H = ecl.H
@@ -72,16 +72,7 @@ def _mjls(stages, chains, links, model):
     for a, cs in enumerate(joint):
         per[a] = []
         for prob, seq, end in _paths(stages, chains, links, cs):
-            F, W, G, c = np.eye(N), np.zeros((N, N)), np.zeros((N, N)), 0.0
-            for kind, v in seq:
-                if kind == "x":
-                    E, V = model.update_of(v)
-                else:
-                    M = interval_matrices(d.A, d.R_c, d.Q_c, v)
-                    G += F.T @ M.Q @ F
-                    c += float(np.sum(M.Q * W)) + M.J_noise
-                    E, V = M.Phi, M.R
-                F, W = E @ F, E @ W @ E.T + V
+            F, W, G, c = period_map(model, seq)
             b = joint.index(end)
             trans[a, b] += prob
             per[a].append((prob, F, W, G, c, b))

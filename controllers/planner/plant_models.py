@@ -175,7 +175,8 @@ class _CompiledVelocityTracking(VelocityTrackingPlant):
         self._buf = FunctionBuffers(self._vt.fun)
         self._buf.args[3][0] = self.alpha
 
-    def _qdd_F(self, x, u):
+    def _eval(self, x, u):
+        """Evaluate the compiled dynamics at (x, u) into the buffers; q̈ (the buffer, checked)."""
         m, n = self.system.m, self.system.n
         b = self._buf
         a = b.args
@@ -186,19 +187,14 @@ class _CompiledVelocityTracking(VelocityTrackingPlant):
         qdd = b.res[0]
         if not math.isfinite(qdd.sum()):
             self._checked(x, qdd)
-        return qdd.copy(), b.res[1].copy()
+        return qdd
+
+    def _qdd_F(self, x, u):
+        return self._eval(x, u).copy(), self._buf.res[1].copy()
 
     def f(self, t, x, u, params):
-        m, n = self.system.m, self.system.n
-        b = self._buf
-        a = b.args
-        a[0][:] = x[:m]
-        a[1][:] = x[m:]
-        a[2][:] = u[:n]
-        b.eval()
-        qdd = b.res[0]
-        if not math.isfinite(qdd.sum()):
-            self._checked(x, qdd)
+        m = self.system.m
+        qdd = self._eval(x, u)
         dx = np.empty(2 * m)
         dx[:m] = x[m:]
         dx[m:] = qdd
