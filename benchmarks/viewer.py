@@ -14,8 +14,9 @@ zoom to a 10 ms window (exact rows) and back to the whole run (aggregated); and 
 trace-event export's time and size.
 
 Run: ``python -m benchmarks.viewer`` (``--rows 10000 100000`` for some sizes only).
-``python -m benchmarks.viewer --screenshot docs/viewer_flycrane.png`` writes the README's
-screenshot: the Fly-crane main job's online run at 20 % loss, Figs. A.4/A.5's window.
+``--screenshot PNG`` writes a screenshot of the Fly-crane main job's online run at 20 %
+loss, Figs. A.4/A.5's window, in headless Chromium.
+
 No test depends on these numbers; docs/viewer.md lists what they were on the development
 machine.
 """
@@ -82,7 +83,7 @@ def measure(n: int, folder: Path, rate: float) -> dict:
 
 
 def screenshot(path: str | os.PathLike) -> Path:
-    """The README's screenshot: the main job's online run at 20 % loss (horizon 45 s),
+    """A screenshot of the main job's online run at 20 % loss (horizon 45 s),
     its timeline opened at Figs. A.4/A.5's window (2.9 to 4.9 s), in headless Chromium."""
     from netcosim.controllers.planner.networked import FlyCraneNetworkConfig, run
     from netcosim.experiments.flycrane_network import fig_view
@@ -100,7 +101,7 @@ def screenshot(path: str | os.PathLike) -> Path:
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rows", type=int, nargs="*", default=list(SIZES), help="sizes (rows) to measure")
-    ap.add_argument("--screenshot", metavar="PNG", help="write the README's screenshot instead")
+    ap.add_argument("--screenshot", metavar="PNG", help="write a screenshot of the main job's timeline instead")
     a = ap.parse_args(argv)
     if a.screenshot:
         print(screenshot(a.screenshot))

@@ -27,6 +27,7 @@ for _name in ("netcosim.__main__", "netcosim.cli.__main__"):
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
 sys.path.insert(0, str(DOCS / "_ext"))
+from netcosim_docs import PageScraper  # noqa: E402  (docs/_ext is on the path only from here)
 
 project = "netcosim"
 author = "the netcosim authors"
@@ -133,7 +134,7 @@ sphinx_gallery_conf = {
     "only_warn_on_example_error": False,
     "plot_gallery": "True",
     "matplotlib_animations": False,
-    "image_scrapers": ("matplotlib",),
+    "image_scrapers": ("matplotlib", PageScraper()),   # PageScraper: docs/_ext/netcosim_docs.py
     "reset_modules": ("matplotlib",),
     "show_memory": False,
     "show_signature": False,

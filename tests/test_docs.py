@@ -153,3 +153,43 @@ def test_api_reference_has_every_public_name():
     assert not missing, f"no API page for: {missing}"
     assert (HTML / "api" / "index.html").is_file()
     assert (HTML / "from_truetime.html").is_file()
+
+
+def _iframes_of(page: Path) -> list[Path]:
+    html = page.read_text(encoding="utf-8")
+    return [(page.parent / s).resolve() for s in re.findall(r'<iframe[^>]+src="([^"]+\.html)"', html)]
+
+
+@needs_build
+def test_interactive_timelines_are_the_pages_the_build_wrote():
+    """The tutorial's step 5, the Fly-crane gallery example and the viewer's page embed the
+    timelines written during the build; each is a real Bokeh page that draws the run's task
+    rows and signals without a JavaScript error (in headless Chromium where it is installed)."""
+    embedded = {name: _iframes_of(HTML / name) for name in
+                ("tutorial_built/step_5_timeline.html", "gallery/plot_flycrane_network.html", "viewer.html")}
+    for name, frames in embedded.items():
+        assert len(frames) == 1, f"{name} embeds {frames}"
+        assert frames[0].is_file(), f"{name} embeds {frames[0]}, which the build did not write"
+        assert frames[0].parent == HTML / "timelines"
+    assert embedded["viewer.html"] == embedded["gallery/plot_flycrane_network.html"]
+    for page in {f[0] for f in embedded.values()}:
+        html = page.read_text(encoding="utf-8")
+        assert page.stat().st_size > 200_000 and "Bokeh" in html and "docs_json" in html.replace(" ", "_")
+    try:
+        import playwright  # noqa: F401
+
+        from netcosim.view.headless import chromium_path, open_view
+    except ImportError:
+        return
+    if chromium_path() is None:
+        return
+    with open_view(embedded["tutorial_built/step_5_timeline.html"][0]) as page:
+        assert page.errors == []
+        drawn = page.drawn()
+        # the networked loop's three tasks (sample, control, actuate) and the two signals it names
+        assert drawn["rows"]["tasks"] == 3
+        assert {k for k in drawn["glyphs"] if k.startswith("signal:")} == {"signal:servo.y.y",
+                                                                              "signal:sensor.actuate.u"}
+    with open_view(embedded["viewer.html"][0]) as page:
+        assert page.errors == []
+        assert page.drawn()["rows"]["tasks"] >= 5

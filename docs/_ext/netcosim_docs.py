@@ -8,6 +8,11 @@
   ``__qualname__`` to the documented object.
 * ``.. netcosim-api-table::``: the table of ``netcosim.__all__`` (from ``netcosim._API``),
   each name linked to its documentation, with its summary line.
+* :class:`PageScraper`: a sphinx-gallery scraper for the interactive timelines.  A block
+  that leaves a :class:`pathlib.Path` to an ``.html`` file it wrote in a variable (or a
+  list of them) gets each page copied into the built site (``timelines/``) and shown in
+  an ``<iframe>`` below the block, as matplotlib figures are shown as images: the page is
+  the one the code wrote during this build.
 """
 
 from __future__ import annotations
@@ -15,8 +20,10 @@ from __future__ import annotations
 import importlib
 import inspect
 import re
+import shutil
 import sys
 import types
+from pathlib import Path
 
 from docutils import nodes
 from docutils.statemachine import StringList
@@ -146,7 +153,67 @@ def _skip_aliases(app, what, name, obj, skip, options):
     return None
 
 
+#: the folder, in each gallery's image folder, where :class:`PageScraper` keeps the pages
+PAGES = "timelines"
+
+
+class PageScraper:
+    """Embed the HTML pages a gallery block wrote (see the module's docstring).
+
+    A page is taken once, the first time a block leaves it in a variable: it is kept
+    beside the gallery's images (``<gallery>/images/timelines/<example>_<page>.html``, so
+    an example that sphinx-gallery does not re-run keeps its page), copied into the built
+    site's ``timelines/`` when the build ends, and shown in an iframe *height* px high.
+    """
+
+    def __init__(self, height: int = 620):
+        self.height = height
+        self._seen: set[tuple[str, str]] = set()
+
+    def __repr__(self) -> str:          # sphinx-gallery keys its cache on the conf's repr
+        return f"PageScraper(height={self.height})"
+
+    @staticmethod
+    def _pages(values):
+        for value in values:
+            for item in value if isinstance(value, (list, tuple)) else (value,):
+                if isinstance(item, Path) and item.suffix == ".html" and item.is_file():
+                    yield item
+
+    def __call__(self, block, block_vars, gallery_conf) -> str:
+        example = Path(block_vars["src_file"]).stem
+        store = Path(block_vars["image_path_iterator"].image_path).parent / PAGES
+        rst = []
+        for page in sorted(set(self._pages(list(block_vars["example_globals"].values())))):
+            key = (example, str(page.resolve()))
+            if key in self._seen:
+                continue
+            self._seen.add(key)
+            name = f"{example}_{page.stem}.html"
+            store.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(page, store / name)
+            # the gallery's pages are one folder below the site's root
+            rst.append(f".. raw:: html\n\n   <p><a href=\"../{PAGES}/{name}\">{page.name}</a> "
+                       f"(interactive: drag to pan, wheel to zoom)</p>\n"
+                       f"   <iframe src=\"../{PAGES}/{name}\" width=\"100%\" height=\"{self.height}\" "
+                       f"style=\"border:1px solid #ccc\" loading=\"lazy\"></iframe>\n")
+        return "\n\n".join(rst)
+
+
+def _copy_pages(app, exception):
+    """At the end of an HTML build: the galleries' pages into the site's ``timelines/``."""
+    if exception is not None or app.builder.format != "html":
+        return
+    gallery_dirs = app.config.sphinx_gallery_conf.get("gallery_dirs", [])
+    for gallery in [gallery_dirs] if isinstance(gallery_dirs, str) else gallery_dirs:
+        for page in sorted((Path(app.srcdir) / gallery / "images" / PAGES).glob("*.html")):
+            target = Path(app.outdir) / PAGES / page.name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(page, target)
+
+
 def setup(app):
+    app.connect("build-finished", _copy_pages)
     app.connect("missing-reference", _resolve_reexport)
     app.connect("autodoc-skip-member", _skip_aliases)
     app.add_directive("netcosim-api-table", ApiTable)

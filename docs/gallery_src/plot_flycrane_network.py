@@ -32,3 +32,11 @@ for png in sorted(out.rglob("*.png")):
     ax.imshow(image)
     ax.set_axis_off()
     print(png.relative_to(out))
+
+# %%
+# The interactive timelines it wrote (the runs of Figs. A.4/A.5 at 20 % loss, online
+# strategy): the planner on the platform, the robots' watchdogs and command tasks, the
+# platform's broadcasts on 802.11b by outcome, the medium's busy periods and the error.
+# ``docs/viewer.md`` describes the page.
+pages = sorted(out.rglob("timeline_online_*.html"))
+print([p.name for p in pages])

@@ -51,3 +51,11 @@ a3.set_xlabel("time (s)")
 a3.legend(loc="lower right")
 a3.set_title("angle and held command")
 fig.tight_layout()
+
+# %%
+# The same run in the browser: :meth:`~netcosim.trace.Trace.view` writes one self-contained
+# HTML file (it opens offline) with the tasks, the frames by outcome and the signals on
+# linked time axes.  Drag to pan, use the wheel to zoom; hover over a job or a frame for
+# its details.  The page below is the file this step wrote.
+page = sim.trace.view("timeline.html", signals=["servo.y.y", "sensor.actuate.u"])
+print(page.name, f"{page.stat().st_size / 1e6:.1f} MB")
