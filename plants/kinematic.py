@@ -301,7 +301,7 @@ class KinematicPlant(ContinuousSystem):
             raise SingularConfigurationError(f"{self.name}: at t = {t:.9f} s, {exc}") from None
 
     def h(self, t, x, u, params):
-        """q, and its noisy copy when ``noise_std`` was given."""
+        """q, and its noisy copy when ``noise_std`` was given (at time *t*, s: unused)."""
         q = np.array(x, dtype=float)
         if self.noise_std is None:
             return q

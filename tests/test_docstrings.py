@@ -11,8 +11,9 @@
    matches ``_UNIT_PARAM`` (period, deadline, delay, offset, time(s), until, t, seconds,
    ``*_s``, ``*_time``, rate, ``*_dbm``, ``*_db``, ``bits``), the callable's docstring (or,
    for ``__init__``, the class docstring) contains one of the unit markers ``_UNITS``
-   (``s``, ``seconds``, ``ticks``, ``bit/s``, ``Hz``, ``dB``, ``dBm``, ``W``, ``m``, ``bits``)
-   as a word.
+   (``s``, ``seconds``, ``ticks``, ``bit/s``, ``Hz``, ``dB``, ``dBm``, ``W``, ``m``, ``bits``,
+   ``dimensionless``) as a word.  The plants and controllers follow it too, except where a
+   name that looks like a quantity is not one (:data:`_NOT_QUANTITIES`).
 3. Summary: the first paragraph of every public docstring is a sentence (what the API
    reference's tables show).
 4. Parameters: every parameter of a public callable is named in its docstring (for
@@ -38,7 +39,12 @@ _USER_PACKAGES = (netcosim.plants, netcosim.controllers)
 
 _UNIT_PARAM = re.compile(r"^(period|deadline|delay|offset|times?|until|t|seconds|at|\w+_s|\w+_time|\w*rate"
                          r"|\w+_dbm|\w+_db|\w*bits)$")
-_UNITS = re.compile(r"(?<![\w.'’])(s|seconds?|ticks?|bit/s|Hz|dB|dBm|W|m|bits?)(?![\w/])")
+_UNITS = re.compile(r"(?<![\w.'’])(s|seconds?|ticks?|bit/s|Hz|dB|dBm|W|m|bits?|dimensionless)(?![\w/])")
+#: parameters of the plants and controllers whose names look like a quantity but are not one
+_NOT_QUANTITIES = {
+    "netcosim.plants.kinematic.check_singular_values(at)": "names a configuration (q = [...])",
+    "netcosim.plants.kinematic.pinv_solve(at)": "names a configuration (q = [...])",
+}
 
 
 def _modules(package=netcosim):
@@ -86,10 +92,11 @@ def _params(fn) -> list[str]:
 
 def test_quantities_state_their_units():
     missing = []
-    for qual, obj, owner in _public_objects():
+    everything = [item for package in (netcosim, *_USER_PACKAGES) for item in _public_objects(package)]
+    for qual, obj, owner in everything:
         if isinstance(obj, property) or not inspect.isfunction(obj):
             continue
-        quantities = [p for p in _params(obj) if _UNIT_PARAM.match(p)]
+        quantities = [p for p in _params(obj) if _UNIT_PARAM.match(p) and f"{qual}({p})" not in _NOT_QUANTITIES]
         if not quantities:
             continue
         doc = (inspect.getdoc(obj) or "") if not qual.endswith(".__init__") else (owner.__doc__ or "") + (

@@ -265,7 +265,8 @@ class _FlowNorm:
 
 @dataclass
 class AuxiliaryFlow:
-    """Solution ``e'(tau; e_h)`` of the auxiliary flow (3.12)/(4.17) on ``[0, tau_end]``.
+    """Solution ``e'(tau; e_h)`` of the auxiliary flow (3.12)/(4.17) on ``[0, tau_end]``
+    (tau is the rescaled time ``k t``: dimensionless).
 
     ``tau_s``: first ``tau > 0`` with ``||e'(tau)|| = ||e_h||`` (``inf`` if the norm
     stays below ``||e_h||`` up to ``tau_max``); ``tau_o``: argmin of ``||e'||`` over

@@ -208,7 +208,7 @@ class MuEstimate:
     """Estimate ``mu_hat*`` of (3.19)/(4.27) and the per-sample details.
 
     ``samples``: the sampled errors ``e_h`` (rows); ``mu_i``: each sample's
-    ``max_tau ||d'(tau, e_h)|| / (tau^2 ||e_h||)``; ``tau_s``: each sample's return time
+    ``max_tau ||d'(tau, e_h)|| / (tau^2 ||e_h||)``; ``tau_s``: each sample's return time (dimensionless, ``k T``)
     (``inf`` if the flow did not return before ``tau_max``); ``radius``: the radius of
     the ball sampled; ``norm``: the :class:`~netcosim.controllers.planner.norms.WeightedNorm`
     it is measured in.

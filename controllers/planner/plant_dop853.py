@@ -173,7 +173,7 @@ class CompiledDOP853:
         return None
 
     def observe(self, t, x) -> None:
-        """Receives the states ``x`` (nx by k) at the instants ``t`` asked by :meth:`t_eval`."""
+        """Receives the states ``x`` (nx by k) at the instants ``t`` (s) asked by :meth:`t_eval`."""
 
     def bind(self, plant: Any, hooks: Any = None) -> Any:
         """The stepper advancing *plant*: a :class:`_BoundDOP853` when the plant's system
