@@ -45,7 +45,24 @@ SPEED_OF_LIGHT = 299792458.0
 
 
 def dbm_to_watt(dbm: float) -> float:
-    """Power *dbm* (dBm) in watts."""
+    """Power *dbm* (dBm) in watts: ``10**((dbm - 30) / 10)``.
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationTypeError`
+        *dbm* is not a number.
+    :class:`~netcosim.errors.ConfigurationError`
+        *dbm* is NaN or infinite, or so large (above about 3000 dBm) that the power in
+        watts overflows.
+
+    Examples
+    --------
+    >>> from netcosim.network import dbm_to_watt
+    >>> dbm_to_watt(30.0), dbm_to_watt(0.0)
+    (1.0, 0.001)
+    >>> round(dbm_to_watt(15.0), 6)          # 802.11b's default transmit power, in W
+    0.031623
+    """
     v = validate.finite(dbm, "power (dBm)", "dBm")
     try:
         return 10.0 ** ((v - 30.0) / 10.0)
@@ -54,7 +71,19 @@ def dbm_to_watt(dbm: float) -> float:
 
 
 def watt_to_dbm(w: float) -> float:
-    """Power *w* (W) in dBm; ``-inf`` for zero power."""
+    """Power *w* (W) in dBm: ``10 log10(w) + 30``; ``-inf`` for zero power.
+
+    A negative, NaN or infinite *w* raises :class:`~netcosim.errors.ConfigurationError`,
+    a *w* that is not a number :class:`~netcosim.errors.ConfigurationTypeError`.
+
+    Examples
+    --------
+    >>> from netcosim.network import watt_to_dbm
+    >>> watt_to_dbm(1e-3), watt_to_dbm(0.0)
+    (0.0, -inf)
+    >>> round(watt_to_dbm(2.0), 2)           # twice 1 W: +3 dB
+    33.01
+    """
     w = validate.non_negative(w, "power (W)")
     return -math.inf if w <= 0 else 10.0 * math.log10(w) + 30.0
 
@@ -69,7 +98,20 @@ def thermal_noise_dbm(bandwidth: float = DSSS_BANDWIDTH, temperature: float = 29
     """Thermal noise power ``k T B`` in dBm plus the receiver noise figure (dB).
 
     ``bandwidth`` [Hz] and ``temperature`` [K] must be positive and finite;
-    ``noise_figure_db`` [dB] finite and >= 0 (a receiver adds noise, never removes it).
+    ``noise_figure_db`` [dB] finite and >= 0 (a receiver adds noise, never removes it);
+    otherwise :class:`~netcosim.errors.ConfigurationError` (a value out of range) or
+    :class:`~netcosim.errors.ConfigurationTypeError` (not a number), naming it.
+
+    Examples
+    --------
+    The noise floor of 802.11b (22 MHz) and of 802.15.4 (2 MHz) at 290 K, and with a
+    7 dB receiver noise figure:
+
+    >>> from netcosim.network import thermal_noise_dbm
+    >>> round(thermal_noise_dbm(22e6), 2), round(thermal_noise_dbm(2e6), 2)
+    (-100.55, -110.96)
+    >>> round(thermal_noise_dbm(22e6, noise_figure_db=7.0), 2)
+    -93.55
     """
     bandwidth = validate.positive(bandwidth, "thermal noise bandwidth (Hz)")
     temperature = validate.positive(temperature, "thermal noise temperature (K)")
@@ -102,7 +144,27 @@ class LogDistance(PathLoss):
     [Hz] must be positive and finite.  ``reference_loss_db`` [dB] is the loss at d0:
     finite and >= 0 (a passive channel does not amplify); ``None`` uses the free-space
     (Friis) loss at ``d0`` and ``frequency``: ``20 log10(4 pi d0 f / c)`` (40.1 dB at
-    1 m and 2.412 GHz).
+    1 m and 2.412 GHz).  The radio networks take it as ``path_loss=``
+    (:class:`~netcosim.network.wlan.WLAN80211b`, :class:`~netcosim.network.lrwpan.IEEE802154`).
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationError`
+        ``exponent``, ``reference_distance`` or ``frequency`` not positive and finite,
+        ``reference_loss_db`` negative or not finite.
+    :class:`~netcosim.errors.ConfigurationTypeError`
+        A parameter that is not a number.
+
+    Examples
+    --------
+    With exponent 3, ten times farther is 30 dB more loss; 15 dBm sent, at 10 m:
+
+    >>> from netcosim.network import LogDistance
+    >>> pl = LogDistance(exponent=3.0)
+    >>> round(pl.loss_db(1.0), 2), round(pl.loss_db(10.0), 2)
+    (40.1, 70.1)
+    >>> round(pl.rx_dbm(15.0, 10.0), 2)
+    -55.1
     """
 
     def __init__(self, exponent: float = 3.0, reference_distance: float = 1.0,
@@ -133,7 +195,19 @@ class LogDistance(PathLoss):
 
 class TrueTimePathLoss(PathLoss):
     """TrueTime's model: ``P_rx = P_tx / (d + 1)^a`` with d in metres (``exponent`` a, default
-    3.5; positive and finite)."""
+    3.5; positive and finite, else :class:`~netcosim.errors.ConfigurationError`).
+
+    Examples
+    --------
+    At 9 m the gain is ``10**-3.5``, a loss of 35 dB:
+
+    >>> from netcosim.network import TrueTimePathLoss
+    >>> pl = TrueTimePathLoss(exponent=3.5)
+    >>> pl.gain(9.0) == 10 ** -3.5, round(pl.loss_db(9.0), 6)
+    (True, 35.0)
+
+    On a network: ``WLAN80211b(sim, "wlan", path_loss=TrueTimePathLoss())``.
+    """
 
     def __init__(self, exponent: float = 3.5):
         self.exponent = validate.positive(exponent, "TrueTimePathLoss exponent")
@@ -197,7 +271,21 @@ def linear_ratio(value, what: str = "Eb/N0") -> np.ndarray:
 
 def ber_dbpsk(ebn0):
     """Bit error rate of differential BPSK: ``1/2 exp(-Eb/N0)`` at *ebn0*, Eb/N0 (linear, not dB,
-    >= 0; a number or an array)."""
+    >= 0; a number or an array).
+
+    A negative or NaN *ebn0* (a value in dB, say) raises
+    :class:`~netcosim.errors.ConfigurationError`.
+
+    Examples
+    --------
+    At Eb/N0 = 4 (6 dB), ``exp(-4) / 2``; an array gives an array:
+
+    >>> from netcosim.network import ber_dbpsk
+    >>> round(ber_dbpsk(4.0), 6)
+    0.009158
+    >>> [round(float(b), 6) for b in ber_dbpsk([0.0, 1.0])]
+    [0.5, 0.18394]
+    """
     if type(ebn0) is float and ebn0 >= 0.0:
         return 0.5 * math.exp(-ebn0)
     g = linear_ratio(ebn0)
@@ -210,7 +298,17 @@ def ber_dqpsk(ebn0):
     ``a = sqrt(2 g (1 - 1/sqrt 2))``, ``b = sqrt(2 g (1 + 1/sqrt 2))``, ``g = Eb/N0``;
     Marcum Q1 via the non-central chi-square survival function.  *ebn0*: ``Eb/N0``, linear
     (not dB), >= 0, a number or an array;
-    above 10**4 the BER is 0.0 in double precision and is computed at 10**4.
+    above 10**4 the BER is 0.0 in double precision and is computed at 10**4.  A negative or
+    NaN *ebn0* raises :class:`~netcosim.errors.ConfigurationError`.
+
+    Examples
+    --------
+    At the same Eb/N0 = 4 (6 dB) DQPSK errs about twice as often as DBPSK
+    (:func:`ber_dbpsk`: 0.009158):
+
+    >>> from netcosim.network import ber_dqpsk
+    >>> round(ber_dqpsk(4.0), 6)
+    0.017013
     """
     g = np.minimum(linear_ratio(ebn0), 1e4)
     a = np.sqrt(2.0 * g * (1.0 - 1.0 / math.sqrt(2.0)))
@@ -225,7 +323,22 @@ def ber_dqpsk(ebn0):
 
 def ber_cck(ebn0):
     """Simple CCK model: coherent QPSK bit error rate ``Q(sqrt(2 Eb/N0)) = 1/2 erfc(sqrt(Eb/N0))``
-    of *ebn0*, Eb/N0 (linear, not dB, >= 0; a number or an array)."""
+    of *ebn0*, Eb/N0 (linear, not dB, >= 0; a number or an array).
+
+    A negative or NaN *ebn0* raises :class:`~netcosim.errors.ConfigurationError`.
+
+    Examples
+    --------
+    At Eb/N0 = 4 (6 dB), ``erfc(2) / 2``:
+
+    >>> from netcosim.network import ber_cck
+    >>> round(ber_cck(4.0), 6)
+    0.002339
+    >>> ber_cck(-3.0)
+    Traceback (most recent call last):
+    ...
+    netcosim.errors.ConfigurationError: Eb/N0 must be a linear power ratio >= 0 (not dB, not NaN), got -3.0
+    """
     from scipy import special
     g = linear_ratio(ebn0)
     ber = 0.5 * special.erfc(np.sqrt(g))
