@@ -23,6 +23,7 @@ import math
 import pytest
 
 from netcosim import Simulation
+from netcosim.errors import ConfigurationError
 from netcosim.network import BROADCAST, CAN, can_frame_bits
 
 # (data bytes, period s) in priority order (index 0 = highest priority)
@@ -139,7 +140,7 @@ def test_standard_format_carries_at_most_eight_bytes_and_needs_priorities():
     can = CAN(sim, "can", data_rate=500e3, frame_format="standard")
     x = can.attach("x")
     can.attach("y", priority=2)
-    with pytest.raises(ValueError, match="needs a priority"):
+    with pytest.raises(ConfigurationError, match="needs a priority"):   # a netcosim error (a ValueError)
         x.send("y", None, 8)
     with pytest.raises(ValueError, match="size_bits=72"):
         x.send("y", None, 72, priority=1)

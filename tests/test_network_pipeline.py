@@ -6,6 +6,7 @@ import pytest
 from conftest import frame_rows
 
 from netcosim import Simulation
+from netcosim.errors import ConfigurationError
 from netcosim.network import BROADCAST, FDMA, TDMA, IdealLink, RoundRobin
 from netcosim.network.plot import plot_network_schedule
 
@@ -159,7 +160,7 @@ def test_tdma_suspends_frames_at_slot_end_and_resumes_in_the_next_own_slot():
     assert frame_rows(net, "suspended")["time"].tolist() == pytest.approx([1e-3, 4e-3], abs=1e-12)
     assert frame_rows(net, "resumed")["time"].tolist() == pytest.approx([3e-3, 6e-3], abs=1e-12)
     c = net.attach("c")
-    with pytest.raises(ValueError, match="owns no slot"):
+    with pytest.raises(ConfigurationError, match="owns no slot"):     # a netcosim error (a ValueError)
         c.send("a", None, 10)
 
 

@@ -40,6 +40,22 @@ def can_frame_bits(data_bytes: int, *, extended: bool = False, stuffing: bool = 
 
     ``extended``: a 29-bit identifier (CAN 2.0B, 54 header bits before stuffing) instead of
     the 11-bit one (34).  Worst-case bit stuffing (Davis et al. 2007) unless ``stuffing=False``.
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationError`
+        *data_bytes* is not an integer in 0..8.
+
+    Examples
+    --------
+    ``55 + 10 s`` bits for *s* data bytes with an 11-bit identifier, ``80 + 10 s`` with a
+    29-bit one; at 500 kbit/s a full standard frame takes 135 / 500e3 s = 270 µs:
+
+    >>> from netcosim.network import can_frame_bits
+    >>> can_frame_bits(0), can_frame_bits(8), can_frame_bits(8, extended=True)
+    (55, 135, 160)
+    >>> can_frame_bits(8, stuffing=False)
+    111
     """
     data_bytes = validate.integer(data_bytes, "a CAN frame's data_bytes", lo=0, hi=8, type_error=ConfigurationError)
     g = 54 if extended else 34
@@ -56,6 +72,37 @@ class CAN(SharedBus):
     ``"truetime"`` or ``"standard"``; ``extended``: 29-bit identifiers; ``stuffing``:
     worst-case stuff bits in the standard format.  Messages need a priority (pass
     ``priority=`` to ``send`` or a default to ``attach``); small = high.
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationError`
+        ``frame_format`` not ``"truetime"`` or ``"standard"``; in the standard format,
+        a ``min_frame_bits`` given or a ``max_frame_bits`` above 64 (a CAN frame carries at
+        most 8 data bytes); a common parameter out of range
+        (:class:`~netcosim.network.base.Network`).  At ``send``: a message without a
+        priority (none given to ``send`` nor to ``attach``).
+    :class:`~netcosim.errors.ConfigurationTypeError`
+        *sim* is not a :class:`~netcosim.Simulation`, or a parameter is not a number.
+
+    Examples
+    --------
+    Two nodes queue an 8-byte standard frame (135 bits, :func:`can_frame_bits`) at the
+    same instant on a 500 kbit/s bus: identifier 1 wins the arbitration and is delivered
+    after 135 / 500e3 s = 270 µs, identifier 2 after twice that:
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.network import CAN
+    >>> sim = Simulation(seed=0)
+    >>> can = CAN(sim, "can", data_rate=500e3, frame_format="standard")
+    >>> hi, lo = can.attach("hi", priority=1), can.attach("lo", priority=2)
+    >>> ctrl = can.attach("ctrl")
+    >>> arrivals = []
+    >>> _ = ctrl.on_receive(lambda msg: arrivals.append((msg.src, round(sim.now * 1e6, 3))))
+    >>> _ = lo.send("ctrl", None, size_bits=64)          # queued first, but lower priority
+    >>> _ = hi.send("ctrl", None, size_bits=64)
+    >>> sim.run(until=0.01)
+    >>> arrivals                                          # (sender, µs)
+    [('hi', 270.0), ('lo', 540.0)]
     """
 
     default_queue = "priority"
@@ -88,7 +135,7 @@ class CAN(SharedBus):
 
     def _check_priority(self, priority, iface):
         if priority is None:
-            raise ValueError(f"network {self.name!r}: CAN message from {iface.name!r} needs a priority "
+            raise ConfigurationError(f"network {self.name!r}: CAN message from {iface.name!r} needs a priority "
                              f"(identifier): pass priority= to send() or to attach()")
         super()._check_priority(priority, iface)
 

@@ -101,10 +101,10 @@ class TDMA(Network):
 
     def window(self, iface, t: int) -> tuple[int, int]:
         """The transmission window (start, end) in ticks owned by interface *iface* containing *t*
-        or the first after it."""
+        or the first after it; :class:`~netcosim.errors.ConfigurationError` if *iface* owns no slot."""
         wins = self._windows.get(iface.name)
         if not wins:
-            raise ValueError(f"network {self.name!r}: node {iface.name!r} owns no slot in the TDMA schedule "
+            raise ConfigurationError(f"network {self.name!r}: node {iface.name!r} owns no slot in the TDMA schedule "
                              f"{self.slots}")
         rel = t - self._t0
         c, r = divmod(rel, self._cycle)
