@@ -19,7 +19,36 @@ from .base import ARBITRATE, Network
 
 class SlottedAloha(Network):
     """Slotted ALOHA (see the module docstring): ``data_rate`` in bit/s, ``slot_time`` in s,
-    ``retry_probability`` in (0, 1], ``max_attempts`` per frame (None: unlimited)."""
+    ``retry_probability`` in (0, 1], ``max_attempts`` per frame (None: unlimited).
+
+    A ``slot_time`` that is not positive, a ``retry_probability`` outside (0, 1] or a
+    ``max_attempts`` below 1 raises :class:`~netcosim.errors.ConfigurationError`; the other
+    parameters as :class:`~netcosim.network.base.Network`.
+
+    Examples
+    --------
+    Slots of 1 ms, frames of 1000 bits at 1 Mbit/s (one slot).  A message sent at
+    0.3 ms waits for the next slot boundary (1 ms) and is delivered at the slot's end:
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.network import SlottedAloha
+    >>> sim = Simulation(seed=0)
+    >>> net = SlottedAloha(sim, "aloha", data_rate=1e6, slot_time=1e-3, retry_probability=0.5)
+    >>> a, b, c = net.attach("a"), net.attach("b"), net.attach("c")
+    >>> sent = []
+    >>> _ = sim.call_at(0.3e-3, lambda: sent.append(a.send("c", None, size_bits=1000)))
+    >>> sim.run(until=0.01)
+    >>> round(sent[0].sent * 1e3, 6), round(sent[0].delivered * 1e3, 6)     # ms
+    (1.0, 2.0)
+
+    Two messages in one slot collide, and each sender retries in every later slot with
+    probability 1/2 until it is alone in one (here after 3 collisions; latencies in ms):
+
+    >>> m1, m2 = a.send("c", None, size_bits=1000), b.send("c", None, size_bits=1000)
+    >>> sim.run(until=0.1)
+    >>> m1.attempts, m2.attempts, round(m1.latency * 1e3, 6), round(m2.latency * 1e3, 6)
+    (4, 4, 5.0, 4.0)
+    """
 
     def __init__(self, sim, name, *, data_rate: float = 1e6, slot_time: float, retry_probability: float = 0.1,
                  max_attempts: int | None = None, **kw):

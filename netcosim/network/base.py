@@ -156,6 +156,42 @@ class Network(FrameLifecycle, LinkAccounting):
 
     ``sim`` must be a :class:`~netcosim.Simulation` (``ConfigurationTypeError`` naming
     it otherwise, for every network).
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationError`
+        A parameter out of range, naming it and the value: ``data_rate`` not positive and
+        finite; a negative or non-integer number of bits; ``max_frame_bits`` below
+        ``min_frame_bits``; a negative delay; a loss probability outside [0, 1]; ``queue``
+        or ``on_queue_full`` not one of the names above; ``queue_capacity`` or
+        ``mailbox_capacity`` below 1; *name* empty or already used by another component
+        of *sim*.
+    :class:`~netcosim.errors.ConfigurationTypeError`
+        *sim* is not a :class:`~netcosim.Simulation`; a parameter that is not a number
+        (or, for ``trace``, not ``True``/``False``); ``loss`` or ``message_loss`` neither
+        a probability, nor a loss model, nor a list of them.
+
+    Examples
+    --------
+    Every MAC is a ``Network`` and takes these parameters.  On an
+    :class:`~netcosim.network.ideal.IdealLink` a 100-bit message, padded to a 512-bit
+    minimum frame, is delivered after ``pre_delay + 512 bits / 1 Mbit/s +
+    propagation_delay + post_delay`` = 100 + 512 + 5 + 200 µs:
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.network import IdealLink, Network
+    >>> sim = Simulation(seed=0)
+    >>> net = IdealLink(sim, "link", data_rate=1e6, min_frame_bits=512, pre_delay=100e-6,
+    ...                 propagation_delay=5e-6, post_delay=200e-6)
+    >>> isinstance(net, Network)
+    True
+    >>> a, b = net.attach("a"), net.attach("b")         # bare stations, driven from Python
+    >>> msg = a.send("b", "hello", size_bits=100)
+    >>> sim.run(until=0.01)
+    >>> round(msg.latency * 1e6, 3), round((100e-6 + 512 / 1e6 + 5e-6 + 200e-6) * 1e6, 3)
+    (817.0, 817.0)
+    >>> net.duration(512) / 1e12, net.wire_bits(100)      # ticks (1 ps) of a 512-bit frame
+    (0.000512, 512)
     """
 
     default_queue = "fifo"

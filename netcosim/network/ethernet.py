@@ -41,6 +41,43 @@ class CSMACD(Network):
     ``interframe_gap`` and ``slot_time`` in s (``slot_time`` None: ``min_frame_bits / data_rate``).
     ``max_attempts``: transmission attempts per frame before it is dropped (None: unlimited,
     as TrueTime); ``backoff_limit``: the cap on the backoff exponent (10: at most 1023 slots).
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationError`
+        ``min_frame_bits=0`` without a ``slot_time`` (the backoff slot is the minimum
+        frame time); ``collision_window`` or ``slot_time`` not positive; a negative
+        ``interframe_gap`` or ``jam_bits``; ``max_attempts`` below 1; ``backoff_limit``
+        outside 1..30; a common parameter out of range
+        (:class:`~netcosim.network.base.Network`).
+    :class:`~netcosim.errors.ConfigurationTypeError`
+        *sim* is not a :class:`~netcosim.Simulation`, or a parameter is not a number.
+
+    Examples
+    --------
+    A 100-bit message on an idle 10 Mbit/s bus is padded to the 512-bit minimum frame and
+    delivered after 512 / 10e6 s = 51.2 µs:
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.network import CSMACD
+    >>> sim = Simulation(seed=1)
+    >>> eth = CSMACD(sim, "eth")
+    >>> a, b, c = eth.attach("a"), eth.attach("b"), eth.attach("c")
+    >>> msg = a.send("c", None, size_bits=100)
+    >>> sim.run(until=0.001)
+    >>> round(msg.delivered * 1e6, 6)                     # µs
+    51.2
+
+    Two nodes that start together collide, stop after the 1 µs collision window and back
+    off 0 or 1 slot of 51.2 µs each (drawn); here ``b`` drew 0 and is delivered
+    1 + 51.2 µs after the send, ``a`` drew 1 and follows one frame later:
+
+    >>> m1, m2 = a.send("c", None, size_bits=512), b.send("c", None, size_bits=512)
+    >>> sim.run(until=0.01)
+    >>> eth.collisions, m1.attempts, m2.attempts
+    (1, 2, 2)
+    >>> round(m1.latency * 1e6, 6), round(m2.latency * 1e6, 6)          # µs
+    (103.4, 52.2)
     """
 
     def __init__(self, sim, name, *, data_rate: float = 10e6, min_frame_bits: int = 512,

@@ -50,6 +50,32 @@ class SwitchedEthernet(Network):
     ``"symmetric"`` (split evenly between the ports); ``overflow``: ``"drop"`` a frame the
     memory cannot take or ``"retransmit"`` it from the sender; ``port_queue``: ``"fifo"`` or
     ``"priority"`` order of each output port's queue.
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationError`
+        ``switch_memory_bits`` too small for one frame (``max_frame_bits``, or
+        ``min_frame_bits`` when frames are unbounded); ``buffer``, ``overflow`` or
+        ``port_queue`` not one of the names above; a negative ``switch_delay``; a common
+        parameter out of range (:class:`~netcosim.network.base.Network`).
+    :class:`~netcosim.errors.ConfigurationTypeError`
+        *sim* is not a :class:`~netcosim.Simulation`, or a parameter is not a number.
+
+    Examples
+    --------
+    Store and forward: 1000 bits at 10 Mbit/s cross the uplink (100 µs), wait the 10 µs
+    switch delay, and cross the output link (100 µs), ``2 * bits / data_rate +
+    switch_delay`` = 210 µs:
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.network import SwitchedEthernet
+    >>> sim = Simulation(seed=0)
+    >>> net = SwitchedEthernet(sim, "switch", data_rate=10e6, switch_delay=10e-6)
+    >>> a, b = net.attach("a"), net.attach("b")
+    >>> msg = a.send("b", None, size_bits=1000)
+    >>> sim.run(until=0.01)
+    >>> round(msg.delivered * 1e6, 6)                     # µs
+    210.0
     """
 
     carrier = CARRIER_SENDER   # full duplex: the output ports make the receivers receiving

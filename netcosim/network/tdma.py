@@ -51,6 +51,37 @@ class TDMA(Network):
 
     ``data_rate`` in bit/s, ``slot_time`` in s; ``schedule`` lists the slot owners (node names,
     None for an idle slot).
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationTypeError`
+        ``schedule`` is a string or not a list, or an entry is neither a node name (or a
+        node) nor None; *sim* is not a :class:`~netcosim.Simulation`, or a parameter is
+        not a number.
+    :class:`~netcosim.errors.ConfigurationError`
+        ``schedule`` is empty; ``slot_time`` is not positive; a common parameter out of
+        range (:class:`~netcosim.network.base.Network`).  When the run starts: a slot
+        owner that no attached node is called.  During the run: a frame that would span
+        more than :data:`MAX_SEGMENTS` of its owner's windows.
+
+    Examples
+    --------
+    Slots of 1 ms owned by ``a``, ``b`` in turn; 1 Mbit/s.  Both queue a frame at t = 0:
+    ``b``'s 500 bits wait for its slot (1 ms) and arrive at 1.5 ms; ``a``'s 1500 bits do
+    not fit in one slot: 1 ms is sent in slot 0, the frame is suspended, and the last
+    0.5 ms goes out at the start of ``a``'s next slot (2 ms), delivered at 2.5 ms:
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.network import TDMA
+    >>> sim = Simulation(seed=0)
+    >>> net = TDMA(sim, "tdma", data_rate=1e6, slot_time=1e-3, schedule=["a", "b"])
+    >>> a, b = net.attach("a"), net.attach("b")
+    >>> ma, mb = a.send("b", None, size_bits=1500), b.send("a", None, size_bits=500)
+    >>> sim.run(until=0.01)
+    >>> round(ma.delivered * 1e3, 6), round(mb.delivered * 1e3, 6)          # ms
+    (2.5, 1.5)
+    >>> net.frames().query("event in ['suspended', 'resumed']")[["time", "event", "src"]].values.tolist()
+    [[0.001, 'suspended', 'a'], [0.002, 'resumed', 'a']]
     """
 
     #: the slot owners, one per slot of the cycle (node names, None for an idle slot)
