@@ -77,6 +77,24 @@ class RadioStation:
     ``net``: the network; ``iface``: the station's interface; ``pos``, ``tx_power_dbm``
     (dBm), ``sens_w``, ``cs_w`` (W): its radio parameters, checked by
     :meth:`RadioNetwork.attach`.
+
+    Examples
+    --------
+    A network makes one per attached node (:meth:`RadioNetwork.station`).  At 0 dBm a
+    station sends 1 mW; 10 dB less power is 10 dB less at the receiver:
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.network import IEEE802154
+    >>> sim = Simulation(seed=0)
+    >>> net = IEEE802154(sim, "zigbee")
+    >>> _ = net.attach("a", position=(0.0, 0.0)), net.attach("b", position=(10.0, 0.0))
+    >>> station = net.station("a")
+    >>> station.tx_power_dbm, round(station.tx_w, 9)                     # dBm, W
+    (0.0, 0.001)
+    >>> before = net.rx_power_dbm("a", "b")
+    >>> station.set_tx_power(-10.0)
+    >>> round(before, 2), round(net.rx_power_dbm("a", "b"), 2)           # dBm at b
+    (-70.1, -80.1)
     """
 
     __slots__ = ("iface", "name", "index", "pos", "tx_power_dbm", "tx_w", "sens_w", "cs_w", "power", "n_active",
@@ -117,7 +135,11 @@ class RadioStation:
 
     def set_tx_power(self, dbm: float) -> None:
         """Transmit with *dbm* (finite, within +-300 dBm) from the next frame (data or ACK) on;
-        a frame already on the air keeps its power."""
+        a frame already on the air keeps its power.
+
+        Raises :class:`~netcosim.errors.ConfigurationError` for a *dbm* out of range, and on
+        an 802.11b network that runs the shared idle-slot clock (``shared_clock=True``,
+        which assumes fixed powers; build it with ``shared_clock=False``)."""
         net = self.iface.network
         txp = _dbm(dbm, f"network {net.name!r} node {self.name!r}: tx_power_dbm")
         net._require_per_station("set_tx_power")
@@ -146,6 +168,34 @@ class RadioNetwork(Network):
     ``max_attempts`` (attempts per frame), ``ack_bits``, and in ticks ``ack_time`` (ACK on
     the air), ``_ack_plcp`` (its preamble), ``_ack_delay`` (reception end to ACK start),
     ``_ack_timeout_ticks``; ``_ack_mod`` is the ACK's modulation.
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationTypeError`
+        ``path_loss`` is not a :class:`~netcosim.network.radio.PathLoss`; a power, threshold
+        or ratio that is not a number; *sim* not a :class:`~netcosim.Simulation`.
+    :class:`~netcosim.errors.ConfigurationError`
+        ``tx_power_dbm``, ``threshold_dbm``, ``cs_threshold_dbm`` or ``noise_dbm`` not
+        finite or beyond +-300 dBm; ``capture_db`` negative, not finite or above 300 dB;
+        a common parameter out of range (:class:`~netcosim.network.base.Network`).
+
+    Examples
+    --------
+    Both radio networks derive from ``RadioNetwork``.  The power received 10 m away from a
+    15 dBm sender under log-distance path loss (exponent 3, 40.1 dB at 1 m) is
+    ``15 - 40.1 - 30 log10(10)`` = -55.1 dBm, above the -85 dBm threshold:
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.network import LogDistance, RadioNetwork, WLAN80211b
+    >>> sim = Simulation(seed=0)
+    >>> net = WLAN80211b(sim, "wlan", tx_power_dbm=15.0, path_loss=LogDistance(exponent=3.0))
+    >>> isinstance(net, RadioNetwork)
+    True
+    >>> _ = net.attach("a", position=(0.0, 0.0)), net.attach("b", position=(10.0, 0.0))
+    >>> round(net.rx_power_dbm("a", "b"), 2), round(15.0 - LogDistance(3.0).loss_db(10.0), 2)
+    (-55.1, -55.1)
+    >>> net.position("b"), round(net.noise_dbm, 2)                      # m, dBm
+    ((10.0, 0.0), -100.55)
     """
 
     use_ack: bool

@@ -97,6 +97,8 @@ class WLAN80211b(RadioNetwork):
     """IEEE 802.11b DCF network.  See the module docstring for the semantics.
 
     The parameters below come besides those of every network (:class:`~netcosim.network.base.Network`).
+    Every parameter is validated here (:mod:`netcosim.validate`); powers and
+    thresholds must be finite numbers of dBm, also when given per node to ``attach``.
 
     Parameters
     ----------
@@ -143,9 +145,6 @@ class WLAN80211b(RadioNetwork):
         needs to survive / to capture a receiver (default 10 dB).
     noise_dbm:
         Noise floor (dBm, finite; default thermal noise in 22 MHz at 290 K, -100.6 dBm).
-
-    Every parameter is validated here (:mod:`netcosim.validate`); powers and
-    thresholds must be finite numbers of dBm, also when given per node to ``attach``.
     modulation:
         ``"auto"`` (by rate), ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
     shared_clock:
@@ -155,6 +154,43 @@ class WLAN80211b(RadioNetwork):
         in the current exchange share one idle-slot clock, so a frame costs about the same
         whatever the number of stations.  The results are identical bit for bit to
         False, which updates every station on every medium change.
+
+    Raises
+    ------
+    :class:`~netcosim.errors.ConfigurationError`
+        A ``data_rate`` so low that a frame of ``max_frame_bits`` would take more than
+        :data:`MAX_FRAME_SECONDS` (a rate in Mbit/s given as bit/s); ``cw_max`` below
+        ``cw_min``; ``basic_rates`` empty; ``ack_timeout`` not above SIFS; ``preamble`` or
+        ``modulation`` not one of the names above; ``retry_limit`` below 1; ``slot`` or
+        ``sifs`` not positive; a radio parameter out of range
+        (:class:`~netcosim.network.wireless.RadioNetwork`) or a common one
+        (:class:`~netcosim.network.base.Network`).
+    :class:`~netcosim.errors.ConfigurationTypeError`
+        ``basic_rates`` not a sequence; ``shared_clock`` not ``True``/``False``; a
+        parameter that is not a number; *sim* not a :class:`~netcosim.Simulation`.
+
+    Examples
+    --------
+    One unicast frame of 1000 payload bits at 11 Mbit/s on an idle channel: the medium
+    is idle for DIFS (50 µs) after the send, then PLCP (192 µs) and the 224 MAC bits
+    with the payload at 11 Mbit/s (111.27 µs): delivered at 353.27 µs.  The ACK
+    starts SIFS (10 µs) later and takes 248 µs (PLCP and 112 bits at 2 Mbit/s):
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.network import WLAN80211b
+    >>> sim = Simulation(seed=0)
+    >>> net = WLAN80211b(sim, "wlan", data_rate=11e6)
+    >>> a, b = net.attach("a", position=(0.0, 0.0)), net.attach("b", position=(10.0, 0.0))
+    >>> acked = []
+    >>> a.on_done.append(lambda frame, ok: acked.append((round(sim.now * 1e6, 3), ok)))
+    >>> msg = a.send("b", None, size_bits=1000)
+    >>> sim.run(until=0.01)
+    >>> t = net.timing()                                # the constants in s
+    >>> delivery = t["difs"] + t["plcp"] + (t["mac_overhead_bits"] + 1000) / 11e6
+    >>> round(msg.delivered * 1e6, 3), round(delivery * 1e6, 3)                  # µs
+    (353.273, 353.273)
+    >>> acked, round((delivery + t["sifs"] + t["ack_time"]) * 1e6, 3)           # ACK end, µs
+    ([(611.273, True)], 611.273)
     """
 
     station_class = DcfStation
