@@ -80,6 +80,45 @@ class ExpectedCost:
     total state (default zero; set one system's mean with ``ec.propagator.impulse(v,
     system=key)``).  ``t0``: the time they hold at (default: the clock's reading now).
     ``record``: keep the event history (:meth:`trace`).
+
+    Raises
+    ------
+    ConfigurationTypeError
+        *clock* is neither a callable nor an object with a ``now`` attribute, or its reading
+        is not a number; *model* is not an :class:`~netcosim.lq.systems.Interconnection`.
+    ConfigurationError
+        The clock's reading is not finite; ``m0``, ``P0`` or ``t0`` is not valid for the
+        model (as for :class:`~netcosim.lq.propagation.Propagator`).
+
+    Examples
+    --------
+    A control task samples an integrator ``dx = u dt + dv`` (noise intensity 1, cost rate
+    ``x^2``) every h = 0.1 s and applies the deadbeat gain ``u = -x / h`` at once.  From
+    rest the first period costs only the noise, ``h^2 / 2``, every later one
+    ``5 h^2 / 6`` (see :class:`~netcosim.lq.result.StationaryCost`), so 1 s (10 periods)
+    costs ``h^2 (10 * 5/6 - 1/3) = 0.08``:
+
+    >>> import numpy as np
+    >>> from netcosim import Simulation, lq
+    >>> h = 0.1
+    >>> loop = (lq.Interconnection()
+    ...         .add("plant", lq.ContinuousSystem(0.0, 1.0, 1.0, R_c=1.0, Q_c=np.diag([1.0, 0.0])),
+    ...              inputs="ctrl")
+    ...         .add("sampler", lq.DiscreteSystem.gain(1.0), inputs="plant")
+    ...         .add("ctrl", lq.DiscreteSystem.gain(-1 / h), inputs="sampler"))
+    >>> sim = Simulation(seed=0)
+    >>> ec = lq.ExpectedCost(sim, loop)
+    >>> cpu = sim.node("cpu")
+    >>> @cpu.periodic(period=h, priority=1)
+    ... def control(ctx):
+    ...     ec.execute("sampler", "ctrl")      # sample and actuate at the job's start
+    ...     yield ctx.execute(0.001)
+    >>> sim.run(until=1.0)
+    >>> round(ec.cost_until(1.0), 9), round(h ** 2 * (10 * 5 / 6 - 1 / 3), 9)
+    (0.08, 0.08)
+    >>> trace = ec.trace()
+    >>> trace.time[[event == "update ctrl" for event in trace.event]].round(6).tolist()
+    [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]
     """
 
     def __init__(self, clock: Any, model: Interconnection, *, m0: Any = None, P0: Any = None,

@@ -38,7 +38,20 @@ class IntervalMatrices:
     """The exact transition, noise and cost matrices of one interval length ``T`` (s):
     ``Phi`` = Phi(T), ``R`` = R(T) (noise covariance added), ``Q`` = Q(T) (cost of the
     initial state) and ``J_noise`` = J_noise(T) (cost of the noise entering), as defined in
-    the module docstring."""
+    the module docstring.
+
+    Examples
+    --------
+    A scalar integrator (A = 0) with noise intensity 0.5 and cost rate ``2 z^2``, over
+    T = 0.8 s: ``Phi = 1``, ``R = 0.5 T = 0.4``, ``Q = 2 T = 1.6`` and
+    ``J_noise = 2 * 0.5 * T^2 / 2 = 0.32``.
+
+    >>> import numpy as np
+    >>> from netcosim.lq import interval_matrices
+    >>> m = interval_matrices(np.zeros((1, 1)), np.array([[0.5]]), np.array([[2.0]]), 0.8)
+    >>> m.T, m.Phi.item(), round(m.R.item(), 12), round(m.Q.item(), 12), round(m.J_noise, 12)
+    (0.8, 1.0, 0.4, 1.6, 0.32)
+    """
 
     T: float
     Phi: np.ndarray
@@ -50,7 +63,26 @@ class IntervalMatrices:
 def interval_matrices(A: np.ndarray, R_c: np.ndarray, Q_c: np.ndarray, T: float) -> IntervalMatrices:
     """``Phi(T)``, ``R(T)``, ``Q(T)`` and ``J_noise(T)`` (see the module) for ``T >= 0`` (s)
     of ``dz = A z dt + dv`` with noise intensity *R_c* and cost rate ``z^T Q_c z`` (all n x n);
-    the caller has checked the arguments.  T = 0 gives ``(I, 0, 0, 0)`` exactly."""
+    the caller has checked the arguments.  T = 0 gives ``(I, 0, 0, 0)`` exactly.
+
+    Examples
+    --------
+    A double integrator (position, velocity) driven by a white-noise force of intensity 1,
+    with cost rate position^2, over T = 1 s.  The closed forms: ``Phi = [[1, T], [0, 1]]``,
+    ``R = [[T^3/3, T^2/2], [T^2/2, T]]``, ``Q = [[T, T^2/2], [T^2/2, T^3/3]]`` and
+    ``J_noise = ∫_0^T s^3/3 ds = T^4/12``.
+
+    >>> import numpy as np
+    >>> from netcosim.lq import interval_matrices
+    >>> A = np.array([[0.0, 1.0], [0.0, 0.0]])
+    >>> m = interval_matrices(A, np.diag([0.0, 1.0]), np.diag([1.0, 0.0]), 1.0)
+    >>> m.Phi.tolist()
+    [[1.0, 1.0], [0.0, 1.0]]
+    >>> m.R.round(9).tolist(), m.Q.round(9).tolist()
+    ([[0.333333333, 0.5], [0.5, 1.0]], [[1.0, 0.5], [0.5, 0.333333333]])
+    >>> round(m.J_noise, 9)
+    0.083333333
+    """
     n = A.shape[0]
     if T == 0.0 or n == 0:
         return IntervalMatrices(T, np.eye(n), np.zeros((n, n)), np.zeros((n, n)), 0.0)

@@ -52,6 +52,38 @@ class Propagator:
     ``m0``, ``P0``: initial mean and covariance of the total state (default zero, as in
     JitterTime); ``t0``: initial time (s).  ``record``: keep a :class:`CostTrace` of every
     event (:meth:`trace`).
+
+    Raises
+    ------
+    ConfigurationTypeError
+        *model* is not an :class:`~netcosim.lq.systems.Interconnection`; ``m0``, ``P0`` or
+        ``t0`` is not numeric.
+    ConfigurationError
+        ``m0`` is not a finite vector of the total state's length, ``P0`` not a symmetric
+        positive semidefinite matrix of its size, ``t0`` not finite; the model has no system
+        or is not connected consistently (:meth:`Interconnection.dynamics
+        <netcosim.lq.systems.Interconnection.dynamics>`).
+    IntegrationError
+        Later, from an event: the covariance or the cost is no longer finite (the model
+        diverged).
+
+    Examples
+    --------
+    An uncontrolled integrator ``dx = dv`` (noise intensity r = 0.3, cost rate ``2 x^2``)
+    starting from the mean x = 1.5: ``E ∫_0^T 2 x^2 dt = 2 (1.5^2 T + r T^2 / 2)``, which is
+    3.792 for T = 0.8 s, and the cost rate is then ``2 (1.5^2 + r T) = 4.98`` per second.
+
+    >>> import numpy as np
+    >>> from netcosim import lq
+    >>> plant = lq.ContinuousSystem(0.0, 1.0, 1.0, R_c=0.3, Q_c=np.diag([2.0, 0.0]))
+    >>> p = lq.Propagator(lq.Interconnection().add("plant", plant))
+    >>> p.impulse([1.5], system="plant").pass_time(0.4).advance(0.8).time
+    0.8
+    >>> round(p.cost, 9), round(p.cost_rate, 9)
+    (3.792, 4.98)
+    >>> mean, var = p.state("plant")
+    >>> mean.tolist(), round(var.item(), 9)
+    ([1.5], 0.24)
     """
 
     def __init__(self, model: Interconnection, *, m0: Any = None, P0: Any = None, t0: float = 0.0,
