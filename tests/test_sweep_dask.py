@@ -82,3 +82,19 @@ def test_executor_dask_starts_a_local_cluster_and_closes_it():
     pdt.assert_frame_equal(serial.runs.drop(columns="wall_time"), res.runs.drop(columns="wall_time"))
     assert open_clients() == clients_before    # the sweep's own client is closed (others stay open)
     assert threading.active_count() <= before + 2
+
+
+def test_a_cluster_in_the_callers_process_leaves_its_heap_unfrozen(monkeypatch):
+    """A Dask worker process freezes its own heap after loading the scenario (its imports stay
+    out of every later collection); a worker that is a thread of the caller's process
+    (``LocalCluster(processes=False)``) must not freeze the caller's heap for good."""
+    import gc
+
+    from netcosim.sweep import executors
+    monkeypatch.setattr(executors, "_loaded", {})         # the scenario is loaded (and the freeze tried) anew
+    before = gc.get_freeze_count()
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) \
+            as cluster, distributed.Client(cluster, set_as_default=False) as c:
+        res = run_sweep(sc.cheap, {"a": [1, 2], "b": [0.5]}, 2, executor=c, quiet=True)
+    assert (res.runs["status"] == "ok").all() and len(res.runs) == 4
+    assert gc.get_freeze_count() == before

@@ -34,6 +34,7 @@ import gc
 import os
 import pickle
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -365,14 +366,20 @@ class PoolExecutor(SweepExecutor):
         return msg[1], msg[2]
 
 
-def _dask_task(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: float | None) -> Outcome:
+def _process() -> str:
+    return f"{socket.gethostname()}/{os.getpid()}"
+
+
+def _dask_task(ref: ScenarioRef, params: dict[str, Any], seed: int, timeout: float | None,
+               caller: str | None = None) -> Outcome:
     if timeout is not None:
         return run_in_child(ref, params, seed, timeout)
     if ref not in _loaded:
         load(ref)
-        import pandas  # noqa: F401  (see _pool_worker)
-        gc.collect()
-        gc.freeze()      # the worker's own objects stay out of the collection after each run
+        if _process() != caller:        # a worker thread of the caller's process: leave its heap unfrozen
+            import pandas  # noqa: F401  (see _pool_worker)
+            gc.collect()
+            gc.freeze()  # the worker's own objects stay out of the collection after each run
     return run_one(load(ref), params, seed)
 
 
@@ -454,7 +461,8 @@ class DaskExecutor(SweepExecutor):
         """Yield ``(index, outcome)`` for each task ``(index, params, seed)`` of *tasks* as it finishes."""
         from dask.distributed import as_completed
 
-        futures = {self.client.submit(_dask_task, self.ref, params, seed, self.timeout, pure=False): index
+        here = _process()        # the caller (host/pid): a worker in this process does not freeze it
+        futures = {self.client.submit(_dask_task, self.ref, params, seed, self.timeout, here, pure=False): index
                    for index, params, seed in tasks}
         try:
             # results are gathered in batches as they complete (one round trip per batch, not per run)
