@@ -332,15 +332,6 @@ _EXAMPLE_GAPS = frozenset({
     "netcosim.plant.solve_ivp.SolveIVP",
     "netcosim.plant.system.ContinuousSystem",
     "netcosim.plant.system.HybridEvent",
-    "netcosim.sweep.aggregate.plot_sweep",
-    "netcosim.sweep.aggregate.summarize",
-    "netcosim.sweep.executors.DaskExecutor",
-    "netcosim.sweep.executors.PoolExecutor",
-    "netcosim.sweep.executors.SerialExecutor",
-    "netcosim.sweep.executors.SweepExecutor",
-    "netcosim.sweep.result.SweepResult",
-    "netcosim.sweep.runner.load_sweep",
-    "netcosim.sweep.runner.verify_sweep",
     "netcosim.trace.Trace",
     "netcosim.view.to_chrome_trace",
     "netcosim.view.trace_tables",
@@ -369,9 +360,6 @@ _RAISES_GAPS = frozenset({
     "netcosim.plant.rk4.RK4",
     "netcosim.plant.solve_ivp.SolveIVP",
     "netcosim.plant.system.ContinuousSystem",
-    "netcosim.sweep.runner.load_sweep",
-    "netcosim.sweep.runner.run_sweep",
-    "netcosim.sweep.runner.verify_sweep",
 })
 
 

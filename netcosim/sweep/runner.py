@@ -210,6 +210,29 @@ def run_sweep(scenario: Callable | str, grid: Any, seeds: int | list[int] = 1, *
     A sweep holds at most :data:`MAX_RUNS` (10**7) runs, cases times seeds: a larger one
     is refused, naming the count, before anything is listed.
 
+    Raises
+    ------
+    ConfigurationError
+        Before any run, naming the value: an invalid grid or seeds, more than
+        :data:`MAX_RUNS` runs, a negative *root_seed*, a *timeout* not in (0,
+        :data:`MAX_TIMEOUT`], *workers* below 1, an unknown executor name, a malformed
+        *scheduler* (or one given with another executor; unreachable: when connecting), a
+        scenario that cannot be found or that worker processes cannot load (a lambda or a
+        nested function off ``"serial"``, or with a *timeout*), a grid parameter the
+        scenario does not accept, cases its ``validate`` refuses, *workers* with an executor
+        object, an *out* that cannot be written or holds another sweep
+        (:class:`~netcosim.sweep.store.SweepLockedError` if another sweep is writing there);
+        later, a worker process that cannot load the scenario.
+    ConfigurationTypeError
+        A value of the wrong kind: an *executor* that is not a name, a Dask ``Client`` or a
+        :class:`~netcosim.sweep.executors.SweepExecutor` object (or is the class itself),
+        a scenario that is not callable, a grid or a grid value of the wrong type, *notify*
+        not callable, *fresh* or *retry_errors* not a bool, a count not an integer.
+    RuntimeError
+        During the sweep: an executor reported a task twice, one it was not given, or not
+        all of them; pool workers that cannot start (a script without the ``__main__``
+        guard).  The runs stored so far are kept.
+
     Examples
     --------
     Two cases, two seeds each, in this process; one row per run:
@@ -425,8 +448,41 @@ def _execute(ex, tasks_all, done, store, names, meta, quiet, retry_errors=False,
 def verify_sweep(path: str | os.PathLike) -> list[Damage]:
     """The damaged files of the sweep stored in directory *path* (empty: intact): each
     finished run's files are compared with the SHA-256 recorded when they were written
-    (:meth:`~netcosim.sweep.store.Store.verify`).  Raises
-    :class:`~netcosim.errors.ConfigurationError` if *path* holds no sweep."""
+    (:meth:`~netcosim.sweep.store.Store.verify`).
+
+    Raises
+    ------
+    ConfigurationError
+        *path* holds no sweep (no ``sweep.json``), or its metadata cannot be read.
+    ConfigurationTypeError
+        *path* is not a str or an ``os.PathLike``.
+
+    Examples
+    --------
+    A stored sweep with one byte of a run's file flipped: the damaged file and the run
+    ``(case, seed_index)`` it holds are named, and running the sweep again re-runs that
+    run only.
+
+    >>> import pathlib, tempfile
+    >>> from netcosim.sweep import run_sweep, verify_sweep
+    >>> def scenario(params, seed):
+    ...     return {"double": 2 * params["x"]}
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> out = pathlib.Path(tmp.name, "sweep")
+    >>> _ = run_sweep(scenario, {"x": [1, 2]}, seeds=2, executor="serial", out=out, quiet=True)
+    >>> verify_sweep(out)
+    []
+    >>> part = out / "parts" / "run-000001-000000.parquet"
+    >>> data = bytearray(part.read_bytes())
+    >>> data[100] ^= 0xFF
+    >>> _ = part.write_bytes(data)
+    >>> [(d.file, d.keys) for d in verify_sweep(out)]
+    [('parts/run-000001-000000.parquet', ((1, 0),))]
+    >>> again = run_sweep(scenario, {"x": [1, 2]}, seeds=2, executor="serial", out=out, quiet=True)
+    >>> again.summary["skipped"], [d.file for d in again.repaired], verify_sweep(out)
+    (3, ['parts/run-000001-000000.parquet'], [])
+    >>> tmp.cleanup()
+    """
     store = Store(validate.path(path, "path"))
     if store.read_metadata() is None:
         raise ConfigurationError(f"{str(path)!r} holds no sweep (no {store.root / 'sweep.json'})")
@@ -441,8 +497,52 @@ def load_sweep(path: str | os.PathLike, verify: bool = True) -> SweepResult:
     it was written; a damaged, truncated or missing file raises
     :class:`~netcosim.sweep.store.DamagedSweepError` naming the files and the runs they
     hold (``.damage``, ``.keys``).  ``verify=False`` skips that (a file that cannot be
-    read still raises it).  Raises :class:`~netcosim.errors.ConfigurationError` naming
-    *path* if it holds no sweep.
+    read still raises it).
+
+    Raises
+    ------
+    ConfigurationError
+        *path* holds no sweep (no ``sweep.json``), or its metadata cannot be read.
+    ConfigurationTypeError
+        *path* is not a str or an ``os.PathLike``.
+    DamagedSweepError
+        (:class:`~netcosim.sweep.store.DamagedSweepError`) A file does not match its
+        recorded SHA-256 (with *verify*) or cannot be read.
+
+    Examples
+    --------
+    Messages over a lossy link, two loss probabilities, two seeds each, stored in a
+    directory and read back:
+
+    >>> import pathlib, tempfile
+    >>> from netcosim import IdealLink, Simulation
+    >>> from netcosim.sweep import load_sweep, run_sweep
+    >>> def lossy_link(params, seed):         # 100 messages, one per ms, frames lost with params["loss"]
+    ...     sim = Simulation(seed=seed)
+    ...     net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
+    ...     a, b, got = sim.node("a"), sim.node("b"), []
+    ...     net.attach(a), net.attach(b).on_receive(got.append)
+    ...     @a.periodic(period=0.001, priority=1)
+    ...     def send(ctx):
+    ...         ctx.send("b", None, 100)
+    ...         yield ctx.execute(1e-5)
+    ...     sim.run(until=0.1)
+    ...     return {"received": len(got)}
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> out = pathlib.Path(tmp.name, "sweep")
+    >>> ran = run_sweep(lossy_link, {"loss": [0.1, 0.5]}, seeds=2, executor="serial", out=out, quiet=True)
+    >>> back = load_sweep(out)
+    >>> back.runs["received"].tolist(), back.runs.equals(ran.runs), back.summary["missing"]
+    ([88, 87, 53, 54], True, 0)
+    >>> part = out / "parts" / "run-000001-000000.parquet"      # one byte of a run's file flipped
+    >>> data = bytearray(part.read_bytes())
+    >>> data[100] ^= 0xFF
+    >>> _ = part.write_bytes(data)
+    >>> load_sweep(out)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    netcosim.sweep.store.DamagedSweepError: sweep '...' is damaged: 1 file(s) do not match the SHA-256 ...
+    >>> tmp.cleanup()
     """
     store = Store(validate.path(path, "path"))
     meta = store.read_metadata()
