@@ -143,7 +143,7 @@ class SolveIVP:
                     "the plant may be very stiff or discontinuous")
             raise IntegrationError(
                 f"{self!r} used more than max_evaluations={budget} evaluations of f advancing from "
-                f"t={t0!r} to t={t1!r} s and got only to t={reached[0]!r} s; {hint}, "
+                f"t={t0!r} to t={t1!r} s and got only to t={float(reached[0])!r} s; {hint}, "
                 f"or raise max_evaluations") from None
         if sol.status == -1:
             raise IntegrationError(f"solve_ivp ({self!r}) failed between t={t0!r} and t={t1!r} s: "
