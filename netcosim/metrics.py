@@ -101,6 +101,26 @@ class Cost(float):
     read or write, then read/write instants; 1001 samples on [0, 1] s, every 1 ms"``.
     ``times``: the sample instants integrated (s), window ends included.  Arithmetic on
     a Cost gives plain floats; ``float(cost)`` drops the rest.
+
+    Examples
+    --------
+    The ISE of a first-order lag's step response, logged every 10 ms: the cost says
+    which samples it integrated (the run stops at 1 s, so the last row is at 0.99 s):
+
+    >>> from netcosim import Simulation, metrics
+    >>> from netcosim.plant import ContinuousSystem
+    >>> lag = ContinuousSystem(f=lambda t, x, u, p: -x + u, states=["x"], inputs=["u"], name="lag")
+    >>> sim = Simulation()
+    >>> plant = sim.plant(lag, [0.0], log_interval=0.01)
+    >>> plant.input("u").write(1.0)
+    >>> sim.run(until=1.0)
+    >>> cost = metrics.ise(sim.trace.signal("lag", "y.x"), reference=1.0)
+    >>> round(cost, 4)
+    0.4353
+    >>> cost.grid
+    'lag: log_interval 10 ms; 100 samples on [0, 0.99] s, every 10 ms'
+    >>> cost.times[:3].tolist(), type(cost * 2).__name__
+    ([0.0, 0.01, 0.02], 'float')
     """
 
     grid: str
@@ -224,10 +244,44 @@ def samples(data: Any, signal: Any = None, *, what: str = "signal") -> tuple[np.
     *data*: sample times (then *signal* holds the values), a ``Series`` indexed by time
     (s), or a signals table -- tidy (``time, source, signal, value``; *signal* is
     ``"<source>.<signal>"``) or wide (index time; *signal* is a column).  Times are
-    checked to be finite and sorted, values not to be NaN (naming the first NaN sample);
-    a name not in the table raises :class:`netcosim.trace.UnknownSignalError` (a
-    ``KeyError``) listing the names that are.  *what* names the caller in errors (e.g.
-    ``"settling_time"``).
+    checked to be finite and sorted; values are returned as they are, NaN included (the
+    integral criteria refuse a NaN, naming the first one; :func:`settling_time` reads it
+    as not settled).  *what* names the caller in errors (e.g. ``"settling_time"``).
+
+    Raises
+    ------
+    ConfigurationTypeError
+        a ``Series`` with a *signal* as well; a table with a *signal* that is not a
+        string; sample times without values; times or values that are not numbers.
+    ConfigurationError
+        times that are not one-dimensional, empty, not finite or not sorted; values of
+        another shape or length than the times.
+    UnknownSignalError
+        (:class:`netcosim.trace.UnknownSignalError`, a ``KeyError``) a name not in the
+        table; the message lists the names that are.
+
+    Examples
+    --------
+    The step response of the lag ``dx/dt = -x + u`` (``y = x``), logged every 250 ms,
+    is ``1 - e^-t``; the same samples from the tidy table and from a ``Series``:
+
+    >>> from netcosim import Simulation, metrics
+    >>> from netcosim.plant import ContinuousSystem
+    >>> lag = ContinuousSystem(f=lambda t, x, u, p: -x + u, states=["x"], inputs=["u"], name="lag")
+    >>> sim = Simulation()
+    >>> plant = sim.plant(lag, [0.0], log_interval=0.25)
+    >>> plant.input("u").write(1.0)
+    >>> sim.run(until=1.0)
+    >>> t, y = metrics.samples(sim.trace.signals(), "lag.y.x")
+    >>> t.tolist(), y.round(6).tolist()
+    ([0.0, 0.25, 0.5, 0.75], [0.0, 0.221199, 0.393469, 0.527633])
+    >>> t, y = metrics.samples(sim.trace.signal("lag", "y.x"))
+    >>> y.round(6).tolist()
+    [0.0, 0.221199, 0.393469, 0.527633]
+    >>> metrics.samples(sim.trace.signals(), "lag.y")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+      ...
+    netcosim.trace.UnknownSignalError: signal: no signal 'lag.y' in the table; it holds ['lag.u.u', 'lag.x.x', ...]
     """
     import pandas as pd
 
@@ -353,6 +407,21 @@ def ise(data: Any, signal: Any = None, *, reference: Any = None, start: float | 
     Arguments as :func:`iae` (*data*, *signal*: the samples; ``reference``: a number or
     ``r(t)``, the error ``r - y``, None: the signal itself); with ``hold="linear"`` each segment contributes exactly
     ``h (a^2 + a b + b^2) / 3``.  Result in (signal unit)^2 x s.
+
+    Examples
+    --------
+    ``e(t) = e^-t`` sampled every 10 ms on [0, 1] s: the exact ISE is
+    ``(1 - e^-2) / 2``; the held samples overestimate it by O(h), the interpolated ones
+    are off by O(h^2):
+
+    >>> import math
+    >>> import numpy as np
+    >>> from netcosim import metrics
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> round(metrics.ise(t, np.exp(-t)), 6), round(metrics.ise(t, np.exp(-t), hold="linear"), 6)
+    (0.43667, 0.43234)
+    >>> round((1 - math.exp(-2)) / 2, 6)
+    0.432332
     """
     t, e, _, hold = _prepare(data, signal, reference, start, until, hold, "ise")
     h = np.diff(t)
@@ -372,6 +441,20 @@ def itae(data: Any, signal: Any = None, *, reference: Any = None, start: float |
     ``"linear"``, exact for the held or interpolated error).  The weight is the time since ``start`` (default the first
     sample), so a run logged from t = 0 gets the textbook ``integral of t |e| dt``.
     Result in (signal unit) x s^2.
+
+    Examples
+    --------
+    ``e(t) = e^-t`` sampled every 10 ms on [0, 1] s: the exact ITAE is
+    ``integral of t e^-t dt = 1 - 2/e``:
+
+    >>> import math
+    >>> import numpy as np
+    >>> from netcosim import metrics
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> round(metrics.itae(t, np.exp(-t)), 6), round(metrics.itae(t, np.exp(-t), hold="linear"), 6)
+    (0.26557, 0.264243)
+    >>> round(1 - 2 / math.e, 6)
+    0.264241
     """
     t, e, s, hold = _prepare(data, signal, reference, start, until, hold, "itae")
     tau = t - s
@@ -446,6 +529,39 @@ def quadratic_cost(data: Any, x: Any, u: Any = None, *, Q: Any = None, R: Any = 
     positive semidefinite (a negative weight raises, naming it).  ``hold="zoh"`` sums
     ``z_k' W z_k (t_(k+1) - t_k)`` with ``z = [x; u]``; ``"linear"`` integrates the
     interpolated ``z`` exactly, ``h (a'Wa + a'Wb + b'Wb) / 3`` per segment.
+
+    Raises
+    ------
+    ConfigurationTypeError
+        the times, *x* or *u* are not numbers; with a signals table, *x* or *u* is not a
+        signal name or a list of names; a weight is not a matrix of numbers; *start* or
+        *until* is not a number (s).
+    ConfigurationError
+        *hold* is not ``"zoh"`` or ``"linear"``; the times are empty, not finite or not
+        sorted; *x* or *u* has the wrong shape or length, or a NaN; *R* or *N* is given
+        without *u*; a weight has the wrong shape, is not finite, not symmetric or not
+        positive semidefinite (``[[Q, N], [N', R]]`` included); the window
+        ``[start, until]`` is empty or outside the samples.
+    UnknownSignalError
+        (:class:`netcosim.trace.UnknownSignalError`, a ``KeyError``) a name not in the
+        signals table.
+
+    Examples
+    --------
+    The LQR loop of ``dx/dt = u`` with ``Q = R = 1`` is ``u = -x`` (the Riccati solution
+    is ``S = 1``), so ``J = x0' S x0 = 1`` from ``x0 = 1``; here its trajectory
+    ``x = e^-t``, ``u = -e^-t`` sampled every 10 ms over 10 s:
+
+    >>> import numpy as np
+    >>> from netcosim import metrics
+    >>> t = np.linspace(0.0, 10.0, 1001)
+    >>> x, u = np.exp(-t), -np.exp(-t)
+    >>> round(metrics.quadratic_cost(t, x, u, Q=1.0, R=1.0, hold="linear"), 4)
+    1.0
+    >>> metrics.quadratic_cost(t, x, u, Q=-1.0)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+      ...
+    netcosim.errors.ConfigurationError: quadratic_cost: Q must be positive semidefinite (smallest eigenvalue -1), ...
     """
     hold = _check_hold(hold)
     import pandas as pd
@@ -512,7 +628,21 @@ def settling_time(data: Any, signal: Any = None, *, final: float | None = None, 
     sample outside the band (python-control's ``step_info`` ``SettlingTime`` for a step
     from 0); with ``"linear"`` it is the instant the interpolated signal crosses into
     the band.  0 if it never leaves the band; ``inf`` if the last sample is outside.
-    Example: ``y = 1 - exp(-t/tau)`` settles to 2 % at ``tau ln 50``.
+
+    Examples
+    --------
+    ``y = 1 - exp(-t/tau)`` with ``tau = 0.1`` s, sampled every 1 ms, settles to 2 % of
+    its final value 1 at ``tau ln 50`` s:
+
+    >>> import math
+    >>> import numpy as np
+    >>> from netcosim import metrics
+    >>> t = np.linspace(0.0, 1.0, 1001)
+    >>> y = 1 - np.exp(-t / 0.1)
+    >>> float(metrics.settling_time(t, y, final=1.0)), round(metrics.settling_time(t, y, final=1.0, hold="linear"), 6)
+    (0.392, 0.391203)
+    >>> round(0.1 * math.log(50), 6)
+    0.391202
     """
     hold = _check_hold(hold)
     t, y = samples(data, signal, what="settling_time")
@@ -554,6 +684,23 @@ def diverged(values: Any = None, bound: float = math.inf, *, error: BaseExceptio
     its ``value`` column; any other table: its numeric columns).  ``bound``: a positive
     number in the values' unit (default ``inf``: only non-finite values count).  An
     *error* of another kind is not divergence: the result then depends on *values* only.
+
+    Raises
+    ------
+    ConfigurationTypeError
+        *bound* is not a number, or *values* does not hold numbers.
+    ConfigurationError
+        *bound* is not positive (or is NaN).
+
+    Examples
+    --------
+    >>> import math
+    >>> from netcosim import metrics
+    >>> from netcosim.errors import IntegrationError
+    >>> metrics.diverged([0.5, -3.0]), metrics.diverged([0.5, -3.0], bound=2.5), metrics.diverged([0.5, math.nan])
+    (False, True, True)
+    >>> metrics.diverged(error=IntegrationError("state non-finite")), metrics.diverged(error=KeyError("y"))
+    (True, False)
     """
     b = validate.real(bound, "diverged: bound", lo=0.0, lo_open=True, allow_inf=True,
                       kind="a positive number (or inf)")
