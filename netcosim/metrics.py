@@ -75,6 +75,7 @@ import numpy as np
 
 from . import validate
 from .errors import ConfigurationError, ConfigurationTypeError, IntegrationError
+from .sampled import _error, _no_nan, _settling, _split_at_zeros, _tidy_names, _times, _unknown, _values, _window
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -101,6 +102,26 @@ class Cost(float):
     read or write, then read/write instants; 1001 samples on [0, 1] s, every 1 ms"``.
     ``times``: the sample instants integrated (s), window ends included.  Arithmetic on
     a Cost gives plain floats; ``float(cost)`` drops the rest.
+
+    Examples
+    --------
+    The ISE of a first-order lag's step response, logged every 10 ms: the cost says
+    which samples it integrated (the run stops at 1 s, so the last row is at 0.99 s):
+
+    >>> from netcosim import Simulation, metrics
+    >>> from netcosim.plant import ContinuousSystem
+    >>> lag = ContinuousSystem(f=lambda t, x, u, p: -x + u, states=["x"], inputs=["u"], name="lag")
+    >>> sim = Simulation()
+    >>> plant = sim.plant(lag, [0.0], log_interval=0.01)
+    >>> plant.input("u").write(1.0)
+    >>> sim.run(until=1.0)
+    >>> cost = metrics.ise(sim.trace.signal("lag", "y.x"), reference=1.0)
+    >>> round(cost, 4)
+    0.4353
+    >>> cost.grid
+    'lag: log_interval 10 ms; 100 samples on [0, 0.99] s, every 10 ms'
+    >>> cost.times[:3].tolist(), type(cost * 2).__name__
+    ([0.0, 0.01, 0.02], 'float')
     """
 
     grid: str
@@ -158,64 +179,8 @@ def _cost(value: float, t: np.ndarray, data: Any, signal: Any) -> Cost:
 
 
 # ---------------------------------------------------------------------- input handling
-def _times(t: Any, what: str) -> np.ndarray:
-    try:
-        arr = np.asarray(t, dtype=float)
-    except (TypeError, ValueError):
-        raise ConfigurationTypeError(f"{what}: sample times must be numbers (s), got {t!r}") from None
-    if arr.ndim != 1:
-        raise ConfigurationError(f"{what}: sample times must be one-dimensional, got shape {arr.shape}")
-    if arr.size == 0:
-        raise ConfigurationError(f"{what}: no samples (empty time array)")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        raise ConfigurationError(f"{what}: sample time t[{bad[0]}]={float(arr[bad[0]])!r} is not finite")
-    back = np.flatnonzero(np.diff(arr) < 0)
-    if back.size:
-        k = back[0]
-        raise ConfigurationError(f"{what}: sample times must be sorted (non-decreasing); "
-                                 f"t[{k + 1}]={float(arr[k + 1])!r} < t[{k}]={float(arr[k])!r}")
-    return arr
-
-
-def _values(v: Any, n: int, what: str, *, columns: bool = False) -> np.ndarray:
-    try:
-        arr = np.asarray(v, dtype=float)
-    except (TypeError, ValueError):
-        raise ConfigurationTypeError(f"{what}: values must be numbers, got {v!r}") from None
-    if columns and arr.ndim == 1:
-        arr = arr[:, None]
-    if arr.ndim != (2 if columns else 1):
-        raise ConfigurationError(f"{what}: values must be {'a (samples, n) array' if columns else 'one-dimensional'}"
-                                 f", got shape {arr.shape}")
-    if arr.shape[0] != n:
-        raise ConfigurationError(f"{what}: {arr.shape[0]} values for {n} sample times (lengths must match)")
-    return arr
-
-
-def _no_nan(t: np.ndarray, v: np.ndarray, what: str) -> None:
-    """Refuse NaN values (an integral of them would be NaN), naming the first one's index
-    and time.  (:func:`settling_time` does not call it: NaN there means "not settled".)"""
-    nan = np.flatnonzero(np.isnan(v).any(axis=1) if v.ndim == 2 else np.isnan(v))
-    if nan.size:
-        k = int(nan[0])
-        raise ConfigurationError(f"{what}: the value at index {k} (t={float(t[k])!r} s) is NaN"
-                                 + (f", and {nan.size - 1} more" if nan.size > 1 else "")
-                                 + ": an integral over it would be NaN")
-
-
 def _check_hold(hold: str) -> str:
     return validate.choice(hold, "hold", HOLDS)
-
-
-def _tidy_names(df: pd.DataFrame) -> np.ndarray:
-    return (df["source"].astype(str) + "." + df["signal"].astype(str)).to_numpy()
-
-
-def _unknown(message: str) -> Exception:
-    """:class:`netcosim.trace.UnknownSignalError` (a ``KeyError`` too) with *message*."""
-    from .trace import UnknownSignalError
-    return UnknownSignalError(message)
 
 
 def samples(data: Any, signal: Any = None, *, what: str = "signal") -> tuple[np.ndarray, np.ndarray]:
@@ -224,10 +189,43 @@ def samples(data: Any, signal: Any = None, *, what: str = "signal") -> tuple[np.
     *data*: sample times (then *signal* holds the values), a ``Series`` indexed by time
     (s), or a signals table -- tidy (``time, source, signal, value``; *signal* is
     ``"<source>.<signal>"``) or wide (index time; *signal* is a column).  Times are
-    checked to be finite and sorted, values not to be NaN (naming the first NaN sample);
-    a name not in the table raises :class:`netcosim.trace.UnknownSignalError` (a
-    ``KeyError``) listing the names that are.  *what* names the caller in errors (e.g.
-    ``"settling_time"``).
+    checked to be finite and sorted; values are returned as they are, NaN included (the
+    integral criteria refuse a NaN, naming the first one; :func:`settling_time` reads it
+    as not settled).  *what* names the caller in errors (e.g. ``"settling_time"``).
+
+    Raises
+    ------
+    ConfigurationTypeError
+        a ``Series`` with a *signal* as well; a table with a *signal* that is not a
+        string; sample times without values; times or values that are not numbers.
+    ConfigurationError
+        times that are not one-dimensional, empty, not finite or not sorted; values of
+        another shape or length than the times.
+    UnknownSignalError
+        (:class:`netcosim.trace.UnknownSignalError`, a ``KeyError``) a name not in the
+        table; the message lists the names that are.
+
+    Examples
+    --------
+    The step response of the lag ``dx/dt = -x + u`` (``y = x``), logged every 250 ms,
+    is ``1 - e^-t``; the same samples from the tidy table and from a ``Series``:
+
+    >>> from netcosim import Simulation, metrics
+    >>> from netcosim.plant import ContinuousSystem
+    >>> lag = ContinuousSystem(f=lambda t, x, u, p: -x + u, states=["x"], inputs=["u"], name="lag")
+    >>> sim = Simulation()
+    >>> plant = sim.plant(lag, [0.0], log_interval=0.25)
+    >>> plant.input("u").write(1.0)
+    >>> sim.run(until=1.0)
+    >>> t, y = metrics.samples(sim.trace.signals(), "lag.y.x")
+    >>> t.tolist(), y.round(6).tolist()
+    ([0.0, 0.25, 0.5, 0.75], [0.0, 0.221199, 0.393469, 0.527633])
+    >>> metrics.samples(sim.trace.signal("lag", "y.x"))[1].round(6).tolist()
+    [0.0, 0.221199, 0.393469, 0.527633]
+    >>> metrics.samples(sim.trace.signals(), "lag.y")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+      ...
+    netcosim.trace.UnknownSignalError: signal: no signal 'lag.y' in the table; it holds ['lag.u.u', 'lag.x.x', ...]
     """
     import pandas as pd
 
@@ -258,58 +256,6 @@ def samples(data: Any, signal: Any = None, *, what: str = "signal") -> tuple[np.
                                      f"a signals table and a name; got {type(data).__name__} alone")
     t = _times(data, what)
     return t, _values(signal, t.size, what)
-
-
-def _error(t: np.ndarray, v: np.ndarray, reference: Any) -> np.ndarray:
-    if reference is None:
-        return v
-    if callable(reference):
-        r = np.array([float(reference(x)) for x in t])
-    else:
-        r = np.full(t.size, validate.finite(reference, "reference"))
-    return r - v
-
-
-def _window(t: np.ndarray, v: np.ndarray, start, until, hold: str) -> tuple[np.ndarray, np.ndarray, float]:
-    """Samples restricted to ``[start, until]``, with exact values at both ends (held or
-    interpolated); returns ``(t, v, start)``.  *v* may be (n,) or (n, k)."""
-    s = t[0] if start is None else validate.finite(start, "start (s)")
-    e = t[-1] if until is None else validate.finite(until, "until (s)")
-    s, e = float(s), float(e)
-    first, last = float(t[0]), float(t[-1])
-    if s < first:
-        raise ConfigurationError(f"start={start!r} s is before the first sample at t={first!r} s")
-    if until is None and s > e:
-        raise ConfigurationError(f"start={start!r} s is after the last sample at t={last!r} s")
-    if e < s:
-        raise ConfigurationError(f"until={until!r} s is before start={s!r} s")
-    if e == s:
-        raise ConfigurationError(f"the window from start={s!r} s to until={e!r} s has zero length (the samples "
-                                 f"span t={first!r} to {last!r} s): nothing to integrate over")
-
-    def at(x):
-        if hold == "zoh" or x >= t[-1]:
-            return v[np.searchsorted(t, x, side="right") - 1]
-        k = np.searchsorted(t, x, side="right") - 1
-        if t[k] == x:
-            return v[k]
-        w = (x - t[k]) / (t[k + 1] - t[k])
-        return (1 - w) * v[k] + w * v[k + 1]
-
-    inside = (t > s) & (t < e)
-    tt = np.concatenate(([s], t[inside], [e]))
-    vv = np.concatenate(([at(s)], v[inside], [at(e)]))
-    return tt, vv, s
-
-
-def _split_at_zeros(t: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Insert the zero crossings of the linear interpolant (exact, for IAE/ITAE)."""
-    a, b = e[:-1], e[1:]
-    k = np.flatnonzero(a * b < 0)
-    if k.size == 0:
-        return t, e
-    tc = t[k] + (t[k + 1] - t[k]) * a[k] / (a[k] - b[k])
-    return np.insert(t, k + 1, tc), np.insert(e, k + 1, 0.0)
 
 
 def _prepare(data, signal, reference, start, until, hold, what):
@@ -353,6 +299,21 @@ def ise(data: Any, signal: Any = None, *, reference: Any = None, start: float | 
     Arguments as :func:`iae` (*data*, *signal*: the samples; ``reference``: a number or
     ``r(t)``, the error ``r - y``, None: the signal itself); with ``hold="linear"`` each segment contributes exactly
     ``h (a^2 + a b + b^2) / 3``.  Result in (signal unit)^2 x s.
+
+    Examples
+    --------
+    ``e(t) = e^-t`` sampled every 10 ms on [0, 1] s: the exact ISE is
+    ``(1 - e^-2) / 2``; the held samples overestimate it by O(h), the interpolated ones
+    are off by O(h^2):
+
+    >>> import math
+    >>> import numpy as np
+    >>> from netcosim import metrics
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> round(metrics.ise(t, np.exp(-t)), 6), round(metrics.ise(t, np.exp(-t), hold="linear"), 6)
+    (0.43667, 0.43234)
+    >>> round((1 - math.exp(-2)) / 2, 6)
+    0.432332
     """
     t, e, _, hold = _prepare(data, signal, reference, start, until, hold, "ise")
     h = np.diff(t)
@@ -372,6 +333,20 @@ def itae(data: Any, signal: Any = None, *, reference: Any = None, start: float |
     ``"linear"``, exact for the held or interpolated error).  The weight is the time since ``start`` (default the first
     sample), so a run logged from t = 0 gets the textbook ``integral of t |e| dt``.
     Result in (signal unit) x s^2.
+
+    Examples
+    --------
+    ``e(t) = e^-t`` sampled every 10 ms on [0, 1] s: the exact ITAE is
+    ``integral of t e^-t dt = 1 - 2/e``:
+
+    >>> import math
+    >>> import numpy as np
+    >>> from netcosim import metrics
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> round(metrics.itae(t, np.exp(-t)), 6), round(metrics.itae(t, np.exp(-t), hold="linear"), 6)
+    (0.26557, 0.264243)
+    >>> round(1 - 2 / math.e, 6)
+    0.264241
     """
     t, e, s, hold = _prepare(data, signal, reference, start, until, hold, "itae")
     tau = t - s
@@ -446,6 +421,39 @@ def quadratic_cost(data: Any, x: Any, u: Any = None, *, Q: Any = None, R: Any = 
     positive semidefinite (a negative weight raises, naming it).  ``hold="zoh"`` sums
     ``z_k' W z_k (t_(k+1) - t_k)`` with ``z = [x; u]``; ``"linear"`` integrates the
     interpolated ``z`` exactly, ``h (a'Wa + a'Wb + b'Wb) / 3`` per segment.
+
+    Raises
+    ------
+    ConfigurationTypeError
+        the times, *x* or *u* are not numbers; with a signals table, *x* or *u* is not a
+        signal name or a list of names; a weight is not a matrix of numbers; *start* or
+        *until* is not a number (s).
+    ConfigurationError
+        *hold* is not ``"zoh"`` or ``"linear"``; the times are empty, not finite or not
+        sorted; *x* or *u* has the wrong shape or length, or a NaN; *R* or *N* is given
+        without *u*; a weight has the wrong shape, is not finite, not symmetric or not
+        positive semidefinite (``[[Q, N], [N', R]]`` included); the window
+        ``[start, until]`` is empty or outside the samples.
+    UnknownSignalError
+        (:class:`netcosim.trace.UnknownSignalError`, a ``KeyError``) a name not in the
+        signals table.
+
+    Examples
+    --------
+    The LQR loop of ``dx/dt = u`` with ``Q = R = 1`` is ``u = -x`` (the Riccati solution
+    is ``S = 1``), so ``J = x0' S x0 = 1`` from ``x0 = 1``; here its trajectory
+    ``x = e^-t``, ``u = -e^-t`` sampled every 10 ms over 10 s:
+
+    >>> import numpy as np
+    >>> from netcosim import metrics
+    >>> t = np.linspace(0.0, 10.0, 1001)
+    >>> x, u = np.exp(-t), -np.exp(-t)
+    >>> round(metrics.quadratic_cost(t, x, u, Q=1.0, R=1.0, hold="linear"), 4)
+    1.0
+    >>> metrics.quadratic_cost(t, x, u, Q=-1.0)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+      ...
+    netcosim.errors.ConfigurationError: quadratic_cost: Q must be positive semidefinite (smallest eigenvalue -1), ...
     """
     hold = _check_hold(hold)
     import pandas as pd
@@ -512,37 +520,26 @@ def settling_time(data: Any, signal: Any = None, *, final: float | None = None, 
     sample outside the band (python-control's ``step_info`` ``SettlingTime`` for a step
     from 0); with ``"linear"`` it is the instant the interpolated signal crosses into
     the band.  0 if it never leaves the band; ``inf`` if the last sample is outside.
-    Example: ``y = 1 - exp(-t/tau)`` settles to 2 % at ``tau ln 50``.
+
+    Examples
+    --------
+    ``y = 1 - exp(-t/tau)`` with ``tau = 0.1`` s, sampled every 1 ms, settles to 2 % of
+    its final value 1 at ``tau ln 50`` s:
+
+    >>> import math
+    >>> import numpy as np
+    >>> from netcosim import metrics
+    >>> t = np.linspace(0.0, 1.0, 1001)
+    >>> y = 1 - np.exp(-t / 0.1)
+    >>> float(metrics.settling_time(t, y, final=1.0)), round(metrics.settling_time(t, y, final=1.0, hold="linear"), 6)
+    (0.392, 0.391203)
+    >>> round(0.1 * math.log(50), 6)
+    0.391202
     """
     hold = _check_hold(hold)
     t, y = samples(data, signal, what="settling_time")
     t, y, s = _window(t, y, start, None, hold)
     return _cost(_settling(t, y, s, final, band, abs_band, hold), t, data, signal)
-
-
-def _settling(t: np.ndarray, y: np.ndarray, s: float, final, band, abs_band, hold: str) -> float:
-    yf = y[-1] if final is None else validate.finite(final, "settling_time: final")
-    if abs_band is not None:
-        width = validate.non_negative(abs_band, "settling_time: abs_band")
-    else:
-        frac = validate.non_negative(band, "settling_time: band (fraction of the step)")
-        width = frac * abs(yf - y[0])
-        if width == 0.0 and frac > 0.0:
-            raise ConfigurationError(f"settling_time: no step to settle from: final={yf!r} equals the value at "
-                                     f"start ({y[0]!r}); give abs_band (signal units) instead")
-    if not np.all(np.isfinite(y)):
-        return math.inf
-    out = np.flatnonzero(np.abs(y - yf) > width)
-    if out.size == 0:
-        return 0.0
-    k = int(out[-1])
-    if k == y.size - 1:
-        return math.inf
-    if hold == "zoh":
-        return float(t[k + 1] - s)
-    a, b = y[k], y[k + 1]
-    level = yf + math.copysign(width, a - yf)
-    return float(t[k] + (t[k + 1] - t[k]) * (level - a) / (b - a) - s)
 
 
 def diverged(values: Any = None, bound: float = math.inf, *, error: BaseException | None = None) -> bool:
@@ -554,6 +551,23 @@ def diverged(values: Any = None, bound: float = math.inf, *, error: BaseExceptio
     its ``value`` column; any other table: its numeric columns).  ``bound``: a positive
     number in the values' unit (default ``inf``: only non-finite values count).  An
     *error* of another kind is not divergence: the result then depends on *values* only.
+
+    Raises
+    ------
+    ConfigurationTypeError
+        *bound* is not a number, or *values* does not hold numbers.
+    ConfigurationError
+        *bound* is not positive (or is NaN).
+
+    Examples
+    --------
+    >>> import math
+    >>> from netcosim import metrics
+    >>> from netcosim.errors import IntegrationError
+    >>> metrics.diverged([0.5, -3.0]), metrics.diverged([0.5, -3.0], bound=2.5), metrics.diverged([0.5, math.nan])
+    (False, True, True)
+    >>> metrics.diverged(error=IntegrationError("state non-finite")), metrics.diverged(error=KeyError("y"))
+    (True, False)
     """
     b = validate.real(bound, "diverged: bound", lo=0.0, lo_open=True, allow_inf=True,
                       kind="a positive number (or inf)")

@@ -49,7 +49,29 @@ class Variable:
     FMI name; ``value_reference``: the FMI value reference; ``type``: e.g. ``"Real"``,
     ``"Float64"``, ``"Integer"``, ``"Boolean"``; ``causality`` (``"input"``, ``"output"``,
     ``"parameter"``, ``"local"``, ...) and ``variability`` (``"continuous"``, ``"tunable"``,
-    ...) as in the description; ``description``: its text, or None."""
+    ...) as in the description; ``description``: its text, or None.
+
+    Examples
+    --------
+    The variables of the demo DC servo FMU (built from C with gcc by
+    :func:`netcosim.fmi.demo.build_fmu`), as its plant model exposes them:
+
+    >>> import shutil, tempfile
+    >>> import pytest
+    >>> if shutil.which("gcc") is None:      # the demo FMUs are compiled on this machine
+    ...     pytest.skip("building the demo FMU needs gcc")
+    >>> from netcosim.fmi import ModelExchangeFMU
+    >>> from netcosim.fmi.demo import build_fmu
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> servo = ModelExchangeFMU(build_fmu("servo", 2, tmp.name))
+    >>> u = servo.signals["u"]
+    >>> u.name, u.value_reference, u.type, u.causality, u.variability, u.unit, u.start
+    ('u', 4, 'Real', 'input', 'continuous', 'V', 0.0)
+    >>> k = servo.file.variables["k"]
+    >>> k.causality, k.unit, k.start
+    ('parameter', 'rad/(V.s2)', 1000.0)
+    >>> tmp.cleanup()
+    """
 
     name: str
     value_reference: int
@@ -78,9 +100,41 @@ class FMUFile:
     ``fmi_version`` is 2 or 3; ``variables`` maps every variable name to its
     :class:`Variable`; ``model_description`` is FMPy's own object.  ``kind``: the interface
     used, ``"model exchange"``, ``"co-simulation"`` or ``"scheduled execution"`` (the FMU
-    must provide it).  Raises
-    :class:`~netcosim.errors.FMUError` for a missing or unreadable file, a description
-    FMPy rejects, or an FMI version other than 2.0 and 3.0.
+    must provide it).
+
+    Raises
+    ------
+    FMUError
+        (:class:`~netcosim.errors.FMUError`) *path* does not exist, is not a zip
+        archive, has no ``modelDescription.xml`` or one that is not XML, declares an FMI
+        version other than 2.0 and 3.0, has a description FMPy rejects or cannot read,
+        offers no *kind* interface, or cannot be extracted.
+    ImportError
+        FMPy is not installed (``pip install 'netcosim[fmi]'``).
+
+    Examples
+    --------
+    The demo DC servo FMU, compiled with gcc by :func:`netcosim.fmi.demo.build_fmu`:
+
+    >>> import shutil, tempfile
+    >>> import pytest
+    >>> if shutil.which("gcc") is None:      # the demo FMUs are compiled on this machine
+    ...     pytest.skip("building the demo FMU needs gcc")
+    >>> from netcosim.fmi import FMUFile
+    >>> from netcosim.fmi.demo import build_fmu
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> fmu = FMUFile(build_fmu("servo", 2, tmp.name), kind="model exchange")
+    >>> fmu.fmi_version, fmu.model_name, fmu.names("input"), fmu.names("output")
+    (2, 'servo2', ('u',), ('y',))
+    >>> fmu.names("parameter")
+    ('k', 'a', 'fail_at', 'max_step')
+    >>> fmu.variables["velocity"].unit
+    'rad/s'
+    >>> FMUFile("missing.fmu", kind="model exchange")
+    Traceback (most recent call last):
+      ...
+    netcosim.errors.FMUError: FMU 'missing.fmu': no such file
+    >>> tmp.cleanup()
     """
 
     def __init__(self, path: Any, *, kind: str):

@@ -63,6 +63,52 @@ class ModelExchangeFMU(ContinuousSystem):
     to its :class:`~netcosim.fmi.description.Variable` (unit, start value, description);
     ``units`` maps them to their units; ``parameters`` holds the values of the FMU's
     parameters (their start values, overridden by *parameters*).
+
+    Raises
+    ------
+    FMUError
+        (:class:`~netcosim.errors.FMUError`) the file is not a usable FMU with a model
+        exchange interface (see :class:`~netcosim.fmi.description.FMUFile`); a
+        derivative of its ``ModelStructure`` names no state; its binary cannot be loaded
+        for this platform, or instantiating or initialising it fails (e.g. a GUID that
+        is not the binary's), or it asks to terminate at initialisation.
+    ConfigurationError
+        *inputs* or *outputs* is a string, or names a variable the FMU does not have or
+        one that is not real (Real/Float64), or a name twice; *parameters* names an
+        unknown variable, one that cannot be set, or gives a value that is not a finite
+        number.
+
+    Examples
+    --------
+    The demo DC servo ``k / (s (s + a))`` FMU (FMI 2.0, compiled with gcc by
+    :func:`netcosim.fmi.demo.build_fmu`) integrated by netcosim's default integrator
+    under 1 V for 0.1 s from rest: the angle is ``1000 (t - 1 + e^-t)`` rad; with
+    ``k = 500`` given as a parameter it is half that:
+
+    >>> import shutil, tempfile
+    >>> import pytest
+    >>> if shutil.which("gcc") is None:      # the demo FMUs are compiled on this machine
+    ...     pytest.skip("building the demo FMU needs gcc")
+    >>> import math
+    >>> from netcosim import Simulation
+    >>> from netcosim.fmi import ModelExchangeFMU
+    >>> from netcosim.fmi.demo import build_fmu
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> path = build_fmu("servo", 2, tmp.name)
+    >>> servo = ModelExchangeFMU(path)
+    >>> servo.state_names, servo.input_names, servo.output_names, servo.units["u"]
+    (('angle', 'velocity'), ('u',), ('y',), 'V')
+    >>> half = ModelExchangeFMU(path, parameters={"k": 500.0}, name="half")
+    >>> sim = Simulation()
+    >>> plants = [sim.plant(system, system.x0) for system in (servo, half)]
+    >>> for plant in plants:
+    ...     plant.input("u").write(1.0)
+    >>> sim.run(until=0.1)
+    >>> [round(plant.output("y").read(), 6) for plant in plants]
+    [4.837418, 2.418709]
+    >>> round(1000 * (0.1 - 1 + math.exp(-0.1)), 6)
+    4.837418
+    >>> tmp.cleanup()
     """
 
     def __init__(self, path: Any, *, inputs: Sequence[str] | None = None, outputs: Sequence[str] | None = None,

@@ -44,6 +44,47 @@ class ScheduledExecutionFMU:
     completion time)`` in s; :meth:`output` reads an output (or any Float64 variable).
     *parameters*: ``{FMI name: value}`` set before initialisation; *start_time* (s): the
     FMU's time at initialisation; *name*: the instance's name (default the model's).
+
+    Raises
+    ------
+    FMUError
+        (:class:`~netcosim.errors.FMUError`) the file is not a usable FMU with a
+        Scheduled Execution interface (see
+        :class:`~netcosim.fmi.description.FMUFile`); it has no input clock with a
+        constant interval, or an input clock without one (``intervalDecimal``) or with
+        an interval that is not > 0 s; its binary cannot be loaded, instantiated or
+        initialised.
+    ConfigurationError
+        *parameters* names an unknown variable, one that cannot be set, or gives a
+        value that is not a finite number.
+
+    Examples
+    --------
+    The demo Scheduled Execution FMU (compiled with gcc by
+    :func:`netcosim.fmi.demo.build_se_fmu`): clock ``fast`` every 5 ms, ``slow`` every
+    8 ms, as rate-monotonic tasks of 1 ms and 2 ms on one CPU.  At t = 0 ``slow`` waits
+    for ``fast``, so its partition completes at 3 ms; ``(clock, activation time,
+    completion time)`` in s:
+
+    >>> import shutil, tempfile
+    >>> import pytest
+    >>> if shutil.which("gcc") is None:      # the demo FMUs are compiled on this machine
+    ...     pytest.skip("building the demo FMU needs gcc")
+    >>> from netcosim import Simulation
+    >>> from netcosim.fmi import ScheduledExecutionFMU
+    >>> from netcosim.fmi.demo import build_se_fmu
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> se = ScheduledExecutionFMU(build_se_fmu(tmp.name))
+    >>> se.clocks
+    {'fast': 0.005, 'slow': 0.008}
+    >>> sim = Simulation()
+    >>> tasks = se.add_tasks(sim.node("ecu"), {"fast": 0.001, "slow": 0.002})
+    >>> sim.run(until=0.012)
+    >>> [(clock, round(t_act, 6), round(t_done, 6)) for clock, t_act, t_done in se.activations]
+    [('fast', 0.0, 0.001), ('slow', 0.0, 0.003), ('fast', 0.005, 0.006), ('slow', 0.008, 0.01), ('fast', 0.01, 0.011)]
+    >>> se.output("fast_count"), se.output("slow_count")
+    (3.0, 2.0)
+    >>> tmp.cleanup()
     """
 
     def __init__(self, path: Any, *, parameters: dict | None = None, start_time: float = 0.0,

@@ -73,6 +73,42 @@ class ExactZOH:
     expm_calls: matrix exponentials computed so far by the plants using this instance;
         ``cache_hits``: advances served from a plant's cache; ``shared_hits``:
         transitions a plant's cache missed but the process-wide cache held.
+
+    Raises
+    ------
+    ConfigurationTypeError
+        *fallback* has no ``integrate`` method, or *cache_size* is not an integer; when
+        a plant is created with it, a system without ``A`` or ``B``.
+    ConfigurationError
+        *cache_size* is below 1; when a plant is created with it, a plant with hybrid
+        events or disturbances and no *fallback*, ``A`` or ``B`` of the wrong shape or
+        not finite, or an ``f`` that is not ``A x + B u``.
+
+    Examples
+    --------
+    The DC servo ``1000 / (s (s + 1))`` under +1 V for 50 ms, then -1 V for 50 ms, the
+    input written every 10 ms: the angle at 0.1 s is ``s(0.1) - 2 s(0.05)`` rad with
+    ``s(t) = 1000 (t - 1 + e^-t)`` the step response, from one matrix exponential (the
+    ten 10 ms intervals share it):
+
+    >>> import math
+    >>> from netcosim import Simulation
+    >>> from netcosim.plant import ExactZOH
+    >>> from netcosim.plants.dc_servo import DCServo
+    >>> zoh = ExactZOH()
+    >>> sim = Simulation()
+    >>> servo = sim.plant(DCServo(), [0.0, 0.0], integrator=zoh)
+    >>> u = servo.input("u")
+    >>> for k in range(10):
+    ...     _ = sim.call_at(0.01 * k, lambda k=k: u.write(1.0 if k < 5 else -1.0))
+    >>> sim.run(until=0.1)
+    >>> round(float(servo.state[0]), 9)
+    2.378569035
+    >>> s = lambda t: 1000 * (t - 1 + math.exp(-t))
+    >>> round(s(0.1) - 2 * s(0.05), 9)
+    2.378569035
+    >>> zoh.expm_calls + zoh.shared_hits, zoh.cache_hits   # computed (or found process-wide) once, then cached
+    (1, 9)
     """
 
     def __init__(self, fallback=None, cache_size: int = 64):

@@ -42,6 +42,12 @@ def default_log_interval(integrator: Any) -> float:
     (``log_interval=1e-3``) and ten or more samples per period of the loops they run;
     a fixed-step integrator is not sampled finer than its own step (there is no state
     between its steps, only an interpolation).
+
+    Examples
+    --------
+    >>> from netcosim.plant import RK4, SolveIVP, default_log_interval
+    >>> default_log_interval(SolveIVP()), default_log_interval(RK4(dt=1e-4)), default_log_interval(RK4(dt=0.005))
+    (0.001, 0.001, 0.005)
     """
     dt = getattr(integrator, "dt", None)
     if isinstance(dt, (int, float)) and not isinstance(dt, bool) and math.isfinite(dt) and dt > 0:
@@ -82,6 +88,47 @@ class PlantInstance:
     A non-finite state, derivative ``f`` or output ``h`` (returned by a read or
     logged) raises :class:`~netcosim.errors.IntegrationError` naming the plant, the
     signals and the time.
+
+    Raises
+    ------
+    ConfigurationTypeError
+        *system* is neither a :class:`~netcosim.plant.system.ContinuousSystem` nor an
+        object with what a plant needs (``f``, ``h``, the names and sizes...); *x0* is
+        None, a string, bytes or a dict; *integrator* has no ``integrate`` method;
+        *disturbance* is not callable; *log_interval* is not a number of seconds.
+    ConfigurationError
+        *x0* is not numbers, not flat, not of length ``system.nx``, or not finite;
+        *log* is not ``"io"`` or ``"none"``; *log_interval* is not a positive duration.
+        The integrator's ``bind`` may refuse the plant too (e.g.
+        :class:`~netcosim.plant.exact_zoh.ExactZOH` on a plant with hybrid events and
+        no fallback).
+    IntegrationError
+        later, when the plant is advanced, read or logged: a non-finite state,
+        derivative or output, or an integrator over its budget.
+
+    Examples
+    --------
+    :meth:`Simulation.plant <netcosim.sim.Simulation.plant>` makes the instance.  The DC
+    servo ``1000 / (s (s + 1))`` under 1 V for 0.1 s from rest: angle
+    ``1000 (t - 1 + e^-t)`` rad, velocity ``1000 (1 - e^-t)`` rad/s:
+
+    >>> import math
+    >>> from netcosim import Simulation
+    >>> from netcosim.plants.dc_servo import DCServo
+    >>> sim = Simulation()
+    >>> servo = sim.plant(DCServo(), [0.0, 0.0])
+    >>> servo.log_grid
+    'default grid 1 ms until the first read or write, then read/write instants'
+    >>> servo.input("u").write(1.0)
+    >>> sim.run(until=0.1)
+    >>> servo.state.round(6).tolist()
+    [4.837418, 95.162582]
+    >>> [round(1000 * (0.1 - 1 + math.exp(-0.1)), 6), round(1000 * (1 - math.exp(-0.1)), 6)]
+    [4.837418, 95.162582]
+    >>> sim.plant(DCServo(), [0.0], name="servo2")
+    Traceback (most recent call last):
+      ...
+    netcosim.errors.ConfigurationError: plant 'servo2': x0 has 1 entries, the system has 2 states ['angle', 'velocity']
     """
 
     def __init__(self, sim, name, system, x0, *, integrator=None, params=None, disturbance=None,

@@ -60,6 +60,30 @@ class NoisyZOH:
 
     Attributes: ``cost`` (the cost so far, up to the plant's time ``t``), ``draws``
     (noise vectors drawn).
+
+    Examples
+    --------
+    The lag ``dx = (-x + u) dt + dv`` from ``x(0) = 1`` with ``u = 0`` over one interval
+    of 1 s, cost weight 1 on ``x``: without noise the cost is ``∫ e^-2t dt =
+    (1 - e^-2) / 2``; with noise of intensity ``R_c = 0.5`` x²/s the expected cost adds
+    ``R_c (1/2 - (1 - e^-2) / 4)``, exactly, whatever the draw:
+
+    >>> import math
+    >>> from netcosim import Simulation
+    >>> from netcosim.plant import LinearPlant, NoisyZOH
+    >>> lag = LinearPlant([[-1.0]], [[1.0]], [[1.0]], [[0.0]], states=["x"], inputs=["u"], outputs=["y"],
+    ...                   name="lag")
+    >>> for R_c in (None, 0.5):
+    ...     noisy = NoisyZOH(R_c=R_c, Q_c=[[1.0, 0.0], [0.0, 0.0]], seed=1)
+    ...     sim = Simulation()
+    ...     plant = sim.plant(lag, [1.0], integrator=noisy, log="none")
+    ...     sim.run(until=1.0)
+    ...     print(round(noisy.cost, 6), noisy.draws)
+    0.432332 0
+    0.574249 1
+    >>> q = (1 - math.exp(-2)) / 2
+    >>> round(q, 6), round(q + 0.5 * (0.5 - (1 - math.exp(-2)) / 4), 6)
+    (0.432332, 0.574249)
     """
 
     def __init__(self, R_c: Any = None, Q_c: Any = None, *, stream: str = "plant noise",

@@ -35,7 +35,16 @@ __all__ = ["is_control_system", "from_control", "LinearPlant", "NonlinearPlant"]
 
 
 def is_control_system(obj: Any) -> bool:
-    """True if *obj* is a python-control system (without importing python-control)."""
+    """True if *obj* is a python-control system (without importing python-control).
+
+    Examples
+    --------
+    >>> import control
+    >>> from netcosim.plant import is_control_system
+    >>> from netcosim.plants.dc_servo import DCServo
+    >>> is_control_system(control.tf([1000.0], [1.0, 1.0, 0.0])), is_control_system(DCServo())
+    (True, False)
+    """
     return any(c.__module__.split(".")[0] == "control" for c in type(obj).__mro__)
 
 
@@ -47,6 +56,25 @@ class LinearPlant(ContinuousSystem):
     :class:`~netcosim.plant.SolveIVP`).  Being linear time-invariant, it can
     advance by the exact zero-order-hold step, ``integrator=ExactZOH()``
     (:class:`~netcosim.plant.ExactZOH`).
+
+    Examples
+    --------
+    The transfer function ``1 / (s + 1)`` converted, then stepped from rest: its output
+    after 1 s is ``1 - e^-1``:
+
+    >>> import math
+    >>> import control
+    >>> from netcosim import Simulation
+    >>> from netcosim.plant import ExactZOH, from_control
+    >>> lag = from_control(control.tf([1.0], [1.0, 1.0], name="lag"))
+    >>> type(lag).__name__, lag.A.tolist(), lag.B.tolist(), lag.input_names, lag.output_names
+    ('LinearPlant', [[-1.0]], [[1.0]], ('u[0]',), ('y[0]',))
+    >>> sim = Simulation()
+    >>> plant = sim.plant(lag, [0.0], integrator=ExactZOH())
+    >>> plant.input("u[0]").write(1.0)
+    >>> sim.run(until=1.0)
+    >>> round(plant.output("y[0]").read(), 9), round(1 - math.exp(-1), 9)
+    (0.632120559, 0.632120559)
     """
 
     def __init__(self, A, B, C, D, *, states, inputs, outputs, name):
@@ -68,7 +96,26 @@ class NonlinearPlant(ContinuousSystem):
     """A converted ``control.NonlinearIOSystem``: f and h call the system's public
     ``dynamics(t, x, u, params)`` and ``output(t, x, u, params)``.  ``sys``: the
     continuous-time system (its labels name the states and ports, its ``params`` are
-    copied to ``self.params``); ``name``: the plant's name."""
+    copied to ``self.params``); ``name``: the plant's name.
+
+    Examples
+    --------
+    ``dx/dt = -k x^3`` from ``x(0) = 1`` is ``x(t) = 1 / sqrt(1 + 2 k t)``: 0.5 at
+    1.5 s for the default ``k = 1``, and ``params`` given to the plant override it:
+
+    >>> import control
+    >>> from netcosim import Simulation
+    >>> cubic = control.nlsys(lambda t, x, u, params: -params["k"] * x**3, None, states=["x"], inputs=0,
+    ...                       outputs=["x"], params={"k": 1.0}, name="cubic")
+    >>> sim = Simulation()
+    >>> plant = sim.plant(cubic, [1.0])
+    >>> slow = sim.plant(cubic, [1.0], name="faster", params={"k": 4.0})
+    >>> type(plant.system).__name__, plant.system.params
+    ('NonlinearPlant', {'k': 1.0})
+    >>> sim.run(until=1.5)
+    >>> round(float(plant.state[0]), 6), round(float(slow.state[0]), 6), round(1 / (1 + 2 * 4.0 * 1.5) ** 0.5, 6)
+    (0.5, 0.27735, 0.27735)
+    """
 
     def __init__(self, sys, *, name):
         super().__init__(states=list(sys.state_labels), inputs=list(sys.input_labels),
@@ -95,9 +142,28 @@ def _check_continuous(sys, what: str) -> None:
 def from_control(sys: Any) -> ContinuousSystem:
     """A :class:`~netcosim.plant.ContinuousSystem` equivalent to python-control *sys*.
 
-    Raises :class:`~netcosim.errors.ConfigurationError` for a discrete-time system and
-    :class:`~netcosim.errors.ConfigurationTypeError` for a python-control object that is
-    not a system (e.g. a frequency response).
+    A ``TransferFunction`` or ``StateSpace`` becomes a :class:`LinearPlant`, a
+    ``NonlinearIOSystem`` a :class:`NonlinearPlant`.
+
+    Raises
+    ------
+    ConfigurationError
+        *sys* is discrete-time (its ``dt`` is neither 0 nor None).
+    ConfigurationTypeError
+        *sys* is a python-control object that is not a system (e.g. a frequency
+        response).
+
+    Examples
+    --------
+    >>> import control
+    >>> from netcosim.plant import from_control
+    >>> servo = from_control(control.tf([1000.0], [1.0, 1.0, 0.0], name="servo"))
+    >>> type(servo).__name__, servo.name, servo.nx, servo.input_names, servo.output_names
+    ('LinearPlant', 'servo', 2, ('u[0]',), ('y[0]',))
+    >>> from_control(control.tf([1.0], [1.0, -0.5], dt=0.1, name="filter"))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+      ...
+    netcosim.errors.ConfigurationError: transfer function 'filter' is discrete-time (dt=0.1); a netcosim plant ...
     """
     import control
 

@@ -58,6 +58,43 @@ class SolveIVP:
         :meth:`integrate`) may use; beyond it the advance stops with
         :class:`~netcosim.errors.IntegrationError` suggesting an implicit method.
         Default 50 000 (about 8 000 RK45 steps).
+
+    Raises
+    ------
+    ConfigurationError
+        *method* is neither one of :data:`SOLVE_IVP_METHODS` nor an ``OdeSolver``
+        subclass; *rtol*, *atol* or *max_step* is not a positive number (*max_step* may
+        be ``inf``); *rtol* is below :data:`RTOL_MIN` or not below 1;
+        *max_evaluations* is below 1.
+    ConfigurationTypeError
+        *max_evaluations* is not an integer.
+    IntegrationError
+        later, when an advance of the plant needs more than *max_evaluations*
+        evaluations of ``f``, or ``solve_ivp`` fails.
+
+    Examples
+    --------
+    The stiff lag ``dx/dt = -10**5 (x - u)`` (time constant 10 µs) under ``u = 1`` for
+    1 s: Radau settles it in a few steps; RK45 needs steps of about 10 µs and runs out
+    of its budget of evaluations:
+
+    >>> from netcosim import Simulation
+    >>> from netcosim.plant import ContinuousSystem, SolveIVP
+    >>> stiff = ContinuousSystem(f=lambda t, x, u, p: -1e5 * (x - u), states=["x"], inputs=["u"],
+    ...                          name="stiff")
+    >>> sim = Simulation()
+    >>> fast = sim.plant(stiff, [0.0], integrator=SolveIVP(method="Radau"))
+    >>> fast.input("u").write(1.0)
+    >>> sim.run(until=1.0)
+    >>> round(float(fast.state[0]), 9)
+    1.0
+    >>> sim = Simulation()
+    >>> slow = sim.plant(stiff, [0.0], integrator=SolveIVP(max_evaluations=5000))
+    >>> slow.input("u").write(1.0)
+    >>> sim.run(until=1.0)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+      ...
+    netcosim.errors.IntegrationError: plant 'stiff': SolveIVP(method='RK45') used more than max_evaluations=5000 ...
     """
 
     def __init__(self, method: str = "RK45", rtol: float = 1e-8, atol: float = 1e-10,
@@ -143,7 +180,7 @@ class SolveIVP:
                     "the plant may be very stiff or discontinuous")
             raise IntegrationError(
                 f"{self!r} used more than max_evaluations={budget} evaluations of f advancing from "
-                f"t={t0!r} to t={t1!r} s and got only to t={reached[0]!r} s; {hint}, "
+                f"t={t0!r} to t={t1!r} s and got only to t={float(reached[0])!r} s; {hint}, "
                 f"or raise max_evaluations") from None
         if sol.status == -1:
             raise IntegrationError(f"solve_ivp ({self!r}) failed between t={t0!r} and t={t1!r} s: "
