@@ -52,7 +52,8 @@ def distinct_tasks(n: int) -> list[tuple[float, float]]:
     if n % len(TASKS):
         raise ValueError(f"n must be a multiple of {len(TASKS)}, got {n!r}")
     k = n // len(TASKS)
-    return [(C / k * (1 + j / (10 * k)), T * (1 + j / (10 * k))) for C, T in sorted(TASKS, key=lambda ct: ct[1]) for j in range(k)]
+    stretch = [1 + j / (10 * k) for j in range(k)]
+    return [(C / k * s, T * s) for C, T in sorted(TASKS, key=lambda ct: ct[1]) for s in stretch]
 
 
 def kernel_run(until: float, policy: str = "fixed_priority", tasks=TASKS) -> tuple[int, float]:

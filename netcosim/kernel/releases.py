@@ -258,7 +258,7 @@ class Releases:
         stand_in.callbacks = self._cbs
         heappush(self.node._env.queue, (t, NORMAL, i, stand_in))
 
-    def _release_all(self, members: list, now: int) -> None:
+    def _release_all(self, members: list | tuple, now: int) -> None:
         """Release *members* (in order) at *now*, the dispatch deferred until the last."""
         node = self.node
         if len(members) == 1:
