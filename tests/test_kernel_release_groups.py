@@ -1,6 +1,7 @@
-"""Grouped release timers (netcosim.kernel.releases) give exactly the schedule of one
-timer per task: random task sets with shared periods, offsets, deadline handlers, stopped
-tasks, callbacks and messages scheduled between task creations, run both ways."""
+"""The release heap and its groups (netcosim.kernel.releases) give exactly the schedule of
+one timer per task: random task sets with shared periods, offsets, deadline handlers,
+stopped tasks, callbacks and messages scheduled between task creations, run both ways;
+and releases that share an instant cost one SimPy event."""
 
 import numpy as np
 import pandas as pd
@@ -85,7 +86,8 @@ def test_consecutive_tasks_with_the_same_releases_share_one_timer():
     assert group(a[0]).members == a
     assert group(b).members == [b] and group(c[0]) is group(c[1]) is not group(a[0])
     assert group(d).members == [d] and group(e).members == [e]  # not after the call_at; a deadline handler
-    assert sim.env.queued == 1 + 1 + 1 + 1 + 1 + 1  # a, b, c, the call, d, e
+    assert len(cpu._releases.heap) == 5                 # a, b, c, d, e: one entry per group
+    assert sim.env.queued == 1 + 1                      # SimPy's queue: the heap's stand-in, the call
     a[1].stop()
     assert group(a[1]) is None and group(a[0]).members == [a[0], a[2]]
     sim.run(until=0.025)
@@ -112,3 +114,58 @@ def test_a_group_defers_the_dispatch_until_every_member_is_released(monkeypatch)
     pd.testing.assert_frame_equal(grouped, separate, check_exact=True)
     assert list(zip(grouped["task"], grouped["state"]))[:6] == [
         ("lo", "ready"), ("hi", "ready"), ("hi", "running"), ("hi", "idle"), ("lo", "running"), ("lo", "idle")]
+
+
+def test_releases_sharing_an_instant_cost_one_event(monkeypatch):
+    """Periods 2, 4 and 8 ms for 8 ms: 7 jobs released at 4 instants (0, 2, 4, 6 ms), each
+    job one segment.  From the heap: 4 release events + 7 segment ends, and the dispatch
+    at 0 and 4 ms done at once after the instant's last release.  One timer per task: 7
+    release events + 7 segment ends + 2 dispatch events (a release while another timer is
+    due at the same instant defers the dispatch).  The same schedule both ways."""
+    from benchmarks.counters import _EventCount
+
+    def run():
+        sim = Simulation()
+        cpu = sim.node("cpu")
+        for p, T in enumerate((0.002, 0.004, 0.008), start=1):
+            def body(ctx):
+                yield ctx.execute(1e-4)
+            cpu.periodic(body, period=T, priority=p, name=f"t{p}")
+        count = _EventCount(sim)
+        sim.run(until=0.008)
+        assert len(sim.trace.frame("jobs")) == 7
+        return count.events(), sim.trace.frame("schedule")
+    events, heap = run()
+    monkeypatch.setattr(releases, "GROUP_RELEASES", False)
+    events_separate, separate = run()
+    assert (events, events_separate) == (4 + 7, 7 + 7 + 2)
+    pd.testing.assert_frame_equal(heap, separate, check_exact=True)
+
+
+def test_a_task_armed_ahead_of_the_heap_first_entry_keeps_the_order(monkeypatch):
+    """A task created at run time whose first release comes before every armed one gets a
+    stand-in of its own; the old first entry keeps its stand-in (not queued twice) and,
+    due at 5 ms with the new task's second release, is released first (created first)."""
+    def run():
+        sim = Simulation()
+        cpu = sim.node("cpu")
+        seen = []
+
+        def body(ctx):
+            seen.append((ctx.task.name, round(ctx.now * 1e6)))
+            yield ctx.execute(1e-5)
+        cpu.periodic(body, period=0.01, offset=0.005, priority=2, name="late")
+
+        def early():
+            cpu.periodic(body, period=0.003, offset=0.001, priority=1, name="early")
+        sim.call_at(0.001, early)   # first release at 2 ms, before "late"'s at 5 ms
+        sim.run(until=0.03)
+        return seen, sim.trace.frame("schedule")
+    seen, heap = run()
+    monkeypatch.setattr(releases, "GROUP_RELEASES", False)
+    seen_separate, separate = run()
+    assert seen == seen_separate
+    assert seen[:4] == [("early", 2000), ("early", 5000), ("late", 5010), ("early", 8000)]
+    jobs = heap.query("state == 'ready' and time == 0.005")["task"].tolist()
+    assert jobs == ["late", "early"]
+    pd.testing.assert_frame_equal(heap, separate, check_exact=True)
