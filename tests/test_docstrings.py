@@ -284,24 +284,6 @@ _EXAMPLE_GAPS = frozenset({
     "netcosim.errors.NotConnectedError",
     "netcosim.errors.SimulationFailedError",
     "netcosim.errors.UnyieldedExecuteError",
-    "netcosim.kernel.io.AnalogIn",
-    "netcosim.kernel.io.AnalogOut",
-    "netcosim.kernel.localclock.LocalClock",
-    "netcosim.kernel.node.Node",
-    "netcosim.kernel.policies.DeadlineMonotonic",
-    "netcosim.kernel.policies.EDF",
-    "netcosim.kernel.policies.FixedPriority",
-    "netcosim.kernel.policies.RateMonotonic",
-    "netcosim.kernel.policies.SchedulingPolicy",
-    "netcosim.kernel.sync.ConditionVariable",
-    "netcosim.kernel.sync.Mailbox",
-    "netcosim.kernel.sync.Monitor",
-    "netcosim.kernel.sync.Semaphore",
-    "netcosim.kernel.task.Job",
-    "netcosim.kernel.task.Task",
-    "netcosim.kernel.task.TaskContext",
-    "netcosim.kernel.timers.KernelTimer",
-    "netcosim.kernel.timers.Trigger",
     "netcosim.trace.Trace",
 })
 #: names whose code raises but whose docstring has no Raises section yet (only shrinks)
@@ -310,9 +292,6 @@ _RAISES_GAPS = frozenset({
     "netcosim.cputime.WallClockCPUTime",
     "netcosim.energy.Battery",
     "netcosim.energy.RadioPower",
-    "netcosim.kernel.sync.ConditionVariable",
-    "netcosim.kernel.task.Task",
-    "netcosim.kernel.timers.KernelTimer",
 })
 
 

@@ -41,7 +41,37 @@ class _Channel:
 
 class AnalogIn(_Channel):
     """An analog input channel of a node, connected to a plant output port (see :meth:`Node.analog_in
-    <netcosim.kernel.node.Node.analog_in>`)."""
+    <netcosim.kernel.node.Node.analog_in>`).
+
+    Examples
+    --------
+    A tank integrating its inflow, ``dx/dt = u``: the node samples the level through analog
+    input 0 every 10 ms and sets the inflow to 2 through analog output 0 at the end of the
+    first job's 1 ms of CPU (times in seconds), so it reads ``2 x (t - 0.001)``.
+
+    >>> from netcosim import ContinuousSystem, Simulation
+    >>> sim = Simulation()
+    >>> tank = sim.plant(ContinuousSystem(f=lambda t, x, u, p: u, states=["x"], inputs=["u"], outputs=["y"]),
+    ...                  x0=[0.0], name="tank")
+    >>> cpu = sim.node("cpu")
+    >>> adc = cpu.analog_in(0).connect(tank.output("y"))
+    >>> dac = cpu.analog_out(0).connect(tank.input("u"))
+    >>> @cpu.periodic(period=0.010, priority=1)
+    ... def ctrl(ctx):
+    ...     ctx.log("y", ctx.read(adc))      # or adc.read()
+    ...     yield ctx.execute(0.001)
+    ...     ctx.write(dac, 2.0)
+    >>> sim.run(until=0.030)
+    >>> sim.trace.signal("cpu.ctrl", "y").round(6).tolist()
+    [0.0, 0.018, 0.038]
+
+    A channel not connected to a port refuses to be read:
+
+    >>> cpu.analog_in(1).read()
+    Traceback (most recent call last):
+    ...
+    netcosim.errors.NotConnectedError: analog input 1 of node 'cpu' is not connected
+    """
 
     kind = "analog input"
 
@@ -53,7 +83,29 @@ class AnalogIn(_Channel):
 
 class AnalogOut(_Channel):
     """An analog output channel of a node, connected to a plant input port (see :meth:`Node.analog_out
-    <netcosim.kernel.node.Node.analog_out>`)."""
+    <netcosim.kernel.node.Node.analog_out>`).
+
+    Examples
+    --------
+    A step of 2 on a tank integrating its inflow (``dx/dt = u``), written through analog
+    output 0 at the end of 1 ms of CPU: 30 ms later the level is ``2 x (0.030 - 0.001)``
+    (times in seconds).
+
+    >>> from netcosim import ContinuousSystem, Simulation
+    >>> sim = Simulation()
+    >>> tank = sim.plant(ContinuousSystem(f=lambda t, x, u, p: u, states=["x"], inputs=["u"], outputs=["y"]),
+    ...                  x0=[0.0], name="tank")
+    >>> cpu = sim.node("cpu")
+    >>> dac = cpu.analog_out(0).connect(tank.input("u"))
+    >>> @cpu.aperiodic(priority=1)
+    ... def step(ctx):
+    ...     yield ctx.execute(0.001)
+    ...     ctx.write(dac, 2.0)              # or dac.write(2.0): held until the next write
+    >>> _ = step.release()
+    >>> sim.run(until=0.030)
+    >>> round(float(tank.x[0]), 6)
+    0.058
+    """
 
     kind = "analog output"
 

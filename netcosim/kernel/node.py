@@ -62,6 +62,36 @@ class Node(Dispatcher):
         ``clock_drift`` (dimensionless, 50e-6 = 50 ppm) to build one (not both forms); then
         periods, timers, sleeps and ``ctx.now`` are in the node's local time.  All None
         (default): the node runs on simulation time.
+
+    Raises
+    ------
+    ConfigurationError
+        If *scheduler* names no policy, *context_switch* is negative, not finite or below
+        the 1 ps resolution (also once divided by *speed*), *speed* is not positive and finite
+        (or so slow that 1 ps of work lasts beyond the time range), both a *clock* and
+        *clock_offset* / *clock_drift* are given, the clock already serves another node, or
+        *clock_offset* / *clock_drift* is a number a
+        :class:`~netcosim.kernel.localclock.LocalClock` refuses.
+    ConfigurationTypeError
+        If *scheduler* is neither a policy nor a name, *context_switch*, *speed*,
+        *clock_offset* or *clock_drift* is not a number, or *clock* is not a
+        :class:`~netcosim.kernel.localclock.LocalClock`.
+
+    Examples
+    --------
+    A node at twice the nominal speed with a 100 µs context switch: 2 ms of work (at speed 1)
+    takes 1 ms, plus one context switch of 100 µs / 2, so the job's response time is 1.05
+    ms (times in seconds).
+
+    >>> from netcosim import Simulation
+    >>> sim = Simulation()
+    >>> cpu = sim.node("cpu", scheduler="fixed_priority", speed=2.0, context_switch=100e-6)
+    >>> @cpu.periodic(period=0.010, priority=1)
+    ... def ctrl(ctx):
+    ...     yield ctx.execute(0.002)
+    >>> sim.run(until=0.010)
+    >>> cpu, sim.trace.jobs().response_time.round(6).tolist()
+    (<Node cpu fixed_priority>, [0.00105])
     """
 
     #: False: one CPU (a :class:`~netcosim.kernel.multicore.MulticoreNode` has several)

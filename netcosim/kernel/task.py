@@ -75,6 +75,24 @@ class Job:
     ``task``: the :class:`Task` it belongs to; ``index``: its number among the task's jobs
     (0 for the first release); ``release``: its release time (ticks), from which the
     absolute deadline ``release + task.deadline_ticks`` is set.
+
+    Examples
+    --------
+    Jobs of 3 ms of work with a 2 ms deadline every 5 ms: each misses, and the handler sees
+    the job at the instant of the miss, 2 ms of CPU into it (times in seconds):
+
+    >>> from netcosim import Simulation
+    >>> sim = Simulation()
+    >>> cpu = sim.node("cpu")
+    >>> missed = []
+    >>> def note(job):
+    ...     missed.append((job.index, job.release_time, job.deadline, round(job.execution_time, 6)))
+    >>> @cpu.periodic(period=0.005, deadline=0.002, priority=1, on_deadline_miss=note)
+    ... def late(ctx):
+    ...     yield ctx.execute(0.003)
+    >>> sim.run(until=0.010)
+    >>> missed
+    [(0, 0.0, 0.002, 0.002), (1, 0.005, 0.007, 0.002)]
     """
 
     # Slots: a job is created per release, and slot stores are cheaper than a dict's.
@@ -214,6 +232,40 @@ class Task:
     ``"handler"`` (a handler beats every task).  ``priority``: small = high (a handler's
     orders the handlers; a task's is read by the fixed-priority policy).  ``preemptible``
     (bool): False runs a started job to its end, interrupted only by handlers.
+
+    Raises
+    ------
+    ConfigurationTypeError
+        If *body* is not callable, *name* is not a non-empty string, a time (``period``,
+        ``offset``, ``deadline``, ``wcet``) is not a number of seconds (a periodic task's
+        ``period`` None included), ``preemptible`` is not True or False, ``max_pending`` is
+        not a number, or ``on_deadline_miss`` / ``on_budget_overrun`` is neither None,
+        ``"kill"`` nor a callable.
+    ConfigurationError
+        If ``period``, ``deadline`` or ``wcet`` is not positive, ``offset`` is negative, a
+        time is not finite or is below the 1 ps resolution, ``max_pending`` is not an
+        integer >= 1, or ``on_busy`` / ``on_queue_full`` is not one of its choices.
+
+    Examples
+    --------
+    A periodic task, as :meth:`Node.periodic <netcosim.kernel.node.Node.periodic>` returns
+    it: its times in seconds, and its counters after 50 ms (releases at 2, 12, ..., 42 ms):
+
+    >>> from netcosim import Simulation
+    >>> sim = Simulation()
+    >>> cpu = sim.node("cpu")
+    >>> @cpu.periodic(period=0.010, offset=0.002, priority=1)
+    ... def ctrl(ctx):
+    ...     yield ctx.execute(0.003)
+    >>> ctrl, ctrl.period, ctrl.deadline, ctrl.offset
+    (<Task cpu.ctrl periodic>, 0.01, 0.01, 0.002)
+    >>> sim.run(until=0.050)
+    >>> ctrl.jobs_released, ctrl.finished, ctrl.misses
+    (5, 5, 0)
+    >>> cpu.periodic(ctrl.body, period=0, priority=1, name="bad")
+    Traceback (most recent call last):
+    ...
+    netcosim.errors.ConfigurationError: task 'bad': period must be positive, got 0
     """
 
     # Slots for what the kernel reads on every job (fewer cache lines per task when there
@@ -308,7 +360,26 @@ class Task:
 
 
 class TaskContext:
-    """What a task body sees: time, CPU, I/O, synchronisation, logging, messages."""
+    """What a task body sees: time, CPU, I/O, synchronisation, logging, messages.
+
+    Examples
+    --------
+    A body reads the time (``ctx.now``, s), asks for 2 ms of CPU, sleeps 1 ms and logs how
+    long that took: 3 ms per job (times in seconds).
+
+    >>> from netcosim import Simulation
+    >>> sim = Simulation()
+    >>> cpu = sim.node("cpu")
+    >>> @cpu.periodic(period=0.010, priority=1)
+    ... def ctrl(ctx):
+    ...     t0 = ctx.now
+    ...     yield ctx.execute(0.002)
+    ...     yield ctx.sleep(0.001)
+    ...     ctx.log("elapsed", ctx.now - t0)
+    >>> sim.run(until=0.030)
+    >>> sim.trace.signal("cpu.ctrl", "elapsed").round(6).tolist()
+    [0.003, 0.003, 0.003]
+    """
 
     __slots__ = ("task", "node", "sim", "job", "_exec_rng", "_unyielded")
 

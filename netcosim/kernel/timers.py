@@ -23,7 +23,36 @@ if TYPE_CHECKING:
 class KernelTimer:
     """Releases a task at an absolute time ``at`` (s; now when None), then every ``period`` s if
     given (TrueTime's timers): ``target`` (a task of ``node``) gets ``target.release()`` at
-    each instant; ``at`` may not lie in the past, ``period`` must be positive."""
+    each instant; ``at`` may not lie in the past, ``period`` must be positive.
+
+    Raises
+    ------
+    ConfigurationTypeError
+        If ``at`` or ``period`` is not a number of seconds.
+    ConfigurationError
+        If ``at`` lies before the current time or ``period`` is not positive (or either is
+        not finite, or is below the 1 ps resolution).
+
+    Examples
+    --------
+    A timer that releases a sampling task first at 5 ms, then every 10 ms (times in seconds):
+
+    >>> from netcosim import Simulation
+    >>> sim = Simulation()
+    >>> cpu = sim.node("cpu")
+    >>> @cpu.aperiodic(priority=1)
+    ... def sample(ctx):
+    ...     yield ctx.execute(0.001)
+    >>> timer = cpu.timer(sample, at=0.005, period=0.010)
+    >>> sim.run(until=0.030)
+    >>> sim.trace.jobs().release.round(6).tolist()
+    [0.005, 0.015, 0.025]
+    >>> timer.cancel()                   # no further releases
+    >>> cpu.timer(sample, at=0.010)      # now is 0.03 s
+    Traceback (most recent call last):
+    ...
+    netcosim.errors.ConfigurationError: timer for 'sample': at=0.01 s lies in the past (now 0.03 s)
+    """
 
     def __init__(self, node: KernelState, target: Task, at: float | None, period: float | None):
         self.node, self.target = node, target
@@ -56,7 +85,33 @@ class Trigger:
     """An external trigger edge source; ``fire()`` releases the target unless too soon.
 
     ``target``: the task of ``node`` released on each edge; ``min_interval`` (s, >= 0): an
-    edge less than this after the last accepted one is ignored (0: every edge counts)."""
+    edge less than this after the last accepted one is ignored (0: every edge counts).
+
+    Raises
+    ------
+    ConfigurationTypeError
+        If ``min_interval`` is not a number of seconds.
+    ConfigurationError
+        If ``min_interval`` is negative, not finite, or non-zero and below the 1 ps resolution.
+
+    Examples
+    --------
+    Edges at 1, 2, 4 and 4.5 ms on a trigger that ignores edges closer than 2 ms to the last
+    accepted one: the edges at 2 and 4.5 ms are ignored (times in seconds).
+
+    >>> from netcosim import Simulation
+    >>> sim = Simulation()
+    >>> cpu = sim.node("cpu")
+    >>> @cpu.aperiodic(priority=1)
+    ... def on_edge(ctx):
+    ...     yield ctx.execute(0.0005)
+    >>> trigger = cpu.trigger(on_edge, min_interval=0.002)
+    >>> for t in (0.001, 0.002, 0.004, 0.0045):
+    ...     _ = sim.call_at(t, trigger.fire)
+    >>> sim.run(until=0.010)
+    >>> sim.trace.jobs().release.round(6).tolist(), trigger.ignored
+    ([0.001, 0.004], 2)
+    """
 
     def __init__(self, node: KernelState, target: Task, min_interval: float):
         self.node, self.target = node, target
