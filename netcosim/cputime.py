@@ -119,6 +119,25 @@ class CPUTimeModel:
 
     ``reproducible``: True when the charged times do not depend on the host.
     ``reads_clock``: True when :meth:`measure` reads ``clock`` around the block.
+
+    Examples
+    --------
+    A model of one's own: the first solve of an optimiser is a cold start (5 ms), the next
+    ones are warm-started (2 ms); every charge is logged (seconds of CPU at speed 1).  A
+    task body charges it with ``yield ctx.execute(model.charge("solve"))``.
+
+    >>> from netcosim import CPUTimeModel
+    >>> class ColdStart(CPUTimeModel):
+    ...     def cost(self, phase, index, wall):
+    ...         return 0.005 if index == 0 else 0.002
+    >>> model = ColdStart()
+    >>> [model.charge("solve") for _ in range(3)]
+    [0.005, 0.002, 0.002]
+    >>> model.record()
+       phase  index  wall    cpu
+    0  solve      0   NaN  0.005
+    1  solve      1   NaN  0.002
+    2  solve      2   NaN  0.002
     """
 
     reproducible = True
@@ -199,7 +218,33 @@ class CPUTimeModel:
 
 class FixedCPUTime(CPUTimeModel):
     """A fixed CPU time per phase: ``seconds`` (same for every phase) or a mapping
-    ``{phase: seconds}`` (a phase missing from it raises when charged)."""
+    ``{phase: seconds}`` (a phase missing from it raises when charged).
+
+    Raises
+    ------
+    ConfigurationTypeError
+        If *seconds* (or a value of the mapping) is not a number.
+    ConfigurationError
+        If a time is negative or not finite; when charged, a phase missing from the mapping.
+
+    Examples
+    --------
+    A controller whose state estimate costs 1 ms and whose control law costs 2 ms of CPU,
+    whatever the host: each job's response time is 3 ms (times in seconds).
+
+    >>> from netcosim import FixedCPUTime, Simulation
+    >>> model = FixedCPUTime({"estimate": 0.001, "control": 0.002})
+    >>> sim = Simulation()
+    >>> cpu = sim.node("cpu")
+    >>> @cpu.periodic(period=0.010, priority=1)
+    ... def ctrl(ctx):
+    ...     with model.measure("control") as m:
+    ...         u = -2.0 * 0.5                   # the real computation
+    ...     yield ctx.execute(model.charge("estimate") + m.seconds)
+    >>> sim.run(until=0.020)
+    >>> sim.trace.jobs().response_time.round(6).tolist()
+    [0.003, 0.003]
+    """
 
     def __init__(self, seconds: float | Mapping[str, float]):
         super().__init__()
@@ -228,6 +273,38 @@ class RecordedCPUTime(CPUTimeModel):
     ``scale``.  ``beyond`` says what happens after the recording runs out: ``"cycle"``
     (start again from the first value), ``"last"`` (repeat the last value) or
     ``"error"`` (raise).
+
+    Raises
+    ------
+    ConfigurationTypeError
+        If *table* is neither a DataFrame nor a mapping, or *scale* or a recorded time is
+        not a number.
+    ConfigurationError
+        If the table lacks the ``phase`` or ``cpu`` column, is empty or has a phase without
+        values, a time or *scale* is negative or not finite, or *beyond* is not one of
+        ``"cycle"``, ``"last"``, ``"error"``.  When charged: a phase that was not recorded,
+        or (``beyond="error"``) a charge past the end of the recording.
+
+    Examples
+    --------
+    Two recorded solve times replayed job by job, and cycled when they run out: the
+    schedule is the same on any host (times in seconds).
+
+    >>> from netcosim import RecordedCPUTime, Simulation
+    >>> model = RecordedCPUTime({"solve": [0.002, 0.004]}, beyond="cycle")
+    >>> sim = Simulation()
+    >>> cpu = sim.node("cpu")
+    >>> @cpu.periodic(period=0.010, priority=1)
+    ... def mpc(ctx):
+    ...     yield ctx.execute(model.charge("solve"))
+    >>> sim.run(until=0.030)
+    >>> sim.trace.jobs().response_time.round(6).tolist()
+    [0.002, 0.004, 0.002]
+
+    The table of another model's charges replays them the same way:
+
+    >>> RecordedCPUTime(model.record()).charge("solve")
+    0.002
     """
 
     def __init__(self, table: Any, *, scale: float = 1.0, beyond: str = "cycle"):
@@ -287,6 +364,35 @@ class WallClockCPUTime(CPUTimeModel):
     (default :func:`time.perf_counter`) is injectable, so a test can drive it with a
     fake clock and get a deterministic schedule.  ``warn=False`` silences the warning
     (the results are flagged all the same).
+
+    Raises
+    ------
+    ConfigurationTypeError
+        If *factor* is not a number or *clock* is not callable.
+    ConfigurationError
+        If *factor* is not positive and finite.
+    ClockError
+        When the clock reads a value that is not finite, or a measured block's duration is
+        negative (a non-monotonic clock).
+
+    Warns
+    -----
+    NonReproducibleWarning
+        When constructed, unless ``warn=False``.
+
+    Examples
+    --------
+    With an injected clock the measurement is deterministic: a block that took 3 ms of
+    wall-clock time on this host is charged 1.5 ms with ``factor=0.5`` (a target twice as
+    fast; times in seconds).  In a task body: ``yield ctx.execute(m.seconds)``.
+
+    >>> from netcosim import WallClockCPUTime
+    >>> readings = iter([10.000, 10.003])
+    >>> model = WallClockCPUTime(factor=0.5, clock=lambda: next(readings), warn=False)
+    >>> with model.measure("solve") as m:
+    ...     pass                                 # the real computation
+    >>> round(m.seconds, 6), model.reproducible
+    (0.0015, False)
     """
 
     reproducible = False
