@@ -88,6 +88,29 @@ class Trace:
     ``clock`` (optional) returns the current simulated time in integer ticks; the
     ``window`` mode measures its window back from it when a table is read (without a
     clock: back from the latest row time).  :class:`~netcosim.Simulation` passes its own.
+
+    Examples
+    --------
+    A simulation's trace (``sim.trace``) after 30 ms of a task that logs ``u = 2 t`` and runs
+    2 ms every 10 ms; the schedule table keeps only its last 4 rows (times in seconds):
+
+    >>> from netcosim import Simulation
+    >>> sim = Simulation()
+    >>> cpu = sim.node("cpu")
+    >>> @cpu.periodic(period=0.010, priority=1)
+    ... def ctrl(ctx):
+    ...     ctx.log("u", 2 * ctx.now)
+    ...     yield ctx.execute(0.002)
+    >>> sim.trace.configure("schedule", "ring", rows=4)
+    >>> sim.run(until=0.030)
+    >>> sim.trace.tables
+    ['signals', 'schedule', 'jobs']
+    >>> sim.trace.signal("cpu.ctrl", "u").round(6).tolist()
+    [0.0, 0.02, 0.04]
+    >>> sim.trace.jobs()[["release", "finish"]].round(6).values.tolist()
+    [[0.0, 0.002], [0.01, 0.012], [0.02, 0.022]]
+    >>> sim.trace.schedule()[["time", "state"]].values.tolist()
+    [[0.012, 'idle'], [0.02, 'ready'], [0.02, 'running'], [0.022, 'idle']]
     """
 
     def __init__(self, clock: Callable[[], int] | None = None) -> None:

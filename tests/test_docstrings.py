@@ -269,14 +269,6 @@ def _raises_directly(obj) -> bool:
 #: names still without an Examples section (this list only shrinks; a name added to the
 #: surface comes with its example)
 _EXAMPLE_GAPS = frozenset({
-    "netcosim.errors.ConfigurationError",
-    "netcosim.errors.ConfigurationTypeError",
-    "netcosim.errors.IntegrationError",
-    "netcosim.errors.NetcosimError",
-    "netcosim.errors.NotConnectedError",
-    "netcosim.errors.SimulationFailedError",
-    "netcosim.errors.UnyieldedExecuteError",
-    "netcosim.trace.Trace",
 })
 #: names whose code raises but whose docstring has no Raises section yet (only shrinks)
 _RAISES_GAPS = frozenset({
