@@ -301,7 +301,8 @@ class RecordedCPUTime(CPUTimeModel):
     >>> sim.trace.jobs().response_time.round(6).tolist()
     [0.002, 0.004, 0.002]
 
-    The table of another model's charges replays them the same way:
+    A table of charges (a model's :meth:`~CPUTimeModel.record`, or one saved with
+    :meth:`~CPUTimeModel.save` and read with :meth:`load`) replays them the same way:
 
     >>> RecordedCPUTime(model.record()).charge("solve")
     0.002
