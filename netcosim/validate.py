@@ -150,8 +150,11 @@ def bits(value: Any, what: str, *, allow_zero: bool = True) -> int:
 def duration(value: Any, what: str, *, positive: bool = False,
              kind: str = "a positive number of seconds") -> int:
     """*value*, a duration in seconds, as integer ticks (:func:`~netcosim.timebase.to_ticks`:
-    finite, >= 0, and 0 or at least 1 ps); ``positive`` also rejects 0 (the message
-    then uses ``kind``).  *what* names it in the error."""
+    finite, >= 0, and 0 or at least 1 ps); ``positive`` also rejects 0 (the message for
+    0 and for a negative value then uses ``kind``: a period of -1 "must be positive", not
+    "non-negative", which would invite a 0).  *what* names it in the error."""
+    if positive and is_real(value) and value < 0:
+        raise _fail(ConfigurationError, what, kind, value)
     ticks = to_ticks(value, what)
     if positive and ticks <= 0:
         raise _fail(ConfigurationError, what, kind, value)

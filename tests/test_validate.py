@@ -61,6 +61,13 @@ def test_duration_is_integer_ticks_via_timebase():
     assert validate.duration(1e-3, "d") == 10**9
     with pytest.raises(ConfigurationError, match="^d must be a positive number of seconds, got 0$"):
         validate.duration(0, "d", positive=True)
+    # a negative value gets the same message: "non-negative" would invite the 0 it also refuses
+    with pytest.raises(ConfigurationError, match="^d must be a positive number of seconds, got -0.01$"):
+        validate.duration(-0.01, "d", positive=True)
+    with pytest.raises(ConfigurationError, match="^d must be positive, got -inf$"):
+        validate.duration(-math.inf, "d", positive=True, kind="positive")
+    with pytest.raises(ConfigurationError, match="^d must be non-negative, got -0.01$"):
+        validate.duration(-0.01, "d")            # a duration that may be 0
     with pytest.raises(ConfigurationError, match="below the time resolution"):
         validate.duration(1e-13, "d")
     with pytest.raises(ConfigurationTypeError, match="'1'"):

@@ -167,7 +167,8 @@ CASES = [
     Case(id="kernel-task-period-sub-resolution", call=lambda: periodic(period=1e-13), exc=ValueError,
          names="1e-13"),
     Case(id="kernel-task-period-zero", call=lambda: periodic(period=0.0), exc=ValueError, names="0.0"),
-    Case(id="kernel-task-period-negative", call=lambda: periodic(period=-1.0), exc=ValueError, names="-1.0"),
+    Case(id="kernel-task-period-negative", call=lambda: periodic(period=-1.0), exc=ValueError,
+         names="period must be positive, got -1.0"),     # not "non-negative": 0 is refused too
     Case(id="kernel-task-period-inf", call=lambda: periodic(period=INF), exc=ValueError, names="inf"),
     Case(id="kernel-task-period-nan", call=lambda: periodic(period=NAN), exc=ValueError, names="nan"),
     Case(id="kernel-task-period-str", call=lambda: periodic(period="fast"), exc=TypeError, names="'fast'"),
