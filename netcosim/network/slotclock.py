@@ -95,6 +95,9 @@ class Audibility:
         self.pmax: list[float] = []
         self.weakest = math.inf
         self.ok = True
+        #: some receiver may be captured (or a frame survive an overlap): the crowd must check
+        #: each overlap station by station (see :mod:`netcosim.network.wlan.shared`)
+        self.capture = False
 
     def add(self, n, stations, gain, capture_ratio: float, capture_tol: float, noise_w: float, mods) -> bool:
         """Station *n* (already in *stations*, by index) joins; False once the conditions fail.
@@ -131,8 +134,8 @@ class Audibility:
             self.weakest = min(self.weakest, p_rn, p_nr)
         lim = capture_ratio * capture_tol * (1.0 - _CAPTURE_MARGIN)
         if len(stations) >= 3 and any(hi >= lim * lo for lo, hi in zip(self.pmin, self.pmax)):
-            self.ok = False
-        elif self.weakest < math.inf:
+            self.capture = True
+        if self.weakest < math.inf:
             snr = self.weakest / noise_w
             # Modulation.ber is exactly 0 from this Eb/N0 on: no bit error is ever drawn
             if any(snr * m.gain < m._cut for m in mods):

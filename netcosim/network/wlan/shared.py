@@ -17,6 +17,8 @@ from __future__ import annotations
 import bisect
 import heapq
 
+import numpy as np
+
 from ..frame import BROADCAST
 from ..medium import _TOL, Transmission, reception_end
 from ..slotclock import Audibility, SharedSlotClock
@@ -46,6 +48,14 @@ class SharedClockAccess(PerStationAccess):
         self.end_pre: tuple | None = None
         self.end_heap: list | None = None
         self.end_mid = None
+        # capture possible (``exact``): each member's interference power (W, by station index,
+        # the same float operations as the medium's per-listener ``power``), before the end
+        # being processed (``pvec_pre``); which stations are members; power rows by sender
+        self.exact = False
+        self.pvec = np.zeros(0)
+        self.pvec_pre = self.pvec
+        self.member = np.zeros(0, dtype=bool)
+        self.rows: dict[int, np.ndarray] = {}
 
     def attached(self, r) -> bool:
         """Station *r* attached: False if the crowd's conditions no longer hold (the caller
@@ -55,9 +65,44 @@ class SharedClockAccess(PerStationAccess):
         if not self.audibility.add(r, net._stations, net.path_loss.gain, m.capture_ratio, _TOL, m.noise_w,
                                    (m.plcp_mod, net.data_mod, net.ack_mod)):
             return False
+        stations: list = net._stations
+        # attached between transmissions: no power on the air anywhere
+        self.pvec = np.zeros(len(stations))
+        self.member = np.array([s.in_crowd for s in stations], dtype=bool)
+        self.rows.clear()
+        self.exact = self.audibility.capture
         bisect.insort(self.solo, r.index)
         self.try_join(r)
         return True
+
+    def row(self, src) -> np.ndarray:
+        """The powers (W) a transmission by *src* brings to each station (by index)."""
+        v = self.rows.get(src.index)
+        if v is None:
+            v = self.rows[src.index] = np.array(self.net.medium.powers_from(src))
+        return v
+
+    def evict(self, tx) -> None:
+        """*tx* starts while the crowd hears another frame and capture is possible: the members
+        whose own reception would differ from the crowd's (*tx* locked intact or capturing,
+        the locked frame surviving) leave first, with the state they had (so does *tx*'s
+        destination); the medium's per-listener code then takes *tx* at each of them.  The
+        tests are the medium's, on the same floats (see ``pvec``)."""
+        c = self.clock
+        p = self.row(tx.src)
+        pw = self.pvec + p
+        cap = self.net.medium.capture_ratio * _TOL
+        out = p >= cap * (pw - p)
+        if c.rx is not None and c.rx_ok:
+            pl = self.row(c.rx.src)
+            out |= pl >= cap * (pw - pl)
+        out &= self.member
+        d = tx.dst
+        if d is not BROADCAST and d.in_crowd:
+            out[d.index] = True
+        stations: list = self.net._stations
+        for i in np.flatnonzero(out).tolist():
+            self.leave(stations[i])
 
     def kick_member(self, r) -> bool:
         """Crowd member *r* got a frame to send: while the crowd is busy it draws its backoff
@@ -178,6 +223,8 @@ class SharedClockAccess(PerStationAccess):
         r.in_crowd = True
         c.count += 1
         del self.solo[bisect.bisect_left(self.solo, r.index)]
+        self.member[r.index] = True
+        self.pvec[r.index] = r.power
         if r.backoff is not None:
             r.access_at = -1
             self.clock_key(r, r.backoff)
@@ -191,8 +238,10 @@ class SharedClockAccess(PerStationAccess):
         c = self.clock
         pre = self.end_pre
         ended = None
+        pvec = self.pvec
         if pre is not None and r.index > self.end_pos:
             rx, rx_ok, rx_reason, audible, busy, idle_start, eifs, nav_end, ended = pre
+            pvec = self.pvec_pre
             if self.end_mid is None:           # (a broadcast end visits every station anyway)
                 heapq.heappush(self.end_heap, r.index)  # type: ignore[arg-type]  # set with end_pre
         elif r is self.end_mid:
@@ -206,8 +255,15 @@ class SharedClockAccess(PerStationAccess):
         r.in_crowd = False
         c.count -= 1
         bisect.insort(self.solo, r.index)
+        self.member[r.index] = False
         r.rx, r.rx_ok, r.rx_reason = rx, rx_ok, rx_reason
         r.audible = r.n_active = audible
+        if self.exact:
+            # a locked frame the crowd still decodes is alone on the air and error-free: no bit
+            # error accounting so far, none until the next change of the medium
+            r.power = float(pvec[r.index])
+            r.seg_t = self.env.now
+            r.logp = 0.0
         r.mac_busy, r.idle_start, r.eifs, r.nav_end = busy, idle_start, eifs, nav_end
         r.immediate = False
         if nav_end > self.env.now:
@@ -239,11 +295,15 @@ class SharedClockAccess(PerStationAccess):
         src = tx.src
         m.transmissions += 1
         m._stop_receiving(src)
+        tx.powers = m.powers_from(src)
         c = self.clock
         dst = tx.dst
         bcast = dst is BROADCAST
         if c.count and not c.mac_busy and c.access_at == now:
             self.pop_due(now, True)
+        exact = self.exact
+        if exact and c.count and c.audible:
+            self.evict(tx)
         active = m.active
         active.append(tx)
         first = len(active) == 1
@@ -266,6 +326,8 @@ class SharedClockAccess(PerStationAccess):
             if lock and not bcast and dst.in_crowd:    # a destination in the crowd: leaves at the end
                 dst.iface.receiving = 1
                 dst.iface._state()
+            if exact:
+                self.pvec = self.pvec + self.row(src)
         stations: list = self.net._stations
         if bcast and tx.kind == "data" and c.count:
             for r in stations:
@@ -276,9 +338,19 @@ class SharedClockAccess(PerStationAccess):
                         r.iface.receiving = 1
                         r.iface._state()
                 else:
-                    self.solo_start(r, tx, first, now)
+                    if exact:
+                        m.start_at(tx, (r,))
+                    else:
+                        self.solo_start(r, tx, first, now)
                     if r.rx is c.rx and r.access_at < 0 and r.tx is None:
                         self.try_join_busy(r, c, now)
+        elif exact:
+            # each station's start reads and writes only its own state: all of them, then the joins
+            solo = [stations[i] for i in self.solo]
+            m.start_at(tx, solo)
+            for r in solo:
+                if r.rx is c.rx and r.access_at < 0 and r.tx is None and c.count and r is not src:
+                    self.try_join_busy(r, c, now)
         else:
             for i in tuple(self.solo):
                 r = stations[i]
@@ -299,12 +371,16 @@ class SharedClockAccess(PerStationAccess):
             return
         if r.nav_end != c.nav_end and (r.nav_end > now or c.nav_end > now):
             return
+        if self.exact and (r.n_active != c.audible or (r.rx_ok and r.logp != 0.0)):
+            return
         for tx in self.net.medium.active:
             if tx.dst is r or tx.fail.get(r.index) != tx.crowd_fail:
                 return
         r.in_crowd = True
         c.count += 1
         del self.solo[bisect.bisect_left(self.solo, r.index)]
+        self.member[r.index] = True
+        self.pvec[r.index] = r.power
         if r.backoff is not None:
             self.clock_key(r, r.backoff)
 
@@ -337,6 +413,9 @@ class SharedClockAccess(PerStationAccess):
         c = self.clock
         crowd_bcast = tx.dst is BROADCAST and tx.kind == "data" and c.count
         if c.count:
+            if self.exact:
+                pv = self.pvec_pre = self.pvec
+                self.pvec = pv - self.row(src) if c.audible > 1 else np.zeros(len(pv))
             self.end_pre = (c.rx, c.rx_ok, c.rx_reason, c.audible, c.mac_busy, c.idle_start, c.eifs, c.nav_end, tx)
             d = tx.dst
             if d is not BROADCAST and d.in_crowd:
@@ -372,6 +451,9 @@ class SharedClockAccess(PerStationAccess):
     def listener_end(self, r, tx) -> None:
         """*tx* left the air at *r*, a station outside the crowd: its reception outcome,
         then its own DCF step."""
+        if self.exact:
+            self.net.medium.end_at(tx, (r,))
+            return
         r.n_active -= 1
         ok, reason, locked = reception_end(r, tx)
         r.audible -= 1
