@@ -56,6 +56,9 @@ class SharedClockAccess(PerStationAccess):
         self.pvec_pre = self.pvec
         self.member = np.zeros(0, dtype=bool)
         self.rows: dict[int, np.ndarray] = {}
+        # members whose EIFS flag differs from the crowd's (index -> theirs): they joined
+        # locked onto the crowd's frame, at whose end every member's flag is set alike
+        self.eifs_own: dict[int, bool] = {}
 
     def attached(self, r) -> bool:
         """Station *r* attached: False if the crowd's conditions no longer hold (the caller
@@ -209,6 +212,7 @@ class SharedClockAccess(PerStationAccess):
             if r.access_at >= 0 and r.count_start != c.C:
                 return False
         else:                                   # the first member: the crowd takes its view
+            self.eifs_own = {}
             c.mac_busy = False
             c.idle_start = r.idle_start
             c.eifs = r.eifs
@@ -240,18 +244,21 @@ class SharedClockAccess(PerStationAccess):
         ended = None
         pvec = self.pvec
         if pre is not None and r.index > self.end_pos:
-            rx, rx_ok, rx_reason, audible, busy, idle_start, eifs, nav_end, ended = pre
+            rx, rx_ok, rx_reason, audible, busy, idle_start, eifs, nav_end, ended, own = pre
+            eifs = own.get(r.index, eifs)
             pvec = self.pvec_pre
             if self.end_mid is None:           # (a broadcast end visits every station anyway)
                 heapq.heappush(self.end_heap, r.index)  # type: ignore[arg-type]  # set with end_pre
         elif r is self.end_mid:
             # half-way through its own step of a broadcast end: received, not yet re-evaluated
             rx, rx_ok, rx_reason, audible = c.rx, c.rx_ok, c.rx_reason, c.audible
-            eifs, nav_end = c.eifs, c.nav_end
+            eifs, nav_end = self.eifs_own.get(r.index, c.eifs), c.nav_end
             busy, idle_start = pre[4], pre[5]   # type: ignore[index]  # set with end_pre
         else:
             rx, rx_ok, rx_reason, audible = c.rx, c.rx_ok, c.rx_reason, c.audible
-            busy, idle_start, eifs, nav_end = c.mac_busy, c.idle_start, c.eifs, c.nav_end
+            busy, idle_start, nav_end = c.mac_busy, c.idle_start, c.nav_end
+            eifs = self.eifs_own.get(r.index, c.eifs)
+        self.eifs_own.pop(r.index, None)
         r.in_crowd = False
         c.count -= 1
         bisect.insort(self.solo, r.index)
@@ -364,10 +371,12 @@ class SharedClockAccess(PerStationAccess):
         """Busy station *r* joins the busy crowd *c* (at tick *now*) if it will see the medium as the crowd does:
         same locked frame and reception outcome, carrier sense, NAV and EIFS, and no frame on
         the air is addressed to it (while busy, the instant it went idle last does not matter;
-        both freeze their backoff and count again from the same idle instant)."""
+        both freeze their backoff and count again from the same idle instant).  Its EIFS flag
+        may differ while both are locked onto a frame: it is read only once the medium is idle,
+        and the frame's end sets it alike for both; until then the crowd keeps it."""
         if (r.tx is not None or r.awaiting is not None or r.responding or r.immediate or r.ack_wait
                 or r.access_at >= 0 or r.rx is not c.rx or r.rx_ok != c.rx_ok or r.rx_reason != c.rx_reason
-                or r.audible != c.audible or r.eifs != c.eifs or not c.mac_busy):
+                or r.audible != c.audible or (r.eifs != c.eifs and c.rx is None) or not c.mac_busy):
             return
         if r.nav_end != c.nav_end and (r.nav_end > now or c.nav_end > now):
             return
@@ -381,6 +390,8 @@ class SharedClockAccess(PerStationAccess):
         del self.solo[bisect.bisect_left(self.solo, r.index)]
         self.member[r.index] = True
         self.pvec[r.index] = r.power
+        if r.eifs != c.eifs:
+            self.eifs_own[r.index] = r.eifs
         if r.backoff is not None:
             self.clock_key(r, r.backoff)
 
@@ -416,12 +427,15 @@ class SharedClockAccess(PerStationAccess):
             if self.exact:
                 pv = self.pvec_pre = self.pvec
                 self.pvec = pv - self.row(src) if c.audible > 1 else np.zeros(len(pv))
-            self.end_pre = (c.rx, c.rx_ok, c.rx_reason, c.audible, c.mac_busy, c.idle_start, c.eifs, c.nav_end, tx)
+            self.end_pre = (c.rx, c.rx_ok, c.rx_reason, c.audible, c.mac_busy, c.idle_start, c.eifs, c.nav_end, tx,
+                            self.eifs_own)
             d = tx.dst
             if d is not BROADCAST and d.in_crowd:
                 self.end_heap = []
                 self.leave(d)      # the destination answers or notes why it missed the frame: its own step
             ok, reason, locked = reception_end(c, tx)
+            if locked:
+                self.eifs_own = {}      # the members' flags are all set below
             c.audible -= 1
             if ok:
                 c.eifs = False
@@ -436,6 +450,8 @@ class SharedClockAccess(PerStationAccess):
             return
         heap = self.end_heap = [i for i in self.solo if i != src.index]
         try:
+            if self.exact:
+                m.end_at(tx, self.pending(heap, stations))
             while heap:
                 i = heapq.heappop(heap)
                 r = stations[i]
@@ -447,6 +463,16 @@ class SharedClockAccess(PerStationAccess):
             self.end_heap = None
             self.end_pre = None
             self.end_pos = -1
+
+    def pending(self, heap: list, stations: list):
+        """The stations outside the crowd still to take the end of a transmission, in index
+        order, from *heap* (which grows when a member leaves meanwhile); ``end_pos`` follows."""
+        while heap:
+            i = heapq.heappop(heap)
+            r = stations[i]
+            if not r.in_crowd:
+                self.end_pos = i
+                yield r
 
     def listener_end(self, r, tx) -> None:
         """*tx* left the air at *r*, a station outside the crowd: its reception outcome,
