@@ -183,3 +183,17 @@ def test_moving_stations_take_the_per_station_path():
     SaturatedSource(a, "b", 8000)
     sim.run(0.02)
     assert a.stats["sent"] > 10
+
+
+def test_where_capture_is_possible_the_crowd_spares_most_re_evaluations():
+    # 50 saturated stations on a 10 m circle around the access point (capture possible):
+    # station by station, every station takes a DCF step at every end of a transmission
+    # (data and ACK at least: > 2 * 49 per frame); the crowd takes one step for all its
+    # members, and only the stations that left it (sender, receiver, the listeners whose
+    # reception of an overlap differs) take their own
+    from benchmarks.counters import wlan_reevals_per_frame
+    per_station = wlan_reevals_per_frame(50, 0.3, shared_clock=False)
+    shared = wlan_reevals_per_frame(50, 0.3, shared_clock=True)
+    assert per_station > 2 * 49
+    assert shared < per_station / 4
+    assert wlan_reevals_per_frame(2, 0.3, shared_clock=True) < 10
