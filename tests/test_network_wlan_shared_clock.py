@@ -197,3 +197,39 @@ def test_where_capture_is_possible_the_crowd_spares_most_re_evaluations():
     assert per_station > 2 * 49
     assert shared < per_station / 4
     assert wlan_reevals_per_frame(2, 0.3, shared_clock=True) < 10
+
+
+@pytest.mark.parametrize("when", ["timer", "handler"])
+def test_a_power_change_where_capture_is_possible_hands_over_to_the_per_station_path(when):
+    # 12 saturated stations on an 8 m circle around an access point: capture possible, so the
+    # crowd can hand every station its exact state back at any instant; a transmit-power
+    # change (at a given time, or from a receive handler while a frame ends) switches to the
+    # per-station path for good, with the same tables as a network built without the clock
+    def run(shared):
+        sim = Simulation(seed=3)
+        net = WLAN80211b(sim, "w", shared_clock=shared)
+        ap = net.attach("ap", position=(0.0, 0.0))
+        ifaces = [net.attach(f"s{i}", position=(8 * math.cos(i), 8 * math.sin(i))) for i in range(12)]
+        for i in ifaces[1:]:
+            SaturatedSource(i, ap, 8000)
+        assert net._fast is shared and net._shared.exact is shared
+        if when == "timer":
+            sim.call_at(0.0237, lambda: net.set_tx_power("s3", 5.0))
+        else:
+            ap.on_receive(lambda msg: net.set_tx_power("s3", 5.0) if sim.now > 0.02 else None)
+        sim.run(0.06)
+        assert not net._fast and net.tx_power("s3") == 5.0
+        return tables(sim, net)
+    a, b = run(True), run(False)
+    assert len(a[0]) > 100
+    assert a[0].equals(b[0]) and a[1].equals(b[1]) and a[2:] == b[2:]
+
+
+def test_a_power_change_without_capture_still_needs_the_per_station_path():
+    from netcosim.errors import ConfigurationError
+    sim = Simulation(seed=1)
+    net = WLAN80211b(sim, "w")
+    net.attach("a", position=(0.0, 0.0))
+    net.attach("b", position=(0.5, 0.0))
+    with pytest.raises(ConfigurationError, match="shared_clock=False"):
+        net.set_tx_power("a", 5.0)

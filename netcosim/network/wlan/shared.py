@@ -4,12 +4,21 @@
 once to the *crowd* of stations that see the same medium, and one by one (the reference
 rules) to the others: the stations sending, answering, waiting for an ACK or receiving a
 frame addressed to them.  It puts transmissions on the air and takes them off itself
-(:meth:`SharedClockAccess.fast_start`, :meth:`~SharedClockAccess.fast_end`): every
-station hears every other and no frame can capture a receiver, so a frame overlapping
-another fails at every listener, and the reception outcome is decided by
-:func:`~netcosim.network.medium.reception_end` as on the medium.  The network uses it
-while :class:`~netcosim.network.slotclock.Audibility` holds and switches to the
-per-station strategy for good when a station out of range or able to capture attaches.
+(:meth:`SharedClockAccess.fast_start`, :meth:`~SharedClockAccess.fast_end`).  Every
+station hears every other one; where no frame can capture a receiver, a frame
+overlapping another fails at every listener, and the stations outside the crowd take
+the reduced steps :meth:`~SharedClockAccess.solo_start` and
+:meth:`~SharedClockAccess.listener_end`.  Where capture is possible (``exact``), a
+frame that starts while the crowd hears another first sends out of the crowd the members
+whose own reception would differ (:meth:`~SharedClockAccess.evict`: the medium's tests
+on each member's interference power, a vector kept with the medium's own float
+operations), and the stations outside the crowd take the medium's per-listener code
+(:meth:`~netcosim.network.medium.WirelessMedium.start_at`,
+:meth:`~netcosim.network.medium.WirelessMedium.end_at`).  The reception outcome is
+decided by :func:`~netcosim.network.medium.reception_end` as on the medium.  The
+network uses this strategy while :class:`~netcosim.network.slotclock.Audibility` holds
+and switches to the per-station strategy for good when a station out of range, moving,
+or with bit errors possible on its own attaches.
 """
 
 from __future__ import annotations
@@ -32,7 +41,10 @@ class SharedClockAccess(PerStationAccess):
     ``solo`` (indices of the stations outside the crowd, sorted); while a transmission
     ends: ``end_pos`` (the station being processed), ``end_pre`` (the crowd's state
     before the end), ``end_heap`` (the stations still to do), ``end_mid`` (a crowd
-    station delivering a broadcast frame, its own step).
+    station delivering a broadcast frame, its own step).  ``exact``: capture is possible
+    (see the module docstring); then ``pvec`` holds each member's received power (W, by
+    station index; ``pvec_pre`` before the end being processed) and ``member`` marks the
+    members.
     """
 
     shared = True
@@ -118,7 +130,9 @@ class SharedClockAccess(PerStationAccess):
         return False
 
     def dissolve(self) -> None:
-        """Every station of the crowd gets its own state back (the network goes on station by station)."""
+        """Every station of the crowd gets its own state back (the network goes on station by
+        station; nobody joins again, also in the rest of a transmission's end under way)."""
+        self.shared = False
         stations: list = self.net._stations
         for r in stations:
             if r.in_crowd:
