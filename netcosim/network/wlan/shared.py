@@ -266,7 +266,7 @@ class SharedClockAccess(PerStationAccess):
         elif r is self.end_mid:
             # half-way through its own step of a broadcast end: received, not yet re-evaluated
             rx, rx_ok, rx_reason, audible = c.rx, c.rx_ok, c.rx_reason, c.audible
-            eifs, nav_end = self.eifs_own.get(r.index, c.eifs), c.nav_end
+            eifs, nav_end = self.eifs_own.get(self.end_pos, c.eifs), c.nav_end     # end_pos: r's index
             busy, idle_start = pre[4], pre[5]   # type: ignore[index]  # set with end_pre
         else:
             rx, rx_ok, rx_reason, audible = c.rx, c.rx_ok, c.rx_reason, c.audible
