@@ -21,8 +21,15 @@ the host.  Three kinds:
                     bound stepper).  Examples: the README servo under RK4(dt=1e-4) for 1 s
                     (4 per step: 40 000); the networked Fly-crane (online, 30 % loss, seed
                     0, dynamic plant, schedules off) for 10 s.
+``reevals_per_frame``  802.11b station re-evaluations per frame sent or dropped: calls of
+                    the DCF step of one station after a change of the medium it hears
+                    (:meth:`~netcosim.network.wlan.dcf.PerStationAccess.reeval`; the shared
+                    idle-slot clock's crowd counts as none).  Example: 50 saturated stations
+                    on a 10 m circle sending to an access point at its centre (the ``circle``
+                    geometry of :func:`benchmarks.network.wlan_scaling_run`: capture possible)
+                    for 0.3 s, with the shared clock.
 
-Tolerances (:data:`TOLERANCE`): events and rows exact (integer logic only); RHS calls
+Tolerances (:data:`TOLERANCE`): events, rows and re-evaluations exact (integer logic only); RHS calls
 +-2 % (an adaptive integrator's step count moves with the last bits of floating point,
 e.g. another BLAS or compiler).  ``python -m benchmarks.counters`` prints the counts and
 the stored ones; ``--record`` stores the current counts (after a change that is meant to
@@ -40,7 +47,7 @@ from pathlib import Path
 #: Stored counts (written by ``--record``).
 REFERENCE = Path(__file__).with_name("counters_reference.json")
 #: Allowed relative difference per kind of count.
-TOLERANCE = {"events_per_job": 0.0, "rows_per_frame": 0.0, "rhs_per_second": 0.02}
+TOLERANCE = {"events_per_job": 0.0, "rows_per_frame": 0.0, "rhs_per_second": 0.02, "reevals_per_frame": 0.0}
 
 
 class _EventCount:
@@ -142,6 +149,35 @@ def wlan_rows_per_frame(until: float = 0.2) -> float:
     return _rows(sim) / sum(i.stats["sent"] + i.stats["dropped"] for i in net._ifaces)
 
 
+def wlan_reevals_per_frame(n: int = 50, until: float = 0.3, shared_clock: bool = True) -> float:
+    """Station re-evaluations per 802.11b frame sent or dropped: *n* saturated stations on a
+    10 m circle around an access point, *until* simulated seconds (see the module docstring)."""
+    from netcosim import Simulation
+    from netcosim.network import SaturatedSource, WLAN80211b
+    from netcosim.network.wlan.dcf import PerStationAccess
+
+    from .network import PAYLOAD_BITS
+    calls = 0
+    reeval = PerStationAccess.reeval
+
+    def counted(self, r):
+        nonlocal calls
+        calls += 1
+        return reeval(self, r)
+    PerStationAccess.reeval = counted       # type: ignore[method-assign]  # for this run only
+    try:
+        sim = Simulation(seed=0)
+        net = WLAN80211b(sim, "wlan", data_rate=11e6, trace=False, shared_clock=shared_clock)
+        ap = net.attach("ap", position=(0.0, 0.0), mailbox=False)
+        for i in range(n):
+            s = net.attach(f"s{i}", position=(10 * math.cos(i), 10 * math.sin(i)))
+            SaturatedSource(s, ap, PAYLOAD_BITS)
+        sim.run(until)
+    finally:
+        PerStationAccess.reeval = reeval    # type: ignore[method-assign]
+    return calls / sum(i.stats["sent"] + i.stats["dropped"] for i in net._ifaces)
+
+
 def servo_rhs_per_second(until: float = 1.0) -> float:
     """RHS evaluations per simulated second of the README servo under RK4(dt=1e-4)."""
     from netcosim import RK4, Simulation
@@ -181,6 +217,7 @@ COUNTERS = {
     "kernel_10_tasks.events_per_job": ("events_per_job", kernel_events_per_job),
     "can_10_nodes.rows_per_frame": ("rows_per_frame", can_rows_per_frame),
     "wlan_10_stations.rows_per_frame": ("rows_per_frame", wlan_rows_per_frame),
+    "wlan_50_circle.reevals_per_frame": ("reevals_per_frame", wlan_reevals_per_frame),
     "servo_rk4.rhs_per_second": ("rhs_per_second", servo_rhs_per_second),
     "flycrane_dynamic.rhs_per_second": ("rhs_per_second", flycrane_rhs_per_second),
 }

@@ -5,7 +5,9 @@ Bernoulli loss, EIFS on and off, small contention windows and retry limits, tran
 powers differing by up to 4 dB, replies sent from receive handlers and from other
 stations' completion callbacks, a station attached mid-run) run twice, with
 ``shared_clock=True`` and ``False``; the frame and network-schedule tables and the
-counters must be identical.
+counters must be identical.  The same scenarios spread over a disc of 8 m (everybody
+still hears everybody, but a near sender captures a receiver from a far one, and a frame
+that survives an overlap may lose bits) check the crowd's capture-aware mode.
 """
 
 import math
@@ -17,8 +19,9 @@ from netcosim import Simulation
 from netcosim.network import BROADCAST, SaturatedSource, WLAN80211b
 
 
-def scenario(seed: int, shared_clock: bool, until: float = 0.08):
-    """A random network drawn from *seed* (the same for both paths); returns (sim, net)."""
+def scenario(seed: int, shared_clock: bool, until: float = 0.08, radius: float = 0.7):
+    """A random network drawn from *seed* (the same for both paths), its stations within
+    *radius* m of the origin; returns (sim, net)."""
     g = np.random.default_rng(seed)
     n = int(g.integers(2, 21))
     sim = Simulation(seed=seed)
@@ -28,12 +31,12 @@ def scenario(seed: int, shared_clock: bool, until: float = 0.08):
                      preamble=str(g.choice(["long", "short"])), shared_clock=shared_clock,
                      cw_min=int(g.choice([31, 31, 7, 3])), retry_limit=int(g.choice([7, 7, 2])),
                      propagation_delay=float(g.choice([0.0, 0.0, 1e-6])))
-    # stations within 1.5 m of each other, transmit powers within 4 dB: everybody hears
-    # everybody, no capture possible
+    # with the default radius, stations within 1.5 m of each other, transmit powers within
+    # 4 dB: everybody hears everybody, no capture possible
     ifaces = []
     for i in range(n):
         a = g.uniform(0, 2 * math.pi)
-        rad = g.uniform(0, 0.7)
+        rad = g.uniform(0, radius)
         ifaces.append(net.attach(f"s{i}", position=(rad * math.cos(a), rad * math.sin(a)),
                                  tx_power_dbm=15.0 + float(g.choice([0.0, 0.0, 2.0, -2.0]))))
     size = lambda: int(g.integers(1, 12)) * 800  # noqa: E731
@@ -64,8 +67,8 @@ def scenario(seed: int, shared_clock: bool, until: float = 0.08):
         watcher, other = ifaces[0], ifaces[n - 1]
         watcher.on_done.append(lambda f, ok: other.send(watcher, "cb", 600) if len(other.queue) < 3 else None)
 
-    # a station attached mid-run: near (the shared clock goes on), or 3 m away, where its
-    # frames can capture receivers (the network switches to the per-station path)
+    # a station attached mid-run: near, or 3 m away, where its frames can capture receivers
+    # (the shared clock goes on, checking each overlap station by station from then on)
     far = bool(g.integers(0, 3) == 0)
 
     def late_attach():
@@ -91,7 +94,8 @@ def tables(sim, net):
 def test_shared_clock_reproduces_the_per_station_path(seed):
     sim_f, net_f = scenario(seed, True)
     sim_s, net_s = scenario(seed, False)
-    assert net_f._fast is not net_f.late_far and not net_s._fast   # the shared clock was used (until "far")
+    assert net_f._fast and not net_s._fast      # the shared clock was used
+    assert net_f._shared.exact is net_f.late_far    # capture possible once "far" attached
     ff, sf, stf, cf, tf = tables(sim_f, net_f)
     fs, ss, sts, cs, ts = tables(sim_s, net_s)
     assert len(ff) > 100
@@ -106,28 +110,61 @@ def test_shared_clock_reproduces_the_per_station_path_on_many_seeds(block):
     for seed in range(16 + 50 * block, 16 + 50 * (block + 1)):
         sim_f, net_f = scenario(seed, True, 0.1)
         sim_s, net_s = scenario(seed, False, 0.1)
-        assert net_f._fast is not net_f.late_far
+        assert net_f._fast
         a, b = tables(sim_f, net_f), tables(sim_s, net_s)
         assert a[0].equals(b[0]) and a[1].equals(b[1]) and a[2:] == b[2:], seed
 
 
-def test_a_station_out_of_capture_range_switches_to_the_per_station_path():
-    # s2 sits next to s0: at s0 its frames are > 10 dB above s1's, so capture is possible
-    for shared in (True, False):
-        sim = Simulation(seed=1)
-        net = WLAN80211b(sim, "w", shared_clock=shared)
-        a = net.attach("s0", position=(0.0, 0.0))
-        b = net.attach("s1", position=(30.0, 0.0))
-        assert net._fast is shared
-        net.attach("s2", position=(1.0, 0.0))
-        assert not net._fast
-        SaturatedSource(a, b, 8000)
-        SaturatedSource(b, a, 8000)
-        sim.run(0.05)
-        out = tables(sim, net)
-        if shared:
-            ref = out
-    assert ref[0].equals(out[0]) and ref[1].equals(out[1]) and ref[2] == out[2]
+@pytest.mark.parametrize("seed", range(16))
+def test_shared_clock_reproduces_the_per_station_path_when_capture_is_possible(seed):
+    sim_f, net_f = scenario(seed, True, radius=8.0)
+    sim_s, net_s = scenario(seed, False, radius=8.0)
+    assert net_f._fast and net_f._shared.exact
+    a, b = tables(sim_f, net_f), tables(sim_s, net_s)
+    assert len(a[0]) > 100
+    assert a[0].equals(b[0]), (seed, a[0].compare(b[0]).head())
+    assert a[1].equals(b[1]) and a[2:] == b[2:]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("block", range(4))
+def test_shared_clock_reproduces_the_per_station_path_when_capture_is_possible_on_many_seeds(block):
+    exact = 0
+    for seed in range(16 + 50 * block, 16 + 50 * (block + 1)):
+        sim_f, net_f = scenario(seed, True, 0.1, radius=8.0)
+        sim_s, net_s = scenario(seed, False, 0.1, radius=8.0)
+        assert net_f._fast
+        exact += net_f._shared.exact        # (two stations alone cannot capture)
+        a, b = tables(sim_f, net_f), tables(sim_s, net_s)
+        assert a[0].equals(b[0]) and a[1].equals(b[1]) and a[2:] == b[2:], seed
+    assert exact >= 40
+
+
+def test_a_station_able_to_capture_keeps_the_shared_clock_and_one_out_of_range_ends_it():
+    # s2 sits next to s0: at s0 its frames are > 10 dB above s1's, so capture is possible and
+    # the crowd checks overlaps station by station; s3, 200 m away, hears nobody (-91 dBm <
+    # -85 dBm): the network goes on station by station for good
+    for far in (False, True):
+        for shared in (True, False):
+            sim = Simulation(seed=1)
+            net = WLAN80211b(sim, "w", shared_clock=shared)
+            a = net.attach("s0", position=(0.0, 0.0))
+            b = net.attach("s1", position=(30.0, 0.0))
+            assert net._fast is shared and not net._shared.exact
+            c = net.attach("s2", position=(1.0, 0.0))
+            assert net._fast is shared and net._shared.exact is shared
+            if far:
+                net.attach("s3", position=(200.0, 0.0))
+                assert not net._fast
+            SaturatedSource(a, b, 8000)
+            SaturatedSource(b, a, 8000)
+            SaturatedSource(c, b, 8000)
+            sim.run(0.3)
+            out = tables(sim, net)
+            if shared:
+                ref = out
+        assert ref[0].equals(out[0]) and ref[1].equals(out[1]) and ref[2:] == out[2:]
+        assert out[3] > 0 and out[4] > 100      # collisions at a destination happened
 
 
 def test_shared_clock_must_be_a_bool():
@@ -146,3 +183,53 @@ def test_moving_stations_take_the_per_station_path():
     SaturatedSource(a, "b", 8000)
     sim.run(0.02)
     assert a.stats["sent"] > 10
+
+
+def test_where_capture_is_possible_the_crowd_spares_most_re_evaluations():
+    # 50 saturated stations on a 10 m circle around the access point (capture possible):
+    # station by station, every station takes a DCF step at every end of a transmission
+    # (data and ACK at least: > 2 * 49 per frame); the crowd takes one step for all its
+    # members, and only the stations that left it (sender, receiver, the listeners whose
+    # reception of an overlap differs) take their own
+    from benchmarks.counters import wlan_reevals_per_frame
+    per_station = wlan_reevals_per_frame(50, 0.3, shared_clock=False)
+    shared = wlan_reevals_per_frame(50, 0.3, shared_clock=True)
+    assert per_station > 2 * 49
+    assert shared < per_station / 4
+    assert wlan_reevals_per_frame(2, 0.3, shared_clock=True) < 10
+
+
+@pytest.mark.parametrize("when", ["timer", "handler"])
+def test_a_power_change_where_capture_is_possible_hands_over_to_the_per_station_path(when):
+    # 12 saturated stations on an 8 m circle around an access point: capture possible, so the
+    # crowd can hand every station its exact state back at any instant; a transmit-power
+    # change (at a given time, or from a receive handler while a frame ends) switches to the
+    # per-station path for good, with the same tables as a network built without the clock
+    def run(shared):
+        sim = Simulation(seed=3)
+        net = WLAN80211b(sim, "w", shared_clock=shared)
+        ap = net.attach("ap", position=(0.0, 0.0))
+        ifaces = [net.attach(f"s{i}", position=(8 * math.cos(i), 8 * math.sin(i))) for i in range(12)]
+        for i in ifaces[1:]:
+            SaturatedSource(i, ap, 8000)
+        assert net._fast is shared and net._shared.exact is shared
+        if when == "timer":
+            sim.call_at(0.0237, lambda: net.set_tx_power("s3", 5.0))
+        else:
+            ap.on_receive(lambda msg: net.set_tx_power("s3", 5.0) if sim.now > 0.02 else None)
+        sim.run(0.06)
+        assert not net._fast and net.tx_power("s3") == 5.0
+        return tables(sim, net)
+    a, b = run(True), run(False)
+    assert len(a[0]) > 100
+    assert a[0].equals(b[0]) and a[1].equals(b[1]) and a[2:] == b[2:]
+
+
+def test_a_power_change_without_capture_still_needs_the_per_station_path():
+    from netcosim.errors import ConfigurationError
+    sim = Simulation(seed=1)
+    net = WLAN80211b(sim, "w")
+    net.attach("a", position=(0.0, 0.0))
+    net.attach("b", position=(0.5, 0.0))
+    with pytest.raises(ConfigurationError, match="shared_clock=False"):
+        net.set_tx_power("a", 5.0)

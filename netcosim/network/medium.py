@@ -226,16 +226,24 @@ class WirelessMedium:
 
     def start(self, tx: Transmission) -> None:
         """*tx* begins now; update every listener and tell each MAC to re-evaluate."""
+        self.transmissions += 1
+        self._stop_receiving(tx.src)
+        tx.powers = self.powers_from(tx.src)
+        self.active.append(tx)
+        self.start_at(tx, self.mac._stations)
+
+    def start_at(self, tx: Transmission, listeners) -> None:
+        """*tx* (already on the air: counted, ``tx.powers`` set) reaches each station of
+        *listeners* now (its sender is skipped): carrier sense, interference, lock or capture,
+        and the MAC's re-evaluation of a station the medium just turned busy for."""
         now = self.env.now
         src = tx.src
-        self.transmissions += 1
-        self._stop_receiving(src)
-        powers = tx.powers = self.powers_from(src)
-        self.active.append(tx)
+        powers = tx.powers
+        assert powers is not None, "set when tx went on the air"
         cap = self.capture_ratio * _TOL
         mac = self.mac
         off = src.off       # a sender out of energy reaches nobody: its frames fail for that reason
-        for r in mac._stations:
+        for r in listeners:
             if r is src:
                 continue
             p = powers[r.index]
@@ -277,13 +285,18 @@ class WirelessMedium:
 
     def end(self, tx: Transmission) -> None:
         """*tx* ends now; finish receptions and report to every listener's MAC."""
-        now = self.env.now
         self.active.remove(tx)
+        self.end_at(tx, self.mac._stations)
+
+    def end_at(self, tx: Transmission, listeners) -> None:
+        """*tx* (already off the air) ends now at each station of *listeners* (its sender is
+        skipped): finish the reception, report it to the MAC, let the MAC re-evaluate."""
+        now = self.env.now
         src = tx.src
         powers = tx.powers
         assert powers is not None, "set by start(tx)"
         mac = self.mac
-        for r in mac._stations:
+        for r in listeners:
             if r is src:
                 continue
             p = powers[r.index]

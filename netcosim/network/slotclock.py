@@ -1,10 +1,12 @@
 """The shared idle-slot clock of an 802.11 DCF network whose stations all hear each other.
 
-When every station hears every other one, decodes every frame sent alone, and no frame
-can capture a receiver, every station that neither sends nor takes part in a frame
-exchange sees the same medium: the same busy/idle instants, the same locked frame, the
-same NAV and EIFS.  Those stations form one *crowd* kept as a single
-:class:`SharedSlotClock` instead of being updated one by one on every medium change:
+When every station hears every other one and decodes every frame sent alone without a
+bit error, every station that neither sends nor takes part in a frame exchange sees the
+same medium while frames do not overlap: the same busy/idle instants, the same locked
+frame, the same NAV and EIFS; if moreover no frame can capture a receiver, an overlap
+destroys both frames at every listener, so they still do.  Those stations form one
+*crowd* kept as a single :class:`SharedSlotClock` instead of being updated one by one on
+every medium change:
 
 * the crowd's listener state (locked frame, carrier sense, NAV, EIFS, idle since) is
   held once;
@@ -16,17 +18,21 @@ same NAV and EIFS.  Those stations form one *crowd* kept as a single
 
 A station leaves the crowd (its state is written back into its own fields) when it is
 due to transmit, is the destination of a unicast frame, or gets a frame to send while
-the medium is idle; it rejoins when it is idle again with the same idle instant and EIFS
-flag as the crowd, or busy with the same view of the medium.  A broadcast frame is
-delivered (or lost) at each crowd station in station order, with the crowd's outcome.
-Stations outside the crowd are processed exactly as on the per-station path.
+the medium is idle; where capture is possible, also when a frame starts while the crowd
+hears another and the station's own reception of it would differ from the crowd's (the
+new frame locked intact or capturing it, its locked frame surviving).  It rejoins when
+it is idle again with the same idle instant and EIFS flag as the crowd, or busy with the
+same view of the medium.  A broadcast frame is delivered (or lost) at each crowd station
+in station order, with the crowd's outcome.  Stations outside the crowd are processed
+exactly as on the per-station path.
 
 :class:`Audibility` decides from the geometry, powers and thresholds whether the
 conditions hold: every received power at or above the receiver and carrier-sense
-thresholds, no receiver where one sender is within the capture ratio of another (so any
-overlap destroys both frames everywhere), and a bit error rate of exactly zero at the
-weakest link without interference for the PLCP, data and ACK modulations (so no bit
-error is ever drawn).  Moving stations (a callable position) are never in this case.
+thresholds, and a bit error rate of exactly zero at the weakest link without
+interference for the PLCP, data and ACK modulations (so a frame alone never draws a bit
+error); and whether capture is possible (a receiver where one sender is within the
+capture ratio of another, with a margin; else any overlap destroys both frames
+everywhere).  Moving stations (a callable position) are never in this case.
 """
 
 from __future__ import annotations
@@ -37,7 +43,7 @@ from typing import Any
 from .radio import distance
 
 #: Margin on the capture test: received power ratios within this relative distance of the
-#: capture ratio count as possibly capturing (the per-station path then decides).
+#: capture ratio count as possibly capturing (the crowd then checks each overlap).
 _CAPTURE_MARGIN = 1e-6
 
 
@@ -84,7 +90,7 @@ class SharedSlotClock:
 
 class Audibility:
     """Incremental check that every station hears every other one (the conditions above)
-    as stations attach (O(n) per station).
+    as stations attach (O(n) per station); ``capture`` tells whether capture is possible.
 
     Keeps, per listener index, the smallest and largest power received from any other
     station, and the smallest power over all links (W).
@@ -95,9 +101,13 @@ class Audibility:
         self.pmax: list[float] = []
         self.weakest = math.inf
         self.ok = True
+        #: some receiver may be captured (or a frame survive an overlap): the crowd must check
+        #: each overlap station by station (see :mod:`netcosim.network.wlan.shared`)
+        self.capture = False
 
     def add(self, n, stations, gain, capture_ratio: float, capture_tol: float, noise_w: float, mods) -> bool:
-        """Station *n* (already in *stations*, by index) joins; False once the conditions fail.
+        """Station *n* (already in *stations*, by index) joins; False once the conditions fail
+        (``capture`` turns True, for good, once a receiver could be captured).
 
         ``gain``: the path loss's ``gain(d)`` (received over transmitted power at d m);
         ``capture_ratio``: the medium's capture ratio (linear, not dB) and ``capture_tol``
@@ -131,8 +141,8 @@ class Audibility:
             self.weakest = min(self.weakest, p_rn, p_nr)
         lim = capture_ratio * capture_tol * (1.0 - _CAPTURE_MARGIN)
         if len(stations) >= 3 and any(hi >= lim * lo for lo, hi in zip(self.pmin, self.pmax)):
-            self.ok = False
-        elif self.weakest < math.inf:
+            self.capture = True
+        if self.weakest < math.inf:
             snr = self.weakest / noise_w
             # Modulation.ber is exactly 0 from this Eb/N0 on: no bit error is ever drawn
             if any(snr * m.gain < m._cut for m in mods):

@@ -148,12 +148,14 @@ class WLAN80211b(RadioNetwork):
     modulation:
         ``"auto"`` (by rate), ``"dbpsk"``, ``"dqpsk"``, ``"cck"``.
     shared_clock:
-        True (default): while every station hears every other one and no capture or bit
-        error is possible (decided at each ``attach`` from positions, powers and
-        thresholds, see :mod:`netcosim.network.slotclock`), the stations not taking part
-        in the current exchange share one idle-slot clock, so a frame costs about the same
-        whatever the number of stations.  The results are identical bit for bit to
-        False, which updates every station on every medium change.
+        True (default): while every station hears every other one and no bit error is
+        possible without interference (decided at each ``attach`` from positions, powers
+        and thresholds, see :mod:`netcosim.network.slotclock`), the stations not taking
+        part in the current exchange share one idle-slot clock, so a frame costs about the
+        same whatever the number of stations when no capture is possible; where it is,
+        the listeners whose reception of an overlap differs take their own steps.  The
+        results are identical bit for bit to False, which updates every station on every
+        medium change.
 
     Raises
     ------
@@ -408,6 +410,15 @@ class WLAN80211b(RadioNetwork):
                     self._shared.clock_reeval(self._env.now)
             elif not r.in_crowd:
                 self._reeval(r)
+
+    def _require_per_station(self, what: str) -> None:
+        """Run-time changes of radio powers: where capture is possible the shared clock hands every
+        station its exact state back at any instant, and the network goes on station by station
+        for good; otherwise they need ``shared_clock=False`` (see :class:`RadioNetwork`)."""
+        if self._fast and self._shared.exact:
+            self._shared.dissolve()
+            self._use(PerStationAccess(self))
+        super()._require_per_station(what)
 
     def _station(self, iface, options):
         r = super()._station(iface, options)
