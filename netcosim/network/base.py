@@ -56,12 +56,14 @@ from .links import LinkAccounting, _message_loss
 from .loss import as_loss_model
 from .plot import NETWORK_STATES  # noqa: F401 (re-exported: the states of the network_schedule table)
 from .stats import LinkStats
-from .tracing import (  # noqa: F401 (re-exported: the trace tables' columns and readers)
+from .tracing import (  # noqa: F401 (re-exported: the trace tables' columns)
+    CREATED,
+    EMPTY,
     FRAME_COLUMNS,
+    QUEUED,
     SCHEDULE_COLUMNS,
-    _frames_frame,
     _plot_network,
-    _schedule_frame,
+    network_tables,
 )
 
 #: default size (frames) of a sender queue: far beyond any load a network drains (tests
@@ -71,7 +73,6 @@ DEFAULT_QUEUE_CAPACITY = 100_000
 
 if TYPE_CHECKING:
     import pandas as pd
-
 
 _NAN = math.nan
 
@@ -241,12 +242,8 @@ class Network(FrameLifecycle, LinkAccounting):
         self._lstats: dict[tuple[int, int], LinkStats] = {}
         self._dur: dict = {}
         self._next_id = 0
-        self._frames_rec = sim.trace.table("frames", FRAME_COLUMNS,
-                                           categorical=("network", "event", "src", "dst", "node", "outcome"),
-                                           transform=_frames_frame, keeps_categories=True)
-        self._sched_rec = sim.trace.table("network_schedule", SCHEDULE_COLUMNS,
-                                          categorical=("network", "node", "state"), transform=_schedule_frame,
-                                          keeps_categories=True)
+        # the trace's names of the network rows (tracing.py): rows store their codes
+        self._tnames, self._frames_rec, self._sched_rec = network_tables(sim.trace)
         self._rows = self._frames_rec.rows
         self._sched_rows = self._sched_rec.rows
         sim.trace.add_plot("network", _plot_network)
@@ -293,8 +290,10 @@ class Network(FrameLifecycle, LinkAccounting):
             knode.interfaces[self.name] = iface
         if handler is not None:
             iface.on_receive(handler)
+        iface._tnode = self._tnames.code[name]
+        iface._tstate = self._tnames.state_codes(self.name, name)
         if self._trace_on:
-            iface._row_t, iface._row = self._env.now, (self._env.now, self.name, name, "idle")
+            iface._row_t, iface._row = self._env.now, (self._env.now, iface._tstate["idle"])
             self._sched_rows.append(iface._row)
         return iface
 
@@ -382,8 +381,11 @@ class Network(FrameLifecycle, LinkAccounting):
         frame = Frame(msg, iface, d, self.wire_bits(size), prio, iface._seq, now)
         iface._seq += 1
         if self._trace_on:
-            self._rows.append((now, self.name, frame.id, "created", iface.name, frame.dname, iface.name, 0, "",
-                               size, _NAN))
+            lk = iface._tlinks.get(d)
+            if lk is None:
+                lk = iface._tlinks[d] = self._tnames.link(self.name, iface.name, frame.dname)
+            frame.tlink = lk
+            self._rows.append((now, frame.id, lk, CREATED, iface._tnode, 0, EMPTY, size, _NAN))
         if d is BROADCAST:
             for r in self._ifaces:
                 if r is not iface:
@@ -423,8 +425,8 @@ class Network(FrameLifecycle, LinkAccounting):
         frame.queued = self._env.now
         iface.queue.push(frame)
         if self._trace_on:
-            self._rows.append((frame.queued, self.name, frame.id, "queued", iface.name, frame.dname, iface.name,
-                               0, "", frame.bits, _NAN))
+            self._rows.append((frame.queued, frame.id, frame.tlink, QUEUED, iface._tnode, 0, EMPTY, frame.bits,
+                               _NAN))
         self._kick(iface)
         iface._state()
 

@@ -148,6 +148,11 @@ class Interface:
         self.state = "idle"
         self._row_t = -1        # tick of this interface's last network-schedule row, and the row
         self._row: tuple | None = None
+        # the codes of this interface in the trace rows (netcosim.network.tracing, set by attach):
+        # its name, its stored code per state, and the link code per destination
+        self._tnode = 0
+        self._tstate: dict[str, int] = {}
+        self._tlinks: dict = {}
         self._seq = 0
         self.mac: Any = None    # the MAC's per-station state (see Network._station)
         #: frames ``sent`` (or acknowledged) and ``dropped`` by this sender, messages ``received``
@@ -205,9 +210,11 @@ class Interface:
             net = self.network
             if net._trace_on:
                 # one row per node and instant: a state that lasts zero time is overwritten
+                # (in keep mode appended: reading the table keeps the instant's last state,
+                # netcosim.network.tracing.collapse_instants)
                 now = net._env.now
-                row = (now, net.name, self.name, s)
-                if self._row_t == now:
+                row = (now, self._tstate[s])
+                if self._row_t == now and net._sched_rec.mode != "keep":
                     net._sched_rows.replace(self._row, row)
                 else:
                     self._row_t = now

@@ -52,6 +52,9 @@ from ..errors import ConfigurationError
 from ..kernel.task import Task
 from ..timebase import RESOLUTION
 from .frame import BROADCAST, Frame
+from .tracing import ATTEMPT_END, ATTEMPT_START, DELIVERED, EMPTY, LOST
+from .tracing import OK as _OK_CODE
+from .tracing import SENT as _SENT_CODE
 
 
 class Interface(Protocol):
@@ -70,6 +73,7 @@ class Interface(Protocol):
     mailbox: Any
     handlers: Any
     stats: Any
+    _tnode: int
 
     def _state(self) -> None: ...
 
@@ -130,9 +134,8 @@ class Attempt:
                     r.receiving -= 1
                     r._state()
         if net._trace_on:
-            net._rows.append((net._env.now, net.name, frame.id, "attempt_end", frame.src.name, frame.dname,
-                              iface.name, frame.attempts,
-                              ("sent" if frame.dst is BROADCAST else "ok") if outcome is None else outcome,
+            net._rows.append((net._env.now, frame.id, frame.tlink, ATTEMPT_END, iface._tnode, frame.attempts,
+                              (_SENT_CODE if frame.dst is BROADCAST else _OK_CODE) if outcome is None else net._tnames.code[outcome],
                               _NAN, _NAN))
         self.state = OK if outcome is None or outcome in _SUCCESS else FAILED
 
@@ -261,6 +264,7 @@ class FrameLifecycle:
         _env: Any
         _trace_on: bool
         _rows: Any
+        _tnames: Any
         _links: dict
         _post: int
         _prop: int
@@ -285,8 +289,9 @@ class FrameLifecycle:
         frame.attempts += 1
         frame.sent = now = self._env.now
         if self._trace_on:
-            self._rows.append((now, self.name, frame.id, "attempt_start", iface.name, frame.dname,
-                               iface.name, frame.attempts, "", frame.bits if bits is None else bits, backoff))
+            self._rows.append((now, frame.id, frame.tlink if iface is frame.src else self._link(frame, iface),
+                               ATTEMPT_START, iface._tnode, frame.attempts, EMPTY,
+                               frame.bits if bits is None else bits, backoff))
         carrier = self.carrier
         if carrier == CARRIER_MEDIUM:
             return a
@@ -315,15 +320,24 @@ class FrameLifecycle:
 
     # helpers for MACs ---------------------------------------------------------
     def _trace(self, event: str, frame: Frame, node: str, outcome: str = "", bits=_NAN, backoff=_NAN) -> None:
+        """A ``frames`` row of *frame*: *event* at the node named *node*, with *outcome*, *bits*
+        and *backoff* (NaN: not applicable)."""
         if self._trace_on:
-            self._rows.append((self._env.now, self.name, frame.id, event, frame.src.name, frame.dname, node,
-                               frame.attempts, outcome, bits, backoff))
+            code = self._tnames.code
+            self._rows.append((self._env.now, frame.id, frame.tlink, code[event], code[node], frame.attempts,
+                               code[outcome], bits, backoff))
+
+    def _link(self, frame: Frame, iface: Any) -> int:
+        """The link code of *frame* sent by *iface* (not its sender: its rows name *iface* as ``src``)."""
+        return self._tnames.link(self.name, iface.name, frame.dname)
 
     def _lost(self, frame: Frame, where: Interface | str, reason: str) -> None:
         """Trace *frame* lost for *reason* at *where* (an interface or a node name such as ``"switch"``)."""
         if self._trace_on:
-            self._rows.append((self._env.now, self.name, frame.id, "lost", frame.src.name, frame.dname,
-                               where if isinstance(where, str) else where.name, frame.attempts, reason, _NAN, _NAN))
+            code = self._tnames.code
+            self._rows.append((self._env.now, frame.id, frame.tlink, LOST,
+                               code[where] if isinstance(where, str) else where._tnode, frame.attempts, code[reason],
+                               _NAN, _NAN))
 
     def _finish(self, frame: Frame, ok: bool) -> None:
         """Count *frame* as sent or dropped at its sender and call the ``on_done`` callbacks."""
@@ -418,8 +432,8 @@ class FrameLifecycle:
             self._lost(frame, rx, "mailbox_full")
             return
         if self._trace_on:
-            self._rows.append((now, self.name, frame.id, "delivered", frame.src.name, frame.dname, rx.name,
-                               frame.attempts, "", frame.bits, _NAN))
+            self._rows.append((now, frame.id, frame.tlink, DELIVERED, rx._tnode, frame.attempts, EMPTY, frame.bits,
+                               _NAN))
         rx.stats["received"] += 1
         pend = frame.pend
         if rx.index in pend:
