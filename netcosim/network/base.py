@@ -57,10 +57,8 @@ from .loss import as_loss_model
 from .plot import NETWORK_STATES  # noqa: F401 (re-exported: the states of the network_schedule table)
 from .stats import LinkStats
 from .tracing import (  # noqa: F401 (re-exported: the trace tables' columns)
-    CREATED,
-    EMPTY,
     FRAME_COLUMNS,
-    QUEUED,
+    LINK_BITS,
     SCHEDULE_COLUMNS,
     _plot_network,
     network_tables,
@@ -290,9 +288,9 @@ class Network(FrameLifecycle, LinkAccounting):
             knode.interfaces[self.name] = iface
         if handler is not None:
             iface.on_receive(handler)
-        iface._tnode = self._tnames.code[name]
-        iface._tstate = self._tnames.state_codes(self.name, name)
+        iface._trace_codes(self._tnames)
         if self._trace_on:
+            iface._srows = self._sched_rows
             iface._row_t, iface._row = self._env.now, (self._env.now, iface._tstate["idle"])
             self._sched_rows.append(iface._row)
         return iface
@@ -384,8 +382,8 @@ class Network(FrameLifecycle, LinkAccounting):
             lk = iface._tlinks.get(d)
             if lk is None:
                 lk = iface._tlinks[d] = self._tnames.link(self.name, iface.name, frame.dname)
-            frame.tlink = lk
-            self._rows.append((now, frame.id, lk, CREATED, iface._tnode, 0, EMPTY, size, _NAN))
+            frame.tkey = key = frame.id << LINK_BITS | lk
+            self._rows.append((now, key, iface._tw_created, 0, size, _NAN))
         if d is BROADCAST:
             for r in self._ifaces:
                 if r is not iface:
@@ -425,8 +423,7 @@ class Network(FrameLifecycle, LinkAccounting):
         frame.queued = self._env.now
         iface.queue.push(frame)
         if self._trace_on:
-            self._rows.append((frame.queued, frame.id, frame.tlink, QUEUED, iface._tnode, 0, EMPTY, frame.bits,
-                               _NAN))
+            self._rows.append((frame.queued, frame.tkey, iface._tw_queued, 0, frame.bits, _NAN))
         self._kick(iface)
         iface._state()
 

@@ -10,10 +10,11 @@ Stored rows and reported rows
 The networks store short rows of integers on the hot path (as the kernel's tables do,
 :mod:`netcosim.kernel.tables`): times in ticks and *codes* instead of names --
 
-``frames``            :data:`FRAME_RAW`: ``time`` (ticks), ``frame`` (id), ``link`` (the
-                      code of the network, sender and destination names, fixed per frame),
-                      ``event``, ``node``, ``outcome`` (codes of names), ``attempt``,
-                      ``bits`` and ``backoff`` (NaN where not applicable);
+``frames``            :data:`FRAME_RAW`: ``time`` (ticks), ``key`` (the frame's id and the
+                      code of its network, sender and destination names, fixed per frame:
+                      :meth:`NetworkNames.key`), ``what`` (the code of the event, node and
+                      outcome names, :meth:`NetworkNames.what`), ``attempt``, ``bits`` and
+                      ``backoff`` (NaN where not applicable);
 ``network_schedule``  :data:`SCHEDULE_RAW`: ``time`` (ticks) and one code for the network,
                       the node and the state.
 
@@ -38,22 +39,22 @@ FRAME_COLUMNS = ("time", "network", "frame", "event", "src", "dst", "node", "att
                  "bits", "backoff")
 #: Columns of the ``network_schedule`` table as reported.
 SCHEDULE_COLUMNS = ("time", "network", "node", "state")
-#: Columns of the ``frames`` table as stored (integers; see the module docstring).
-FRAME_RAW = ("time", "frame", "link", "event", "node", "attempt", "outcome", "bits", "backoff")
+#: Columns of the ``frames`` table as stored (see the module docstring).
+FRAME_RAW = ("time", "key", "what", "attempt", "bits", "backoff")
 #: What the stored ``frames`` columns hold (the columnar store's promise, see
-#: :class:`~netcosim.columns.ColumnStore`): small codes one byte each (a chunk with a code
-#: of 256 or more is stored in 8 bytes a value), ``bits`` and ``backoff`` as doubles (NaN:
-#: not applicable; integers are exact to 2**53, as the reported float64 column holds them).
-FRAME_DTYPES = ("int", "int", "int", "uint8", "uint8", "uint8", "uint8", "float", "float")
+#: :class:`~netcosim.columns.ColumnStore`): integers, the attempt one byte (a chunk with an
+#: attempt of 256 or more is stored in 8 bytes a value), ``bits`` and ``backoff`` as
+#: doubles (NaN: not applicable; integers exact to 2**53, as the reported float64 column
+#: holds them).
+FRAME_DTYPES = ("int", "int", "int", "uint8", "float", "float")
+#: Bits of a frame's ``key`` holding its link code (:meth:`NetworkNames.key`): at most
+#: 2**24 distinct (network, sender, destination) per trace, frame ids below 2**39.
+LINK_BITS = 24
 #: Columns of the ``network_schedule`` table as stored: time (ticks) and
 #: ``4 * pair + state`` (:meth:`NetworkNames.pair`, :data:`STATES`).
 SCHEDULE_RAW = ("time", "code")
 #: The network states in the order of their stored codes (0 to 3).
 STATES = ("idle", "waiting", "sending", "receiving")
-#: Names every trace codes first, so that their codes are constants: the events of the
-#: life cycle, the empty outcome and the successes, and the broadcast destination.
-FIXED_NAMES = ("", "ok", "sent", "created", "queued", "attempt_start", "attempt_end", "delivered", "lost", "*")
-(EMPTY, OK, SENT, CREATED, QUEUED, ATTEMPT_START, ATTEMPT_END, DELIVERED, LOST, STAR) = range(len(FIXED_NAMES))
 
 _UNSET = object()
 
@@ -94,11 +95,12 @@ class NetworkNames:
         self.names: list = []
         #: name -> code (``code[name]``; an unknown name is added)
         self.code = _Codes(self.names)
-        for name in FIXED_NAMES:
-            self.code[name]
         #: link code -> (network, src, dst) name codes, and back
         self.links: list[tuple[int, int, int]] = []
         self._links: dict[tuple[int, int, int], int] = {}
+        #: what code -> (event, node, outcome) name codes, and back
+        self.whats: list[tuple[int, int, int]] = []
+        self._whats: dict[tuple[int, int, int], int] = {}
         #: pair code -> (network, node) name codes, and back
         self.pairs: list[tuple[int, int]] = []
         self._pairs: dict[tuple[int, int], int] = {}
@@ -108,9 +110,38 @@ class NetworkNames:
         key = (self.code[network], self.code[src], self.code[dst])
         c = self._links.get(key)
         if c is None:
-            c = self._links[key] = len(self.links)
+            c = len(self.links)
+            if c >> LINK_BITS:
+                from ..errors import ConfigurationError
+                raise ConfigurationError(f"the frames trace codes at most 2**{LINK_BITS} (network, sender, "
+                                         f"destination) links; {network!r} {src!r} -> {dst!r} is one more")
+            self._links[key] = c
             self.links.append(key)
         return c
+
+    def key(self, frame_id: int, network: str, src: str, dst: str) -> int:
+        """The stored ``key`` of frame *frame_id* sent on *network* from *src* to *dst*:
+        ``frame_id << LINK_BITS | link``."""
+        return frame_id << LINK_BITS | self.link(network, src, dst)
+
+    def what(self, event: str, node: str, outcome: str) -> int:
+        """The stored ``what`` code of an *event* row at *node* with *outcome* (names)."""
+        code = self.code
+        key = (code[event], code[node], code[outcome])
+        c = self._whats.get(key)
+        if c is None:
+            c = self._whats[key] = len(self.whats)
+            self.whats.append(key)
+        return c
+
+    def row_codes(self, node: str) -> dict[str, int]:
+        """The ``what`` codes of the fixed rows at the node named *node*:
+        ``created``, ``queued``, ``attempt_start``, ``ok`` and ``sent`` (``attempt_end`` with
+        that outcome), ``delivered``."""
+        w = self.what
+        return {"created": w("created", node, ""), "queued": w("queued", node, ""),
+                "attempt_start": w("attempt_start", node, ""), "ok": w("attempt_end", node, "ok"),
+                "sent": w("attempt_end", node, "sent"), "delivered": w("delivered", node, "")}
 
     def pair(self, network: str, node: str) -> int:
         """The code of *node* on *network* in the schedule rows (a row stores ``4 * pair + state``)."""
@@ -149,18 +180,20 @@ class NetworkNames:
             for c, dtype in (("frame", "int64"), ("attempt", "int64"), ("bits", "float64"), ("backoff", "float64")):
                 empty[c] = empty[c].astype(dtype)
             return empty
-        link = _ints(df["link"])
-        parts = np.asarray(self.links, dtype=np.int64).reshape(-1, 3)[link]
+        key = _ints(df["key"])
+        link = np.asarray(self.links, dtype=np.int64).reshape(-1, 3)[key & ((1 << LINK_BITS) - 1)]
+        what = np.asarray(self.whats, dtype=np.int64).reshape(-1, 3)[_ints(df["what"])]
         cols: dict[str, Any] = {"time": ticks_as_seconds(df[["time"]], "time", multiply=RESOLUTION)["time"]}
-        cols["network"] = self._labels(parts[:, 0])
-        cols["frame"] = _ints(df["frame"])
-        cols["event"] = self._labels(_ints(df["event"]))
-        cols["src"] = self._labels(parts[:, 1])
-        cols["dst"] = self._labels(parts[:, 2])
-        del parts, link
-        cols["node"] = self._labels(_ints(df["node"]))
+        cols["network"] = self._labels(link[:, 0])
+        cols["frame"] = key >> LINK_BITS
+        cols["event"] = self._labels(what[:, 0])
+        cols["src"] = self._labels(link[:, 1])
+        cols["dst"] = self._labels(link[:, 2])
+        del link, key
+        cols["node"] = self._labels(what[:, 1])
         cols["attempt"] = _ints(df["attempt"])
-        cols["outcome"] = self._labels(_ints(df["outcome"]))
+        cols["outcome"] = self._labels(what[:, 2])
+        del what
         cols["bits"] = _floats(df["bits"])
         cols["backoff"] = _floats(df["backoff"])
         return pd.DataFrame(cols, columns=list(FRAME_COLUMNS), copy=False)
