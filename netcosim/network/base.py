@@ -378,12 +378,17 @@ class Network(FrameLifecycle, LinkAccounting):
                       size, prio, now * RESOLUTION)
         frame = Frame(msg, iface, d, self.wire_bits(size), prio, iface._seq, now)
         iface._seq += 1
+        merge = None
         if self._trace_on:
             lk = iface._tlinks.get(d)
             if lk is None:
                 lk = iface._tlinks[d] = self._tnames.link(self.name, iface.name, frame.dname)
             frame.tkey = key = frame.id << LINK_BITS | lk
-            self._rows.append((now, key, iface._tw_created, 0, size, _NAN))
+            if self._pre or self.message_loss is not None or self._frames_rec.mode != "keep":
+                self._rows.append((now, key, iface._tw_created, 0, size, _NAN))
+                merge = None
+            else:   # nothing can come between: _enqueue writes one row for both (tracing.py)
+                merge = size
         if d is BROADCAST:
             for r in self._ifaces:
                 if r is not iface:
@@ -398,7 +403,7 @@ class Network(FrameLifecycle, LinkAccounting):
         if self._pre:
             self.sim.call_in_ticks(self._pre, self._enqueue, arg=frame)
         else:
-            self._enqueue(frame)
+            self._enqueue(frame, merge)
         return msg
 
     def _queue_full(self, iface: Interface) -> None:
@@ -413,16 +418,23 @@ class Network(FrameLifecycle, LinkAccounting):
                           f"(reason queue_overflow, counted in stats); pass queue_capacity=None for TrueTime's "
                           f"unbounded queue, or on_queue_full='error'", OverloadWarning, stacklevel=4)
 
-    def _enqueue(self, frame: Frame) -> None:
+    def _enqueue(self, frame: Frame, created: int | None = None) -> None:
+        """Put *frame* in its sender's queue (or lose it: queue full).  *created*: the declared
+        size of a frame sent now whose ``created`` row is not written yet (``keep`` mode, no
+        delay before the queue): one stored row then stands for ``created`` and ``queued``."""
         iface = frame.src
         if iface.queue.full():
+            if created is not None:
+                self._rows.append((frame.created, frame.tkey, iface._tw_created, 0, created, _NAN))
             self._queue_full(iface)
             self._lost(frame, iface, "queue_overflow")
             self._finish(frame, False)
             return
         frame.queued = self._env.now
         iface.queue.push(frame)
-        if self._trace_on:
+        if created is not None:
+            self._rows.append((frame.queued, frame.tkey, iface._tw_sent_now, 0, created, frame.bits))
+        elif self._trace_on:
             self._rows.append((frame.queued, frame.tkey, iface._tw_queued, 0, frame.bits, _NAN))
         self._kick(iface)
         iface._state()

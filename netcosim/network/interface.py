@@ -155,6 +155,7 @@ class Interface:
         self._tstate: dict[str, int] = {}
         self._tlinks: dict = {}
         self._tw_created = self._tw_queued = self._tw_start = self._tw_ok = self._tw_sent = self._tw_delivered = 0
+        self._tw_sent_now = 0
         self._seq = 0
         self.mac: Any = None    # the MAC's per-station state (see Network._station)
         #: frames ``sent`` (or acknowledged) and ``dropped`` by this sender, messages ``received``
@@ -231,6 +232,7 @@ class Interface:
         w = names.row_codes(self.name)
         self._tw_created, self._tw_queued, self._tw_start = w["created"], w["queued"], w["attempt_start"]
         self._tw_ok, self._tw_sent, self._tw_delivered = w["ok"], w["sent"], w["delivered"]
+        self._tw_sent_now = w["created+queued"]
 
     def __repr__(self) -> str:
         return f"<Interface {self.network.name}/{self.name}>"

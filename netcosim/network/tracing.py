@@ -101,6 +101,9 @@ class NetworkNames:
         #: what code -> (event, node, outcome) name codes, and back
         self.whats: list[tuple[int, int, int]] = []
         self._whats: dict[tuple[int, int, int], int] = {}
+        #: what code -> the what code of the second row it stands for (:meth:`two`), -1: none
+        self.then: list[int] = []
+        self._twos: dict[tuple[int, int], int] = {}
         #: pair code -> (network, node) name codes, and back
         self.pairs: list[tuple[int, int]] = []
         self._pairs: dict[tuple[int, int], int] = {}
@@ -132,6 +135,7 @@ class NetworkNames:
         if c is None:
             c = self._whats[key] = len(self.whats)
             self.whats.append(key)
+            self.then.append(-1)
         return c
 
     def row_codes(self, node: str) -> dict[str, int]:
@@ -139,9 +143,25 @@ class NetworkNames:
         ``created``, ``queued``, ``attempt_start``, ``ok`` and ``sent`` (``attempt_end`` with
         that outcome), ``delivered``."""
         w = self.what
-        return {"created": w("created", node, ""), "queued": w("queued", node, ""),
-                "attempt_start": w("attempt_start", node, ""), "ok": w("attempt_end", node, "ok"),
-                "sent": w("attempt_end", node, "sent"), "delivered": w("delivered", node, "")}
+        codes = {"created": w("created", node, ""), "queued": w("queued", node, ""),
+                 "attempt_start": w("attempt_start", node, ""), "ok": w("attempt_end", node, "ok"),
+                 "sent": w("attempt_end", node, "sent"), "delivered": w("delivered", node, "")}
+        codes["created+queued"] = self.two(codes["created"], codes["queued"])
+        return codes
+
+    def two(self, first: int, second: int) -> int:
+        """The ``what`` code of one stored row standing for two reported rows at the same
+        instant: the *first* (``what`` code) with the row's ``bits``, then the *second* with
+        the row's ``backoff`` as its ``bits`` (both with ``backoff`` NaN).  The fixed rows'
+        ``created+queued``: a frame queued as it is sent, in ``keep`` mode."""
+        key = (first, second)
+        c = self._twos.get(key)
+        if c is None:
+            c = self._twos[key] = len(self.whats)
+            self.whats.append(self.whats[first])
+            self.then.extend([-1] * (c - len(self.then)))
+            self.then.append(second)
+        return c
 
     def pair(self, network: str, node: str) -> int:
         """The code of *node* on *network* in the schedule rows (a row stores ``4 * pair + state``)."""
@@ -181,9 +201,27 @@ class NetworkNames:
                 empty[c] = empty[c].astype(dtype)
             return empty
         key = _ints(df["key"])
+        codes = _ints(df["what"])
+        bits, backoff, attempt = _floats(df["bits"]), _floats(df["backoff"]), _ints(df["attempt"])
+        ticks = df[["time"]]
+        then = np.asarray(self.then, dtype=np.int64)[codes]
+        two = then >= 0
+        if two.any():       # rows standing for two (:meth:`two`): each made two
+            at = np.repeat(np.arange(len(codes)), 1 + two)
+            second = np.zeros(len(at), dtype=bool)
+            second[np.cumsum(1 + two)[two] - 1] = True
+            key, attempt, ticks = key[at], attempt[at], pd.DataFrame({"time": ticks["time"].to_numpy()[at]})
+            codes = codes[at]
+            codes[second] = then[at][second]
+            bits, backoff = bits[at], backoff[at]
+            bits[second] = backoff[second]
+            backoff[:] = np.where(two[at], np.nan, backoff)
+            del at, second
+        del then, two
         link = np.asarray(self.links, dtype=np.int64).reshape(-1, 3)[key & ((1 << LINK_BITS) - 1)]
-        what = np.asarray(self.whats, dtype=np.int64).reshape(-1, 3)[_ints(df["what"])]
-        cols: dict[str, Any] = {"time": ticks_as_seconds(df[["time"]], "time", multiply=RESOLUTION)["time"]}
+        what = np.asarray(self.whats, dtype=np.int64).reshape(-1, 3)[codes]
+        del codes
+        cols: dict[str, Any] = {"time": ticks_as_seconds(ticks, "time", multiply=RESOLUTION)["time"]}
         cols["network"] = self._labels(link[:, 0])
         cols["frame"] = key >> LINK_BITS
         cols["event"] = self._labels(what[:, 0])
@@ -191,11 +229,11 @@ class NetworkNames:
         cols["dst"] = self._labels(link[:, 2])
         del link, key
         cols["node"] = self._labels(what[:, 1])
-        cols["attempt"] = _ints(df["attempt"])
+        cols["attempt"] = attempt
         cols["outcome"] = self._labels(what[:, 2])
         del what
-        cols["bits"] = _floats(df["bits"])
-        cols["backoff"] = _floats(df["backoff"])
+        cols["bits"] = bits
+        cols["backoff"] = backoff
         return pd.DataFrame(cols, columns=list(FRAME_COLUMNS), copy=False)
 
     def schedule_frame(self, df: pd.DataFrame) -> pd.DataFrame:
