@@ -104,6 +104,7 @@ class NetworkNames:
         #: what code -> the what code of the second row it stands for (:meth:`two`), -1: none
         self.then: list[int] = []
         self._twos: dict[tuple[int, int], int] = {}
+        self._first: dict[int, int] = {}
         #: pair code -> (network, node) name codes, and back
         self.pairs: list[tuple[int, int]] = []
         self._pairs: dict[tuple[int, int], int] = {}
@@ -159,9 +160,40 @@ class NetworkNames:
         if c is None:
             c = self._twos[key] = len(self.whats)
             self.whats.append(self.whats[first])
-            self.then.extend([-1] * (c - len(self.then)))
             self.then.append(second)
+            self._first[c] = first
         return c
+
+    # -- leaving keep mode -------------------------------------------------------------
+    def carry_frames(self, rows: list) -> list:
+        """Stored frame rows as the modes other than ``keep`` store them: a row standing
+        for two (:meth:`two`) as the two rows."""
+        out = []
+        then, first, nan = self.then, self._first, float("nan")
+        for r in rows:
+            second = then[r[2]]
+            if second < 0:
+                out.append(r)
+            else:
+                out.append((r[0], r[1], first[r[2]], r[3], r[4], nan))
+                out.append((r[0], r[1], second, r[3], r[5], nan))
+        return out
+
+    @staticmethod
+    def carry_schedule(rows: list) -> list:
+        """Stored schedule rows as the modes other than ``keep`` store them: one row per node
+        and instant, at the first one's place with the last one's state."""
+        out: list = []
+        last: dict[int, tuple[int, int]] = {}     # pair -> (time, index in out) of its latest row
+        for r in rows:
+            pair = r[1] >> 2
+            prev = last.get(pair)
+            if prev is not None and prev[0] == r[0]:
+                out[prev[1]] = r
+            else:
+                last[pair] = (r[0], len(out))
+                out.append(r)
+        return out
 
     def pair(self, network: str, node: str) -> int:
         """The code of *node* on *network* in the schedule rows (a row stores ``4 * pair + state``)."""
@@ -328,6 +360,7 @@ def network_tables(trace: Trace) -> tuple[NetworkNames, Recorder, Recorder]:
                          transform=names.frames_frame, dtypes=FRAME_DTYPES)
     sched = trace.table("network_schedule", SCHEDULE_RAW, categorical=("network", "node", "state"),
                         transform=names.schedule_frame, dtypes=("int",) * len(SCHEDULE_RAW))
+    frames.carry, sched.carry = names.carry_frames, names.carry_schedule
     return names, frames, sched
 
 
