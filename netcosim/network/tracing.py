@@ -29,6 +29,7 @@ string lookups) and holds in 8 bytes a value; the names cost nothing per row.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 from ..readback import categorical_from_codes, ticks_as_seconds
@@ -169,7 +170,7 @@ class NetworkNames:
         """Stored frame rows as the modes other than ``keep`` store them: a row standing
         for two (:meth:`two`) as the two rows."""
         out = []
-        then, first, nan = self.then, self._first, float("nan")
+        then, first, nan = self.then, self._first, math.nan
         for r in rows:
             second = then[r[2]]
             if second < 0:
@@ -224,7 +225,7 @@ class NetworkNames:
         return labels[codes]
 
     def frames_frame(self, df: pd.DataFrame) -> pd.DataFrame:
-        """Stored frame rows (:data:`FRAME_RAW`) as reported (:data:`FRAME_COLUMNS`)."""
+        """The stored frame rows *df* (:data:`FRAME_RAW`) as reported (:data:`FRAME_COLUMNS`)."""
         import numpy as np
         import pandas as pd
         if not len(df):
@@ -269,7 +270,7 @@ class NetworkNames:
         return pd.DataFrame(cols, columns=list(FRAME_COLUMNS), copy=False)
 
     def schedule_frame(self, df: pd.DataFrame) -> pd.DataFrame:
-        """Stored network-schedule rows (:data:`SCHEDULE_RAW`) as reported: one row per
+        """The stored network-schedule rows *df* (:data:`SCHEDULE_RAW`) as reported: one row per
         (network, node) and instant, where the state changed (time in s, names as
         categoricals).
 
@@ -296,7 +297,7 @@ class NetworkNames:
 
 def collapse_instants(key, time, state):
     """``(rows, states)``: the rows kept of a schedule stored as *key* (one per node), *time*
-    and *state* (integer arrays in stored order), and their states.  The consecutive rows of
+    (integer ticks) and *state* (integer arrays in stored order), and their states.  The consecutive rows of
     one key at one time become one, at the first one's place with the last one's state;
     then a row whose state is that of its key's previous row is dropped (each key's first
     row is kept).  *rows* are indices into the arrays, increasing."""
