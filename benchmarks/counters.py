@@ -15,6 +15,10 @@ the host.  Three kinds:
                     CAN nodes at 90 % bus load (:func:`benchmarks.network.can_run`'s
                     periodic scenario) for 2000 frame times; 10 saturated 802.11b stations
                     on a 10 m circle (:func:`benchmarks.network.wlan_run`) for 0.2 s.
+``values_per_frame``  Python values in the stored trace rows per frame sent: the length of
+                    every row the tables hold (what the networks append and the columnar
+                    store encodes; the reported rows above are made from them when a table
+                    is read), over the frames sent.  The same two network examples.
 ``rhs_per_second``  right-hand-side evaluations per simulated second: calls of the plant
                     system's ``f`` plus the stage evaluations a compiled stepper reports
                     (``nfev`` of :class:`~netcosim.controllers.planner.plant_dop853.CompiledDOP853`'s
@@ -29,7 +33,7 @@ the host.  Three kinds:
                     geometry of :func:`benchmarks.network.wlan_scaling_run`: capture possible)
                     for 0.3 s, with the shared clock.
 
-Tolerances (:data:`TOLERANCE`): events, rows and re-evaluations exact (integer logic only); RHS calls
+Tolerances (:data:`TOLERANCE`): events, rows, stored values and re-evaluations exact (integer logic only); RHS calls
 +-2 % (an adaptive integrator's step count moves with the last bits of floating point,
 e.g. another BLAS or compiler).  ``python -m benchmarks.counters`` prints the counts and
 the stored ones; ``--record`` stores the current counts (after a change that is meant to
@@ -47,7 +51,8 @@ from pathlib import Path
 #: Stored counts (written by ``--record``).
 REFERENCE = Path(__file__).with_name("counters_reference.json")
 #: Allowed relative difference per kind of count.
-TOLERANCE = {"events_per_job": 0.0, "rows_per_frame": 0.0, "rhs_per_second": 0.02, "reevals_per_frame": 0.0}
+TOLERANCE = {"events_per_job": 0.0, "rows_per_frame": 0.0, "values_per_frame": 0.0, "rhs_per_second": 0.02,
+             "reevals_per_frame": 0.0}
 
 
 class _EventCount:
@@ -94,6 +99,11 @@ def _rows(sim) -> int:
     return sum(len(sim.trace.frame(name)) for name in sim.trace.tables)
 
 
+def _values(sim) -> int:
+    """Python values in the rows every table of *sim*'s trace stores."""
+    return sum(len(row) for name in sim.trace.tables for row in sim.trace.recorder(name).rows)
+
+
 def kernel_events_per_job(until: float = 1.2) -> float:
     """SimPy events per job of the 10-task set of :mod:`benchmarks.kernel`."""
     from netcosim import Simulation
@@ -112,6 +122,17 @@ def kernel_events_per_job(until: float = 1.2) -> float:
 
 def can_rows_per_frame(n: int = 10, frames: int = 2000) -> float:
     """Trace rows per CAN frame sent (periodic scenario of :func:`benchmarks.network.can_run`)."""
+    sim, sent = _can(n, frames)
+    return _rows(sim) / sent
+
+
+def can_values_per_frame(n: int = 10, frames: int = 2000) -> float:
+    """Stored trace values per CAN frame sent (the example of :func:`can_rows_per_frame`)."""
+    sim, sent = _can(n, frames)
+    return _values(sim) / sent
+
+
+def _can(n: int, frames: int):
     from netcosim import Simulation
     from netcosim.network import CAN, can_frame_bits
 
@@ -130,11 +151,22 @@ def can_rows_per_frame(n: int = 10, frames: int = 2000) -> float:
             sim.call_in(period, send)
         sim.call_at(float(rng.uniform(0, period)), send)
     sim.run(frames * c / CAN_LOAD)
-    return _rows(sim) / sum(i.stats["sent"] for i in bus._ifaces)
+    return sim, sum(i.stats["sent"] for i in bus._ifaces)
 
 
 def wlan_rows_per_frame(until: float = 0.2) -> float:
     """Trace rows per 802.11b frame sent or dropped (:func:`benchmarks.network.wlan_run`, traced)."""
+    sim, sent = _wlan(until)
+    return _rows(sim) / sent
+
+
+def wlan_values_per_frame(until: float = 0.2) -> float:
+    """Stored trace values per 802.11b frame sent or dropped (the example of :func:`wlan_rows_per_frame`)."""
+    sim, sent = _wlan(until)
+    return _values(sim) / sent
+
+
+def _wlan(until: float):
     from netcosim import Simulation
     from netcosim.network import SaturatedSource, WLAN80211b
 
@@ -146,7 +178,7 @@ def wlan_rows_per_frame(until: float = 0.2) -> float:
         s = net.attach(f"s{i}", position=(10 * math.cos(i), 10 * math.sin(i)))
         SaturatedSource(s, ap, PAYLOAD_BITS)
     sim.run(until)
-    return _rows(sim) / sum(i.stats["sent"] + i.stats["dropped"] for i in net._ifaces)
+    return sim, sum(i.stats["sent"] + i.stats["dropped"] for i in net._ifaces)
 
 
 def wlan_reevals_per_frame(n: int = 50, until: float = 0.3, shared_clock: bool = True) -> float:
@@ -217,6 +249,8 @@ COUNTERS = {
     "kernel_10_tasks.events_per_job": ("events_per_job", kernel_events_per_job),
     "can_10_nodes.rows_per_frame": ("rows_per_frame", can_rows_per_frame),
     "wlan_10_stations.rows_per_frame": ("rows_per_frame", wlan_rows_per_frame),
+    "can_10_nodes.values_per_frame": ("values_per_frame", can_values_per_frame),
+    "wlan_10_stations.values_per_frame": ("values_per_frame", wlan_values_per_frame),
     "wlan_50_circle.reevals_per_frame": ("reevals_per_frame", wlan_reevals_per_frame),
     "servo_rk4.rhs_per_second": ("rhs_per_second", servo_rhs_per_second),
     "flycrane_dynamic.rhs_per_second": ("rhs_per_second", flycrane_rhs_per_second),

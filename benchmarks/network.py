@@ -49,8 +49,15 @@ The measure is wall time per frame sent; the ratio of the cost at 100 nodes to t
 10 nodes, measured in the same run, for the heap arbitration of :class:`~netcosim.network.CAN`
 and for the scan of every node's queue it replaced (:class:`ScanCAN`, kept here for comparison).
 
+Trace cost: the per-frame cost with the ``frames`` and ``network_schedule`` tables recorded
+(the default, ``keep`` mode) over the cost without them (``trace=False``), on CAN (10 nodes,
+the ``periodic`` scenario above, 20 000 frames) and on 802.11b (the 10 saturated stations
+above, 1 s simulated), in CPU time of this process: each round runs traced then untraced
+back to back, the ratio is taken within the round and its median over the rounds reported
+(with the best per-frame cost of each).
+
 Run: ``python -m benchmarks.network`` (``--can`` for the CAN part only, ``--wlan-scaling`` for
-the 802.11b scaling only).
+the 802.11b scaling only, ``--trace`` for the trace cost only).
 """
 
 from __future__ import annotations
@@ -70,16 +77,19 @@ N_STATIONS = 10
 PAYLOAD_BITS = 1500 * 8
 
 
-def wlan_run(until: float, trace: bool) -> tuple[int, float, int]:
+def wlan_run(until: float, trace: bool, clock=time.perf_counter) -> tuple[int, float, int]:
+    """The 10 saturated stations (see the module docstring) for *until* s, traced or not; returns
+    (frames sent or dropped, seconds of *clock*: wall time by default, events queued at the end)."""
     sim = Simulation(seed=0)
     net = WLAN80211b(sim, "wlan", data_rate=11e6, trace=trace)
     ap = net.attach("ap", position=(0.0, 0.0), mailbox=False)
     for i in range(N_STATIONS):
         s = net.attach(f"s{i}", position=(10 * math.cos(i), 10 * math.sin(i)))
         SaturatedSource(s, ap, PAYLOAD_BITS)
-    t0 = time.perf_counter()
+    gc.collect()
+    t0 = clock()
     sim.run(until)
-    dt = time.perf_counter() - t0
+    dt = clock() - t0
     frames = sum(i.stats["sent"] + i.stats["dropped"] for i in net._ifaces)
     return frames, dt, sim.env.queued
 
@@ -125,7 +135,39 @@ def main(until: float = 2.0, repeats: int = 5) -> dict:
     res["bare_us_per_timeout"] = bare_us
     res["wlan_scaling"] = wlan_scaling_main()
     res["can"] = can_main()
+    res["trace"] = trace_main()
     return res
+
+
+def trace_main(repeats: int = 7, can_frames: int = 20_000, wlan_until: float = 1.0) -> dict:
+    """Traced over untraced per-frame cost on CAN and 802.11b (see the module docstring): CPU
+    time, traced and untraced back to back in each round, median of the rounds' ratios."""
+    cpu = time.process_time
+    runs = {"can": lambda trace: can_run(10, can_frames, trace=trace, clock=cpu),
+            "wlan": lambda trace: wlan_run(wlan_until, trace, clock=cpu)[:2]}
+    runs["can"](True)       # warm-up (first-use imports)
+    wlan_run(0.05, True)
+    ratios: dict = {k: [] for k in runs}
+    best: dict = {}
+    for _ in range(repeats):
+        for name, run in runs.items():
+            cost = {}
+            for trace in (True, False):
+                frames, dt = run(trace)
+                cost[trace] = dt / frames
+                best[(name, trace)] = min(best.get((name, trace), math.inf), cost[trace])
+            ratios[name].append(cost[True] / cost[False])
+    print(f"trace cost: traced / untraced per frame, CPU time, median of {repeats} paired rounds "
+          f"(CAN: 10 nodes at {CAN_LOAD:.0%} load, {can_frames} frames; 802.11b: {N_STATIONS} saturated "
+          f"stations, {wlan_until} s)")
+    out: dict = {}
+    for name, label in (("can", "CAN"), ("wlan", "802.11b")):
+        med = statistics.median(ratios[name])
+        print(f"  {label:8s}: {best[(name, True)] * 1e6:.1f} us/frame traced, {best[(name, False)] * 1e6:.1f} "
+              f"untraced (best); ratio {med:.3f} (median; rounds {min(ratios[name]):.3f}..{max(ratios[name]):.3f})")
+        out[name] = {"ratio_median": med, "ratios": ratios[name], "us_traced": best[(name, True)] * 1e6,
+                     "us_untraced": best[(name, False)] * 1e6}
+    return out
 
 
 #: Simulated seconds run before the timed part of a scaling run (s).
@@ -219,10 +261,12 @@ CAN_RATE = 500e3
 CAN_LOAD = 0.9
 
 
-def can_run(n: int, frames: int, cls=CAN, scenario: str = "periodic") -> tuple[int, float]:
-    """n senders (*scenario*, see the module docstring); returns (frames sent, wall seconds)."""
+def can_run(n: int, frames: int, cls=CAN, scenario: str = "periodic", *, trace: bool = True,
+            clock=time.perf_counter) -> tuple[int, float]:
+    """n senders (*scenario*, see the module docstring), the network traced or not; returns
+    (frames sent, seconds of *clock*: wall time by default)."""
     sim = Simulation(seed=0)
-    bus = cls(sim, "can", data_rate=CAN_RATE, frame_format="standard")
+    bus = cls(sim, "can", data_rate=CAN_RATE, frame_format="standard", trace=trace)
     sink = bus.attach("sink", priority=10**6, mailbox=False)
     c = can_frame_bits(8) / CAN_RATE
     period = n * c / CAN_LOAD
@@ -239,9 +283,9 @@ def can_run(n: int, frames: int, cls=CAN, scenario: str = "periodic") -> tuple[i
         sim.call_at(float(rng.uniform(0, period)), send)
     until = frames * c / (1.0 if scenario == "saturated" else CAN_LOAD)
     gc.collect()    # the previous runs' dead simulations, not this one's cost
-    t0 = time.perf_counter()
+    t0 = clock()
     sim.run(until)
-    dt = time.perf_counter() - t0
+    dt = clock() - t0
     return sum(i.stats["sent"] for i in bus._ifaces), dt
 
 
@@ -273,5 +317,7 @@ if __name__ == "__main__":
         can_main()
     elif "--wlan-scaling" in sys.argv[1:]:
         wlan_scaling_main()
+    elif "--trace" in sys.argv[1:]:
+        trace_main()
     else:
         main()

@@ -116,7 +116,7 @@ class Recorder:
 
     __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index",
                  "time_scale", "key_index", "mode", "options", "memory", "keeps_categories", "identity", "_buf",
-                 "_clock",
+                 "carry", "_clock",
                  "_window", "_stream", "_counts", "_latest")
 
     def __init__(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
@@ -143,6 +143,10 @@ class Recorder:
         self.providers: list = []
         #: optional function turning the stored frame into the reported one
         self.transform = transform
+        #: optional ``carry(rows) -> rows``: the rows stored in ``keep`` mode as the other modes
+        #: store them, one per reported row (a table whose keep mode stores one row for
+        #: several, e.g. the network tables); applied to the rows carried out of keep mode
+        self.carry: Callable[[list], list] | None = None
         validate.choice(time_unit, f"table {name!r}: time_unit", ("ticks", "s"))
         self.time_index = self.columns.index(time) if time is not None and time in self.columns else None
         #: stored time units per second
@@ -222,6 +226,8 @@ class Recorder:
         # Everything valid: switch.  Rows held in memory carry over, within the new bounds;
         # rows already written by an earlier stream stay in their files.
         old = list(self._buf)
+        if self.mode == "keep" and mode != "keep" and self.carry is not None:
+            old = self.carry(old)
         self.mode = mode
         self.memory = memory
         self.options = {k: v for k, v in dict(rows=rows, seconds=seconds, every=every, path=path,

@@ -56,12 +56,12 @@ from .links import LinkAccounting, _message_loss
 from .loss import as_loss_model
 from .plot import NETWORK_STATES  # noqa: F401 (re-exported: the states of the network_schedule table)
 from .stats import LinkStats
-from .tracing import (  # noqa: F401 (re-exported: the trace tables' columns and readers)
+from .tracing import (  # noqa: F401 (re-exported: the trace tables' columns)
     FRAME_COLUMNS,
+    LINK_BITS,
     SCHEDULE_COLUMNS,
-    _frames_frame,
     _plot_network,
-    _schedule_frame,
+    network_tables,
 )
 
 #: default size (frames) of a sender queue: far beyond any load a network drains (tests
@@ -71,7 +71,6 @@ DEFAULT_QUEUE_CAPACITY = 100_000
 
 if TYPE_CHECKING:
     import pandas as pd
-
 
 _NAN = math.nan
 
@@ -241,12 +240,8 @@ class Network(FrameLifecycle, LinkAccounting):
         self._lstats: dict[tuple[int, int], LinkStats] = {}
         self._dur: dict = {}
         self._next_id = 0
-        self._frames_rec = sim.trace.table("frames", FRAME_COLUMNS,
-                                           categorical=("network", "event", "src", "dst", "node", "outcome"),
-                                           transform=_frames_frame, keeps_categories=True)
-        self._sched_rec = sim.trace.table("network_schedule", SCHEDULE_COLUMNS,
-                                          categorical=("network", "node", "state"), transform=_schedule_frame,
-                                          keeps_categories=True)
+        # the trace's names of the network rows (tracing.py): rows store their codes
+        self._tnames, self._frames_rec, self._sched_rec = network_tables(sim.trace)
         self._rows = self._frames_rec.rows
         self._sched_rows = self._sched_rec.rows
         sim.trace.add_plot("network", _plot_network)
@@ -293,8 +288,10 @@ class Network(FrameLifecycle, LinkAccounting):
             knode.interfaces[self.name] = iface
         if handler is not None:
             iface.on_receive(handler)
+        iface._trace_codes(self._tnames)
         if self._trace_on:
-            iface._row_t, iface._row = self._env.now, (self._env.now, self.name, name, "idle")
+            iface._srows = self._sched_rows
+            iface._row_t, iface._row = self._env.now, (self._env.now, iface._tstate["idle"])
             self._sched_rows.append(iface._row)
         return iface
 
@@ -381,9 +378,17 @@ class Network(FrameLifecycle, LinkAccounting):
                       size, prio, now * RESOLUTION)
         frame = Frame(msg, iface, d, self.wire_bits(size), prio, iface._seq, now)
         iface._seq += 1
+        merge = None
         if self._trace_on:
-            self._rows.append((now, self.name, frame.id, "created", iface.name, frame.dname, iface.name, 0, "",
-                               size, _NAN))
+            lk = iface._tlinks.get(d)
+            if lk is None:
+                lk = iface._tlinks[d] = self._tnames.link(self.name, iface.name, frame.dname)
+            frame.tkey = key = frame.id << LINK_BITS | lk
+            if self._pre or self.message_loss is not None or self._frames_rec.mode != "keep":
+                self._rows.append((now, key, iface._tw_created, 0, size, _NAN))
+                merge = None
+            else:   # nothing can come between: _enqueue writes one row for both (tracing.py)
+                merge = size
         if d is BROADCAST:
             for r in self._ifaces:
                 if r is not iface:
@@ -398,7 +403,7 @@ class Network(FrameLifecycle, LinkAccounting):
         if self._pre:
             self.sim.call_in_ticks(self._pre, self._enqueue, arg=frame)
         else:
-            self._enqueue(frame)
+            self._enqueue(frame, merge)
         return msg
 
     def _queue_full(self, iface: Interface) -> None:
@@ -413,18 +418,24 @@ class Network(FrameLifecycle, LinkAccounting):
                           f"(reason queue_overflow, counted in stats); pass queue_capacity=None for TrueTime's "
                           f"unbounded queue, or on_queue_full='error'", OverloadWarning, stacklevel=4)
 
-    def _enqueue(self, frame: Frame) -> None:
+    def _enqueue(self, frame: Frame, created: int | None = None) -> None:
+        """Put *frame* in its sender's queue (or lose it: queue full).  *created*: the declared
+        size of a frame sent now whose ``created`` row is not written yet (``keep`` mode, no
+        delay before the queue): one stored row then stands for ``created`` and ``queued``."""
         iface = frame.src
         if iface.queue.full():
+            if created is not None:
+                self._rows.append((frame.created, frame.tkey, iface._tw_created, 0, created, _NAN))
             self._queue_full(iface)
             self._lost(frame, iface, "queue_overflow")
             self._finish(frame, False)
             return
         frame.queued = self._env.now
         iface.queue.push(frame)
-        if self._trace_on:
-            self._rows.append((frame.queued, self.name, frame.id, "queued", iface.name, frame.dname, iface.name,
-                               0, "", frame.bits, _NAN))
+        if created is not None:
+            self._rows.append((frame.queued, frame.tkey, iface._tw_sent_now, 0, created, frame.bits))
+        elif self._trace_on:
+            self._rows.append((frame.queued, frame.tkey, iface._tw_queued, 0, frame.bits, _NAN))
         self._kick(iface)
         iface._state()
 

@@ -126,7 +126,7 @@ class Frame:
     tick ``send`` was called."""
 
     __slots__ = ("msg", "id", "src", "dst", "dname", "bits", "priority", "seq", "attempts", "created",
-                 "queued", "sent", "remaining", "holds", "lstats", "pend", "rx_now", "silenced")
+                 "queued", "sent", "remaining", "holds", "lstats", "pend", "rx_now", "silenced", "tkey")
 
     def __init__(self, msg: Message, src, dst, bits: int, priority, seq: int, created: int):
         self.msg = msg
@@ -148,6 +148,7 @@ class Frame:
         self.pend: set = set()    # receiver indices it was not yet delivered to
         self.rx_now: set = set()  # receiver indices that received the current attempt
         self.silenced: set | None = None  # receiver indices silenced by message_loss (None: none)
+        self.tkey = 0             # its id, network, sender and destination in the frames rows (tracing.py)
 
     @property
     def broadcast(self) -> bool:

@@ -148,6 +148,14 @@ class Interface:
         self.state = "idle"
         self._row_t = -1        # tick of this interface's last network-schedule row, and the row
         self._row: tuple | None = None
+        # the trace rows of this interface (netcosim.network.tracing): the network schedule's
+        # rows when traced (None: untraced), its stored code per state, the link code per
+        # destination, and the codes of its fixed frames rows (set by _trace_codes)
+        self._srows: Any = None
+        self._tstate: dict[str, int] = {}
+        self._tlinks: dict = {}
+        self._tw_created = self._tw_queued = self._tw_start = self._tw_ok = self._tw_sent = self._tw_delivered = 0
+        self._tw_sent_now = 0
         self._seq = 0
         self.mac: Any = None    # the MAC's per-station state (see Network._station)
         #: frames ``sent`` (or acknowledged) and ``dropped`` by this sender, messages ``received``
@@ -202,17 +210,29 @@ class Interface:
             s = "idle"
         if s != self.state:
             self.state = s
-            net = self.network
-            if net._trace_on:
+            rows = self._srows
+            if rows is not None:
                 # one row per node and instant: a state that lasts zero time is overwritten
+                # (in keep mode appended: reading the table keeps the instant's last state,
+                # netcosim.network.tracing.collapse_instants)
+                net = self.network
                 now = net._env.now
-                row = (now, net.name, self.name, s)
-                if self._row_t == now:
-                    net._sched_rows.replace(self._row, row)
+                row = (now, self._tstate[s])
+                if self._row_t == now and net._sched_rec.mode != "keep":
+                    rows.replace(self._row, row)
                 else:
                     self._row_t = now
-                    net._sched_rows.append(row)
+                    rows.append(row)
                 self._row = row
+
+    def _trace_codes(self, names) -> None:
+        """Take this interface's codes in the trace rows from *names* (a
+        :class:`~netcosim.network.tracing.NetworkNames`)."""
+        self._tstate = names.state_codes(self.network.name, self.name)
+        w = names.row_codes(self.name)
+        self._tw_created, self._tw_queued, self._tw_start = w["created"], w["queued"], w["attempt_start"]
+        self._tw_ok, self._tw_sent, self._tw_delivered = w["ok"], w["sent"], w["delivered"]
+        self._tw_sent_now = w["created+queued"]
 
     def __repr__(self) -> str:
         return f"<Interface {self.network.name}/{self.name}>"

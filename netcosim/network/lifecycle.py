@@ -52,6 +52,7 @@ from ..errors import ConfigurationError
 from ..kernel.task import Task
 from ..timebase import RESOLUTION
 from .frame import BROADCAST, Frame
+from .tracing import LINK_BITS
 
 
 class Interface(Protocol):
@@ -70,6 +71,10 @@ class Interface(Protocol):
     mailbox: Any
     handlers: Any
     stats: Any
+    _tw_start: int
+    _tw_ok: int
+    _tw_sent: int
+    _tw_delivered: int
 
     def _state(self) -> None: ...
 
@@ -130,10 +135,9 @@ class Attempt:
                     r.receiving -= 1
                     r._state()
         if net._trace_on:
-            net._rows.append((net._env.now, net.name, frame.id, "attempt_end", frame.src.name, frame.dname,
-                              iface.name, frame.attempts,
-                              ("sent" if frame.dst is BROADCAST else "ok") if outcome is None else outcome,
-                              _NAN, _NAN))
+            net._rows.append((net._env.now, frame.tkey,
+                              (iface._tw_sent if frame.dst is BROADCAST else iface._tw_ok) if outcome is None
+                              else net._tnames.what("attempt_end", iface.name, outcome), frame.attempts, _NAN, _NAN))
         self.state = OK if outcome is None or outcome in _SUCCESS else FAILED
 
     def fail(self, reason: str) -> None:
@@ -261,6 +265,7 @@ class FrameLifecycle:
         _env: Any
         _trace_on: bool
         _rows: Any
+        _tnames: Any
         _links: dict
         _post: int
         _prop: int
@@ -285,8 +290,8 @@ class FrameLifecycle:
         frame.attempts += 1
         frame.sent = now = self._env.now
         if self._trace_on:
-            self._rows.append((now, self.name, frame.id, "attempt_start", iface.name, frame.dname,
-                               iface.name, frame.attempts, "", frame.bits if bits is None else bits, backoff))
+            self._rows.append((now, frame.tkey if iface is frame.src else self._key(frame, iface), iface._tw_start,
+                               frame.attempts, frame.bits if bits is None else bits, backoff))
         carrier = self.carrier
         if carrier == CARRIER_MEDIUM:
             return a
@@ -315,15 +320,22 @@ class FrameLifecycle:
 
     # helpers for MACs ---------------------------------------------------------
     def _trace(self, event: str, frame: Frame, node: str, outcome: str = "", bits=_NAN, backoff=_NAN) -> None:
+        """A ``frames`` row of *frame*: *event* at the node named *node*, with *outcome*, *bits*
+        and *backoff* (NaN: not applicable)."""
         if self._trace_on:
-            self._rows.append((self._env.now, self.name, frame.id, event, frame.src.name, frame.dname, node,
-                               frame.attempts, outcome, bits, backoff))
+            self._rows.append((self._env.now, frame.tkey, self._tnames.what(event, node, outcome), frame.attempts,
+                               bits, backoff))
+
+    def _key(self, frame: Frame, iface: Any) -> int:
+        """The stored key of *frame* sent by *iface* (not its sender: its rows name *iface* as ``src``)."""
+        return frame.id << LINK_BITS | self._tnames.link(self.name, iface.name, frame.dname)
 
     def _lost(self, frame: Frame, where: Interface | str, reason: str) -> None:
         """Trace *frame* lost for *reason* at *where* (an interface or a node name such as ``"switch"``)."""
         if self._trace_on:
-            self._rows.append((self._env.now, self.name, frame.id, "lost", frame.src.name, frame.dname,
-                               where if isinstance(where, str) else where.name, frame.attempts, reason, _NAN, _NAN))
+            self._rows.append((self._env.now, frame.tkey,
+                               self._tnames.what("lost", where if isinstance(where, str) else where.name, reason),
+                               frame.attempts, _NAN, _NAN))
 
     def _finish(self, frame: Frame, ok: bool) -> None:
         """Count *frame* as sent or dropped at its sender and call the ``on_done`` callbacks."""
@@ -418,8 +430,7 @@ class FrameLifecycle:
             self._lost(frame, rx, "mailbox_full")
             return
         if self._trace_on:
-            self._rows.append((now, self.name, frame.id, "delivered", frame.src.name, frame.dname, rx.name,
-                               frame.attempts, "", frame.bits, _NAN))
+            self._rows.append((now, frame.tkey, rx._tw_delivered, frame.attempts, frame.bits, _NAN))
         rx.stats["received"] += 1
         pend = frame.pend
         if rx.index in pend:
