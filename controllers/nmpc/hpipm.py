@@ -219,8 +219,9 @@ class DirectHPIPM:
         self.b = z(self._ib.size)
         self._qr = z(sum(nx) + sum(nu))               # [q, r] of all stages
         self.q, self.r = self._qr[:sum(nx)], self._qr[sum(nx):]
-        self.lbx, self.ubx = z(sum(nx)), z(sum(nx))
-        self.lbu, self.ubu = z(sum(nu)), z(sum(nu))
+        self._lb, self._ub = z(sum(nx) + sum(nu)), z(sum(nx) + sum(nu))   # [x bounds, u bounds]
+        self.lbx, self.lbu = self._lb[:sum(nx)], self._lb[sum(nx):]
+        self.ubx, self.ubu = self._ub[:sum(nx)], self._ub[sum(nx):]
         self.lg, self.ug = z(sum(ng)), z(sum(ng))
         self.x, self.u = z(sum(nx)), z(sum(nu))
         self.pi = z(max(sum(nx[1:]), 1))
@@ -335,11 +336,12 @@ class DirectHPIPM:
         np.take(uba, self._ilug, out=self.ug)
         np.maximum(self.lg, -inf, out=self.lg)
         np.minimum(self.ug, inf, out=self.ug)
-        for dst, src, idx, clip in ((self.lbx, lbx, self._ix, np.maximum), (self.ubx, ubx, self._ix, np.minimum),
-                                    (self.lbu, lbx, self._iu, np.maximum), (self.ubu, ubx, self._iu, np.minimum)):
-            dst.fill(0.0)
-            dst += src[idx]                              # 0 + v, as the plugin's transfer
-            clip(dst, inf if clip is np.minimum else -inf, out=dst)
+        np.take(lbx, self._ixu, out=self._lb)
+        self._lb += 0.0                                # 0 + v, as the plugin's transfer (-0.0 -> 0.0)
+        np.maximum(self._lb, -inf, out=self._lb)
+        np.take(ubx, self._ixu, out=self._ub)
+        self._ub += 0.0
+        np.minimum(self._ub, inf, out=self._ub)
         self._lib.d_ocp_qp_set_all(self.pA, self.pB, self.pb, self.pQ, self.pS, self.pR, self.pq, self.pr,
                                    self.pidxbx, self.plbx, self.pubx, self.pidxbu, self.plbu, self.pubu,
                                    self.pC, self.pD, self.plg, self.pug, self.pnull, self.pnull, self.pnull,
