@@ -3,12 +3,11 @@ the same steps bit for bit, the same failures, and the plugin never built on the
 
 import numpy as np
 import pytest
+from test_nmpc import cartpole_ocp
 
 from netcosim.controllers.landing import initial_state, landing_nmpc
 from netcosim.controllers.nmpc import RTINMPC
 from netcosim.controllers.nmpc.hpipm import DirectHPIPM, direct_hpipm_supported
-
-from test_nmpc import cartpole_ocp
 
 
 def bits(a) -> np.ndarray:

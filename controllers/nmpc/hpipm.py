@@ -129,7 +129,8 @@ class DirectHPIPM:
         if not direct_hpipm_supported(qp_options):
             raise ValueError(f"options {sorted(qp_options)} not supported by the direct HPIPM path")
         lib = _library()
-        self._lib = lib
+        assert lib is not None                        # direct_hpipm_supported checked it
+        self._lib: ctypes.CDLL = lib
         N = int(qp_options["N"])
         nx = [int(v) for v in qp_options["nx"]]
         nu = [int(v) for v in qp_options["nu"]]
@@ -236,7 +237,7 @@ class DirectHPIPM:
                 off += s
             return out
 
-        self._keep = []
+        self._keep: list = []                          # the stage slices the tables point into
 
         def table(buf, sizes):
             parts = split(buf, sizes)

@@ -244,7 +244,7 @@ class RTINMPC:
         #: HPIPM called directly, its data set in the preparation phase (same steps as
         #: CasADi's plugin, bit for bit; None: the plugin is used, see :mod:`.hpipm`)
         self._direct: DirectHPIPM | None = None
-        self._qp = None
+        self._qp: ca.Function | None = None
         if direct_hpipm and qp_solver == "hpipm" and direct_hpipm_supported(qopts):
             self._direct = DirectHPIPM(self.H_sparsity, self.A_sparsity, qopts)
         else:
@@ -252,7 +252,7 @@ class RTINMPC:
         # with a finite trajectory and constraint values, the QP's bounds pass CasADi's input
         # check exactly when the NLP's do (subtracting one finite number keeps the order)
         self._static_bounds_ok = not _ill_posed(tr.lbw, tr.ubw, tr.lbg, tr.ubg, tr.ix[0])
-        self._qp_accurate = None
+        self._qp_accurate: ca.Function | None = None
 
         self.n_steps = 0
         self.n_fail = 0
@@ -262,7 +262,7 @@ class RTINMPC:
         #: the latest step (None before the first :meth:`feedback`)
         self.last: RTIStep | None = None
         self._p = ocp.p_default.copy()
-        self._qpdata = None
+        self._qpdata: dict | None = None
         self.reset(x_guess if x_guess is not None else np.zeros(ocp.nx), u_guess)
 
     # -- state ----------------------------------------------------------------------------
@@ -403,6 +403,7 @@ class RTINMPC:
             ubx[ix0] = d0
             ok, status, it, dw = self._casadi_step(self._casadi_qp() if qp is None else qp, lbx, ubx)
         if ok:
+            assert dw is not None
             step = float(np.max(np.abs(dw))) if dw.size else 0.0
             self._w = self._w + dw
             self._w[ix0] = x0
@@ -433,6 +434,7 @@ class RTINMPC:
         bad = self._ill_posed or _ill_posed_x0(d0)
         if bad:
             return False, f"error: ill-posed QP: {bad}", -1, None
+        assert self._direct is not None
         code, it, dw = self._direct.solve(d0, d0)
         ok = code == 0
         status = _status_text("hpipm", code)
