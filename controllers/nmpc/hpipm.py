@@ -317,7 +317,9 @@ class DirectHPIPM:
                lbx: np.ndarray, ubx: np.ndarray) -> None:
         """Preparation: hand the QP ``min ½ΔwᵀHΔw + gᵀΔw, lba <= AΔw <= uba, lbx <= Δw <= ubx``
         to HPIPM; *H_nz*, *A_nz*: the nonzeros of H and A (CasADi's column-major order);
-        the bounds of ``Δx_0`` in *lbx*/*ubx* are replaced at :meth:`solve`."""
+        *g*: the dense gradient; *lba*, *uba*, *lbx*, *ubx*: dense bounds (±inf allowed, replaced
+        by ``±inf`` of the options); the bounds of ``Δx_0`` in *lbx*/*ubx* are replaced at
+        :meth:`solve`.  Units: the QP's."""
         Hx = np.empty(self._nnzH + 1)
         Hx[:-1] = H_nz
         Hx[-1] = 0.0                                   # structural zeros of the blocks
@@ -349,9 +351,10 @@ class DirectHPIPM:
                                    self.pnull, self.pnull, None, self.pnull, self.pnull, self._qp.ptr)
 
     def solve(self, lbx0: np.ndarray, ubx0: np.ndarray) -> tuple[int, int, np.ndarray]:
-        """Feedback: set the bounds of ``Δx_0`` and solve; returns ``(status, iterations,
-        Δw)`` with HPIPM's status number (0: success) and the step in the QP's variable
-        order (a fresh array)."""
+        """Feedback: set the bounds *lbx0* <= ``Δx_0`` <= *ubx0* (equal for an RTI: the
+        measured state minus the planned one, in the states' units) and solve; returns
+        ``(status, iterations, Δw)`` with HPIPM's status number (0: success) and the step in
+        the QP's variable order (a fresh array)."""
         inf = self.inf
         lb, ub = self._lbx0, self._ubx0
         lb.fill(0.0)
