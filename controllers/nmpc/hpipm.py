@@ -57,17 +57,19 @@ def _library() -> ctypes.CDLL | None:
     """CasADi's ``libhpipm.so`` (None when this CasADi build does not ship it)."""
     if "hpipm" not in _lib_cache:
         path = Path(ca.__file__).parent / "libhpipm.so"
+        lib: ctypes.CDLL | None
         try:
             lib = ctypes.CDLL(str(path))
-        except OSError:
-            lib = None
-        if lib is not None:
             for name in ("d_ocp_qp_dim_strsize", "d_ocp_qp_dim_memsize", "d_ocp_qp_strsize", "d_ocp_qp_memsize",
                          "d_ocp_qp_sol_strsize", "d_ocp_qp_sol_memsize", "d_ocp_qp_ipm_arg_strsize",
                          "d_ocp_qp_ipm_arg_memsize", "d_ocp_qp_ipm_ws_strsize", "d_ocp_qp_ipm_ws_memsize"):
                 getattr(lib, name).restype = ctypes.c_size_t
-            for name in ("d_ocp_qp_dim_memsize",):
-                getattr(lib, name).argtypes = [ctypes.c_int]
+            lib.d_ocp_qp_dim_memsize.argtypes = [ctypes.c_int]
+            for name in ("d_ocp_qp_set_all", "d_ocp_qp_set_lbx", "d_ocp_qp_set_ubx", "d_ocp_qp_ipm_solve",
+                         "d_ocp_qp_sol_get_all", "d_ocp_qp_ipm_get_status", "d_ocp_qp_ipm_get_iter"):
+                getattr(lib, name)
+        except (OSError, AttributeError):   # no library, or one without the functions used here
+            lib = None
         _lib_cache["hpipm"] = lib
     return _lib_cache["hpipm"]
 
