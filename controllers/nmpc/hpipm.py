@@ -210,7 +210,7 @@ class DirectHPIPM:
 
     def _buffers(self) -> None:
         """The arrays HPIPM reads (set_all) and writes (the solution), and their pointer tables."""
-        N, nx, nu, ng = self.N, self.nx, self.nu, self.ng
+        nx, nu, ng = self.nx, self.nu, self.ng
         z = np.zeros
         self._HB = z(self._iH.size)                   # [Q, S, R] of all stages
         self.Q, self.S, self.R = np.split(self._HB, np.cumsum([self._iQ.size, self._iS.size]))
@@ -230,46 +230,53 @@ class DirectHPIPM:
         self.pi = z(max(sum(nx[1:]), 1))
         self.lam_lb, self.lam_ub = z(sum(nx) + sum(nu) + 1), z(sum(nx) + sum(nu) + 1)
         self.lam_lg, self.lam_ug = z(sum(ng) + 1), z(sum(ng) + 1)
-        self._empty = z(1)
-
-        def split(buf, sizes):
-            out, off = [], 0
-            for s in sizes:
-                out.append(buf[off:off + s] if s else self._empty)
-                off += s
-            return out
-
         self._keep: list = []                          # the stage slices the tables point into
+        self._data_tables()
+        self._solution_tables()
 
-        def table(buf, sizes):
-            parts = split(buf, sizes)
-            self._keep.append(parts)
-            return _ptrs(parts)
+    def _table(self, buf: np.ndarray, sizes) -> ctypes.Array:
+        """A ``double*[]`` pointing at consecutive slices of *buf* of the given *sizes* (a
+        one-element dummy for size 0); the slices are kept alive with the object."""
+        parts, off = [], 0
+        for size in sizes:
+            parts.append(buf[off:off + size] if size else np.zeros(1))
+            off += size
+        self._keep.append(parts)
+        return _ptrs(parts)
 
-        st = range(N)
-        self.pA = table(self.A, [nx[k + 1] * nx[k] for k in st])
-        self.pB = table(self.B, [nx[k + 1] * nu[k] for k in st])
-        self.pb = table(self.b, [nx[k + 1] for k in st])
-        self.pQ = table(self.Q, [n * n for n in nx])
-        self.pS = table(self.S, [nu[k] * nx[k] for k in range(N + 1)])
-        self.pR = table(self.R, [n * n for n in nu])
-        self.pq, self.pr = table(self.q, nx), table(self.r, nu)
-        self.plbx, self.pubx = table(self.lbx, nx), table(self.ubx, nx)
-        self.plbu, self.pubu = table(self.lbu, nu), table(self.ubu, nu)
-        self.pC = table(self.C, [ng[k] * nx[k] for k in range(N + 1)])
-        self.pD = table(self.D, [ng[k] * nu[k] for k in range(N + 1)])
-        self.plg, self.pug = table(self.lg, ng), table(self.ug, ng)
-        self.px, self.pu = table(self.x, nx), table(self.u, nu)
-        self.ppi = table(self.pi, [nx[k + 1] for k in st])
-        nb = [a + b for a, b in zip(nx, nu)]
-        self.plam_lb, self.plam_ub = table(self.lam_lb, nb), table(self.lam_ub, nb)
-        self.plam_lg, self.plam_ug = table(self.lam_lg, ng), table(self.lam_ug, ng)
-        self._idxbx = [np.arange(n, dtype=np.int32) if n else np.zeros(1, np.int32) for n in nx]
-        self._idxbu = [np.arange(n, dtype=np.int32) if n else np.zeros(1, np.int32) for n in nu]
+    def _data_tables(self) -> None:
+        """The pointer tables of the QP data (``d_ocp_qp_set_all``'s arguments)."""
+        N, nx, nu, ng = self.N, self.nx, self.nu, self.ng
+        t, st, all_st = self._table, range(N), range(N + 1)
+        self.pA = t(self.A, [nx[k + 1] * nx[k] for k in st])
+        self.pB = t(self.B, [nx[k + 1] * nu[k] for k in st])
+        self.pb = t(self.b, nx[1:])
+        self.pQ = t(self.Q, [n * n for n in nx])
+        self.pS = t(self.S, [nu[k] * nx[k] for k in all_st])
+        self.pR = t(self.R, [n * n for n in nu])
+        self.pq, self.pr = t(self.q, nx), t(self.r, nu)
+        self.plbx, self.pubx = t(self.lbx, nx), t(self.ubx, nx)
+        self.plbu, self.pubu = t(self.lbu, nu), t(self.ubu, nu)
+        self.pC = t(self.C, [ng[k] * nx[k] for k in all_st])
+        self.pD = t(self.D, [ng[k] * nu[k] for k in all_st])
+        self.plg, self.pug = t(self.lg, ng), t(self.ug, ng)
+
+    def _solution_tables(self) -> None:
+        """The pointer tables of the solution (``d_ocp_qp_sol_get_all``), of the box indices
+        and the slacks (none), and the bounds of ``Δx_0``."""
+        nx, nu, ng = self.nx, self.nu, self.ng
+        t = self._table
+        self._idxbx = [np.arange(max(n, 1), dtype=np.int32) for n in nx]   # every variable box-bounded
+        self._idxbu = [np.arange(max(n, 1), dtype=np.int32) for n in nu]
         self.pidxbx, self.pidxbu = _ptrs(self._idxbx), _ptrs(self._idxbu)
-        self.pnull = (ctypes.c_void_p * (N + 1))()   # slacks: none (ns = 0)
-        self._lbx0 = z(nx[0])
-        self._ubx0 = z(nx[0])
+        self.pnull = (ctypes.c_void_p * (self.N + 1))()   # slacks: none (ns = 0)
+        self.px, self.pu = t(self.x, nx), t(self.u, nu)
+        self.ppi = t(self.pi, nx[1:])
+        nb = [a + b for a, b in zip(nx, nu)]
+        self.plam_lb, self.plam_ub = t(self.lam_lb, nb), t(self.lam_ub, nb)
+        self.plam_lg, self.plam_ug = t(self.lam_lg, ng), t(self.lam_ug, ng)
+        self._lbx0 = np.zeros(nx[0])
+        self._ubx0 = np.zeros(nx[0])
         self._p_lbx0 = ctypes.c_void_p(self._lbx0.ctypes.data)
         self._p_ubx0 = ctypes.c_void_p(self._ubx0.ctypes.data)
 
