@@ -59,7 +59,10 @@ def _library() -> ctypes.CDLL | None:
         path = Path(ca.__file__).parent / "libhpipm.so"
         lib: ctypes.CDLL | None
         try:
-            lib = ctypes.CDLL(str(path))
+            # PyDLL: the calls keep the GIL, as CasADi's own (SWIG) calls do.  Releasing it
+            # for each of the ~10 short calls per sample lets another busy Python thread
+            # (a HIL transport's, say) take it for up to sys.getswitchinterval() each time.
+            lib = ctypes.PyDLL(str(path))
             for name in ("d_ocp_qp_dim_strsize", "d_ocp_qp_dim_memsize", "d_ocp_qp_strsize", "d_ocp_qp_memsize",
                          "d_ocp_qp_sol_strsize", "d_ocp_qp_sol_memsize", "d_ocp_qp_ipm_arg_strsize",
                          "d_ocp_qp_ipm_arg_memsize", "d_ocp_qp_ipm_ws_strsize", "d_ocp_qp_ipm_ws_memsize"):
