@@ -8,6 +8,8 @@ Modules, from the problem to its solvers:
 :mod:`~netcosim.controllers.nmpc.transcription`  its multiple-shooting NLP in stage-wise order
 :mod:`~netcosim.controllers.nmpc.qp`             the QP solvers (:data:`QP_SOLVERS`), their default
                                                  options and status names
+:mod:`~netcosim.controllers.nmpc.hpipm`          HPIPM called directly, its QP data set in the
+                                                 preparation phase (the RTI's default path)
 :mod:`~netcosim.controllers.nmpc.rti`            the real-time iteration :class:`RTINMPC` (Diehl et
                                                  al., 2002) and its per-sample :class:`RTIStep`
 :mod:`~netcosim.controllers.nmpc.full`           converged solves: :class:`FullSolution`, IPOPT

@@ -27,6 +27,7 @@ from netcosim import validate
 from netcosim.errors import ConfigurationError
 
 from .full import FullSolution, IpoptOCP
+from .hpipm import DirectHPIPM, direct_hpipm_supported
 from .ocp import OCP
 from .qp import QP_SOLVERS, _qp_options, _status_text
 from .transcription import _Transcription
@@ -113,6 +114,82 @@ def _linearization(tr: _Transcription, hessian_reg: float, jit: bool):
     return lin, H, A
 
 
+class _Linearization:
+    """The preparation function evaluated into preallocated arrays (CasADi's function
+    buffer: no conversion to and from ``DM``): call with ``(w, p)``, read :attr:`H`,
+    :attr:`A` (the nonzeros of the sparse ``H`` and ``A``, CasADi's column-major order),
+    :attr:`g`, :attr:`c` (dense: structural zeros are 0.0, as ``DM.full()`` gives them)
+    and :attr:`cost` (all overwritten by the next call)."""
+
+    def __init__(self, lin: ca.Function):
+        self.w = np.zeros(lin.nnz_in(0))
+        self.p = np.zeros(lin.nnz_in(1))
+        nz = [np.zeros(lin.nnz_out(i)) for i in range(5)]
+        self.H, self.A, self.cost = nz[0], nz[2], nz[4]
+        self._g_nz, self._c_nz = nz[1], nz[3]
+        self.g, self.c = np.zeros(lin.size1_out(1)), np.zeros(lin.size1_out(3))
+        self._g_rows = np.asarray(lin.sparsity_out(1).row(), dtype=int)
+        self._c_rows = np.asarray(lin.sparsity_out(3).row(), dtype=int)
+        self._buf, self._eval = lin.buffer()
+        self._buf.set_arg(0, memoryview(self.w))
+        self._buf.set_arg(1, memoryview(self.p))
+        for i, a in enumerate(nz):
+            self._buf.set_res(i, memoryview(a))
+
+    def __call__(self, w: np.ndarray, p: np.ndarray) -> None:
+        self.w[:] = w
+        self.p[:] = p
+        self._eval()
+        for dense, nz, rows in ((self.g, self._g_nz, self._g_rows), (self.c, self._c_nz, self._c_rows)):
+            dense.fill(0.0)
+            dense[rows] = nz
+
+
+class _ModelStep:
+    """``F(x, u, p)`` (the OCP's discrete model) evaluated into preallocated arrays:
+    fill :attr:`x`, :attr:`u`, :attr:`p`, call :meth:`eval`, read :attr:`out`."""
+
+    def __init__(self, F: ca.Function):
+        self.x, self.u, self.p = (np.zeros(F.nnz_in(i)) for i in range(3))
+        self.out = np.zeros(F.nnz_out(0))
+        if not F.sparsity_out(0).is_dense():
+            raise ValueError("the discrete model's output must be dense")
+        self._buf, self.eval = F.buffer()
+        for i, a in enumerate((self.x, self.u, self.p)):
+            self._buf.set_arg(i, memoryview(a))
+        self._buf.set_res(0, memoryview(self.out))
+
+
+def _shift_indices(tr: _Transcription) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(perm, ix_N, iu_last)``: ``w[perm]`` is *w* shifted by one interval (``x_k <- x_{k+1}``,
+    ``u_k, σ_k <- u_{k+1}, σ_{k+1}``, the last input and slacks repeated, ``x_N`` and
+    ``σ_N`` kept), ``ix_N``/``iu_last`` where ``x_N`` and ``u_{N-1}`` are."""
+    perm = np.arange(tr.nw)
+    perm[tr.ix[:-1].reshape(-1)] = tr.ix[1:].reshape(-1)
+    if tr.iu.shape[0] > 1:
+        perm[tr.iu[:-1].reshape(-1)] = tr.iu[1:].reshape(-1)
+        if tr.ns:
+            perm[tr.isg[:-1].reshape(-1)] = tr.isg[1:].reshape(-1)
+    return perm, tr.ix[-1].copy(), tr.iu[-1].copy()
+
+
+def _ill_posed(lbdw, ubdw, lba, uba, ix0) -> str:
+    """What CasADi's conic input check would reject in the prepared bounds (``""``: nothing);
+    the bounds of ``Δx_0`` (indices *ix0*) are set at feedback and checked then."""
+    keep = np.ones(lbdw.size, dtype=bool)
+    keep[ix0] = False
+    for name, lb, ub in (("LBX <= UBX", lbdw[keep], ubdw[keep]), ("LBA <= UBA", lba, uba)):
+        bad = ~((lb <= ub) & (lb != np.inf) & (ub != -np.inf))
+        if bad.any():
+            return f"{name} violated ({int(bad.sum())} rows)"
+    return ""
+
+
+def _ill_posed_x0(d0) -> str:
+    """The same check on the bounds ``Δx_0 = d0`` (x0 is checked finite before)."""
+    return "" if np.all(np.isfinite(d0)) else "LBX <= UBX violated (initial state)"
+
+
 class RTINMPC:
     """Real-time-iteration NMPC for an :class:`OCP` (see module doc).
 
@@ -134,6 +211,12 @@ class RTINMPC:
     x_guess, u_guess:
         Initial guess (state repeated over the horizon, inputs repeated); defaults
         to zeros; :meth:`reset` sets them later.
+    direct_hpipm:
+        With ``qp_solver="hpipm"``: call HPIPM directly (:mod:`~netcosim.controllers.nmpc.hpipm`),
+        its QP data set in the preparation phase so that the feedback phase is the
+        interior-point solve alone (default); the steps are CasADi's plugin's bit for bit.
+        ``False``, or options the direct path does not understand, or a CasADi build
+        without ``libhpipm.so``: CasADi's ``conic`` plugin.  Ignored for other solvers.
     history_length:
         How many of the latest :class:`RTIStep` results :attr:`history` keeps (a
         ``deque`` that drops the oldest): default 1, enough for :attr:`last`; ``0``
@@ -144,7 +227,7 @@ class RTINMPC:
 
     def __init__(self, ocp: OCP, *, qp_solver: str = "hpipm", qp_options: dict | None = None,
                  hessian_reg: float = 1e-8, jit: bool = False, x_guess=None, u_guess=None,
-                 history_length: int | None = 1):
+                 history_length: int | None = 1, direct_hpipm: bool = True):
         _check_rti_arguments(ocp, qp_solver, hessian_reg, history_length)
         self.ocp = ocp
         self.qp_solver = qp_solver
@@ -153,10 +236,23 @@ class RTINMPC:
         self.jit = bool(jit)
         self._lin, H, A = _linearization(tr, hessian_reg, jit)
         self.H_sparsity, self.A_sparsity = H.sparsity(), A.sparsity()
+        self._lin_buf = _Linearization(self._lin)
+        self._shift_perm, self._ix_last, self._iu_last = _shift_indices(tr)
+        self._F_buf = _ModelStep(ocp.F)
         qopts = _qp_options(qp_solver, ocp, tr, qp_options)
         self._qp_options = qopts
-        self._qp = ca.conic("rti_qp", qp_solver, {"h": self.H_sparsity, "a": self.A_sparsity}, qopts)
-        self._qp_accurate = None
+        #: HPIPM called directly, its data set in the preparation phase (same steps as
+        #: CasADi's plugin, bit for bit; None: the plugin is used, see :mod:`.hpipm`)
+        self._direct: DirectHPIPM | None = None
+        self._qp: ca.Function | None = None
+        if direct_hpipm and qp_solver == "hpipm" and direct_hpipm_supported(qopts):
+            self._direct = DirectHPIPM(self.H_sparsity, self.A_sparsity, qopts)
+        else:
+            self._qp = ca.conic("rti_qp", qp_solver, {"h": self.H_sparsity, "a": self.A_sparsity}, qopts)
+        # with a finite trajectory and constraint values, the QP's bounds pass CasADi's input
+        # check exactly when the NLP's do (subtracting one finite number keeps the order)
+        self._static_bounds_ok = not _ill_posed(tr.lbw, tr.ubw, tr.lbg, tr.ubg, tr.ix[0])
+        self._qp_accurate: ca.Function | None = None
 
         self.n_steps = 0
         self.n_fail = 0
@@ -166,7 +262,7 @@ class RTINMPC:
         #: the latest step (None before the first :meth:`feedback`)
         self.last: RTIStep | None = None
         self._p = ocp.p_default.copy()
-        self._qpdata = None
+        self._qpdata: dict | None = None
         self.reset(x_guess if x_guess is not None else np.zeros(ocp.nx), u_guess)
 
     # -- state ----------------------------------------------------------------------------
@@ -243,13 +339,36 @@ class RTINMPC:
         t0 = time.perf_counter()
         if p is not None:
             self._p = self._check_p(p)
-        H, g, A, c, cost = self._lin(self._w, self._p)
+        lin = self._lin_buf
+        lin(self._w, self._p)
         tr = self.tr
-        self._qpdata = dict(h=H, g=g, a=A, lba=tr.lbg - c.full().ravel(), uba=tr.ubg - c.full().ravel())
+        lba, uba = tr.lbg - lin.c, tr.ubg - lin.c
         self._lbdw = tr.lbw - self._w
         self._ubdw = tr.ubw - self._w
-        self._cost = float(cost)
+        self._cost = float(lin.cost[0])
+        # the linearization's buffers (overwritten by the next prepare only)
+        self._qp_arrays = (lin.H, lin.g, lin.A, lba, uba)
+        self._qpdata = None                # the DM form, built if a CasADi conic solves this QP
+        if self._direct is not None:
+            fine = self._static_bounds_ok and np.isfinite(lin.c).all() and np.isfinite(self._w).all()
+            self._ill_posed = "" if fine else _ill_posed(self._lbdw, self._ubdw, lba, uba, tr.ix[0])
+            self._direct.set_qp(lin.H, lin.g, lin.A, lba, uba, self._lbdw, self._ubdw)
         return time.perf_counter() - t0
+
+    def _casadi_qpdata(self) -> dict:
+        """The prepared QP as the inputs of a CasADi ``conic`` (built on first use)."""
+        if self._qpdata is None:
+            H, g, A, lba, uba = self._qp_arrays
+            self._qpdata = dict(h=ca.DM(self.H_sparsity, H), g=g, a=ca.DM(self.A_sparsity, A), lba=lba, uba=uba)
+        return self._qpdata
+
+    def _casadi_qp(self):
+        """The CasADi ``conic`` of this controller's solver and options (built on first use;
+        with the direct HPIPM path it is only built if asked for)."""
+        if self._qp is None:
+            self._qp = ca.conic("rti_qp", self.qp_solver, {"h": self.H_sparsity, "a": self.A_sparsity},
+                                self._qp_options)
+        return self._qp
 
     def _accurate_qp(self):
         """The QP solver with tight tolerances used by :meth:`solve_sqp` (built on first use)."""
@@ -261,7 +380,7 @@ class RTINMPC:
                 self._qp_accurate = ca.conic("rti_qp_accurate", "hpipm",
                                              {"h": self.H_sparsity, "a": self.A_sparsity}, opts)
             else:
-                self._qp_accurate = self._qp
+                self._qp_accurate = self._casadi_qp()
         return self._qp_accurate
 
     def _qp_step(self, x0, qp=None) -> tuple[bool, str, int, float]:
@@ -274,14 +393,28 @@ class RTINMPC:
         x0 = self._check_x(x0)
         tr = self.tr
         ix0 = tr.ix[0]
-        lbx = self._lbdw.copy()
-        ubx = self._ubdw.copy()
         d0 = x0 - self._w[ix0]
-        lbx[ix0] = d0
-        ubx[ix0] = d0
-        qp = self._qp if qp is None else qp
+        if qp is None and self._direct is not None:
+            ok, status, it, dw = self._direct_step(d0)
+        else:
+            lbx = self._lbdw.copy()
+            ubx = self._ubdw.copy()
+            lbx[ix0] = d0
+            ubx[ix0] = d0
+            ok, status, it, dw = self._casadi_step(self._casadi_qp() if qp is None else qp, lbx, ubx)
+        if ok:
+            assert dw is not None
+            step = float(np.max(np.abs(dw))) if dw.size else 0.0
+            self._w = self._w + dw
+            self._w[ix0] = x0
+            return True, status, it, step
+        self._w[ix0] = x0
+        return False, status, it, float("nan")
+
+    def _casadi_step(self, qp, lbx, ubx) -> tuple[bool, str, int, np.ndarray | None]:
+        """The prepared QP solved by the CasADi ``conic`` *qp* with the bounds *lbx*, *ubx*."""
         try:
-            sol = qp(lbx=lbx, ubx=ubx, **self._qpdata)
+            sol = qp(lbx=lbx, ubx=ubx, **self._casadi_qpdata())
             stats = qp.stats()
             ok = bool(stats.get("success", False))
             status = _status_text(self.qp_solver, stats.get("return_status", "unknown"))
@@ -292,13 +425,22 @@ class RTINMPC:
                 ok, status = False, "non-finite QP solution"
         except RuntimeError as exc:  # solver error: treat as a failed QP
             ok, status, it, dw = False, f"error: {exc}".splitlines()[0], -1, None
-        if ok:
-            step = float(np.max(np.abs(dw))) if dw.size else 0.0
-            self._w = self._w + dw
-            self._w[ix0] = x0
-            return True, status, it, step
-        self._w[ix0] = x0
-        return False, status, it, float("nan")
+        return ok, status, it, dw
+
+    def _direct_step(self, d0) -> tuple[bool, str, int, np.ndarray | None]:
+        """The prepared QP solved by :class:`~.hpipm.DirectHPIPM` with ``Δx_0 = d0``; an
+        ill-posed QP (a lower bound above its upper bound, or NaN) fails as CasADi's
+        input check makes the plugin fail."""
+        bad = self._ill_posed or _ill_posed_x0(d0)
+        if bad:
+            return False, f"error: ill-posed QP: {bad}", -1, None
+        assert self._direct is not None
+        code, it, dw = self._direct.solve(d0, d0)
+        ok = code == 0
+        status = _status_text("hpipm", code)
+        if ok and not np.all(np.isfinite(dw)):
+            ok, status = False, "non-finite QP solution"
+        return ok, status, it, dw
 
     def feedback(self, x0, p=None) -> RTIStep:
         """Feedback phase: solve the prepared QP for the measured state *x0*.
@@ -317,11 +459,11 @@ class RTINMPC:
         tr = self.tr
         if not ok:
             self.n_fail += 1
-        u = np.clip(self._w[tr.iu[0]], self.ocp.lbu, self.ocp.ubu)
-        X = self._w[tr.ix]
+        u = np.minimum(np.maximum(self._w[tr.iu[0]], self.ocp.lbu), self.ocp.ubu)   # np.clip, faster
+        X = self._w[tr.ix]                 # a fresh array (fancy indexing)
         self.n_steps += 1
         t1 = time.perf_counter()
-        r = RTIStep(u=u, x_ref=X[1].copy(), X=X.copy(), status=status, success=ok, fallback=not ok, qp_iter=it,
+        r = RTIStep(u=u, x_ref=X[1].copy(), X=X, status=status, success=ok, fallback=not ok, qp_iter=it,
                     step_norm=step, t_feedback=t1 - t0, t_prepare=0.0)
         self.last = r
         self.history.append(r)
@@ -345,21 +487,15 @@ class RTINMPC:
 
     def shift(self) -> None:
         """Shift the trajectory by one interval (last state: one more model step)."""
-        o, tr = self.ocp, self.tr
-        X, U, S, SN = tr.unpack(self._w)
-        Xs = np.empty_like(X)
-        Xs[:-1] = X[1:]
-        Xs[-1] = np.asarray(o.F(X[-1], U[-1], self._p)).ravel()
-        if not np.all(np.isfinite(Xs[-1])):
-            Xs[-1] = X[-1]
-        Us = np.empty_like(U)
-        Us[:-1] = U[1:]
-        Us[-1] = U[-1]
-        Ss = np.empty_like(S)
-        if S.size:
-            Ss[:-1] = S[1:]
-            Ss[-1] = S[-1]
-        self._w = tr.pack(Xs, Us, Ss, SN)
+        w = self._w[self._shift_perm]                 # x_k <- x_{k+1}, v_k <- v_{k+1}, last v repeated
+        F = self._F_buf
+        F.x[:] = w[self._ix_last]                     # x_N (kept if the extra step is not finite)
+        F.u[:] = w[self._iu_last]
+        F.p[:] = self._p
+        F.eval()
+        if np.all(np.isfinite(F.out)):
+            w[self._ix_last] = F.out
+        self._w = w
 
     def step(self, x0, p=None) -> RTIStep:
         """One sample: :meth:`feedback` with *x0* (and *p*, None: the current parameters), then
