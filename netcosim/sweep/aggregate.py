@@ -106,19 +106,8 @@ def summarize(df: pd.DataFrame, x: str, y: str, hue: str | None = None,
     --------
     The messages received over a lossy link (100 sent), two seeds per loss probability:
 
-    >>> from netcosim import IdealLink, Simulation
     >>> from netcosim.sweep import run_sweep
-    >>> def lossy_link(params, seed):         # 100 messages, one per ms, frames lost with params["loss"]
-    ...     sim = Simulation(seed=seed)
-    ...     net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
-    ...     a, b, got = sim.node("a"), sim.node("b"), []
-    ...     net.attach(a), net.attach(b).on_receive(got.append)
-    ...     @a.periodic(period=0.001, priority=1)
-    ...     def send(ctx):
-    ...         ctx.send("b", None, 100)
-    ...         yield ctx.execute(1e-5)
-    ...     sim.run(until=0.1)
-    ...     return {"received": len(got)}
+    >>> from netcosim.sweep.demo import lossy_link   # 100 messages; frames lost with params["loss"]
     >>> res = run_sweep(lossy_link, {"loss": [0.1, 0.5]}, seeds=2, executor="serial", quiet=True)
     >>> print(summarize(res.runs, x="loss", y="received", diverged=None).to_string(index=False))
      loss  n  n_failed  n_diverged  n_used  median  q_low  q_high
@@ -176,19 +165,8 @@ def plot_sweep(df: pd.DataFrame, x: str = "loss", y: str = "J", hue: str | None 
     The messages received over a lossy link (100 sent), two seeds per loss probability:
     the line is the median across seeds.
 
-    >>> from netcosim import IdealLink, Simulation
     >>> from netcosim.sweep import run_sweep
-    >>> def lossy_link(params, seed):         # 100 messages, one per ms, frames lost with params["loss"]
-    ...     sim = Simulation(seed=seed)
-    ...     net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
-    ...     a, b, got = sim.node("a"), sim.node("b"), []
-    ...     net.attach(a), net.attach(b).on_receive(got.append)
-    ...     @a.periodic(period=0.001, priority=1)
-    ...     def send(ctx):
-    ...         ctx.send("b", None, 100)
-    ...         yield ctx.execute(1e-5)
-    ...     sim.run(until=0.1)
-    ...     return {"received": len(got)}
+    >>> from netcosim.sweep.demo import lossy_link   # 100 messages; frames lost with params["loss"]
     >>> res = run_sweep(lossy_link, {"loss": [0.1, 0.5]}, seeds=2, executor="serial", quiet=True)
     >>> import matplotlib.pyplot as plt
     >>> from netcosim.sweep import plot_sweep

@@ -225,19 +225,8 @@ class SerialExecutor(SweepExecutor):
     seeds each, the runs stored in a directory: about ``100 (1 - p)`` arrive.
 
     >>> import os, tempfile
-    >>> from netcosim import IdealLink, Simulation
     >>> from netcosim.sweep import SerialExecutor, run_sweep
-    >>> def lossy_link(params, seed):
-    ...     sim = Simulation(seed=seed)
-    ...     net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
-    ...     a, b, got = sim.node("a"), sim.node("b"), []
-    ...     net.attach(a), net.attach(b).on_receive(got.append)
-    ...     @a.periodic(period=0.001, priority=1)
-    ...     def send(ctx):                    # a 100-bit message every ms
-    ...         ctx.send("b", None, 100)
-    ...         yield ctx.execute(1e-5)
-    ...     sim.run(until=0.1)
-    ...     return {"received": len(got)}
+    >>> from netcosim.sweep.demo import lossy_link   # 100 messages; frames lost with params["loss"]
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     res = run_sweep(lossy_link, {"loss": [0.1, 0.5]}, seeds=2, executor=SerialExecutor(),
     ...                     out=os.path.join(tmp, "sweep"), quiet=True)
@@ -332,28 +321,12 @@ class PoolExecutor(SweepExecutor):
 
     Examples
     --------
-    :class:`SerialExecutor`'s sweep, its scenario in a file, on two worker processes:
+    :class:`SerialExecutor`'s sweep on two worker processes (the scenario named by its module, which the
+    workers import: :mod:`netcosim.sweep.demo`):
 
-    >>> import pathlib, tempfile, textwrap
-    >>> code = textwrap.dedent('''
-    ...     from netcosim import IdealLink, Simulation
-    ...     def lossy_link(params, seed):   # 100 messages, one per ms, frames lost with params["loss"]
-    ...         sim = Simulation(seed=seed)
-    ...         net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
-    ...         a, b, got = sim.node("a"), sim.node("b"), []
-    ...         net.attach(a), net.attach(b).on_receive(got.append)
-    ...         @a.periodic(period=0.001, priority=1)
-    ...         def send(ctx):
-    ...             ctx.send("b", None, 100)
-    ...             yield ctx.execute(1e-5)
-    ...         sim.run(until=0.1)
-    ...         return {"received": len(got)}''')
     >>> from netcosim.sweep import PoolExecutor, run_sweep
-    >>> with tempfile.TemporaryDirectory() as tmp:
-    ...     path = pathlib.Path(tmp, "lossy_link.py")
-    ...     _ = path.write_text(code)
-    ...     res = run_sweep(f"{path}:lossy_link", {"loss": [0.1, 0.5]}, seeds=2,
-    ...                     executor=PoolExecutor(workers=2), quiet=True)
+    >>> res = run_sweep("netcosim.sweep.demo:lossy_link", {"loss": [0.1, 0.5]}, seeds=2,
+    ...                 executor=PoolExecutor(workers=2), quiet=True)
     >>> res.runs["received"].tolist()
     [88, 87, 53, 54]
     """
@@ -506,30 +479,14 @@ class DaskExecutor(SweepExecutor):
 
     Examples
     --------
-    :class:`SerialExecutor`'s sweep, its scenario in a file, on a cluster in this process:
+    :class:`SerialExecutor`'s sweep on a Dask cluster in this process (the scenario named by its module:
+    :mod:`netcosim.sweep.demo`):
 
-    >>> import pathlib, tempfile, textwrap
-    >>> code = textwrap.dedent('''
-    ...     from netcosim import IdealLink, Simulation
-    ...     def lossy_link(params, seed):   # 100 messages, one per ms, frames lost with params["loss"]
-    ...         sim = Simulation(seed=seed)
-    ...         net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
-    ...         a, b, got = sim.node("a"), sim.node("b"), []
-    ...         net.attach(a), net.attach(b).on_receive(got.append)
-    ...         @a.periodic(period=0.001, priority=1)
-    ...         def send(ctx):
-    ...             ctx.send("b", None, 100)
-    ...             yield ctx.execute(1e-5)
-    ...         sim.run(until=0.1)
-    ...         return {"received": len(got)}''')
     >>> from dask.distributed import Client, LocalCluster
     >>> from netcosim.sweep import DaskExecutor, run_sweep
-    >>> with tempfile.TemporaryDirectory() as tmp:
-    ...     path = pathlib.Path(tmp, "lossy_link.py")
-    ...     _ = path.write_text(code)
-    ...     with LocalCluster(processes=False, dashboard_address=None) as cluster, Client(cluster) as client:
-    ...         res = run_sweep(f"{path}:lossy_link", {"loss": [0.1, 0.5]}, seeds=2,
-    ...                         executor=DaskExecutor(client=client), quiet=True)
+    >>> with LocalCluster(processes=False, dashboard_address=None) as cluster, Client(cluster) as client:
+    ...     res = run_sweep("netcosim.sweep.demo:lossy_link", {"loss": [0.1, 0.5]}, seeds=2,
+    ...                     executor=DaskExecutor(client=client), quiet=True)
     >>> res.runs["received"].tolist()
     [88, 87, 53, 54]
     """

@@ -83,19 +83,11 @@ class SweepResult:
     seeds each; each run returns the count received and a table of the arrival times:
 
     >>> import pandas as pd
-    >>> from netcosim import IdealLink, Simulation
     >>> from netcosim.sweep import run_sweep
+    >>> from netcosim.sweep.demo import lossy_link_run   # 100 messages over a lossy link
     >>> def lossy_link(params, seed):
-    ...     sim = Simulation(seed=seed)
-    ...     net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
-    ...     a, b, got = sim.node("a"), sim.node("b"), []
-    ...     net.attach(a), net.attach(b).on_receive(lambda msg: got.append(sim.now))
-    ...     @a.periodic(period=0.001, priority=1)
-    ...     def send(ctx):                        # a 100-bit message every ms
-    ...         ctx.send("b", None, 100)
-    ...         yield ctx.execute(1e-5)
-    ...     sim.run(until=0.1)
-    ...     return {"received": len(got), "arrivals": pd.DataFrame({"time": got})}
+    ...     sim, arrivals = lossy_link_run(params["loss"], seed)
+    ...     return {"received": len(arrivals), "arrivals": pd.DataFrame({"time": arrivals})}
     >>> res = run_sweep(lossy_link, {"loss": [0.1, 0.5]}, seeds=2, executor="serial", quiet=True)
     >>> res
     SweepResult(4 runs: 4 ok, 0 error, 0 timeout, 0 skipped)

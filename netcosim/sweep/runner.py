@@ -515,19 +515,8 @@ def load_sweep(path: str | os.PathLike, verify: bool = True) -> SweepResult:
     directory and read back:
 
     >>> import pathlib, tempfile
-    >>> from netcosim import IdealLink, Simulation
     >>> from netcosim.sweep import load_sweep, run_sweep
-    >>> def lossy_link(params, seed):         # 100 messages, one per ms, frames lost with params["loss"]
-    ...     sim = Simulation(seed=seed)
-    ...     net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
-    ...     a, b, got = sim.node("a"), sim.node("b"), []
-    ...     net.attach(a), net.attach(b).on_receive(got.append)
-    ...     @a.periodic(period=0.001, priority=1)
-    ...     def send(ctx):
-    ...         ctx.send("b", None, 100)
-    ...         yield ctx.execute(1e-5)
-    ...     sim.run(until=0.1)
-    ...     return {"received": len(got)}
+    >>> from netcosim.sweep.demo import lossy_link   # 100 messages; frames lost with params["loss"]
     >>> tmp = tempfile.TemporaryDirectory()
     >>> out = pathlib.Path(tmp.name, "sweep")
     >>> ran = run_sweep(lossy_link, {"loss": [0.1, 0.5]}, seeds=2, executor="serial", out=out, quiet=True)

@@ -113,20 +113,12 @@ def view_sweep(directory: Any, path: Any = None, **options: Any):
     messages received against the loss, and each run gets a timeline of its own beside it.
 
     >>> import pathlib, tempfile
-    >>> from netcosim import IdealLink, Simulation
     >>> from netcosim.sweep import run_sweep
     >>> from netcosim.view import trace_tables, view_sweep
-    >>> def lossy_link(params, seed):         # 100 messages, one per ms, frames lost with params["loss"]
-    ...     sim = Simulation(seed=seed)
-    ...     net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
-    ...     a, b, got = sim.node("a"), sim.node("b"), []
-    ...     net.attach(a), net.attach(b).on_receive(got.append)
-    ...     @a.periodic(period=0.001, priority=1)
-    ...     def send(ctx):
-    ...         ctx.send("b", None, 100)
-    ...         yield ctx.execute(1e-5)
-    ...     sim.run(until=0.1)
-    ...     return {"received": len(got), **trace_tables(sim)}      # the run's trace is kept
+    >>> from netcosim.sweep.demo import lossy_link_run   # 100 messages over a lossy link
+    >>> def lossy_link(params, seed):
+    ...     sim, arrivals = lossy_link_run(params["loss"], seed)
+    ...     return {"received": len(arrivals), **trace_tables(sim)}      # the run's trace is kept
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     out = pathlib.Path(tmp, "sweep")
     ...     _ = run_sweep(lossy_link, {"loss": [0.1, 0.5]}, seeds=2, executor="serial", out=out, quiet=True)
@@ -174,19 +166,11 @@ def trace_tables(source: Any, prefix: str = "trace_") -> dict:
     Returned by a sweep's scenario, they are kept per run, their parameters prepended
     (282 messages arrived in the four runs):
 
-    >>> from netcosim import IdealLink
     >>> from netcosim.sweep import run_sweep
-    >>> def lossy_link(params, seed):         # 100 messages, one per ms, frames lost with params["loss"]
-    ...     sim = Simulation(seed=seed)
-    ...     net = IdealLink(sim, "link", data_rate=1e6, loss=params["loss"])
-    ...     a, b, got = sim.node("a"), sim.node("b"), []
-    ...     net.attach(a), net.attach(b).on_receive(got.append)
-    ...     @a.periodic(period=0.001, priority=1)
-    ...     def send(ctx):
-    ...         ctx.send("b", None, 100)
-    ...         yield ctx.execute(1e-5)
-    ...     sim.run(until=0.1)
-    ...     return {"received": len(got), **trace_tables(sim)}      # the run's trace is kept
+    >>> from netcosim.sweep.demo import lossy_link_run   # 100 messages over a lossy link
+    >>> def lossy_link(params, seed):
+    ...     sim, arrivals = lossy_link_run(params["loss"], seed)
+    ...     return {"received": len(arrivals), **trace_tables(sim)}      # the run's trace is kept
     >>> res = run_sweep(lossy_link, {"loss": [0.1, 0.5]}, seeds=2, executor="serial", quiet=True)
     >>> res.table_names
     ['trace_frames', 'trace_jobs', 'trace_network_schedule', 'trace_schedule']
