@@ -9,7 +9,9 @@ Both simulate the same horizon; each side's time is the CPU time of its own run
 finished.  SimSo's cost per job grows with the horizon (it keeps every job and its log):
 the horizon is part of the comparison, 2.4 s by default (20 hyperperiods, 4500 jobs).
 The runs alternate (``repeats`` pairs); the ratio reported is the median of the pairwise
-ratios.  Run: ``python -m benchmarks.simso_speed`` (skipped, saying why, without SimSo).
+ratios.  The idealised kernel of :mod:`benchmarks.kernel_floor` (netcosim's rows, none of
+its features) runs beside them: the speed-up of a pure-Python kernel's floor.
+Run: ``python -m benchmarks.simso_speed`` (skipped, saying why, without SimSo).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import subprocess
 import sys
 
 from .kernel import TASKS, kernel_run
+from .kernel_floor import floor_run
 from .simso_global import REPO, SIMSO_PATH
 
 _SIMSO_RUN = r'''
@@ -60,19 +63,25 @@ def simso_run(until: float) -> tuple[int, float]:
 
 def compare(until: float = 2.4, repeats: int = 5) -> dict:
     """CPU time per job of SimSo and of netcosim over *until* s, *repeats* alternated pairs."""
-    simso_us, ours_us, ratios = [], [], []
+    simso_us, ours_us, floor_us, ratios, floor_ratios = [], [], [], [], []
     for _ in range(repeats):
         jobs_s, dt_s = simso_run(until)
         jobs_n, dt_n = kernel_run(until)
+        jobs_f, dt_f, _, _ = floor_run(until)
         simso_us.append(dt_s / jobs_s * 1e6)
         ours_us.append(dt_n / jobs_n * 1e6)
+        floor_us.append(dt_f / jobs_f * 1e6)
         ratios.append(simso_us[-1] / ours_us[-1])
+        floor_ratios.append(simso_us[-1] / floor_us[-1])
     res = {"jobs": jobs_n, "simso_jobs": jobs_s, "simso_us_per_job": statistics.median(simso_us),
-           "netcosim_us_per_job": statistics.median(ours_us), "speedup_median": statistics.median(ratios)}
+           "netcosim_us_per_job": statistics.median(ours_us), "speedup_median": statistics.median(ratios),
+           "floor_us_per_job": statistics.median(floor_us), "floor_speedup_median": statistics.median(floor_ratios)}
     print(f"10-task set, one processor, fixed priorities, {until} s simulated, {repeats} alternated pairs (medians)")
     print(f"  SimSo 0.8.5: {res['simso_us_per_job']:8.2f} us/job ({jobs_s} jobs)")
     print(f"  netcosim:    {res['netcosim_us_per_job']:8.2f} us/job ({jobs_n} jobs)")
-    print(f"  netcosim is {res['speedup_median']:.1f}x faster per job (median of pairwise ratios; target >= 40x)")
+    print(f"  idealised:   {res['floor_us_per_job']:8.2f} us/job (benchmarks.kernel_floor: the same rows, no features)")
+    print(f"  netcosim is {res['speedup_median']:.1f}x faster per job (median of pairwise ratios; target >= 40x); "
+          f"the idealised kernel {res['floor_speedup_median']:.1f}x")
     return res
 
 
