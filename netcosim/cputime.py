@@ -314,7 +314,12 @@ class RecordedCPUTime(CPUTimeModel):
         validate.choice(beyond, "beyond", ("cycle", "last", "error"))
         self.beyond = beyond
         if isinstance(table, Mapping):
-            values = {str(k): list(v) for k, v in table.items()}
+            values = {}
+            for k, v in table.items():
+                if isinstance(v, (str, bytes)) or not hasattr(v, "__iter__"):
+                    raise ConfigurationTypeError(f"recorded CPU times of phase {k!r} must be a sequence of seconds "
+                                                 f"(e.g. [0.002, 0.004]), got {v!r}")
+                values[str(k)] = list(v)
         elif hasattr(table, "columns"):
             missing = {"phase", "cpu"} - set(table.columns)
             if missing:

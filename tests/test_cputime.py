@@ -100,3 +100,11 @@ def test_recorded_table_from_a_dataframe_sorts_by_index():
     df = pd.DataFrame({"phase": ["p", "p", "q"], "index": [1, 0, 0], "cpu": [2e-3, 1e-3, 5e-3]})
     m = RecordedCPUTime(df)
     assert [m.charge("p"), m.charge("p"), m.charge("q")] == [1e-3, 2e-3, 5e-3]
+
+
+@pytest.mark.parametrize("times", [0.002, "0.002", None])
+def test_recorded_times_of_a_phase_must_be_a_sequence(times):
+    from netcosim.errors import ConfigurationTypeError
+    with pytest.raises(ConfigurationTypeError, match=r"phase 'solve' must be a sequence of seconds .*got "
+                       + repr(times).replace(".", r"\.")):
+        RecordedCPUTime({"solve": times})

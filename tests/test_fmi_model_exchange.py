@@ -199,3 +199,23 @@ def test_a_time_event_switches_the_slope_at_the_announced_instant(fmu_builder, v
     assert plant.event_log == [(pytest.approx(0.37, abs=1e-12), "time_event")]
     assert float(plant.output("y").read()) == pytest.approx(2 * 0.37 - 1.0, abs=1e-9)
     assert ramp.next_event_time is None          # no further time event after the switch
+
+
+@pytest.mark.parametrize("kind, value, expected", [
+    ("Integer", 2.5, "takes a whole number, got 2.5"),
+    ("Integer", "3", "takes a whole number, got '3'"),
+    ("Integer", float("nan"), "takes a whole number, got nan"),
+    ("Integer", True, "takes a whole number, got True"),
+    ("Boolean", "no", r"takes True or False \(or 1, 0\), got 'no'"),
+    ("Boolean", 2, r"takes True or False \(or 1, 0\), got 2"),
+])
+def test_integer_and_boolean_values_are_checked_before_they_are_set(fmu_builder, kind, value, expected):
+    # the demo FMUs have only real variables: the parameter k is declared Integer or Boolean here,
+    # so the check runs where it would for such a variable (nothing reaches the FMU)
+    import dataclasses
+
+    from netcosim.fmi.description import FMUFile
+    file = FMUFile(fmu_builder("servo", 2), kind="model exchange")
+    file.variables["k"] = dataclasses.replace(file.variables["k"], type=kind)
+    with pytest.raises(ConfigurationError, match=f"parameter 'k' .*{expected}"):
+        file.set_values({"k": value})

@@ -22,6 +22,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+import numpy as np
+
+from .. import validate
 from ..errors import ConfigurationError, FMUError
 
 __all__ = ["Variable", "FMUFile", "import_fmpy"]
@@ -255,7 +258,10 @@ class FMUFile:
 
     def set_values(self, values: dict, role: str = "parameter") -> None:
         """Set variables by name (before initialisation): reals, integers and booleans, from
-        *values* (``{FMI name: value}``); *role* (default ``"parameter"``) names them in errors."""
+        *values* (``{FMI name: value}``); *role* (default ``"parameter"``) names them in errors.
+        A real takes a finite number, an integer a whole number (``3`` or ``3.0``, not
+        ``True`` or ``"3"``), a Boolean ``True``/``False`` or 1/0; anything else raises a
+        :class:`~netcosim.errors.ConfigurationError` naming the variable and the value."""
         fmu = self.instance
         for name, value in values.items():
             v = self.variable(name, role)
@@ -273,10 +279,16 @@ class FMUFile:
                 setter = ("setReal" if self.fmi_version == 2 else
                           "setFloat32" if v.type == "Float32" else "setFloat64")
             elif v.type in INTEGER_TYPES:
+                if not (validate.is_real(value) and math.isfinite(value) and value == int(value)):
+                    raise ConfigurationError(f"{self.label}: {role} {name!r} is of type {v.type} and takes a whole "
+                                             f"number, got {value!r}")
                 x = int(value)
                 setter = "setInteger" if self.fmi_version == 2 else (
                     "setInt32" if v.type == "Enumeration" else f"set{v.type}")
             elif v.type == "Boolean":
+                if not (isinstance(value, (bool, np.bool_)) or (validate.is_real(value) and value in (0, 1))):
+                    raise ConfigurationError(f"{self.label}: {role} {name!r} is a Boolean and takes True or False "
+                                             f"(or 1, 0), got {value!r}")
                 x = bool(value)
                 setter = "setBoolean"
             else:
