@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 from collections import deque
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 from . import validate
 from .columns import ColumnStore
@@ -73,16 +73,19 @@ class Sink:
         that lasted zero time).  If *old* is no longer held in memory (dropped by the
         ring or the window, written to Parquet, cleared) *new* is appended instead.
         """
+        if not self._swap(old, new):
+            self.append(new)
+
+    def _swap(self, old: tuple, new: tuple) -> bool:
+        """Overwrite the held row *old* (by identity) with *new*; False when it is not held."""
         buf = self._rec._buf
         if type(buf) is ColumnStore:
-            if not buf.replace(old, new):
-                self.append(new)
-            return
+            return buf.replace(old, new)
         for i in range(len(buf) - 1, -1, -1):
             if buf[i] is old:
                 buf[i] = new  # type: ignore[index]  # a list or a deque here
-                return
-        self.append(new)
+                return True
+        return False
 
     def __len__(self) -> int:
         """Rows held in memory now."""
@@ -116,14 +119,14 @@ class Recorder:
 
     __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index",
                  "time_scale", "key_index", "mode", "options", "memory", "keeps_categories", "identity", "_buf",
-                 "carry", "_clock",
+                 "carry", "instant", "_clock",
                  "_window", "_stream", "_counts", "_latest")
 
     def __init__(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
                  transform=None, *, time: str | None = "time", time_unit: str = "ticks",
                  key: Sequence[str] = (), clock: Callable[[], int] | None = None,
                  dtypes: Sequence[str | None] | None = None, keeps_categories: bool = False,
-                 identity: Sequence[str] = ()):
+                 identity: Sequence[str] = (), instant: Callable[[tuple], Any] | None = None):
         self.name = name
         #: stored columns of objects coded by identity that the transform accepts as a pandas
         #: Categorical of the objects (see :meth:`Trace.table`)
@@ -147,6 +150,11 @@ class Recorder:
         #: store them, one per reported row (a table whose keep mode stores one row for
         #: several, e.g. the network tables); applied to the rows carried out of keep mode
         self.carry: Callable[[list], list] | None = None
+        #: optional ``instant(row) -> key``: one row per key and instant in the modes other
+        #: than ``keep``: a row whose key and time are those of its key's latest row replaces
+        #: that row (:meth:`Sink.replace`; the network schedule).  ``keep`` mode stores every
+        #: row (the table's transform then keeps an instant's last one).
+        self.instant = instant
         validate.choice(time_unit, f"table {name!r}: time_unit", ("ticks", "s"))
         self.time_index = self.columns.index(time) if time is not None and time in self.columns else None
         #: stored time units per second
@@ -248,7 +256,9 @@ class Recorder:
             self._buf = []
         store = self._make_store()
         self.rows.append = append = self._decimator(store, every) if every > 1 else store
-        if every == 1 and mode in ("keep", "ring"):
+        if self.instant is not None and mode not in ("keep", "off"):
+            self.rows.append = append = self._one_per_instant(append, old)
+        if append is store and mode in ("keep", "ring"):
             self.rows.extend = self._buf.extend
         elif mode == "off":
             self.rows.extend = _discard
@@ -292,6 +302,22 @@ class Recorder:
             if len(buf) >= limit:
                 stream.flush()
         return stream_append
+
+    def _one_per_instant(self, append, carried: list):
+        """*append* with :attr:`instant`'s rule: a row of the same key and time as that key's
+        latest row replaces it (as :meth:`Sink.replace`: appended when that row is no longer
+        held).  The latest rows start as those of *carried* (the rows held before the switch)."""
+        key, ti, swap = self.instant, self.time_index, self.rows._swap
+        assert key is not None and ti is not None
+        latest: dict = {key(r): r for r in carried}
+
+        def one_per_instant(row):
+            k = key(row)
+            prev = latest.get(k)
+            latest[k] = row
+            if prev is None or prev[ti] != row[ti] or not swap(prev, row):
+                append(row)
+        return one_per_instant
 
     def _decimator(self, store, every: int):
         counts, ki = self._counts, self.key_index

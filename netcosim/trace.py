@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 from . import validate
 from .columns import ColumnStore
@@ -131,7 +131,8 @@ class Trace:
     def table(self, name: str, columns: Sequence[str], categorical: Iterable[str] = (),
               transform=None, *, time: str | None = "time", time_unit: str = "ticks",
               key: Sequence[str] = (), dtypes: Sequence[str | None] | None = None,
-              keeps_categories: bool = False, identity: Sequence[str] = ()) -> Recorder:
+              keeps_categories: bool = False, identity: Sequence[str] = (),
+              instant: Callable[[tuple], Any] | None = None) -> Recorder:
         """Create (or return the existing) recorder called *name*.
 
         ``columns`` are the stored columns; ``transform(df) -> df`` (optional) derives
@@ -149,13 +150,16 @@ class Trace:
         objects coded by identity (the kernel's task objects) and that ``transform`` also
         accepts as a pandas ``Categorical`` of those objects: a table read back column by
         column hands them so (categories in order of appearance) instead of an object per
-        row.
+        row.  ``instant(row) -> key`` (optional): in the modes other than ``keep``, one row per
+        key and instant, the latest replacing the earlier (:attr:`Recorder.instant
+        <netcosim.recorder.Recorder.instant>`).
         """
         rec = self._tables.get(name)
         if rec is None:
             rec = self._tables[name] = Recorder(name, columns, categorical, transform, time=time,
                                                 time_unit=time_unit, key=key, clock=self._clock, dtypes=dtypes,
-                                                keeps_categories=keeps_categories, identity=identity)
+                                                keeps_categories=keeps_categories, identity=identity,
+                                                instant=instant)
             if self._default is not None:
                 self._apply_default(rec)
         elif rec.columns != tuple(columns):

@@ -291,8 +291,7 @@ class Network(FrameLifecycle, LinkAccounting):
         iface._trace_codes(self._tnames)
         if self._trace_on:
             iface._srows = self._sched_rows
-            iface._row_t, iface._row = self._env.now, (self._env.now, iface._tstate["idle"])
-            self._sched_rows.append(iface._row)
+            self._sched_rows.append((self._env.now, iface._tstate["idle"]))
         return iface
 
     def interface(self, node) -> Interface:

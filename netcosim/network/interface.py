@@ -146,8 +146,7 @@ class Interface:
         self.sending = 0        # transmissions of this interface on the medium (0/1)
         self.receiving = 0      # frames addressed to this interface being received
         self.state = "idle"
-        self._row_t = -1        # tick of this interface's last network-schedule row, and the row
-        self._row: tuple | None = None
+        self._env = network._env
         # the trace rows of this interface (netcosim.network.tracing): the network schedule's
         # rows when traced (None: untraced), its stored code per state, the link code per
         # destination, and the codes of its fixed frames rows (set by _trace_codes)
@@ -212,18 +211,10 @@ class Interface:
             self.state = s
             rows = self._srows
             if rows is not None:
-                # one row per node and instant: a state that lasts zero time is overwritten
-                # (in keep mode appended: reading the table keeps the instant's last state,
-                # netcosim.network.tracing.collapse_instants)
-                net = self.network
-                now = net._env.now
-                row = (now, self._tstate[s])
-                if self._row_t == now and net._sched_rec.mode != "keep":
-                    rows.replace(self._row, row)
-                else:
-                    self._row_t = now
-                    rows.append(row)
-                self._row = row
+                # one row per node and instant: a state that lasts zero time is overwritten by
+                # the table in the modes other than keep (Recorder.instant); keep mode appends
+                # it, and reading keeps the instant's last state (tracing.collapse_instants)
+                rows.append((self._env.now, self._tstate[s]))
 
     def _trace_codes(self, names) -> None:
         """Take this interface's codes in the trace rows from *names* (a

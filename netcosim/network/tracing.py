@@ -360,9 +360,14 @@ def network_tables(trace: Trace) -> tuple[NetworkNames, Recorder, Recorder]:
     frames = trace.table("frames", FRAME_RAW, categorical=("network", "event", "src", "dst", "node", "outcome"),
                          transform=names.frames_frame, dtypes=FRAME_DTYPES)
     sched = trace.table("network_schedule", SCHEDULE_RAW, categorical=("network", "node", "state"),
-                        transform=names.schedule_frame, dtypes=("int",) * len(SCHEDULE_RAW))
+                        transform=names.schedule_frame, dtypes=("int",) * len(SCHEDULE_RAW), instant=_node_of)
     frames.carry, sched.carry = names.carry_frames, names.carry_schedule
     return names, frames, sched
+
+
+def _node_of(row: tuple) -> int:
+    """The (network, node) pair code of a stored schedule row: one row per pair and instant."""
+    return row[1] >> 2
 
 
 def _plot_network(trace, frames: Any = _UNSET, **options):
