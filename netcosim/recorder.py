@@ -56,15 +56,23 @@ class Sink:
     ``append`` is a single bound-method call: ``list.append`` in ``keep`` mode,
     ``deque.append`` with ``maxlen`` in ``ring`` mode, a C no-op in ``off`` mode, a
     small function in ``window``/``stream`` mode or with decimation.
+
+    :attr:`tail` is the list ``append`` appends to in ``keep`` mode without decimation
+    (the newest rows of the :class:`~netcosim.columns.ColumnStore`, not yet encoded;
+    always the same list for one store), None otherwise: a producer whose own row is
+    ``tail[-1]`` (checked by identity) may overwrite it with a row standing for it and
+    the next one (the network tables, :mod:`netcosim.network.tracing`).
     """
 
-    __slots__ = ("append", "extend", "_rec")
+    __slots__ = ("append", "extend", "tail", "_rec")
 
     def __init__(self, rec: "Recorder"):
         self._rec = rec
         self.append: Callable[[tuple], object] = rec._buf.append
         #: ``extend(rows)``: append several rows (an iterable of tuples) at once, as ``append`` would
         self.extend: Callable[[list], object] = rec._buf.extend
+        #: the keep mode's list of newest rows (see above); None in the other modes
+        self.tail: list | None = rec._buf._tail if type(rec._buf) is ColumnStore else None
 
     def replace(self, old: tuple, new: tuple) -> None:
         """Overwrite the row *old* (the very object appended earlier) with *new*.
@@ -114,7 +122,8 @@ class Recorder:
     column for the columnar store (None entries, or None: found from the values);
     ``keeps_categories``: the transform gives the categorical columns back unchanged;
     ``identity``: stored columns of objects coded by identity (see :meth:`Trace.table
-    <netcosim.trace.Trace.table>`).
+    <netcosim.trace.Trace.table>`); ``instant``: the key of one row per key and instant in
+    the modes other than keep (:attr:`instant`).
     """
 
     __slots__ = ("name", "columns", "rows", "categorical", "dtypes", "providers", "transform", "time_index",
@@ -258,6 +267,7 @@ class Recorder:
         self.rows.append = append = self._decimator(store, every) if every > 1 else store
         if self.instant is not None and mode not in ("keep", "off"):
             self.rows.append = append = self._one_per_instant(append, old)
+        self.rows.tail = self._buf._tail if append is store and type(self._buf) is ColumnStore else None
         if append is store and mode in ("keep", "ring"):
             self.rows.extend = self._buf.extend
         elif mode == "off":

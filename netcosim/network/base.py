@@ -244,6 +244,7 @@ class Network(FrameLifecycle, LinkAccounting):
         self._tnames, self._frames_rec, self._sched_rec = network_tables(sim.trace)
         self._rows = self._frames_rec.rows
         self._sched_rows = self._sched_rec.rows
+        self._tend: tuple | None = None     # the newest attempt_end row (merged with a delivery: lifecycle)
         sim.trace.add_plot("network", _plot_network)
         sim._register(name, self)
         sim.networks[name] = self

@@ -135,9 +135,11 @@ class Attempt:
                     r.receiving -= 1
                     r._state()
         if net._trace_on:
-            net._rows.append((net._env.now, frame.tkey,
-                              (iface._tw_sent if frame.dst is BROADCAST else iface._tw_ok) if outcome is None
-                              else net._tnames.what("attempt_end", iface.name, outcome), frame.attempts, _NAN, _NAN))
+            # kept as the newest attempt_end, for a delivery right after it to merge with (_hand_over)
+            net._tend = row = (net._env.now, frame.tkey,
+                               (iface._tw_sent if frame.dst is BROADCAST else iface._tw_ok) if outcome is None
+                               else net._tnames.what("attempt_end", iface.name, outcome), frame.attempts, _NAN, _NAN)
+            net._rows.append(row)
         self.state = OK if outcome is None or outcome in _SUCCESS else FAILED
 
     def fail(self, reason: str) -> None:
@@ -265,6 +267,7 @@ class FrameLifecycle:
         _env: Any
         _trace_on: bool
         _rows: Any
+        _tend: Any
         _tnames: Any
         _links: dict
         _post: int
@@ -430,7 +433,18 @@ class FrameLifecycle:
             self._lost(frame, rx, "mailbox_full")
             return
         if self._trace_on:
-            self._rows.append((now, frame.tkey, rx._tw_delivered, frame.attempts, frame.bits, _NAN))
+            end = self._tend
+            if end is not None and end[0] == now and end[1] == frame.tkey and (tail := self._rows.tail) \
+                    and tail[-1] is end:
+                # keep mode, the frame's attempt_end is the newest row: one row for both
+                # (tracing.NetworkNames.two: the delivery's bits in the backoff column)
+                self._tend = None
+                two = self._tnames.joined.get(end[2] << 32 | rx._tw_delivered)
+                if two is None:
+                    two = self._tnames.two(end[2], rx._tw_delivered)
+                tail[-1] = (now, end[1], two, end[3], _NAN, frame.bits)
+            else:
+                self._rows.append((now, frame.tkey, rx._tw_delivered, frame.attempts, frame.bits, _NAN))
         rx.stats["received"] += 1
         pend = frame.pend
         if rx.index in pend:

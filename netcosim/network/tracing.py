@@ -25,6 +25,17 @@ reading a table turns the codes into the reported columns (:data:`FRAME_COLUMNS`
 applicable), the same frames value for value as rows of names would give.  A row of
 integers only is what the columnar store encodes fastest (one typed array per column, no
 string lookups) and holds in 8 bytes a value; the names cost nothing per row.
+
+In the default ``keep`` mode one stored ``frames`` row may stand for two reported rows of
+one frame and instant (:meth:`NetworkNames.two`): ``created`` and ``queued`` (a frame
+queued as it is sent), ``attempt_end`` and a ``delivered`` appended right after it (merged
+in place: the table's newest row, :attr:`Sink.tail <netcosim.recorder.Sink.tail>`,
+checked by identity).  Reading, and leaving ``keep`` mode
+(:meth:`NetworkNames.carry_frames`), makes them the two rows; the other modes store one
+row per reported row.  A ``network_schedule`` row is one state change; in ``keep`` mode
+every change is appended (reading keeps a node's last state of an instant), the other
+modes keep one row per node and instant (:attr:`Recorder.instant
+<netcosim.recorder.Recorder.instant>`).
 """
 
 from __future__ import annotations
@@ -109,6 +120,8 @@ class NetworkNames:
         #: pair code -> (network, node) name codes, and back
         self.pairs: list[tuple[int, int]] = []
         self._pairs: dict[tuple[int, int], int] = {}
+        #: ``first << 32 | second`` -> :meth:`two` of those what codes (the hot path's lookup)
+        self.joined: dict[int, int] = {}
 
     def link(self, network: str, src: str, dst: str) -> int:
         """The code of the frames sent on *network* from *src* to *dst* (names; ``"*"``: broadcast)."""
@@ -135,9 +148,17 @@ class NetworkNames:
         key = (code[event], code[node], code[outcome])
         c = self._whats.get(key)
         if c is None:
-            c = self._whats[key] = len(self.whats)
-            self.whats.append(key)
-            self.then.append(-1)
+            c = self._whats[key] = self._new_what(key, -1)
+        return c
+
+    def _new_what(self, key: tuple[int, int, int], then: int) -> int:
+        c = len(self.whats)
+        if c >> 32:
+            from ..errors import ConfigurationError
+            raise ConfigurationError(f"the frames trace codes at most 2**32 (event, node, outcome); {key!r} "
+                                     f"is one more")
+        self.whats.append(key)
+        self.then.append(then)
         return c
 
     def row_codes(self, node: str) -> dict[str, int]:
@@ -155,14 +176,15 @@ class NetworkNames:
         """The ``what`` code of one stored row standing for two reported rows at the same
         instant: the *first* (``what`` code) with the row's ``bits``, then the *second* with
         the row's ``backoff`` as its ``bits`` (both with ``backoff`` NaN).  The fixed rows'
-        ``created+queued``: a frame queued as it is sent, in ``keep`` mode."""
+        ``created+queued``: a frame queued as it is sent, in ``keep`` mode; an
+        ``attempt_end`` and the frame's ``delivered`` right after it
+        (:meth:`~netcosim.network.lifecycle.FrameLifecycle._hand_over`; :attr:`joined`)."""
         key = (first, second)
         c = self._twos.get(key)
         if c is None:
-            c = self._twos[key] = len(self.whats)
-            self.whats.append(self.whats[first])
-            self.then.append(second)
+            c = self._twos[key] = self._new_what(self.whats[first], second)
             self._first[c] = first
+            self.joined[first << 32 | second] = c
         return c
 
     # -- leaving keep mode -------------------------------------------------------------
