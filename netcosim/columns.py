@@ -31,13 +31,11 @@ are identical.
 
 With a ``memory`` budget, the encoded chunks beyond it move to an anonymous temporary
 file (:meth:`ColumnStore._spill`): each run of consecutive chunks whose columns share
-codecs and buffer types is written as one chunk of all their rows, column by column,
-the arrays' own buffers gathered by ``os.writev`` behind a small pickled header (rows
-and codecs of each merged chunk); nothing else is pickled.  Reading one back makes one
-array (or ``bytes``) per column.  The private format lives as long as the file.  Cost
-measured on 10 periodic tasks over 100 s (1.17 million rows, five spills of 21 MB in
-all): about 18 ms, a third of it the kernel copying the bytes, and 0.9 % more CPU for
-the whole run than without a budget (``farm-bench -n 9``, paired, CPU median 1.009).
+codecs and buffer types is written as one chunk of all their rows, column by column, the
+arrays' own buffers gathered by ``os.writev`` behind a small pickled header (rows and
+codecs of each merged chunk); reading one back makes one array (or ``bytes``) per column.
+Cost on 10 periodic tasks over 100 s (1.17 million rows, five spills of 21 MB): about 18
+ms, and 0.9 % more CPU for the whole run than without a budget (9 paired runs, median).
 
 Why not pandas or pyarrow builders: the hot path appends one row at a time, where a
 list append is the cheapest operation Python has; both libraries build columns from
@@ -51,6 +49,8 @@ from array import array
 from operator import itemgetter
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
+from .packing import INT64 as _Q
+from .packing import PackError, typed_array
 from .readback import categorical_from_codes
 from .spillfile import TAGGED as _TAGGED
 from .spillfile import SpillFile
@@ -247,24 +247,24 @@ class ColumnStore:
             if declared is not None:
                 try:  # the producer's promise: no type check (a value that does not fit raises)
                     if declared == "int":
-                        cols.append(("q", array("q", col)))
+                        cols.append(("q", typed_array(_Q, col)))
                     elif declared == "float":
-                        cols.append(("d", array("d", col)))
+                        cols.append(("d", typed_array("d", col)))
                     elif declared == "uint8":
                         cols.append(("u8", bytes(col)))
                     else:
                         cols.append(("bool", bytes(col)))
                     continue
-                except (TypeError, ValueError, OverflowError):  # e.g. None in an int column
+                except (TypeError, ValueError, OverflowError, PackError):  # e.g. None in an int column
                     pass
             types = set(map(type, col))
             t = types.pop() if len(types) == 1 else None
             if t is float:
-                cols.append(("d", array("d", col)))
+                cols.append(("d", typed_array("d", col)))
             elif t is int:
                 try:
-                    cols.append(("q", array("q", col)))
-                except OverflowError:
+                    cols.append(("q", typed_array(_Q, col)))
+                except PackError:
                     cols.append(("obj", list(col)))
             elif t is bool:
                 cols.append(("bool", bytes(col)))
@@ -303,7 +303,7 @@ class ColumnStore:
                     return ("obj", list(col))
                 # without bools (e.g. a frame's bits and backoff): read back as one float column
                 return ("fnone" if bool not in types else "mixed", (tags, array("d", vals)))
-            return ("inone" if bool not in types else "mixed", (tags, array("q", vals)))
+            return ("inone" if bool not in types else "mixed", (tags, array(_Q, vals)))
         except OverflowError:
             return ("obj", list(col))
 
