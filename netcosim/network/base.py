@@ -433,7 +433,8 @@ class Network(FrameLifecycle, LinkAccounting):
         frame.queued = self._env.now
         iface.queue.push(frame)
         if created is not None:
-            self._rows.append((frame.queued, frame.tkey, iface._tw_sent_now, 0, created, frame.bits))
+            append = self._rows.append      # a slot read: cheaper than a method lookup on the Sink
+            append((frame.queued, frame.tkey, iface._tw_sent_now, 0, created, frame.bits))
         elif self._trace_on:
             self._rows.append((frame.queued, frame.tkey, iface._tw_queued, 0, frame.bits, _NAN))
         self._kick(iface)
