@@ -73,6 +73,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 _NAN = math.nan
+_LINK_UNIT = 1 << LINK_BITS     # one frame id in a frames row's key (tracing.NetworkNames.key)
 
 
 def _check_sim(sim: Any, who: str) -> None:
@@ -240,6 +241,7 @@ class Network(FrameLifecycle, LinkAccounting):
         self._lstats: dict[tuple[int, int], LinkStats] = {}
         self._dur: dict = {}
         self._next_id = 0
+        self._tid = 0           # traced: the last frame id << LINK_BITS, kept by addition (no shift per frame)
         # the trace's names of the network rows (tracing.py): rows store their codes
         self._tnames, self._frames_rec, self._sched_rec = network_tables(sim.trace)
         self._rows = self._frames_rec.rows
@@ -383,7 +385,8 @@ class Network(FrameLifecycle, LinkAccounting):
             lk = iface._tlinks.get(d)
             if lk is None:
                 lk = iface._tlinks[d] = self._tnames.link(self.name, iface.name, frame.dname)
-            frame.tkey = key = frame.id << LINK_BITS | lk
+            self._tid = tid = self._tid + _LINK_UNIT       # == self._next_id << LINK_BITS
+            frame.tkey = key = tid + lk
             if self._pre or self.message_loss is not None or self._frames_rec.mode != "keep":
                 self._rows.append((now, key, iface._tw_created, 0, size, _NAN))
                 merge = None

@@ -155,6 +155,7 @@ class Interface:
         self._tlinks: dict = {}
         self._tw_created = self._tw_queued = self._tw_start = self._tw_ok = self._tw_sent = self._tw_delivered = 0
         self._tw_sent_now = 0
+        self._tw_joined: dict[int, int] = {}    # attempt_end code -> its code merged with a delivery here
         self._seq = 0
         self.mac: Any = None    # the MAC's per-station state (see Network._station)
         #: frames ``sent`` (or acknowledged) and ``dropped`` by this sender, messages ``received``

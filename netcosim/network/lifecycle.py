@@ -437,14 +437,14 @@ class FrameLifecycle:
         if self._trace_on:
             end = self._tend
             if end is not None and end[0] == now and end[1] == frame.tkey and (tail := self._rows.tail) \
-                    and tail[-1] is end:
+                    and tail[n := len(tail) - 1] is end:      # (a positive index: the specialised path)
                 # keep mode, the frame's attempt_end is the newest row: one row for both
                 # (tracing.NetworkNames.two: the delivery's bits in the backoff column)
                 self._tend = None
-                two = self._tnames.joined.get(end[2] << 32 | rx._tw_delivered)
+                two = rx._tw_joined.get(end[2])
                 if two is None:
-                    two = self._tnames.two(end[2], rx._tw_delivered)
-                tail[-1] = (now, end[1], two, end[3], _NAN, frame.bits)
+                    two = rx._tw_joined[end[2]] = self._tnames.two(end[2], rx._tw_delivered)
+                tail[n] = (now, end[1], two, end[3], _NAN, frame.bits)
             else:
                 append = self._rows.append
                 append((now, frame.tkey, rx._tw_delivered, frame.attempts, frame.bits, _NAN))

@@ -120,8 +120,6 @@ class NetworkNames:
         #: pair code -> (network, node) name codes, and back
         self.pairs: list[tuple[int, int]] = []
         self._pairs: dict[tuple[int, int], int] = {}
-        #: ``first << 32 | second`` -> :meth:`two` of those what codes (the hot path's lookup)
-        self.joined: dict[int, int] = {}
 
     def link(self, network: str, src: str, dst: str) -> int:
         """The code of the frames sent on *network* from *src* to *dst* (names; ``"*"``: broadcast)."""
@@ -148,17 +146,9 @@ class NetworkNames:
         key = (code[event], code[node], code[outcome])
         c = self._whats.get(key)
         if c is None:
-            c = self._whats[key] = self._new_what(key, -1)
-        return c
-
-    def _new_what(self, key: tuple[int, int, int], then: int) -> int:
-        c = len(self.whats)
-        if c >> 32:
-            from ..errors import ConfigurationError
-            raise ConfigurationError(f"the frames trace codes at most 2**32 (event, node, outcome); {key!r} "
-                                     f"is one more")
-        self.whats.append(key)
-        self.then.append(then)
+            c = self._whats[key] = len(self.whats)
+            self.whats.append(key)
+            self.then.append(-1)
         return c
 
     def row_codes(self, node: str) -> dict[str, int]:
@@ -178,13 +168,14 @@ class NetworkNames:
         the row's ``backoff`` as its ``bits`` (both with ``backoff`` NaN).  The fixed rows'
         ``created+queued``: a frame queued as it is sent, in ``keep`` mode; an
         ``attempt_end`` and the frame's ``delivered`` right after it
-        (:meth:`~netcosim.network.lifecycle.FrameLifecycle._hand_over`; :attr:`joined`)."""
+        (:meth:`~netcosim.network.lifecycle.FrameLifecycle._hand_over`)."""
         key = (first, second)
         c = self._twos.get(key)
         if c is None:
-            c = self._twos[key] = self._new_what(self.whats[first], second)
+            c = self._twos[key] = len(self.whats)
+            self.whats.append(self.whats[first])
+            self.then.append(second)
             self._first[c] = first
-            self.joined[first << 32 | second] = c
         return c
 
     # -- leaving keep mode -------------------------------------------------------------
