@@ -241,7 +241,6 @@ class Network(FrameLifecycle, LinkAccounting):
         self._lstats: dict[tuple[int, int], LinkStats] = {}
         self._dur: dict = {}
         self._next_id = 0
-        self._tid = 0           # traced: the last frame id << LINK_BITS, kept by addition (no shift per frame)
         # the trace's names of the network rows (tracing.py): rows store their codes
         self._tnames, self._frames_rec, self._sched_rec = network_tables(sim.trace)
         self._rows = self._frames_rec.rows
@@ -385,8 +384,7 @@ class Network(FrameLifecycle, LinkAccounting):
             lk = iface._tlinks.get(d)
             if lk is None:
                 lk = iface._tlinks[d] = self._tnames.link(self.name, iface.name, frame.dname)
-            self._tid = tid = self._tid + _LINK_UNIT       # == self._next_id << LINK_BITS
-            frame.tkey = key = tid + lk
+            frame.tkey = key = frame.id * _LINK_UNIT + lk     # id << LINK_BITS | lk, without the cold shift
             if self._pre or self.message_loss is not None or self._frames_rec.mode != "keep":
                 self._rows.append((now, key, iface._tw_created, 0, size, _NAN))
                 merge = None
