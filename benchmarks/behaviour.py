@@ -64,6 +64,8 @@ def network_saturation(outdir, quick: bool = True) -> None:
 
     from netcosim import Simulation
     from netcosim.network import CAN, MaskedLossWarning, SaturatedSource, WLAN80211b
+
+    from .network import periodic_sender
     out = Path(outdir)
     for label, n, radius, shared, loss in (("wlan_cluster_shared", 10, 0.5, True, 0.0),
                                            ("wlan_cluster_rules", 10, 0.5, False, 0.0),
@@ -83,10 +85,7 @@ def network_saturation(outdir, quick: bool = True) -> None:
     for i in range(8):
         iface = bus.attach(f"n{i}", priority=i)
 
-        def send(iface=iface):
-            iface.send(sink, None, 64)
-            sim.call_in(2e-3, send)
-        sim.call_at(float(rng.uniform(0, 2e-3)), send)
+        sim.call_at(float(rng.uniform(0, 2.4e-3)), periodic_sender(sim, iface, sink, 2.4e-3))
     sim.run(0.3)
     sim.trace.to_parquet(out, prefix="can_")
 

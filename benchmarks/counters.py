@@ -136,7 +136,7 @@ def _can(n: int, frames: int):
     from netcosim import Simulation
     from netcosim.network import CAN, can_frame_bits
 
-    from .network import CAN_LOAD, CAN_RATE
+    from .network import CAN_LOAD, CAN_RATE, periodic_sender
     sim = Simulation(seed=0)
     bus = CAN(sim, "can", data_rate=CAN_RATE, frame_format="standard")
     sink = bus.attach("sink", priority=10**6, mailbox=False)
@@ -146,10 +146,7 @@ def _can(n: int, frames: int):
     for i in range(n):
         iface = bus.attach(f"n{i}", priority=i, mailbox=False)
 
-        def send(iface=iface):
-            iface.send(sink, None, 64)
-            sim.call_in(period, send)
-        sim.call_at(float(rng.uniform(0, period)), send)
+        sim.call_at(float(rng.uniform(0, period)), periodic_sender(sim, iface, sink, period))
     sim.run(frames * c / CAN_LOAD)
     return sim, sum(i.stats["sent"] for i in bus._ifaces)
 

@@ -261,6 +261,15 @@ CAN_RATE = 500e3
 CAN_LOAD = 0.9
 
 
+def periodic_sender(sim, iface, dst, period: float, bits: int = 64):
+    """A callable that sends a *bits* frame from *iface* to *dst* and calls itself again
+    *period* seconds later (start it with ``sim.call_at``): each sender its own period."""
+    def send():
+        iface.send(dst, None, bits)
+        sim.call_in(period, send)
+    return send
+
+
 def can_run(n: int, frames: int, cls=CAN, scenario: str = "periodic", *, trace: bool = True,
             clock=time.perf_counter) -> tuple[int, float]:
     """n senders (*scenario*, see the module docstring), the network traced or not; returns
@@ -277,10 +286,7 @@ def can_run(n: int, frames: int, cls=CAN, scenario: str = "periodic", *, trace: 
             SaturatedSource(iface, sink, 64)
             continue
 
-        def send(iface=iface):
-            iface.send(sink, None, 64)
-            sim.call_in(period, send)
-        sim.call_at(float(rng.uniform(0, period)), send)
+        sim.call_at(float(rng.uniform(0, period)), periodic_sender(sim, iface, sink, period))
     until = frames * c / (1.0 if scenario == "saturated" else CAN_LOAD)
     gc.collect()    # the previous runs' dead simulations, not this one's cost
     t0 = clock()
