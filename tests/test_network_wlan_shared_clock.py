@@ -15,17 +15,9 @@ import math
 import numpy as np
 import pytest
 
+from benchmarks.network import periodic_sender
 from netcosim import Simulation
 from netcosim.network import BROADCAST, SaturatedSource, WLAN80211b
-
-
-def _periodic(sim, iface, to, bits, period):
-    """A sender of *bits* from *iface* to *to* every *period* s, re-arming itself (not the
-    last sender defined in a loop)."""
-    def send():
-        iface.send(to, None, bits)
-        sim.call_in(period, send)
-    return send
 
 
 def scenario(seed: int, shared_clock: bool, until: float = 0.08, radius: float = 0.7):
@@ -62,7 +54,7 @@ def scenario(seed: int, shared_clock: bool, until: float = 0.08, radius: float =
             to = BROADCAST if kind == 1 else dst
             bits = size()
 
-            sim.call_at(phase, _periodic(sim, iface, to, bits, period))
+            sim.call_at(phase, periodic_sender(sim, iface, to, period, bits))
     # a receiver that answers at once (a callable handler sends from inside the reception)
     echo = ifaces[int(g.integers(0, n))]
     back = ifaces[(echo.index + 1) % n]
