@@ -114,7 +114,7 @@ def test_loss_cost_with_memory_and_retries_equals_the_mjls(case):
         m = AnyLoss([ge, Bernoulli(0.05)])
         loss, links, chains = m, [1, 2], [_chain(m), _chain(m)]
     got = lq.loss_cost(model, H, stages, loss)
-    assert got.stable and got.period == pytest.approx(H, rel=1e-12)
+    assert got.stable and got.period == H       # the period as given, not steps * grain
     assert got.cost_rate == pytest.approx(_mjls(stages, chains, links, model), rel=1e-9)
 
 
@@ -184,3 +184,22 @@ def test_the_markov_description_is_what_the_links_draw():
     assert float((x[:-1] * x[1:]).mean()) == pytest.approx(pair, abs=0.003)
     assert pair > 1.5 * rate ** 2           # bursts: a loss makes the next loss likelier
     assert ch.consecutive_loss(1) == pytest.approx(float(ch.initial @ lo), rel=1e-12)
+
+
+def test_the_reported_period_is_the_one_given():
+    # the deadbeat integrator of loss_cost's docstring, h = 0.1 s: the grain is found from
+    # the offsets (0.05 s here), and 2 * 0.05 would not be the user's 0.1 in every last bit;
+    # the cost per period is cost_rate * 0.1, so the period must be exactly the one given
+    h = 0.1
+    loop = (lq.Interconnection()
+            .add("plant", lq.ContinuousSystem(0.0, 1.0, 1.0, R_c=1.0, Q_c=np.diag([1.0, 0.0])), inputs="ctrl")
+            .add("sampler", lq.DiscreteSystem.gain(1.0), inputs="plant")
+            .add("ctrl", lq.DiscreteSystem.gain(-1 / h), inputs="sampler"))
+    for stages in ([lq.Stage(0.0, "sampler", lossy=False), lq.Stage(0.0, "ctrl")],
+                   [lq.Stage(0.0, "sampler", lossy=False), lq.Stage(0.03, "ctrl")]):
+        got = lq.loss_cost(loop, h, stages, 0.2)
+        assert got.period == 0.1
+        assert got.cost_per_period == got.cost_rate * 0.1
+    # J = r h ((1 + 2p) / (3 (1 - 3p)) + 1/2) with no delay (the docstring's closed form)
+    assert lq.loss_cost(loop, h, stages[:1] + [lq.Stage(0.0, "ctrl")], 0.2).cost_rate == pytest.approx(
+        h * ((1 + 2 * 0.2) / (3 * (1 - 3 * 0.2)) + 0.5), rel=1e-12)

@@ -131,6 +131,7 @@ class TimingModel:
         self.model = model
         self.delta = validate.positive(delta, "TimingModel: delta", kind="a positive number of seconds")
         self.period_steps: int | None = None
+        self.period: float | None = None    # as given: period_steps * delta may differ in the last bit
         if period is not None:
             h = validate.positive(period, "TimingModel: period", kind="a positive number of seconds")
             k = round(h / self.delta)
@@ -138,6 +139,7 @@ class TimingModel:
                 raise ConfigurationError(f"TimingModel: period must be a whole multiple of delta "
                                          f"{self.delta!r} s, got {period!r}")
             self.period_steps = k
+            self.period = float(h)
         self.nodes: dict[Hashable, _Node] = {}
 
     def add_node(self, key: Hashable, delay: Any = (1.0,), next: Any = (), probabilities: Any = None,
@@ -257,7 +259,7 @@ class TimingModel:
         else:
             X, rho, it, note = _iterate(S, N, trans, mats, upd, const, tol, max_iterations)
         if note:
-            return StationaryCost(math.inf, math.nan if self.period_steps is None else self.period_steps * self.delta,
+            return StationaryCost(math.inf, math.nan if self.period is None else self.period,
                                   False, rho, iterations=it,
                                   note=note + f" (mean-square spectral radius {rho:.6g}): "
                                               f"the loop is not mean-square stable under this timing")
@@ -269,8 +271,8 @@ class TimingModel:
             time += pi[s] * p * T
         if not time > 0.0:
             raise ConfigurationError("TimingModel: time never passes in this timing model (every delay is 0)")
-        if self.period_steps is not None:
-            cycle = self.period_steps * self.delta
+        if self.period is not None:
+            cycle = self.period
         else:
             first = states[0][0]
             cycle = time / float(sum(pi[s] for s in range(S) if states[s][0] == first))
